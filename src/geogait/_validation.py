@@ -1,0 +1,100 @@
+"""Input checks shared by every module, with one error template.
+
+Messages follow scikit-learn's: "The 'x' parameter of Y must be ... Got ... instead."
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+class GeogaitError(ValueError):
+    """Base class for geogait's input errors (a ``ValueError``)."""
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def fail(name: str, owner: str, expected: str, got) -> GeogaitError:
+    """Build the standard error for parameter ``name`` of ``owner``."""
+    return GeogaitError(
+        f"The '{name}' parameter of {owner} must be {expected}. Got {_short(got)} instead."
+    )
+
+
+def check_int(value, name: str, owner: str, *, minimum: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise fail(name, owner, f"an int{'' if minimum is None else f' >= {minimum}'}", value)
+    if minimum is not None and value < minimum:
+        raise fail(name, owner, f"an int >= {minimum}", value)
+    return int(value)
+
+
+def check_float(
+    value,
+    name: str,
+    owner: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """A finite real number in the interval given by ``low``/``high`` (closed unless ``*_open``)."""
+    lo = "-inf" if low is None else f"{low:g}"
+    hi = "inf" if high is None else f"{high:g}"
+    interval = f"{'(' if low_open or low is None else '['}{lo}, {hi}{')' if high_open or high is None else ']'}"
+    expected = f"a finite float in {interval}"
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise fail(name, owner, expected, value)
+    value = float(value)
+    if not np.isfinite(value):
+        raise fail(name, owner, expected, value)
+    if low is not None and (value < low or (low_open and value == low)):
+        raise fail(name, owner, expected, value)
+    if high is not None and (value > high or (high_open and value == high)):
+        raise fail(name, owner, expected, value)
+    return value
+
+
+def check_array(
+    value,
+    name: str,
+    owner: str,
+    *,
+    trailing: Sequence[int | None] = (),
+    min_ndim: int | None = None,
+    ndim: int | None = None,
+) -> np.ndarray:
+    """A finite float array whose last axes match ``trailing`` (``None`` = any length).
+
+    ``shape`` names in messages read like ``(..., 3)``.
+    """
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise fail(name, owner, "an array of real numbers", value) from None
+    spec = "(..., " + ", ".join("n" if t is None else str(t) for t in trailing) + ")"
+    if ndim is not None and array.ndim != ndim:
+        raise fail(name, owner, f"an array with {ndim} dimension(s)", f"shape {array.shape}")
+    need = max(len(trailing), min_ndim or 0)
+    if array.ndim < need:
+        raise fail(name, owner, f"an array of shape {spec}", f"shape {array.shape}")
+    for axis, size in enumerate(trailing):
+        actual = array.shape[array.ndim - len(trailing) + axis]
+        if size is not None and actual != size:
+            raise fail(name, owner, f"an array of shape {spec}", f"shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        bad = int(np.size(array) - np.count_nonzero(np.isfinite(array)))
+        raise fail(name, owner, "finite (no NaN or inf)", f"{bad} non-finite value(s)")
+    return array
+
+
+def check_choice(value, name: str, owner: str, choices: Sequence[str]) -> str:
+    if value not in choices:
+        raise fail(name, owner, "one of " + ", ".join(repr(c) for c in choices), value)
+    return value
