@@ -1,0 +1,160 @@
+r"""Smooth stochastic perturbations around a nominal gait (paper eq. 8).
+
+Per joint, the second-order SDE
+
+.. math:: d\dot\delta = -(\alpha\dot\delta + \beta\delta)\,dt + \eta\, dW
+
+is a linear Gaussian system in the state ``s = (δ, δ̇)``: ``ds = F s dt + G dW`` with
+``F = [[0, 1], [-β, -α]]``, ``G = [0, η]ᵀ``. It is sampled *exactly* on a grid of step ``dt``:
+``s_{n+1} = e^{F dt} s_n + w_n``, ``w_n ~ N(0, Q)``, ``Q = ∫₀^dt e^{Fs} G Gᵀ e^{Fᵀs} ds``
+(Van Loan's matrix exponential), so any step size is stable and unbiased.
+Its stationary covariance is diagonal: ``Var δ = η² / (2αβ)``, ``Var δ̇ = η² / (2α)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import expm
+
+from .._validation import check_float, check_int, fail
+
+__all__ = ["Perturbation"]
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """Parameters of eq. 8, shared by every joint.
+
+    Parameters
+    ----------
+    alpha : float > 0
+        Damping (attraction of δ̇), 1/time.
+    beta : float > 0
+        Stiffness (attraction of δ), 1/time².
+    eta : float >= 0
+        Noise amplitude, rad / time^{3/2}. ``eta = 0`` gives no perturbation.
+
+    Time is measured in gait cycles by the simulators (one cycle = one time unit).
+    """
+
+    alpha: float = 4 * np.pi * 0.7
+    beta: float = (4 * np.pi) ** 2
+    eta: float = 0.15 * np.sqrt(2 * (4 * np.pi * 0.7) * (4 * np.pi) ** 2)
+
+    def __post_init__(self):
+        check_float(self.alpha, "alpha", "Perturbation", low=0, low_open=True)
+        check_float(self.beta, "beta", "Perturbation", low=0, low_open=True)
+        check_float(self.eta, "eta", "Perturbation", low=0)
+
+    @classmethod
+    def from_std(cls, std: float, frequency: float = 2.0, damping_ratio: float = 0.7) -> Perturbation:
+        """Perturbations with stationary standard deviation ``std`` (rad) of δ.
+
+        ``frequency`` is the undamped natural frequency in oscillations per cycle
+        (β = (2π f)², α = 2ζ√β) — 2 by default, so perturbations vary within a cycle but stay
+        smooth; ``damping_ratio`` ζ.
+        """
+        std = check_float(std, "std", "Perturbation.from_std", low=0)
+        frequency = check_float(frequency, "frequency", "Perturbation.from_std", low=0, low_open=True)
+        damping_ratio = check_float(damping_ratio, "damping_ratio", "Perturbation.from_std",
+                                    low=0, low_open=True)
+        beta = (2 * np.pi * frequency) ** 2
+        alpha = 2 * damping_ratio * np.sqrt(beta)
+        return cls(alpha=alpha, beta=beta, eta=std * np.sqrt(2 * alpha * beta))
+
+    @property
+    def stationary_std(self) -> tuple[float, float]:
+        """Stationary standard deviations of (δ, δ̇)."""
+        return (self.eta / np.sqrt(2 * self.alpha * self.beta), self.eta / np.sqrt(2 * self.alpha))
+
+    def discretize(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Exact transition ``e^{F dt}`` and Cholesky factor of the step noise covariance ``Q``."""
+        dt = check_float(dt, "dt", "Perturbation.discretize", low=0, low_open=True)
+        drift = np.array([[0.0, 1.0], [-self.beta, -self.alpha]])
+        diffusion = np.array([[0.0, 0.0], [0.0, self.eta**2]])
+        van_loan = expm(np.block([[-drift, diffusion], [np.zeros((2, 2)), drift.T]]) * dt)
+        transition = van_loan[2:, 2:].T
+        covariance = transition @ van_loan[:2, 2:]
+        covariance = 0.5 * (covariance + covariance.T)
+        if self.eta == 0:
+            return transition, np.zeros((2, 2))
+        return transition, np.linalg.cholesky(covariance)
+
+    def sample(self, n_samples: int, dt: float, n_joints: int, rng: np.random.Generator,
+               size=(), initial_state=None) -> tuple[np.ndarray, np.ndarray]:
+        """Sample a whole perturbation path.
+
+        Parameters
+        ----------
+        n_samples : int
+            Number of time steps.
+        dt : float
+            Step (in cycles).
+        n_joints : int
+            Shape dimension d.
+        rng : numpy.random.Generator
+        size : tuple, optional
+            Leading batch shape (e.g. ``(n_trials,)``).
+        initial_state : ndarray of shape size + (d, 2), optional
+            State at the first sample; a stationary draw by default.
+
+        Returns
+        -------
+        delta, delta_rate : ndarray of shape size + (n_samples, d)
+        """
+        n_samples = check_int(n_samples, "n_samples", "Perturbation.sample", minimum=0)
+        stream = self.stream(dt, n_joints, rng, size=size, initial_state=initial_state)
+        states = stream.run(rng.standard_normal(stream.state.shape[:-2] + (n_samples, n_joints, 2)))
+        return states[..., 0], states[..., 1]
+
+    def stream(self, dt: float, n_joints: int, rng: np.random.Generator, size=(),
+               initial_state=None) -> PerturbationStream:
+        """A sample-by-sample integrator with the same law as :meth:`sample`.
+
+        Only the initial state is drawn from ``rng``; the caller supplies the white noise to
+        :meth:`PerturbationStream.run`, so many streams can draw from generators of their own.
+        """
+        n_joints = check_int(n_joints, "n_joints", "Perturbation.stream", minimum=1)
+        transition, noise_factor = self.discretize(dt)
+        shape = tuple(np.atleast_1d(size)) if size != () else ()
+        if initial_state is None:
+            state = rng.standard_normal(shape + (n_joints, 2)) * np.array(self.stationary_std)
+        else:
+            state = np.array(initial_state, dtype=float)
+            if state.shape != shape + (n_joints, 2):
+                raise fail("initial_state", "Perturbation", f"an array of shape {shape + (n_joints, 2)}",
+                           f"shape {state.shape}")
+        return PerturbationStream(transition, noise_factor, state)
+
+
+class PerturbationStream:
+    """Exact SDE integrator; ``state[..., j, :] = (δ_j, δ̇_j)`` at the current sample."""
+
+    def __init__(self, transition: np.ndarray, noise_factor: np.ndarray, state: np.ndarray):
+        self.transition = transition
+        self.noise_factor = noise_factor
+        self.state = state
+
+    def run(self, white_noise: np.ndarray) -> np.ndarray:
+        """Emit ``m`` samples and advance ``m`` steps.
+
+        Parameters
+        ----------
+        white_noise : ndarray of shape batch + (m, d, 2)
+            Independent standard normal draws, one pair per joint and step.
+
+        Returns
+        -------
+        states : ndarray of shape batch + (m, d, 2)
+            The state at each of the ``m`` samples (before each step).
+        """
+        noise = white_noise @ self.noise_factor.T
+        out = np.empty_like(noise)
+        state = self.state
+        for n in range(noise.shape[-3]):  # the recursion is sequential in time only
+            out[..., n, :, :] = state
+            state = state @ self.transition.T + noise[..., n, :, :]
+        self.state = state
+        return out

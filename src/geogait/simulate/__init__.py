@@ -1,0 +1,7 @@
+"""Simulation: trajectories and sample streams of a gait on a system, and the per-cycle oracle."""
+
+from ._oracle import cycle_displacement
+from ._stream import DragRatioSchedule, SwimmerStream, simulate
+from ._trajectory import Trajectory
+
+__all__ = ["DragRatioSchedule", "SwimmerStream", "Trajectory", "cycle_displacement", "simulate"]

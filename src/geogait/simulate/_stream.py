@@ -1,0 +1,253 @@
+"""Simulated experiments: a commanded gait with perturbations driving a known system.
+
+The commanded phase advances at a constant rate (one cycle per ``cycle_period``). At sample n
+
+    r = θ(φ) + δ,   ṙ = θ'(φ) φ̇ + δ̇,   ξ = -A(r) ṙ,
+
+with (δ, δ̇) the SDE of eq. 8; the pose follows g_{n+1} = g_n exp(Δt ξ_n). Optional Gaussian
+sensor noise is added to the *measured* ξ (and r, ṙ) with standard deviation a fraction of the
+RMS of the noise-free signal along the nominal gait, per component.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import se2
+from .._validation import check_float, check_int, fail
+from ..gaits import FourierGait, Perturbation
+from ..systems import PurcellSwimmer, System
+from ._trajectory import Trajectory
+
+__all__ = ["DragRatioSchedule", "SwimmerStream", "simulate"]
+
+
+@dataclass(frozen=True)
+class DragRatioSchedule:
+    """Piecewise-constant environment: a Purcell swimmer whose drag ratio changes with the cycle.
+
+    ``drag_ratios[i]`` holds for cycles ``[i * cycles_per_environment, (i + 1) * ...)``; the last
+    value persists after the schedule ends. The paper's Fig. 3 uses (2, 3, 4) every 40 cycles.
+    """
+
+    system: PurcellSwimmer
+    drag_ratios: tuple[float, ...] = (2.0, 3.0, 4.0)
+    cycles_per_environment: int = 40
+
+    def __post_init__(self):
+        if not self.drag_ratios:
+            raise fail("drag_ratios", "DragRatioSchedule", "a non-empty sequence", self.drag_ratios)
+        for value in self.drag_ratios:
+            check_float(value, "drag_ratios", "DragRatioSchedule", low=0, low_open=True)
+        check_int(self.cycles_per_environment, "cycles_per_environment", "DragRatioSchedule",
+                  minimum=1)
+        object.__setattr__(self, "drag_ratios", tuple(float(v) for v in self.drag_ratios))
+        object.__setattr__(self, "_systems",
+                           [self.system.with_drag_ratio(k) for k in self.drag_ratios])
+
+    def environment(self, cycle: int) -> int:
+        """Index of the environment in force during ``cycle``."""
+        return min(cycle // self.cycles_per_environment, len(self.drag_ratios) - 1)
+
+    def __call__(self, cycle: int) -> PurcellSwimmer:
+        return self._systems[self.environment(cycle)]
+
+
+def _trial_generators(seed, n_trials):
+    """Per trial, independent generators for the perturbations and for the sensor noise."""
+    if isinstance(seed, Sequence) and not isinstance(seed, str):
+        sequences = [s if isinstance(s, np.random.SeedSequence) else np.random.SeedSequence(s)
+                     for s in seed]
+        if n_trials is not None and n_trials != len(sequences):
+            raise fail("n_trials", "SwimmerStream", f"equal to len(seed) = {len(sequences)}", n_trials)
+        batched = True
+    else:
+        root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        batched = n_trials is not None
+        sequences = root.spawn(n_trials) if batched else [root]
+    pairs = [s.spawn(2) for s in sequences]
+    return [np.random.default_rng(p) for p, _ in pairs], [np.random.default_rng(n) for _, n in pairs], batched
+
+
+class SwimmerStream:
+    """Sample-by-sample (or cycle-by-cycle) simulation; the gait may change between cycles.
+
+    This is the streaming interface the in-situ optimiser drives; a real robot driver offers the
+    same three members: :attr:`gait`, :meth:`set_gait` and :meth:`next_cycle`.
+
+    Parameters
+    ----------
+    system : System
+        The locomotor (ignored for cycles covered by ``environment``).
+    gait : FourierGait
+        Initial nominal gait.
+    samples_per_cycle : int
+    perturbation : Perturbation, optional
+        SDE of eq. 8; default ``Perturbation()`` (δ std 0.15 rad). ``Perturbation(eta=0)`` for none.
+    sensor_noise : float
+        Std of the noise on measured ξ as a fraction of its RMS along the nominal gait.
+    shape_noise : float
+        Same for measured r and ṙ.
+    environment : callable, optional
+        ``cycle -> System`` (e.g. :class:`DragRatioSchedule`); overrides ``system``.
+    seed : int, SeedSequence or sequence of SeedSequence, optional
+        A sequence gives one trial per entry (the runner passes one child per trial).
+    n_trials : int, optional
+        Simulate this many independent trials at once (leading axis of every array).
+    cycle_period : float
+        Duration of a cycle; the SDE runs in these time units.
+    """
+
+    def __init__(self, system: System, gait: FourierGait, *, samples_per_cycle: int = 100,
+                 perturbation: Perturbation | None = None, sensor_noise: float = 0.0,
+                 shape_noise: float = 0.0, environment: Callable[[int], System] | None = None,
+                 seed=None, n_trials: int | None = None, cycle_period: float = 1.0):
+        owner = "SwimmerStream"
+        if not isinstance(gait, FourierGait):
+            raise fail("gait", owner, "a FourierGait", type(gait).__name__)
+        if gait.n_joints != system.n_joints:
+            raise fail("gait", owner, f"a gait with {system.n_joints} joints", gait.n_joints)
+        self.samples_per_cycle = check_int(samples_per_cycle, "samples_per_cycle", owner, minimum=4)
+        self.sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0)
+        self.shape_noise = check_float(shape_noise, "shape_noise", owner, low=0)
+        self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
+        if n_trials is not None:
+            check_int(n_trials, "n_trials", owner, minimum=1)
+        self.system = system
+        self.environment = environment
+        self.perturbation = Perturbation() if perturbation is None else perturbation
+        self._perturbation_rngs, self._noise_rngs, self._batched = _trial_generators(seed, n_trials)
+        self._gait = gait
+        self._pending_gait: FourierGait | None = None
+        self.dt = self.cycle_period / self.samples_per_cycle
+        self.phase_rate = 2 * np.pi / self.cycle_period
+        batch = (len(self._perturbation_rngs),)
+        initial = np.stack([self.perturbation.stream(self.dt, gait.n_joints, rng).state
+                            for rng in self._perturbation_rngs])
+        self._perturbation = self.perturbation.stream(self.dt, gait.n_joints, None, size=batch,
+                                                      initial_state=initial)
+        self.pose = np.zeros(batch + (3,))
+        self.cycle = 0
+        self.position = 0  # sample index within the current cycle
+        self._rms_key = None
+
+    @property
+    def gait(self) -> FourierGait:
+        """Nominal gait of the current cycle."""
+        return self._gait
+
+    def set_gait(self, gait: FourierGait) -> None:
+        """Command ``gait`` from the next cycle boundary on (immediately if at a boundary)."""
+        if not isinstance(gait, FourierGait) or gait.n_joints != self._gait.n_joints:
+            raise fail("gait", "SwimmerStream.set_gait",
+                       f"a FourierGait with {self._gait.n_joints} joints", gait)
+        if self.position == 0:
+            self._gait = gait
+        else:
+            self._pending_gait = gait
+
+    def current_system(self) -> System:
+        return self.system if self.environment is None else self.environment(self.cycle)
+
+    def next_sample(self) -> Trajectory:
+        """The next single sample (arrays with a time axis of length 1)."""
+        return self._generate(1)
+
+    def next_cycle(self) -> Trajectory:
+        """The rest of the current cycle (a whole cycle when called at a boundary)."""
+        return self._generate(self.samples_per_cycle - self.position)
+
+    def next_cycles(self, n_cycles: int) -> Trajectory:
+        """``n_cycles`` whole cycles, joined along time."""
+        n_cycles = check_int(n_cycles, "n_cycles", "SwimmerStream.next_cycles", minimum=1)
+        return Trajectory.concatenate([self.next_cycle() for _ in range(n_cycles)])
+
+    def _noise_scale(self, system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-component RMS of ξ, r and ṙ along the nominal gait (cached per system and gait)."""
+        key = (id(system), self._gait)
+        if self._rms_key != key:
+            phase = 2 * np.pi * np.arange(self.samples_per_cycle) / self.samples_per_cycle
+            shape = self._gait.shape(phase)
+            rate = self._gait.velocity(phase) * self.phase_rate
+            body = -np.einsum("nij,nj->ni", system.connection(shape), rate)
+            rms = [np.sqrt(np.mean(v**2, axis=0)) for v in (body, shape, rate)]
+            self._rms_key, self._rms = key, rms
+        return self._rms
+
+    def _generate(self, m: int) -> Trajectory:
+        system, gait = self.current_system(), self._gait
+        d = gait.n_joints
+        index = self.position + np.arange(m)
+        phase = 2 * np.pi * index / self.samples_per_cycle
+        time = (self.cycle + index / self.samples_per_cycle) * self.cycle_period
+        white = np.stack([rng.standard_normal((m, d, 2)) for rng in self._perturbation_rngs])
+        state = self._perturbation.run(white)
+        shape = gait.shape(phase) + state[..., 0]
+        shape_velocity = gait.velocity(phase) * self.phase_rate + state[..., 1]
+        body_velocity = -np.einsum("...ij,...j->...i", system.connection(shape), shape_velocity)
+        pose = se2.integrate_body_velocity(body_velocity, self.dt, self.pose)
+        self.pose = pose[..., -1, :]
+        measured = self._measure(system, shape, shape_velocity, body_velocity, m)
+        cycle = np.full(m, self.cycle)
+        self._advance(m)
+        batch = (len(self._perturbation_rngs),)
+        arrays = dict(time=np.broadcast_to(time, batch + (m,)).copy(),
+                      phase=np.broadcast_to(phase, batch + (m,)).copy(),
+                      cycle=np.broadcast_to(cycle, batch + (m,)).copy(),
+                      shape=measured[0], shape_velocity=measured[1], body_velocity=measured[2],
+                      pose=pose[..., :-1, :])
+        if not self._batched:
+            arrays = {k: v[0] for k, v in arrays.items()}
+        return Trajectory(**arrays)
+
+    def _measure(self, system, shape, shape_velocity, body_velocity, m):
+        """Add sensor noise; every sample draws 3 + 2d normals so any chunking gives equal data."""
+        if self.sensor_noise == 0 and self.shape_noise == 0:
+            return shape, shape_velocity, body_velocity
+        d = shape.shape[-1]
+        noise = np.stack([rng.standard_normal((m, 3 + 2 * d)) for rng in self._noise_rngs])
+        body_rms, shape_rms, rate_rms = self._noise_scale(system)
+        return (shape + self.shape_noise * shape_rms * noise[..., 3:3 + d],
+                shape_velocity + self.shape_noise * rate_rms * noise[..., 3 + d:],
+                body_velocity + self.sensor_noise * body_rms * noise[..., :3])
+
+    def _advance(self, m: int) -> None:
+        self.position += m
+        if self.position == self.samples_per_cycle:
+            self.position = 0
+            self.cycle += 1
+            if self._pending_gait is not None:
+                self._gait, self._pending_gait = self._pending_gait, None
+
+
+def simulate(system: System, gait: FourierGait, n_cycles: int, **options) -> Trajectory:
+    """Simulate ``n_cycles`` cycles of ``gait`` on ``system``.
+
+    Parameters
+    ----------
+    system : System
+    gait : FourierGait
+    n_cycles : int
+    **options
+        Any keyword of :class:`SwimmerStream` (``samples_per_cycle``, ``perturbation``,
+        ``sensor_noise``, ``shape_noise``, ``environment``, ``seed``, ``n_trials``,
+        ``cycle_period``).
+
+    Returns
+    -------
+    Trajectory
+        Arrays of shape ``(n_cycles * samples_per_cycle, ...)``, with a leading trial axis when
+        ``n_trials`` is given or ``seed`` is a sequence.
+
+    Examples
+    --------
+    >>> from geogait.systems import PurcellSwimmer
+    >>> from geogait.gaits import seed_gait
+    >>> run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, seed=0)
+    >>> run.shape.shape, run.body_velocity.shape
+    ((200, 2), (200, 3))
+    """
+    return SwimmerStream(system, gait, **options).next_cycles(n_cycles)

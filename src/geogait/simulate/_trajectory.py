@@ -1,0 +1,122 @@
+"""The result object of every simulation (and of every ingested log): arrays over time."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._validation import fail
+
+__all__ = ["Trajectory"]
+
+BODY_VELOCITY_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
+POSE_COLUMNS = ("x", "y", "heading")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Samples of a locomotor over time, optionally with a leading trial axis.
+
+    Attributes
+    ----------
+    time : ndarray of shape (..., n)
+    phase : ndarray of shape (..., n)
+        Commanded gait phase in ``[0, 2π)``.
+    cycle : ndarray of shape (..., n)
+        Index of the gait cycle each sample belongs to.
+    shape : ndarray of shape (..., n, d)
+        Measured shape r.
+    shape_velocity : ndarray of shape (..., n, d)
+        Measured shape velocity ṙ (per unit time).
+    body_velocity : ndarray of shape (..., n, 3)
+        Measured body velocity ξ = (v_x, v_y, ω).
+    pose : ndarray of shape (..., n, 3)
+        World pose g = (x, y, heading) at each sample (from the noise-free body velocity).
+    """
+
+    time: np.ndarray
+    phase: np.ndarray
+    cycle: np.ndarray
+    shape: np.ndarray
+    shape_velocity: np.ndarray
+    body_velocity: np.ndarray
+    pose: np.ndarray
+
+    @property
+    def n_joints(self) -> int:
+        return self.shape.shape[-1]
+
+    @property
+    def n_samples(self) -> int:
+        return self.time.shape[-1]
+
+    def trial(self, index: int) -> Trajectory:
+        """One trial of a batched trajectory."""
+        return Trajectory(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
+
+    def cycles(self, start: int, stop: int) -> Trajectory:
+        """Samples of cycles ``start <= cycle < stop`` (unbatched trajectories only)."""
+        if self.time.ndim != 1:
+            raise fail("trajectory", "Trajectory.cycles", "unbatched (select a trial first)",
+                       f"time of shape {self.time.shape}")
+        keep = (self.cycle >= start) & (self.cycle < stop)
+        return Trajectory(**{f.name: getattr(self, f.name)[keep] for f in fields(self)})
+
+    @classmethod
+    def concatenate(cls, parts: list[Trajectory]) -> Trajectory:
+        """Join trajectories along time."""
+        return cls(**{
+            f.name: np.concatenate([getattr(p, f.name) for p in parts], axis=parts[0].time.ndim - 1)
+            for f in fields(cls)
+        })
+
+    def to_pandas(self) -> pd.DataFrame:
+        """Long table: one row per sample (and a ``trial`` column when batched)."""
+        batch = self.time.shape[:-1]
+        columns: dict[str, np.ndarray] = {}
+        if batch:
+            columns["trial"] = np.repeat(np.arange(int(np.prod(batch))), self.n_samples)
+        columns["time"] = self.time.ravel()
+        columns["phase"] = self.phase.ravel()
+        columns["cycle"] = self.cycle.ravel()
+        for name in ("shape", "shape_velocity"):
+            values = getattr(self, name).reshape(-1, self.n_joints)
+            for j in range(self.n_joints):
+                columns[f"{name}_{j}"] = values[:, j]
+        for name, array in (("body_velocity", self.body_velocity), ("pose", self.pose)):
+            names = BODY_VELOCITY_COLUMNS if name == "body_velocity" else POSE_COLUMNS
+            for k, column in enumerate(names):
+                columns[column] = array.reshape(-1, 3)[:, k]
+        return pd.DataFrame(columns)
+
+    @classmethod
+    def from_pandas(cls, frame: pd.DataFrame) -> Trajectory:
+        """Inverse of :meth:`to_pandas` for an unbatched table."""
+        required = ["time", "phase", "cycle", *BODY_VELOCITY_COLUMNS, *POSE_COLUMNS]
+        missing = [c for c in required + ["shape_0", "shape_velocity_0"] if c not in frame]
+        if missing:
+            raise fail("frame", "Trajectory.from_pandas", "a table with the columns of to_pandas()",
+                       f"missing {missing}")
+        d = sum(1 for c in frame.columns if c.startswith("shape_") and c[6:].isdigit())
+        return cls(
+            time=frame["time"].to_numpy(float),
+            phase=frame["phase"].to_numpy(float),
+            cycle=frame["cycle"].to_numpy(int),
+            shape=frame[[f"shape_{j}" for j in range(d)]].to_numpy(float),
+            shape_velocity=frame[[f"shape_velocity_{j}" for j in range(d)]].to_numpy(float),
+            body_velocity=frame[list(BODY_VELOCITY_COLUMNS)].to_numpy(float),
+            pose=frame[list(POSE_COLUMNS)].to_numpy(float),
+        )
+
+    def to_parquet(self, path) -> Path:
+        path = Path(path)
+        self.to_pandas().to_parquet(path, index=False)
+        return path
+
+    def to_csv(self, path) -> Path:
+        path = Path(path)
+        self.to_pandas().to_csv(path, index=False)
+        return path

@@ -1,0 +1,79 @@
+"""What every principally kinematic system offers downstream: a local connection A(r)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .._validation import check_array, check_int, fail
+
+__all__ = ["System", "FunctionSystem", "check_shapes"]
+
+
+@runtime_checkable
+class System(Protocol):
+    r"""A principally kinematic locomotor, :math:`\xi = -A(r)\dot r` (paper eq. 1).
+
+    Attributes
+    ----------
+    name : str
+    n_joints : int
+        Shape dimension d.
+    """
+
+    name: str
+    n_joints: int
+
+    def connection(self, shapes) -> np.ndarray:
+        """Local connection A for shapes ``(..., d)``, returned as ``(..., 3, d)``."""
+        ...
+
+
+def check_shapes(shapes, n_joints: int, owner: str) -> np.ndarray:
+    """Validate a batch of shapes ``(..., d)``: finite, last axis of length d."""
+    return check_array(shapes, "shapes", owner, trailing=(n_joints,))
+
+
+@dataclass(frozen=True)
+class FunctionSystem:
+    """Wrap a user-supplied connection function as a :class:`System`.
+
+    Parameters
+    ----------
+    connection_function : callable
+        ``f(shapes (..., d)) -> (..., 3, d)``; it must accept a batch of shapes.
+    n_joints : int
+        Shape dimension d.
+    name : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> system = FunctionSystem(lambda r: np.zeros(r.shape[:-1] + (3, 2)), n_joints=2)
+    >>> system.connection(np.zeros((5, 2))).shape
+    (5, 3, 2)
+    """
+
+    connection_function: Callable[[np.ndarray], np.ndarray]
+    n_joints: int
+    name: str = "custom"
+
+    def __post_init__(self):
+        check_int(self.n_joints, "n_joints", "FunctionSystem", minimum=1)
+        if not callable(self.connection_function):
+            raise fail("connection_function", "FunctionSystem", "callable", self.connection_function)
+
+    def connection(self, shapes) -> np.ndarray:
+        shapes = check_shapes(shapes, self.n_joints, f"{self.name}.connection")
+        value = np.asarray(self.connection_function(shapes), dtype=float)
+        expected = shapes.shape[:-1] + (3, self.n_joints)
+        if value.shape != expected:
+            raise fail("connection_function", "FunctionSystem", f"returning shape {expected}",
+                       f"shape {value.shape}")
+        if not np.all(np.isfinite(value)):
+            raise fail("connection_function", "FunctionSystem", "returning finite values",
+                       "non-finite values")
+        return value

@@ -1,0 +1,205 @@
+r"""The N-link Purcell swimmer under resistive force theory (RFT).
+
+A chain of N straight links joined by N - 1 revolute joints; the shape ``r_j`` is the angle of
+link j+1 relative to link j. Each link of length ``l`` moving with body velocity
+``(u, v, ω)`` in its own frame feels, exactly for a straight link under RFT, the drag wrench
+
+.. math:: F = -c\,\mathrm{diag}(l,\ k l,\ k l^3/12)\,(u, v, \omega)^T
+
+(longitudinal drag ``c`` per unit length, lateral ``k c``). With the link twists written
+:math:`\xi_i = T_i \xi + J_i \dot r`, where :math:`T_i = \mathrm{Ad}_{h_i^{-1}}` maps the body
+velocity into link i's frame and :math:`J_i` is link i's shape Jacobian, zero net force and torque
+on the body, :math:`\sum_i T_i^T D_i \xi_i = 0`, gives
+
+.. math:: \xi = -A(r)\dot r,\quad A = \omega_\xi^{-1}\omega_r,\quad
+   \omega_\xi = \sum_i T_i^T D_i T_i,\quad \omega_r = \sum_i T_i^T D_i J_i.
+
+The dissipated power is :math:`\dot r^T M(r) \dot r` with
+:math:`M = \sum_i (J_i - T_i A)^T D_i (J_i - T_i A)`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .._validation import check_array, check_choice, check_float, check_int, fail
+from ._base import check_shapes
+
+__all__ = ["PurcellSwimmer", "BODY_FRAMES"]
+
+BODY_FRAMES = ("middle", "center_of_mass", "tail")
+
+
+@dataclass(frozen=True)
+class PurcellSwimmer:
+    """N-link Purcell swimmer (a :class:`~geogait.systems.System`).
+
+    Parameters
+    ----------
+    n_links : int >= 2
+    link_lengths : array-like of shape (n_links,), optional
+        Positive lengths; equal links of total length 1 by default.
+    drag_coefficient : float > 0
+        Longitudinal drag per unit length ``c``.
+    drag_ratio : float > 0
+        Lateral over longitudinal drag ``k`` (classically 2; ``k = 1`` cannot swim).
+    body_frame : {"middle", "center_of_mass", "tail"}
+        ``"middle"``: centre and orientation of the middle link (for even N: the middle joint,
+        oriented along the mean of the two middle links). ``"center_of_mass"``: length-weighted
+        centroid of the link centres, oriented along the length-weighted mean link angle.
+        ``"tail"``: centre and orientation of the first link.
+
+    Examples
+    --------
+    >>> swimmer = PurcellSwimmer(3)
+    >>> (swimmer.connection([0.0, 0.0]) * 54).round(6)  # y-row 1/18, θ-row ±7/27
+    array([[  0.,   0.],
+           [  3.,   3.],
+           [-14.,  14.]])
+    """
+
+    n_links: int = 3
+    link_lengths: tuple[float, ...] | None = None
+    drag_coefficient: float = 1.0
+    drag_ratio: float = 2.0
+    body_frame: str = "middle"
+    _geometry: dict = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        owner = "PurcellSwimmer"
+        n = check_int(self.n_links, "n_links", owner, minimum=2)
+        if self.link_lengths is None:
+            lengths = np.full(n, 1.0 / n)
+        else:
+            lengths = check_array(self.link_lengths, "link_lengths", owner, ndim=1)
+            if lengths.shape != (n,) or np.any(lengths <= 0):
+                raise fail("link_lengths", owner, f"{n} positive lengths (one per link)",
+                           self.link_lengths)
+        check_float(self.drag_coefficient, "drag_coefficient", owner, low=0, low_open=True)
+        check_float(self.drag_ratio, "drag_ratio", owner, low=0, low_open=True)
+        check_choice(self.body_frame, "body_frame", owner, BODY_FRAMES)
+        object.__setattr__(self, "link_lengths", tuple(float(x) for x in lengths))
+        object.__setattr__(self, "_geometry", _chain_geometry(lengths, self.body_frame))
+
+    @property
+    def n_joints(self) -> int:
+        """Shape dimension d = N - 1."""
+        return self.n_links - 1
+
+    @property
+    def name(self) -> str:
+        return f"purcell-{self.n_links}"
+
+    def with_drag_ratio(self, drag_ratio: float) -> PurcellSwimmer:
+        """The same swimmer in a fluid of another drag ratio."""
+        return replace(self, drag_ratio=drag_ratio)
+
+    def connection(self, shapes) -> np.ndarray:
+        """Local connection A(r): shapes ``(..., d)`` → ``(..., 3, d)``, with ξ = -A ṙ (eq. 1)."""
+        shapes = check_shapes(shapes, self.n_joints, "PurcellSwimmer.connection")
+        transform, jacobian, drag = self._link_terms(shapes)
+        return _solve_connection(transform, jacobian, drag)
+
+    def metric(self, shapes) -> np.ndarray:
+        """Dissipation metric M(r) ``(..., d, d)``: power = ṙᵀ M ṙ at ξ = -A ṙ."""
+        shapes = check_shapes(shapes, self.n_joints, "PurcellSwimmer.metric")
+        transform, jacobian, drag = self._link_terms(shapes)
+        connection = _solve_connection(transform, jacobian, drag)
+        link_rate = jacobian - transform @ connection[..., None, :, :]  # (..., N, 3, d)
+        return _link_sum(link_rate * drag[..., :, None], link_rate)
+
+    def _link_terms(self, shapes):
+        """T_i ``(..., N, 3, 3)``, J_i ``(..., N, 3, d)`` and diagonal drags ``(N, 3)``."""
+        geo = self._geometry
+        n, d = self.n_links, self.n_joints
+        batch = shapes.shape[:-1]
+        lengths = np.asarray(self.link_lengths)
+        angle = shapes @ geo["incidence"].T  # (..., N) link angles in link 0's frame
+        cos, sin = np.cos(angle), np.sin(angle)
+        unit = np.stack([cos, sin], axis=-2)  # (..., 2, N)
+        perp = np.stack([-sin, cos], axis=-2)  # ∂e(β)/∂β
+        position = np.swapaxes(unit @ geo["centres"].T, -1, -2)  # (..., N, 2)
+        frame_position = unit @ geo["frame_point"]  # (..., 2)
+        frame_angle = angle @ geo["frame_angle"]  # (...,)
+        # ∂p/∂r in link 0's frame, then rotated into each moving frame (body Jacobians).
+        link_dpos = np.moveaxis((perp @ geo["link_weights"]).reshape(batch + (2, n, d)), -3, -2)
+        frame_dpos = perp @ geo["frame_weights"]  # (..., 2, d)
+        link_jac = np.concatenate(
+            [_rotate_back(link_dpos, cos[..., None], sin[..., None]),
+             np.broadcast_to(geo["incidence"][:, None, :], batch + (n, 1, d))], axis=-2)
+        cos_b, sin_b = np.cos(frame_angle), np.sin(frame_angle)
+        frame_jac = np.concatenate(
+            [_rotate_back(frame_dpos, cos_b[..., None], sin_b[..., None]),
+             np.broadcast_to(geo["frame_angle"] @ geo["incidence"], batch + (1, d))], axis=-2)
+        # Link pose relative to the body frame, h_i^b = h_b^{-1} h_i, and T_i = Ad_{(h_i^b)^{-1}}.
+        rel = _rotate_back(np.swapaxes(position - frame_position[..., None, :], -1, -2),
+                           cos_b[..., None], sin_b[..., None])  # (..., 2, N)
+        transform = _adjoint_of_inverse(rel[..., 0, :], rel[..., 1, :], angle - frame_angle[..., None])
+        jacobian = link_jac - transform @ frame_jac[..., None, :, :]
+        c, k = self.drag_coefficient, self.drag_ratio
+        drag = c * np.stack([lengths, k * lengths, k * lengths**3 / 12], axis=-1)
+        return transform, jacobian, drag
+
+
+def _rotate_back(vectors, cos, sin):
+    """Rᵀ v for planar vectors stored along axis -2 (x then y); cos/sin broadcast on the rest."""
+    x, y = vectors[..., 0, :], vectors[..., 1, :]
+    return np.stack([cos * x + sin * y, -sin * x + cos * y], axis=-2)
+
+
+def _link_sum(left, right):
+    """Σ_i left_iᵀ right_i over links: one matmul over the stacked (link, row) axis."""
+    n, rows = left.shape[-3:-1]
+    flat_left = left.reshape(left.shape[:-3] + (n * rows, left.shape[-1]))
+    flat_right = right.reshape(right.shape[:-3] + (n * rows, right.shape[-1]))
+    return np.swapaxes(flat_left, -1, -2) @ flat_right
+
+
+def _solve_connection(transform, jacobian, drag):
+    weighted = transform * drag[..., :, None]  # D_i T_i (D diagonal)
+    return np.linalg.solve(_link_sum(weighted, transform), _link_sum(weighted, jacobian))
+
+
+def _adjoint_of_inverse(x, y, angle):
+    """Adjoint ``(..., 3, 3)`` of the inverse of poses (x, y, angle)."""
+    cos, sin = np.cos(angle), np.sin(angle)
+    out = np.zeros(np.shape(angle) + (3, 3))
+    out[..., 0, 0], out[..., 0, 1] = cos, sin
+    out[..., 1, 0], out[..., 1, 1] = -sin, cos
+    # g⁻¹ = (-Rᵀp, -angle) and Ad_g = [[R, (p_y, -p_x)ᵀ], [0, 1]].
+    out[..., 0, 2] = sin * x - cos * y
+    out[..., 1, 2] = cos * x + sin * y
+    out[..., 2, 2] = 1.0
+    return out
+
+
+def _chain_geometry(lengths: np.ndarray, body_frame: str) -> dict:
+    """Constant matrices describing the chain in the frame of link 0.
+
+    ``incidence`` S (N, d): link angle β_i = Σ_j S_ij r_j. ``centres`` C (N, N): centre of link i
+    is Σ_k C_ik e(β_k). The body frame sits at Σ_k a_k e(β_k) with angle Σ_k b_k β_k.
+    """
+    n = lengths.size
+    incidence = np.tril(np.ones((n, n - 1)), -1)
+    centres = np.zeros((n, n))
+    for i in range(1, n):
+        centres[i] = centres[i - 1]
+        centres[i, i - 1] += lengths[i - 1] / 2
+        centres[i, i] += lengths[i] / 2
+    if body_frame == "middle" and n % 2:
+        point, angle = centres[n // 2], np.eye(n)[n // 2]
+    elif body_frame == "middle":
+        m = n // 2
+        point = centres[m - 1] + np.eye(n)[m - 1] * lengths[m - 1] / 2
+        angle = (np.eye(n)[m - 1] + np.eye(n)[m]) / 2
+    elif body_frame == "center_of_mass":
+        weights = lengths / lengths.sum()
+        point, angle = weights @ centres, weights
+    else:  # tail
+        point, angle = centres[0], np.eye(n)[0]
+    # ∂(centre of link i)/∂r_j = Σ_k C_ik e⊥(β_k) S_kj: weights (N_k, N_i * d) for one matmul.
+    link_weights = (centres[:, :, None] * incidence[None, :, :]).transpose(1, 0, 2).reshape(n, -1)
+    return {"incidence": incidence, "centres": centres, "frame_point": point, "frame_angle": angle,
+            "link_weights": link_weights, "frame_weights": point[:, None] * incidence}
