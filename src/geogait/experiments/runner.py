@@ -238,9 +238,7 @@ def run_trials(
     >>> result.frame["trial"].tolist(), result.failures
     ([0, 1, 2, 3, 4], ())
     """
-    sweep = _check_sweep(
-        trial_function, n_trials, seed, chunk_size, jobs, scheduler, cache_dir, config
-    )
+    sweep = _check_sweep(trial_function, n_trials, seed, chunk_size, jobs, scheduler, cache_dir, config)
     _check_display(progress, description)
     started = time.perf_counter()
     chunks = _make_chunks(sweep.n_trials, sweep.seed, sweep.chunk_size)
@@ -293,9 +291,7 @@ class _Sweep:
         }
 
 
-def _check_sweep(
-    trial_function, n_trials, seed, chunk_size, jobs, scheduler, cache_dir, config
-) -> _Sweep:
+def _check_sweep(trial_function, n_trials, seed, chunk_size, jobs, scheduler, cache_dir, config) -> _Sweep:
     if not callable(trial_function):
         raise fail("trial_function", _OWNER, _FRAME_CONTRACT, trial_function)
     return _Sweep(
@@ -311,9 +307,7 @@ def _check_sweep(
 
 
 def _check_jobs(jobs, scheduler) -> int:
-    if isinstance(jobs, bool) or not isinstance(jobs, int | np.integer) or not (
-        jobs >= 1 or jobs == -1
-    ):
+    if isinstance(jobs, bool) or not isinstance(jobs, int | np.integer) or not (jobs >= 1 or jobs == -1):
         raise fail("jobs", _OWNER, "an int >= 1, or -1 for all CPU cores", jobs)
     if scheduler is not None and jobs != 1:
         expected = "1 when 'scheduler' is given (the Dask cluster sets the parallelism)"
@@ -396,8 +390,11 @@ class _Outcome:
 def _make_chunks(n_trials: int, seed: int, chunk_size: int) -> list[_Chunk]:
     seeds = np.random.SeedSequence(seed).spawn(n_trials)
     return [
-        _Chunk(index, np.arange(start, min(start + chunk_size, n_trials)),
-               tuple(seeds[start:start + chunk_size]))
+        _Chunk(
+            index,
+            np.arange(start, min(start + chunk_size, n_trials)),
+            tuple(seeds[start : start + chunk_size]),
+        )
         for index, start in enumerate(range(0, n_trials, chunk_size))
     ]
 
@@ -502,7 +499,7 @@ def _run_joblib(function, chunks: list[_Chunk], config: dict, *, n_jobs: int):
 
 def _run_dask(client, function, chunks: list[_Chunk], config: dict) -> Iterator[_Outcome]:
     futures = [client.submit(_run_chunk, function, chunk, config, pure=False) for chunk in chunks]
-    for future in _distributed().as_completed(futures):
+    for future in _distributed().as_completed(futures, loop=client.loop):
         yield future.result()
 
 
