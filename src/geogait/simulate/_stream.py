@@ -68,8 +68,12 @@ def _trial_generators(seed, n_trials):
         root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         batched = n_trials is not None
         sequences = root.spawn(n_trials) if batched else [root]
-    pairs = [s.spawn(2) for s in sequences]
-    return [np.random.default_rng(p) for p, _ in pairs], [np.random.default_rng(n) for _, n in pairs], batched
+    # Children built from (entropy, spawn_key) rather than .spawn(), which would mutate the caller's
+    # SeedSequence and make a second stream from the same seed differ.
+    def child(sequence, k):
+        return np.random.default_rng(np.random.SeedSequence(sequence.entropy, spawn_key=sequence.spawn_key + (k,)))
+
+    return [child(s, 0) for s in sequences], [child(s, 1) for s in sequences], batched
 
 
 class SwimmerStream:

@@ -1,0 +1,11 @@
+"""Command-line interface: a thin layer over the library (``geogait --help``)."""
+
+from . import _simulate  # noqa: F401  (registers the command)
+from ._app import app
+
+__all__ = ["app", "main"]
+
+
+def main() -> None:
+    """Entry point of the ``geogait`` console script."""
+    app()

@@ -1,0 +1,133 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from geogait.gaits import FourierGait, Perturbation, seed_gait
+from geogait.simulate import DragRatioSchedule, SwimmerStream, Trajectory, cycle_displacement, simulate
+from geogait.systems import PurcellSwimmer
+
+
+def test_oracle_converges_at_fourth_order_and_reaches_1e_6():
+    swimmer, gait = PurcellSwimmer(5), FourierGait(np.random.default_rng(3).normal(scale=0.6, size=(4, 5)))
+    reference = cycle_displacement(swimmer, gait, resolution=4096)
+    errors = [np.abs(cycle_displacement(swimmer, gait, resolution=n) - reference).max() for n in (32, 64)]
+    assert 12 < errors[0] / errors[1] < 20  # 2⁴ = 16
+    assert np.abs(cycle_displacement(swimmer, gait) - reference).max() < 1e-6
+
+
+def test_oracle_agrees_with_fine_simulation_without_perturbation():
+    # Second method: zero-order-hold integration of the sampled body velocity, 4000 samples/cycle.
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    run = simulate(swimmer, gait, 1, samples_per_cycle=4000, perturbation=Perturbation(eta=0), seed=0)
+    from geogait import se2
+
+    end = se2.displacement(run.body_velocity, 1 / 4000)
+    # Zero-order hold is first order in the step: 1/4000 of a cycle leaves ~1e-5.
+    np.testing.assert_allclose(end, cycle_displacement(swimmer, gait), atol=3e-5)
+
+
+def test_samples_follow_the_model_equations():
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    run = simulate(swimmer, gait, 3, samples_per_cycle=50, seed=4)
+    phase = 2 * np.pi * (np.arange(150) % 50) / 50
+    np.testing.assert_allclose(run.phase, phase)
+    np.testing.assert_array_equal(run.cycle, np.repeat([0, 1, 2], 50))
+    np.testing.assert_allclose(run.time, np.arange(150) / 50)
+    delta = run.shape - gait.shape(phase)
+    assert 0.05 < delta.std() < 0.3  # default perturbation std 0.15 rad
+    expected = -np.einsum("nij,nj->ni", swimmer.connection(run.shape), run.shape_velocity)
+    np.testing.assert_allclose(run.body_velocity, expected, atol=1e-14)
+    # The perturbation's rate is the time derivative of its value (smooth SDE path).
+    rate = np.gradient(delta, 1 / 50, axis=0)
+    nominal = run.shape_velocity - gait.velocity(phase) * 2 * np.pi
+    assert np.corrcoef(rate[5:-5].ravel(), nominal[5:-5].ravel())[0, 1] > 0.95
+
+
+def test_sample_stream_equals_cycle_stream_and_is_seeded():
+    options = dict(samples_per_cycle=40, sensor_noise=0.3, shape_noise=0.1, seed=9)
+    swimmer, gait = PurcellSwimmer(5), seed_gait(4)
+    by_cycle = SwimmerStream(swimmer, gait, **options).next_cycles(2)
+    stream = SwimmerStream(swimmer, gait, **options)
+    by_sample = Trajectory.concatenate([stream.next_sample() for _ in range(80)])
+    for name in ("shape", "shape_velocity", "phase", "cycle"):
+        np.testing.assert_array_equal(getattr(by_cycle, name), getattr(by_sample, name))
+    # Same draws; only the rounding of batched vs single linear solves differs.
+    np.testing.assert_allclose(by_cycle.body_velocity, by_sample.body_velocity, atol=1e-13)
+    np.testing.assert_allclose(by_cycle.pose, by_sample.pose, atol=1e-13)
+    other = SwimmerStream(swimmer, gait, **{**options, "seed": 10}).next_cycles(2)
+    assert not np.allclose(other.shape, by_cycle.shape)
+
+
+def test_trials_do_not_depend_on_batch_composition():
+    seeds = np.random.SeedSequence(5).spawn(3)
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    batch = simulate(swimmer, gait, 2, seed=seeds, sensor_noise=0.2)
+    alone = simulate(swimmer, gait, 2, seed=[seeds[1]], sensor_noise=0.2)
+    assert batch.shape.shape == (3, 200, 2)
+    np.testing.assert_array_equal(batch.trial(1).body_velocity, alone.trial(0).body_velocity)
+
+
+def test_sensor_noise_has_the_requested_fraction_of_rms():
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    options = dict(perturbation=Perturbation(eta=0), seed=2, samples_per_cycle=100)
+    clean = simulate(swimmer, gait, 50, **options)
+    noisy = simulate(swimmer, gait, 50, sensor_noise=0.3, **options)
+    rms = np.sqrt(np.mean(clean.body_velocity**2, axis=0))
+    np.testing.assert_allclose((noisy.body_velocity - clean.body_velocity).std(axis=0), 0.3 * rms, rtol=0.05)
+    np.testing.assert_array_equal(noisy.shape, clean.shape)
+
+
+def test_gait_change_takes_effect_at_the_next_cycle():
+    swimmer = PurcellSwimmer(3)
+    old, new = seed_gait(2), seed_gait(2, amplitude=0.5)
+    stream = SwimmerStream(swimmer, old, samples_per_cycle=20, perturbation=Perturbation(eta=0), seed=0)
+    stream.next_sample()
+    stream.set_gait(new)
+    rest = stream.next_cycle()
+    assert stream.gait == new and rest.n_samples == 19
+    np.testing.assert_allclose(rest.shape, old.shape(rest.phase), atol=1e-12)
+    following = stream.next_cycle()
+    np.testing.assert_allclose(following.shape, new.shape(following.phase), atol=1e-12)
+    with pytest.raises(ValueError, match="'gait'"):
+        stream.set_gait(seed_gait(3))
+
+
+def test_environment_schedule_switches_drag_ratio():
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    schedule = DragRatioSchedule(swimmer, (2.0, 3.0, 4.0), cycles_per_environment=2)
+    run = simulate(swimmer, gait, 7, samples_per_cycle=20, environment=schedule, seed=1)
+    for cycle, k in [(0, 2.0), (1, 2.0), (2, 3.0), (5, 4.0), (6, 4.0)]:
+        part = run.cycles(cycle, cycle + 1)
+        expected = -np.einsum("nij,nj->ni", swimmer.with_drag_ratio(k).connection(part.shape), part.shape_velocity)
+        np.testing.assert_allclose(part.body_velocity, expected, atol=1e-14)
+    with pytest.raises(ValueError, match="'drag_ratios'"):
+        DragRatioSchedule(swimmer, (2.0, -1.0))
+
+
+def test_trajectory_round_trips_through_parquet_and_csv(tmp_path):
+    run = simulate(PurcellSwimmer(4), seed_gait(3), 2, samples_per_cycle=30, seed=0, sensor_noise=0.1)
+    frame = run.to_pandas()
+    assert list(frame.columns[:3]) == ["time", "phase", "cycle"] and len(frame) == 60
+    assert {"shape_2", "shape_velocity_0", "body_velocity_theta", "heading"} <= set(frame.columns)
+    back = Trajectory.from_pandas(pd.read_parquet(run.to_parquet(tmp_path / "run.parquet")))
+    np.testing.assert_array_equal(back.body_velocity, run.body_velocity)
+    csv = Trajectory.from_pandas(pd.read_csv(run.to_csv(tmp_path / "run.csv")))
+    np.testing.assert_allclose(csv.shape, run.shape, rtol=1e-15)
+    batched = simulate(PurcellSwimmer(3), seed_gait(2), 1, seed=0, n_trials=2).to_pandas()
+    assert list(batched["trial"].unique()) == [0, 1]
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [
+        (dict(samples_per_cycle=2), "'samples_per_cycle'"),
+        (dict(sensor_noise=-0.1), "'sensor_noise'"),
+        (dict(cycle_period=0), "'cycle_period'"),
+        (dict(n_trials=0), "'n_trials'"),
+    ],
+)
+def test_bad_stream_options_name_the_field(options, match):
+    with pytest.raises(ValueError, match=match):
+        SwimmerStream(PurcellSwimmer(3), seed_gait(2), **options)
+    with pytest.raises(ValueError, match="'gait'"):
+        SwimmerStream(PurcellSwimmer(3), seed_gait(4))
