@@ -1,0 +1,22 @@
+"""Data-driven local gait models (paper §III): features, phase windows, the adaptive RLS bank,
+the batch baseline, the phase model and the Γ metric."""
+
+from ._adaptive import AdaptiveGaitModel
+from ._base import gamma, load_model
+from ._batch import BatchGaitModel
+from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
+from ._phase import PhaseModel
+from ._rls import RLSBank
+
+__all__ = [
+    "AdaptiveGaitModel",
+    "BatchGaitModel",
+    "PhaseModel",
+    "PhaseWindows",
+    "RLSBank",
+    "gamma",
+    "load_model",
+    "n_regressors",
+    "regressors",
+    "split_coefficients",
+]

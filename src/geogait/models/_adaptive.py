@@ -1,0 +1,254 @@
+r"""The adaptive gait model: a bank of RLS filters over phase windows (paper §III, eqs. 3–7)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter
+
+from .._validation import check_choice, check_float, fail
+from ..gaits import FourierGait
+from ._base import GaitModelBase
+from ._features import n_regressors, regressors
+from ._phase import PhaseModel, _assign_bank
+from ._rls import RLSBank
+
+__all__ = ["AdaptiveGaitModel"]
+
+
+class AdaptiveGaitModel(GaitModelBase):
+    r"""Local model of ξ = −A(r)ṙ around a nominal gait, learned sample by sample.
+
+    Each of ``n_windows`` phase windows holds an RLS filter (eq. 4) on the regressor
+    ``[1, δ, δ̇, δ⊗δ̇]`` of eq. 3; window coefficients are smoothed along φ by a Fourier series for
+    prediction. The model scores itself online with Γ (eq. 6) and can be re-centred on a new
+    nominal gait by a Taylor rebase (eq. 7).
+
+    Parameters
+    ----------
+    gait : FourierGait, optional
+        Nominal gait θ(φ) the model expands around; estimated from the first data (Fourier order 1)
+        when omitted.
+    n_windows : int
+        Number M of equally spaced phase windows.
+    window_width : float, optional
+        Window width Δφ (rad); default two window spacings, 4π / M (each sample updates 2 windows).
+    forgetting_factor : float in (0, 1]
+        λ_RLS. 1 is ordinary recursive least squares.
+    initial_covariance : float > 0
+        δ₀: P starts at δ₀·I; the trace clamp keeps trace P ≤ n δ₀.
+    smoothing_order : int
+        Fourier order of the smoothing of window coefficients along φ (≤ (M − 1) / 2).
+    gamma_forgetting : float in (0, 1]
+        λ_Γ of the online confidence Γ (eq. 6), per sample.
+    phase_rate : float > 0
+        φ̇ (rad per time unit) used for θ̇ = θ'(φ) φ̇; 2π means time is measured in cycles.
+
+    Attributes
+    ----------
+    gait_ : FourierGait
+        Current nominal gait.
+    windows_ : PhaseWindows
+    window_weights_ : ndarray of shape batch + (M, 1 + 2d + d², 3)
+        RLS weights per window (unsmoothed).
+    covariance_ : ndarray of shape batch + (M, 1 + 2d + d², 1 + 2d + d²)
+    phase_model_ : PhaseModel
+        Baseline ξ_T learned alongside, with the same windows and forgetting.
+    gamma_ : float or ndarray of shape batch
+        Online Γ after the last sample (eq. 6).
+    online_gamma_ : ndarray of shape batch + (n,)
+        Online Γ after each sample of the last ``partial_fit`` call.
+    prior_prediction_ : ndarray of shape batch + (n, 3)
+        A-priori predictions ξ_D of the samples of the last ``partial_fit`` call.
+    n_joints_ : int
+    batch_shape_ : tuple
+        Leading trial axes; ``()`` for a single model.
+
+    Notes
+    -----
+    The online Γ compares *a-priori* errors, each sample being predicted before it is learned: ξ_D
+    is the mean of the covering windows' filter predictions and ξ_T that of the phase model. These
+    are exactly the filters' predictions at that instant, so online Γ does not depend on how the
+    stream is split into ``partial_fit`` calls.
+
+    Examples
+    --------
+    >>> from geogait.systems import PurcellSwimmer
+    >>> from geogait.gaits import seed_gait
+    >>> from geogait.simulate import simulate
+    >>> gait = seed_gait(2)
+    >>> train = simulate(PurcellSwimmer(3), gait, n_cycles=10, seed=0)
+    >>> test = simulate(PurcellSwimmer(3), gait, n_cycles=10, seed=1)
+    >>> model = AdaptiveGaitModel(gait=gait).fit(train.phase, train.shape, train.shape_velocity,
+    ...                                           train.body_velocity)
+    >>> model.score(test.phase, test.shape, test.shape_velocity, test.body_velocity) > 0.9
+    True
+    """
+
+    def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
+                 window_width: float | None = None, forgetting_factor: float = 0.99,
+                 initial_covariance: float = 100.0, smoothing_order: int = 5,
+                 gamma_forgetting: float = 0.995, phase_rate: float = 2 * np.pi):
+        self.gait = gait
+        self.n_windows = n_windows
+        self.window_width = window_width
+        self.forgetting_factor = forgetting_factor
+        self.initial_covariance = initial_covariance
+        self.smoothing_order = smoothing_order
+        self.gamma_forgetting = gamma_forgetting
+        self.phase_rate = phase_rate
+
+    # -- fitting ------------------------------------------------------------------------------
+    def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
+        owner = "AdaptiveGaitModel"
+        self.windows_ = self._windows()
+        lam = check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
+        delta0 = check_float(self.initial_covariance, "initial_covariance", owner, low=0, low_open=True)
+        check_float(self.gamma_forgetting, "gamma_forgetting", owner, low=0, high=1, low_open=True)
+        self._phase_rate()
+        self.gait_ = gait
+        self.n_joints_ = n_joints
+        self.batch_shape_ = batch
+        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n_regressors(self.n_joints_), 3,
+                             lam, delta0)
+        self.phase_model_ = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
+                                       forgetting_factor=lam, smoothing_order=self.smoothing_order)
+        self.psi_ = np.zeros(self.batch_shape_ + (2,))
+        self.n_samples_seen_ = 0
+
+    def fit(self, phase, shape, shape_velocity, body_velocity):
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
+        for name in ("batch_shape_", "n_joints_"):
+            self.__dict__.pop(name, None)
+        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+
+    def partial_fit(self, phase, shape, shape_velocity, body_velocity):
+        """Learn from samples in time order (one sample or a batch; optional leading trial axes).
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,) or batch
+        shape, shape_velocity : array-like of shape batch + (n, d) or batch + (d,)
+        body_velocity : array-like of shape batch + (n, 3) or batch + (3,)
+
+        Returns
+        -------
+        self
+        """
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
+            owner="AdaptiveGaitModel.partial_fit")
+        if not hasattr(self, "batch_shape_"):
+            self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
+        nominal, nominal_rate = self._nominal(self.windows_.centres)
+
+        def window_regressors(sample):  # regressors of window m's sample about θ(φ_m), eq. 4
+            r = np.take_along_axis(shape, sample[..., None], axis=-2)
+            r_dot = np.take_along_axis(shape_velocity, sample[..., None], axis=-2)
+            return regressors(r - nominal, r_dot - nominal_rate)
+
+        prior = self._run_rounds(self.bank_, phase, body_velocity, window_regressors)
+        baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
+        self._update_gamma(prior, baseline, body_velocity)
+        self.prior_prediction_ = prior
+        self.n_samples_seen_ += phase.shape[-1]
+        return self
+
+    def _update_gamma(self, prior, baseline, body_velocity):
+        """ψ ← λ_Γ ψ + ‖error‖ per sample for model and baseline (eq. 6), as a linear filter."""
+        errors = np.stack([np.linalg.norm(prior - body_velocity, axis=-1),
+                           np.linalg.norm(baseline - body_velocity, axis=-1)], axis=-2)  # batch+(2,n)
+        lam = self.gamma_forgetting
+        psi, _ = lfilter([1.0], [1.0, -lam], errors, axis=-1, zi=lam * self.psi_[..., None])
+        self.psi_ = psi[..., -1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.online_gamma_ = np.where(psi[..., 1, :] > 0, 1 - psi[..., 0, :] / psi[..., 1, :], 0.0)
+
+    @property
+    def gamma_(self):
+        """Online Γ = 1 − ψ_D / ψ_T after the last sample (eq. 6)."""
+        self._check_is_fitted()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            value = np.where(self.psi_[..., 1] > 0, 1 - self.psi_[..., 0] / self.psi_[..., 1], 0.0)
+        return float(value) if value.ndim == 0 else value
+
+    def reset_gamma(self):
+        """Restart the online Γ accumulators (e.g. at the start of an optimisation iteration)."""
+        self._check_is_fitted()
+        self.psi_ = np.zeros_like(self.psi_)
+        return self
+
+    @property
+    def window_weights_(self) -> np.ndarray:
+        return self.bank_.weights
+
+    @property
+    def covariance_(self) -> np.ndarray:
+        return self.bank_.covariance
+
+    # -- Taylor rebase (eq. 7) ----------------------------------------------------------------
+    def rebase(self, new_gait: FourierGait, terms: str = "constant"):
+        r"""Re-centre every window on a new nominal gait θ' (eq. 7).
+
+        With Δθ = θ'(φ_m) − θ(φ_m) and Δθ̇ = θ̇'(φ_m) − θ̇(φ_m), the constant term becomes the old
+        window model evaluated at the new nominal point:
+        :math:`w'[0] = [1, Δθ, Δθ̇, Δθ ⊗ Δθ̇] \cdot w`.
+
+        Parameters
+        ----------
+        new_gait : FourierGait
+        terms : {"constant", "all", "none"}
+            ``"constant"`` is the paper's eq. 7 (other weights kept). ``"all"`` is the exact
+            re-expansion of the window polynomial about the new point: B gains ∂A·Δθ̇ and A gains
+            Δθᵀ∂A too, so every window's predictions are unchanged by the rebase. ``"none"`` only
+            moves the expansion point and keeps all weights (the ablation eq. 7 improves on).
+
+        Returns
+        -------
+        self
+        """
+        self._check_is_fitted()
+        check_choice(terms, "terms", "AdaptiveGaitModel.rebase", ("constant", "all", "none"))
+        if not isinstance(new_gait, FourierGait) or new_gait.n_joints != self.n_joints_:
+            raise fail("new_gait", "AdaptiveGaitModel.rebase", f"a FourierGait with {self.n_joints_} joints",
+                       new_gait)
+        centres = self.windows_.centres
+        old, old_rate = self._nominal(centres)
+        new, new_rate = self._nominal(centres, new_gait)
+        shift, shift_rate = new - old, new_rate - old_rate  # (M, d)
+        weights = self.bank_.weights  # batch + (M, n, 3)
+        d = self.n_joints_
+        constant = np.einsum("mi,...mij->...mj", regressors(shift, shift_rate), weights)
+        if terms == "all":
+            bilinear = weights[..., 1 + 2 * d:, :].reshape(weights.shape[:-2] + (d, d, 3))  # [i, j]: δ_i δ̇_j
+            weights[..., 1:1 + d, :] += np.einsum("...mijk,mj->...mik", bilinear, shift_rate)
+            weights[..., 1 + d:1 + 2 * d, :] += np.einsum("...mijk,mi->...mjk", bilinear, shift)
+        if terms != "none":
+            weights[..., 0, :] = constant
+        self.gait_ = new_gait
+        return self
+
+    # -- persistence --------------------------------------------------------------------------
+    def _state(self) -> dict:
+        state = {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
+                 "n_updates": self.bank_.n_updates, "psi": self.psi_, "gait": self.gait_.coefficients,
+                 "n_samples_seen": self.n_samples_seen_,
+                 **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+        if self.gait is not None:
+            state["initial_gait"] = self.gait.coefficients
+        return state
+
+    def _set_state(self, state, metadata):
+        batch, d = tuple(metadata["batch_shape"]), int(metadata["n_joints"])
+        gait = FourierGait(state["gait"])
+        if gait.n_joints != d:
+            raise ValueError(f"gait has {gait.n_joints} joints, metadata says {d}")
+        self.gait = FourierGait(state["initial_gait"]) if "initial_gait" in state else None
+        self._reset(batch, d, gait)
+        _assign_bank(self.bank_, state)
+        psi = np.asarray(state["psi"], dtype=float)
+        if psi.shape != self.psi_.shape:
+            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
+        self.psi_ = psi
+        self.n_samples_seen_ = int(state["n_samples_seen"])
+        phase_state = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_._set_state(phase_state, {"batch_shape": list(batch)})

@@ -1,0 +1,300 @@
+"""What the three gait models share: phase windows, nominal gait, Fourier smoothing of window
+coefficients along φ, prediction, the Γ score, and ``.npz`` persistence."""
+
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from ..gaits import FourierGait, fourier_basis
+from ._features import PhaseWindows, regressors, split_coefficients
+from ._rls import schedule_rounds
+
+__all__ = ["GaitModelBase", "gamma", "load_model"]
+
+FORMAT = "geogait-model"
+FORMAT_VERSION = 1
+
+
+def gamma(error_model, error_baseline) -> np.ndarray:
+    r"""Γ = 1 − Σ‖ξ_D − ξ‖ / Σ‖ξ_T − ξ‖ (eq. 5) from per-sample error norms ``(..., n)``."""
+    return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
+
+
+class GaitModelBase:
+    """Shared machinery; subclasses define ``_fit_samples`` and their learned state."""
+
+    _estimated_gait_order = 1
+
+    # -- scikit-learn protocol ----------------------------------------------------------------
+    @classmethod
+    def _param_names(cls) -> list[str]:
+        signature = inspect.signature(cls.__init__)
+        return [p.name for p in signature.parameters.values() if p.kind == p.KEYWORD_ONLY]
+
+    def get_params(self, deep: bool = True) -> dict:
+        """Hyper-parameters, as given to ``__init__``."""
+        return {name: getattr(self, name) for name in self._param_names()}
+
+    def set_params(self, **params):
+        """Set hyper-parameters (takes effect at the next ``fit``); returns ``self``."""
+        for name, value in params.items():
+            if name not in self._param_names():
+                raise fail(name, type(self).__name__, "one of " + ", ".join(self._param_names()), name)
+            setattr(self, name, value)
+        return self
+
+    def __repr__(self):
+        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}({params})"
+
+    # -- validation ---------------------------------------------------------------------------
+    def _windows(self) -> PhaseWindows:
+        owner = type(self).__name__
+        n_windows = check_int(self.n_windows, "n_windows", owner, minimum=1)
+        width = 4 * np.pi / n_windows if self.window_width is None else self.window_width
+        width = check_float(width, "window_width", owner, low=0, high=2 * np.pi, low_open=True)
+        if width < 2 * np.pi / n_windows - 1e-12:
+            raise fail("window_width", owner, f">= the window spacing 2π/{n_windows}", width)
+        order = check_int(self.smoothing_order, "smoothing_order", owner, minimum=0)
+        if 2 * order + 1 > n_windows:
+            raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}", order)
+        return PhaseWindows(n_windows, width)
+
+    def _check_samples(self, phase, *arrays, names, owner):
+        """Validate time-ordered samples; returns arrays with a time axis (batch + (n, ...))."""
+        phase = np.asarray(check_array(phase, "phase", owner))
+        single = phase.ndim == 0 or (hasattr(self, "batch_shape_") and phase.ndim == len(self.batch_shape_))
+        if single:
+            phase = phase[..., None]
+        out = [phase]
+        for array, name in zip(arrays, names, strict=True):
+            width = 3 if name == "body_velocity" else None
+            value = check_array(array, name, owner, trailing=(width,))
+            if single:
+                value = value[..., None, :]
+            if value.shape[:-1] != phase.shape:
+                raise fail(name, owner, f"an array of shape {phase.shape + (value.shape[-1],)} matching 'phase'",
+                           f"shape {value.shape}")
+            out.append(value)
+        d = getattr(self, "n_joints_", None)
+        for value, name in zip(out[1:], names, strict=True):
+            if name != "body_velocity" and d is not None and value.shape[-1] != d:
+                raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
+                           f"shape {value.shape}")
+        batch = getattr(self, "batch_shape_", None)
+        if batch is not None and phase.shape[:-1] != batch:
+            raise fail("phase", owner, f"batched like the data seen so far, shape {batch} + (n,)",
+                       f"shape {phase.shape}")
+        self._single = single
+        return out
+
+    def _check_is_fitted(self):
+        if not hasattr(self, "batch_shape_"):
+            raise GeogaitError(f"This {type(self).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
+
+    # -- nominal gait and windows -------------------------------------------------------------
+    def _initial_gait(self, phase, shape) -> FourierGait:
+        owner = type(self).__name__
+        if self.gait is not None:
+            if not isinstance(self.gait, FourierGait):
+                raise fail("gait", owner, "a FourierGait or None", type(self.gait).__name__)
+            if self.gait.n_joints != shape.shape[-1]:
+                raise fail("gait", owner, f"a gait with {shape.shape[-1]} joints like 'shape'", self.gait.n_joints)
+            return self.gait
+        flat_phase, flat_shape = phase.reshape(-1), shape.reshape(-1, shape.shape[-1])
+        if np.unique(np.round(flat_phase, 6)).size < 4 * self._estimated_gait_order + 2:
+            raise fail("gait", owner, "given, or data spread over a cycle to estimate it from",
+                       f"None with {flat_phase.size} sample(s)")
+        return FourierGait.from_shapes(flat_phase, flat_shape, self._estimated_gait_order)
+
+    def _nominal(self, phase, gait=None):
+        """θ(φ) and θ̇(φ) = θ'(φ) φ̇ of the model's nominal gait."""
+        gait = self.gait_ if gait is None else gait
+        return gait.shape(phase), gait.velocity(phase) * self._phase_rate()
+
+    def _phase_rate(self) -> float:
+        return check_float(self.phase_rate, "phase_rate", type(self).__name__, low=0, low_open=True)
+
+    def _sample_regressors(self, phase, shape, shape_velocity, gait=None):
+        """Regressors about the nominal gait at each sample's own phase, ``(..., n, 1+2d+d²)``."""
+        nominal, nominal_rate = self._nominal(phase, gait)
+        return regressors(shape - nominal, shape_velocity - nominal_rate)
+
+    def _run_rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
+        """Feed time-ordered samples to the window filters of ``bank``, window by window in time
+        order (vectorised across windows and trials); returns each sample's a-priori prediction,
+        the mean over the windows that cover it, shape batch + (n, n_outputs)."""
+        cover = self.windows_.cover(phase)
+        index, valid = schedule_rounds(cover)
+        batch, n = phase.shape[:-1], phase.shape[-1]
+        prior_sum = np.zeros(batch + (n, targets.shape[-1]))
+        offsets = (np.arange(int(np.prod(batch, dtype=int))) * n).reshape(batch + (1,))
+        for r in range(index.shape[-1]):
+            sample = index[..., r]  # batch + (M,)
+            y = np.take_along_axis(targets, sample[..., None], axis=-2)
+            prior = bank.update(make_regressors(sample), y, valid[..., r])
+            flat = (sample + offsets)[valid[..., r]]
+            np.add.at(prior_sum.reshape(-1, targets.shape[-1]), flat, prior[valid[..., r]])
+        return prior_sum / cover.sum(axis=-1)[..., None]
+
+    # -- smoothing along φ --------------------------------------------------------------------
+    def _smoother(self, phase) -> np.ndarray:
+        """Linear map from window values to their Fourier fit at ``phase``: ``(..., n_windows)``."""
+        centres = self.windows_.centres
+        fit = np.linalg.pinv(fourier_basis(centres, self.smoothing_order))
+        return fourier_basis(phase, self.smoothing_order) @ fit
+
+    def _weights_at(self, phase) -> np.ndarray:
+        """Fourier-smoothed weights ``batch + (n, 1+2d+d², 3)`` at phases ``batch + (n,)``."""
+        return np.einsum("...nm,...mij->...nij", self._smoother(phase), self.window_weights_)
+
+    # -- public API shared by the gait models -------------------------------------------------
+    def predict(self, phase, shape, shape_velocity) -> np.ndarray:
+        r"""Predicted body velocity ξ̂ = C + Bδ + Aδ̇ + δᵀ∂Aδ̇ (eq. 3) with smoothed coefficients.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+        shape, shape_velocity : array-like of shape batch + (n, d)
+
+        Returns
+        -------
+        ndarray of shape batch + (n, 3)
+        """
+        self._check_is_fitted()
+        phase, shape, shape_velocity = self._check_samples(
+            phase, shape, shape_velocity, names=("shape", "shape_velocity"), owner=f"{type(self).__name__}.predict")
+        x = self._sample_regressors(phase, shape, shape_velocity)
+        single = self._single
+        prediction = np.einsum("...ni,...nij->...nj", x, self._weights_at(phase))
+        return prediction[..., 0, :] if single else prediction
+
+    def coefficients(self, phase) -> dict[str, np.ndarray]:
+        """Smoothed model coefficients at ``phase`` in the paper's names (eq. 3).
+
+        Returns
+        -------
+        dict with ``C`` batch + (n, 3), ``B`` and ``A`` batch + (n, 3, d), ``dA`` batch + (n, 3, d, d).
+        ``A`` estimates −A(θ(φ)) of ξ = −A(r)ṙ and ``dA[..., k, i, j]`` estimates −∂A_kj/∂r_i.
+        """
+        self._check_is_fitted()
+        phase = check_array(phase, "phase", f"{type(self).__name__}.coefficients")
+        phase = np.broadcast_to(phase, self.batch_shape_ + phase.shape[len(self.batch_shape_):]) \
+            if phase.ndim >= len(self.batch_shape_) else phase
+        return split_coefficients(self._weights_at(phase), self.n_joints_)
+
+    def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
+        """Γ on held-out samples (eq. 5) against the phase model of the training data.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+        shape, shape_velocity : array-like of shape batch + (n, d)
+        body_velocity : array-like of shape batch + (n, 3)
+        baseline : PhaseModel, optional
+            Phase model ξ_T; by default the one fitted alongside this model on its training data.
+
+        Returns
+        -------
+        float, or ndarray of shape batch for batched models
+        """
+        self._check_is_fitted()
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
+            owner=f"{type(self).__name__}.score")
+        baseline = self.phase_model_ if baseline is None else baseline
+        model_error = np.linalg.norm(self.predict(phase, shape, shape_velocity) - body_velocity, axis=-1)
+        baseline_error = np.linalg.norm(baseline.predict(phase) - body_velocity, axis=-1)
+        value = gamma(model_error, baseline_error)
+        return float(value) if np.ndim(value) == 0 else value
+
+    # -- persistence --------------------------------------------------------------------------
+    def _metadata(self) -> dict:
+        params = {k: v for k, v in self.get_params().items() if k != "gait"}
+        return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
+                "params": params, "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
+
+    def save(self, path) -> Path:
+        """Write the model to ``path`` (``.npz``: arrays + JSON metadata; no pickle), atomically.
+
+        The file is written to a temporary name in the same folder and renamed over ``path``, so
+        an interrupted save never leaves a truncated model behind.
+        """
+        self._check_is_fitted()
+        path = Path(path)
+        arrays = {f"state/{k}": np.asarray(v) for k, v in self._state().items()}
+        arrays["metadata"] = np.frombuffer(json.dumps(self._metadata()).encode(), dtype=np.uint8)
+        handle, temporary = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
+        try:
+            with os.fdopen(handle, "wb") as stream:
+                np.savez(stream, **arrays)
+                stream.flush()
+                os.fsync(stream.fileno())
+            os.replace(temporary, path)
+        except BaseException:
+            Path(temporary).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path, n_joints: int | None = None):
+        """Read a model written by :meth:`save`; checks format, class and shape dimension."""
+        model = load_model(path, n_joints=n_joints)
+        if not isinstance(model, cls):
+            raise GeogaitError(f"{path} holds a {type(model).__name__}, not a {cls.__name__}.")
+        return model
+
+
+def _read(path) -> tuple[dict, dict]:
+    path = Path(path)
+    if not path.is_file():
+        raise GeogaitError(f"Model file {path} does not exist.")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            arrays = {name: archive[name] for name in archive.files}
+        metadata = json.loads(arrays.pop("metadata").tobytes().decode())
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError) as error:
+        raise GeogaitError(f"{path} is not a readable geogait model (corrupt or truncated file): {error}") from None
+    if metadata.get("format") != FORMAT:
+        raise GeogaitError(f"{path} is not a geogait model file (format {metadata.get('format')!r}).")
+    if metadata.get("format_version") != FORMAT_VERSION:
+        raise GeogaitError(f"{path} has model format version {metadata.get('format_version')}; this geogait "
+                           f"reads version {FORMAT_VERSION}.")
+    return metadata, {k.removeprefix("state/"): v for k, v in arrays.items()}
+
+
+def load_model(path, n_joints: int | None = None):
+    """Load any geogait gait model saved with ``save``.
+
+    Parameters
+    ----------
+    path : path-like
+    n_joints : int, optional
+        If given, the shape dimension the caller expects; a mismatch raises a clear error.
+    """
+    from ._adaptive import AdaptiveGaitModel
+    from ._batch import BatchGaitModel
+    from ._phase import PhaseModel
+
+    metadata, state = _read(path)
+    classes = {c.__name__: c for c in (AdaptiveGaitModel, BatchGaitModel, PhaseModel)}
+    if metadata.get("class") not in classes:
+        raise GeogaitError(f"{path} holds an unknown model class {metadata.get('class')!r}.")
+    if n_joints is not None and metadata["n_joints"] != n_joints:
+        raise GeogaitError(f"{path} holds a model of shape dimension {metadata['n_joints']}, "
+                           f"but data of shape dimension {n_joints} was given.")
+    model = classes[metadata["class"]](**metadata["params"])
+    try:
+        model._set_state(state, metadata)
+    except (KeyError, ValueError, IndexError) as error:
+        raise GeogaitError(f"{path} is inconsistent (corrupt model file): {error}") from None
+    return model
+

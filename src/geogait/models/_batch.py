@@ -1,0 +1,114 @@
+"""The prior-work baseline (Bittner et al. 2018): ordinary least squares per phase window."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import check_float
+from ..gaits import FourierGait
+from ._base import GaitModelBase
+from ._features import n_regressors, regressors
+from ._phase import PhaseModel
+
+__all__ = ["BatchGaitModel"]
+
+_CHUNK = 512  # samples per normal-equation accumulation step (bounds memory for 9-link batches)
+
+
+class BatchGaitModel(GaitModelBase):
+    """Same windows, regressors and smoothing as :class:`AdaptiveGaitModel`, but every window is an
+    ordinary least-squares fit over all samples seen, with equal weights.
+
+    ``partial_fit`` accumulates the normal equations XᵀX, Xᵀξ per window and re-solves, which is
+    the same least-squares solution as refitting on all samples; ``fit`` starts from scratch.
+    Rank-deficient windows (too little data) get the minimum-norm solution (pseudo-inverse with
+    relative cut-off ``rcond``).
+
+    Parameters
+    ----------
+    gait : FourierGait, optional
+    n_windows : int
+    window_width : float, optional
+    smoothing_order : int
+    phase_rate : float
+    rcond : float
+        Relative singular-value cut-off of the pseudo-inverse.
+
+    Examples
+    --------
+    >>> from geogait.systems import PurcellSwimmer
+    >>> from geogait.gaits import seed_gait
+    >>> from geogait.simulate import simulate
+    >>> run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=10, seed=0)
+    >>> model = BatchGaitModel(gait=seed_gait(2)).fit(run.phase, run.shape, run.shape_velocity,
+    ...                                               run.body_velocity)
+    >>> model.window_weights_.shape
+    (20, 9, 3)
+    """
+
+    def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
+                 window_width: float | None = None, smoothing_order: int = 5,
+                 phase_rate: float = 2 * np.pi, rcond: float = 1e-10):
+        self.gait = gait
+        self.n_windows = n_windows
+        self.window_width = window_width
+        self.smoothing_order = smoothing_order
+        self.phase_rate = phase_rate
+        self.rcond = rcond
+
+    def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
+        self.windows_ = self._windows()
+        self._phase_rate()
+        check_float(self.rcond, "rcond", "BatchGaitModel", low=0)
+        n = n_regressors(n_joints)
+        self.gait_, self.n_joints_, self.batch_shape_ = gait, n_joints, batch
+        self.gram_ = np.zeros(batch + (self.windows_.n_windows, n, n))
+        self.moment_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
+        self.window_weights_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
+        self.phase_model_ = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
+                                       forgetting_factor=1.0, smoothing_order=self.smoothing_order)
+        self.n_samples_seen_ = 0
+
+    def fit(self, phase, shape, shape_velocity, body_velocity):
+        """Least squares on exactly these samples (forgets earlier data). Returns ``self``."""
+        for name in ("batch_shape_", "n_joints_"):
+            self.__dict__.pop(name, None)
+        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+
+    def partial_fit(self, phase, shape, shape_velocity, body_velocity):
+        """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``."""
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
+            owner="BatchGaitModel.partial_fit")
+        if not hasattr(self, "batch_shape_"):
+            self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
+        nominal, nominal_rate = self._nominal(self.windows_.centres)  # (M, d)
+        for start in range(0, phase.shape[-1], _CHUNK):
+            part = slice(start, start + _CHUNK)
+            cover = self.windows_.cover(phase[..., part]).astype(float)  # batch + (c, M)
+            x = regressors(shape[..., part, None, :] - nominal, shape_velocity[..., part, None, :] - nominal_rate)
+            x = np.moveaxis(x * cover[..., None], -3, -2)  # batch + (M, c, n), zero outside a window
+            self.gram_ += np.swapaxes(x, -1, -2) @ x
+            self.moment_ += np.swapaxes(x, -1, -2) @ body_velocity[..., None, part, :]
+        self.window_weights_ = np.linalg.pinv(self.gram_, rcond=self.rcond, hermitian=True) @ self.moment_
+        self.phase_model_.partial_fit(phase, body_velocity)
+        self.n_samples_seen_ += phase.shape[-1]
+        return self
+
+    def _state(self) -> dict:
+        return {"gram": self.gram_, "moment": self.moment_, "gait": self.gait_.coefficients,
+                "n_samples_seen": self.n_samples_seen_,
+                **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+
+    def _set_state(self, state, metadata):
+        batch, d = tuple(metadata["batch_shape"]), int(metadata["n_joints"])
+        self._reset(batch, d, FourierGait(state["gait"]))
+        for name in ("gram", "moment"):
+            saved, current = np.asarray(state[name], dtype=float), getattr(self, f"{name}_")
+            if saved.shape != current.shape:
+                raise ValueError(f"array {name!r} has shape {saved.shape}, expected {current.shape}")
+            setattr(self, f"{name}_", saved)
+        self.window_weights_ = np.linalg.pinv(self.gram_, rcond=self.rcond, hermitian=True) @ self.moment_
+        self.n_samples_seen_ = int(state["n_samples_seen"])
+        phase_state = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_._set_state(phase_state, {"batch_shape": list(batch)})

@@ -1,0 +1,110 @@
+"""The phase model ξ_T: phase-averaged body velocity of the data seen (the Γ baseline, eq. 5)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import check_float
+from ._base import GaitModelBase
+from ._rls import RLSBank
+
+__all__ = ["PhaseModel"]
+
+
+class PhaseModel(GaitModelBase):
+    """Body velocity as a function of phase only: the exponentially weighted mean of ξ per phase
+    window, smoothed along φ by a Fourier series.
+
+    It is estimated on its own (not borrowed from a gait model's constant term), with the same
+    windows and, online, the same forgetting as the gait model it serves as baseline for.
+
+    Parameters
+    ----------
+    n_windows : int
+    window_width : float, optional
+        Default two window spacings, 4π / n_windows.
+    forgetting_factor : float in (0, 1]
+        1 gives the plain phase average of all data seen.
+    smoothing_order : int
+        Fourier order of the smoothing along φ.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> phase = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    >>> xi = np.stack([np.cos(phase), np.sin(2 * phase), 0 * phase], axis=-1)
+    >>> model = PhaseModel(n_windows=24).fit(phase, xi)
+    >>> bool(np.abs(model.predict(phase) - xi).max() < 0.05)
+    True
+    """
+
+    def __init__(self, *, n_windows: int = 20, window_width: float | None = None,
+                 forgetting_factor: float = 1.0, smoothing_order: int = 5):
+        self.n_windows = n_windows
+        self.window_width = window_width
+        self.forgetting_factor = forgetting_factor
+        self.smoothing_order = smoothing_order
+
+    def _reset(self, batch):
+        self.windows_ = self._windows()
+        lam = check_float(self.forgetting_factor, "forgetting_factor", "PhaseModel", low=0, high=1, low_open=True)
+        self.bank_ = RLSBank(batch, self.windows_.n_windows, 1, 3, lam, initial_covariance=1e6)
+        self.batch_shape_ = batch
+        self.n_samples_seen_ = 0
+
+    def fit(self, phase, body_velocity):
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
+        for name in ("batch_shape_", "bank_"):
+            self.__dict__.pop(name, None)
+        return self.partial_fit(phase, body_velocity)
+
+    def partial_fit(self, phase, body_velocity):
+        """Update with time-ordered samples ``phase`` batch + (n,), ``body_velocity`` batch + (n, 3)."""
+        self.partial_fit_predict(phase, body_velocity)
+        return self
+
+    def partial_fit_predict(self, phase, body_velocity) -> np.ndarray:
+        """Update and return each sample's a-priori prediction (before that sample was learned)."""
+        phase, body_velocity = self._check_samples(phase, body_velocity, names=("body_velocity",),
+                                                   owner="PhaseModel.partial_fit")
+        if not hasattr(self, "batch_shape_"):
+            self._reset(phase.shape[:-1])
+        ones = np.ones(phase.shape[:-1] + (self.windows_.n_windows, 1))
+        prior = self._run_rounds(self.bank_, phase, body_velocity, lambda sample: ones)
+        self.n_samples_seen_ += phase.shape[-1]
+        return prior
+
+    @property
+    def window_weights_(self) -> np.ndarray:
+        return self.bank_.weights
+
+    def predict(self, phase) -> np.ndarray:
+        """Phase-averaged body velocity at ``phase`` batch + (n,) → batch + (n, 3)."""
+        self._check_is_fitted()
+        phase = self._check_samples(phase, names=(), owner="PhaseModel.predict")[0]
+        value = np.einsum("...nm,...mj->...nj", self._smoother(phase), self.bank_.weights[..., 0, :])
+        return value[..., 0, :] if self._single else value
+
+    def _metadata(self) -> dict:
+        metadata = super()._metadata()
+        metadata["n_joints"] = None
+        return metadata
+
+    def _state(self) -> dict:
+        return {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
+                "n_updates": self.bank_.n_updates, "n_samples_seen": self.n_samples_seen_}
+
+    def _set_state(self, state, metadata):
+        self._reset(tuple(metadata["batch_shape"]))
+        _assign_bank(self.bank_, state)
+        self.n_samples_seen_ = int(state["n_samples_seen"])
+
+
+def _assign_bank(bank: RLSBank, state: dict, prefix: str = "") -> None:
+    """Copy saved bank arrays in place, checking their shapes."""
+    for name in ("weights", "covariance", "n_updates"):
+        saved = np.asarray(state[prefix + name])
+        current = getattr(bank, name)
+        if saved.shape != current.shape:
+            raise ValueError(f"array {prefix + name!r} has shape {saved.shape}, expected {current.shape}")
+        setattr(bank, name, saved.astype(current.dtype, copy=True))
