@@ -32,6 +32,7 @@ __all__ = [
     "wrap_angle",
     "integrate_body_velocity",
     "displacement",
+    "product_of_exponentials",
 ]
 
 _SMALL = 1e-4  # |omega| below which the series of sin(w)/w and (1-cos w)/w are used
@@ -176,4 +177,55 @@ def integrate_body_velocity(body_velocity, dt, initial_pose=None) -> np.ndarray:
 
 def displacement(body_velocity, dt) -> np.ndarray:
     """Net pose ``(..., 3)`` reached from the identity by :func:`integrate_body_velocity`."""
-    return integrate_body_velocity(body_velocity, dt)[..., -1, :]
+    return product_of_exponentials(np.asarray(body_velocity, dtype=float) * np.asarray(dt, dtype=float)[..., None])
+
+
+def _v_derivatives(omega):
+    """d/dω of sin(w)/w and (1 - cos w)/w."""
+    omega = np.asarray(omega, dtype=float)
+    small = np.abs(omega) < _SMALL
+    safe = np.where(small, 1.0, omega)
+    w2 = omega * omega
+    ds = np.where(small, -omega / 3 + omega * w2 / 30, (safe * np.cos(safe) - np.sin(safe)) / safe**2)
+    dc = np.where(small, 0.5 - w2 / 8, (safe * np.sin(safe) - 1 + np.cos(safe)) / safe**2)
+    return ds, dc
+
+
+def product_of_exponentials(steps, step_jacobian=None):
+    r"""Net pose :math:`\prod_n \exp(\hat\Omega_n)` of twists ``(..., n, 3)`` and, optionally, its
+    Jacobian with respect to parameters ``p`` given :math:`\partial\Omega_n/\partial p`.
+
+    The heading is :math:`\sum_n \omega_n` and the translation
+    :math:`\sum_n R(\theta_{<n}) V(\omega_n) v_n` with :math:`\theta_{<n} = \sum_{k<n}\omega_k`;
+    both are differentiated exactly (chain rule, no finite differences).
+
+    Parameters
+    ----------
+    steps : array-like of shape (..., n, 3)
+    step_jacobian : array-like of shape (..., n, 3, p), optional
+
+    Returns
+    -------
+    pose : ndarray of shape (..., 3)
+    jacobian : ndarray of shape (..., 3, p)
+        Only when ``step_jacobian`` is given.
+    """
+    steps = np.asarray(steps, dtype=float)
+    vx, vy, omega = steps[..., 0], steps[..., 1], steps[..., 2]
+    s, c = _v_coefficients(omega)
+    ux, uy = s * vx - c * vy, c * vx + s * vy  # V(ω) v: each step's motion in its start frame
+    before = np.cumsum(omega, axis=-1) - omega  # θ_{<n}
+    cos, sin = np.cos(before), np.sin(before)
+    pose = np.stack([np.sum(cos * ux - sin * uy, -1), np.sum(sin * ux + cos * uy, -1), np.sum(omega, -1)], -1)
+    if step_jacobian is None:
+        return pose
+    dstep = np.asarray(step_jacobian, dtype=float)
+    dvx, dvy, domega = dstep[..., 0, :], dstep[..., 1, :], dstep[..., 2, :]
+    ds, dc = _v_derivatives(omega)
+    dux = (ds * vx - dc * vy)[..., None] * domega + s[..., None] * dvx - c[..., None] * dvy
+    duy = (dc * vx + ds * vy)[..., None] * domega + c[..., None] * dvx + s[..., None] * dvy
+    dbefore = np.cumsum(domega, axis=-2) - domega
+    rx, ry = (cos * ux - sin * uy)[..., None], (sin * ux + cos * uy)[..., None]  # R(θ_<n) u_n
+    dx = np.sum(cos[..., None] * dux - sin[..., None] * duy - ry * dbefore, axis=-2)
+    dy = np.sum(sin[..., None] * dux + cos[..., None] * duy + rx * dbefore, axis=-2)
+    return pose, np.stack([dx, dy, np.sum(domega, axis=-2)], axis=-2)

@@ -4,6 +4,7 @@ the batch baseline, the phase model and the Γ metric."""
 from ._adaptive import AdaptiveGaitModel
 from ._base import gamma, load_model
 from ._batch import BatchGaitModel
+from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._phase import PhaseModel
 from ._rls import RLSBank
@@ -17,6 +18,7 @@ __all__ = [
     "gamma",
     "load_model",
     "n_regressors",
+    "predicted_displacement",
     "regressors",
     "split_coefficients",
 ]
