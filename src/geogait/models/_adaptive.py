@@ -105,7 +105,7 @@ class AdaptiveGaitModel(GaitModelBase):
         delta0 = check_float(self.initial_covariance, "initial_covariance", owner, low=0, low_open=True)
         check_float(self.gamma_forgetting, "gamma_forgetting", owner, low=0, high=1, low_open=True)
         self._phase_rate()
-        self.gait_ = gait
+        self._set_gait(gait)
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
         self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n_regressors(self.n_joints_), 3,
@@ -139,11 +139,14 @@ class AdaptiveGaitModel(GaitModelBase):
             owner="AdaptiveGaitModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
-        nominal, nominal_rate = self._nominal(self.windows_.centres)
+        nominal, nominal_rate = self._centre_nominal
 
-        def window_regressors(sample):  # regressors of window m's sample about θ(φ_m), eq. 4
-            r = np.take_along_axis(shape, sample[..., None], axis=-2)
-            r_dot = np.take_along_axis(shape_velocity, sample[..., None], axis=-2)
+        flat_shape = shape.reshape((-1,) + shape.shape[-2:])
+        flat_rate = shape_velocity.reshape(flat_shape.shape)
+
+        def window_regressors(sample, rows):  # regressors of window m's sample about θ(φ_m), eq. 4
+            r = np.take_along_axis(flat_shape[rows], sample[..., None], axis=-2)
+            r_dot = np.take_along_axis(flat_rate[rows], sample[..., None], axis=-2)
             return regressors(r - nominal, r_dot - nominal_rate)
 
         prior = self._run_rounds(self.bank_, phase, body_velocity, window_regressors)
@@ -176,6 +179,10 @@ class AdaptiveGaitModel(GaitModelBase):
         self._check_is_fitted()
         self.psi_ = np.zeros_like(self.psi_)
         return self
+
+    def _set_gait(self, gait: FourierGait) -> None:
+        self.gait_ = gait
+        self._centre_nominal = self._nominal(self.windows_.centres)  # θ(φ_m), θ̇(φ_m), reused every sample
 
     @property
     def window_weights_(self) -> np.ndarray:
@@ -224,7 +231,7 @@ class AdaptiveGaitModel(GaitModelBase):
             weights[..., 1 + d:1 + 2 * d, :] += np.einsum("...mijk,mi->...mjk", bilinear, shift)
         if terms != "none":
             weights[..., 0, :] = constant
-        self.gait_ = new_gait
+        self._set_gait(new_gait)
         return self
 
     # -- persistence --------------------------------------------------------------------------

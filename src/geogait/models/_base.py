@@ -20,6 +20,7 @@ from ._rls import schedule_rounds
 __all__ = ["GaitModelBase", "gamma", "load_model"]
 
 FORMAT = "geogait-model"
+_GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
 FORMAT_VERSION = 1
 
 
@@ -131,19 +132,41 @@ class GaitModelBase:
     def _run_rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
         """Feed time-ordered samples to the window filters of ``bank``, window by window in time
         order (vectorised across windows and trials); returns each sample's a-priori prediction,
-        the mean over the windows that cover it, shape batch + (n, n_outputs)."""
-        cover = self.windows_.cover(phase)
-        index, valid = schedule_rounds(cover)
+        the mean over the windows that cover it, shape batch + (n, n_outputs).
+
+        ``make_regressors(sample, rows)`` gives the regressors ``(b, M, r)`` of the samples
+        ``sample`` ``(b, M)`` of trials ``rows`` (a slice of the flattened batch). Trials go through
+        in groups whose covariances fit in cache (each group runs all its rounds before the next).
+        """
         batch, n = phase.shape[:-1], phase.shape[-1]
-        prior_sum = np.zeros(batch + (n, targets.shape[-1]))
-        offsets = (np.arange(int(np.prod(batch, dtype=int))) * n).reshape(batch + (1,))
+        phase = phase.reshape(-1, n)
+        targets = targets.reshape(phase.shape + targets.shape[-1:])
+        group = max(1, _GROUP_BYTES * phase.shape[0] // bank.covariance.nbytes)
+        prior = np.concatenate([
+            self._rounds(bank.rows(slice(a, a + group)), phase[a:a + group], targets[a:a + group],
+                         lambda sample, a=a: make_regressors(sample, slice(a, a + group)))
+            for a in range(0, phase.shape[0], group)])
+        return prior.reshape(batch + prior.shape[-2:])
+
+    def _rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
+        """:meth:`_run_rounds` on flat arrays ``phase (b, n)``, ``targets (b, n, k)``."""
+        cover = self.windows_.cover(phase)
+        b, n = phase.shape
+        if n == 1:  # one sample per trial (the real-time case): no scheduling needed
+            valid = cover[:, 0, :]
+            sample = np.zeros(valid.shape, dtype=np.intp)
+            prior = bank.update(make_regressors(sample), np.broadcast_to(targets, valid.shape + targets.shape[-1:]),
+                                valid)
+            return (prior.sum(axis=-2) / valid.sum(axis=-1)[..., None])[:, None, :]
+        index, valid = schedule_rounds(cover)
+        prior_sum = np.zeros((b * n, targets.shape[-1]))
+        offsets = np.arange(b)[:, None] * n
         for r in range(index.shape[-1]):
-            sample = index[..., r]  # batch + (M,)
+            sample = index[..., r]  # (b, M)
             y = np.take_along_axis(targets, sample[..., None], axis=-2)
             prior = bank.update(make_regressors(sample), y, valid[..., r])
-            flat = (sample + offsets)[valid[..., r]]
-            np.add.at(prior_sum.reshape(-1, targets.shape[-1]), flat, prior[valid[..., r]])
-        return prior_sum / cover.sum(axis=-1)[..., None]
+            np.add.at(prior_sum, (sample + offsets)[valid[..., r]], prior[valid[..., r]])
+        return prior_sum.reshape(b, n, -1) / cover.sum(axis=-1)[..., None]
 
     # -- smoothing along φ --------------------------------------------------------------------
     def _smoother(self, phase) -> np.ndarray:

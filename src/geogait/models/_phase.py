@@ -69,8 +69,7 @@ class PhaseModel(GaitModelBase):
                                                    owner="PhaseModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1])
-        ones = np.ones(phase.shape[:-1] + (self.windows_.n_windows, 1))
-        prior = self._run_rounds(self.bank_, phase, body_velocity, lambda sample: ones)
+        prior = self._run_rounds(self.bank_, phase, body_velocity, lambda sample, rows: np.ones(sample.shape + (1,)))
         self.n_samples_seen_ += phase.shape[-1]
         return prior
 

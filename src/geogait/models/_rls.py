@@ -8,8 +8,8 @@ target ``y``:
     k = \frac{P x}{\lambda + x^T P x},\quad W \leftarrow W + k\,(y - W^T x)^T,\quad
     P \leftarrow \frac{P - (P x)(P x)^T / (\lambda + x^T P x)}{\lambda}.
 
-The covariance update is written with the outer product of ``Px`` with itself, so a symmetric
-``P`` stays exactly symmetric in floating point. Under poor excitation exponential forgetting
+The covariance update is written with the outer product of ``Px/√(λ + xᵀPx)`` with itself, so a
+symmetric ``P`` stays exactly symmetric in floating point. Under poor excitation exponential forgetting
 inflates ``P`` without bound ("wind-up"); we bound it by a **trace clamp**: whenever
 ``trace P`` exceeds its initial value ``n δ₀`` the whole matrix is scaled back to it. Scaling by a
 positive number keeps ``P`` positive definite, every eigenvalue stays below ``n δ₀``, and with
@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["RLSBank", "schedule_rounds"]
+
+_CHUNK_BYTES = 1 << 20  # covariance bytes updated per NumPy step: keeps the working set in cache
 
 
 def schedule_rounds(cover: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -64,6 +66,21 @@ class RLSBank:
         self.covariance = np.broadcast_to(initial_covariance * np.eye(n), batch + (n_windows, n, n)).copy()
         self.n_updates = np.zeros(batch + (n_windows,), dtype=np.int64)
 
+    def rows(self, part: slice) -> RLSBank:
+        """A bank over rows ``part`` of the flattened batch, sharing (viewing) this bank's arrays."""
+        view = object.__new__(RLSBank)
+        view.forgetting_factor, view.initial_covariance = self.forgetting_factor, self.initial_covariance
+        view.max_trace = self.max_trace
+        for name in ("weights", "covariance", "n_updates"):
+            array = getattr(self, name)
+            flat = array.reshape((-1,) + array.shape[len(array.shape) - (array.ndim - len(self.batch_shape)):])
+            setattr(view, name, flat[part])
+        return view
+
+    @property
+    def batch_shape(self) -> tuple:
+        return self.n_updates.shape[:-1]
+
     def update(self, x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> np.ndarray:
         """One round: every filter with ``valid`` True takes one sample.
 
@@ -78,25 +95,42 @@ class RLSBank:
         prior_prediction : ndarray of shape batch + (n_windows, n_outputs)
             ``Wᵀx`` before the update (the filters' a-priori prediction); zero where not valid.
         """
-        if valid.all():
-            prior, self.weights, self.covariance = self._step(self.weights, self.covariance, x, y)
-        else:  # only a few windows cover the samples of this round: update just those
+        n, outputs = self.weights.shape[-2:]
+        if valid.all():  # every filter updates: work on flat views, in place
+            prior = self._steps(self.weights.reshape(-1, n, outputs), self.covariance.reshape(-1, n, n),
+                                x.reshape(-1, n), y.reshape(-1, outputs))
+            prior = prior.reshape(y.shape)
+        else:  # only some windows cover this round's samples: update just those
             where = np.nonzero(valid)
+            weights, covariance = self.weights[where], self.covariance[where]
             prior = np.zeros(y.shape)
-            prior[where], self.weights[where], self.covariance[where] = self._step(
-                self.weights[where], self.covariance[where], x[where], y[where])
+            prior[where] = self._steps(weights, covariance, x[where], y[where])
+            self.weights[where], self.covariance[where] = weights, covariance
         self.n_updates += valid
         return prior
 
+    def _steps(self, weights, covariance, x, y):
+        """Update flat stacks ``(k, n, ...)`` in place, in cache-sized chunks (temporaries stay small)."""
+        n = covariance.shape[-1]
+        chunk = max(1, _CHUNK_BYTES // (8 * n * n))
+        prior = np.empty(y.shape)
+        for start in range(0, covariance.shape[0], chunk):
+            part = slice(start, start + chunk)
+            prior[part] = self._step(weights[part], covariance[part], x[part], y[part])
+        return prior
+
     def _step(self, weights, covariance, x, y):
+        lam = self.forgetting_factor
         px = (covariance @ x[..., None])[..., 0]
-        denominator = self.forgetting_factor + np.einsum("...i,...i->...", x, px)
+        denominator = lam + np.einsum("...i,...i->...", x, px)
         prior = np.einsum("...ij,...i->...j", weights, x)
         weights += (px / denominator[..., None])[..., :, None] * (y - prior)[..., None, :]
-        covariance -= px[..., :, None] * px[..., None, :] * (1 / denominator)[..., None, None]
-        covariance *= 1 / self.forgetting_factor
+        # (Px)(Px)ᵀ/den written as s sᵀ with s = Px/√den: products commute, so P stays exactly symmetric.
+        scaled = px * (1 / np.sqrt(denominator))[..., None]
+        covariance -= scaled[..., :, None] * scaled[..., None, :]
+        covariance *= 1 / lam
         trace = np.einsum("...ii->...", covariance)
         over = trace > self.max_trace
         if np.any(over):
             covariance[over] *= (self.max_trace / trace[over])[:, None, None]
-        return prior, weights, covariance
+        return prior
