@@ -57,7 +57,7 @@ def run():
         reference = AdaptiveGaitModel(gait=gait).fit(*args)
         n_padasip = 100 if links < 9 else 40
         padasip_seconds = best_time(_padasip_bank(reference, single, n_padasip), repeats=1, min_time=0.0)
-        ours = best_time(lambda a=args, g=gait: AdaptiveGaitModel(gait=g).fit(*(x[:n_padasip] for x in a)),
+        ours = best_time(lambda a=args, g=gait, k=n_padasip: AdaptiveGaitModel(gait=g).fit(*(x[:k] for x in a)),
                          repeats=3)
         rows.append(dict(benchmark="padasip FilterRLS bank", case=f"{links}-link, one trial, {n_padasip} samples",
                          value=n_padasip / padasip_seconds, unit="samples/s"))
