@@ -1,5 +1,35 @@
 """Experiments of the paper and the seeded trial runner they share."""
 
+from ._common import PERCENTILES
+from .accuracy import AccuracyConfig, AccuracyResult, accuracy_summary, accuracy_trials, plot_accuracy, run_accuracy
+from .environments import (
+    EnvironmentConfig,
+    EnvironmentResult,
+    environment_summary,
+    environment_trials,
+    plot_environments,
+    recovery_table,
+    run_environments,
+)
 from .runner import SweepFailedError, SweepResult, TrialFailure, run_trials
 
-__all__ = ["run_trials", "SweepResult", "TrialFailure", "SweepFailedError"]
+__all__ = [
+    "run_trials",
+    "SweepResult",
+    "TrialFailure",
+    "SweepFailedError",
+    "PERCENTILES",
+    "AccuracyConfig",
+    "AccuracyResult",
+    "accuracy_summary",
+    "accuracy_trials",
+    "plot_accuracy",
+    "run_accuracy",
+    "EnvironmentConfig",
+    "EnvironmentResult",
+    "environment_summary",
+    "environment_trials",
+    "plot_environments",
+    "recovery_table",
+    "run_environments",
+]

@@ -1,0 +1,183 @@
+"""``geogait figure accuracy`` and ``geogait figure environments``: the paper's Fig. 2 and Fig. 3.
+
+Each command runs its experiment (or, with ``--from-csv``, reads earlier results back) and writes
+``<name>.png``, ``<name>.csv`` (long format: one row per trial × model × checkpoint) and
+``<name>.json`` (config, seed, versions, run time, headline numbers) into ``--out``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
+from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
+from ._app import figure_app
+from ._common import console, output_folder, write_manifest
+
+_A, _E = AccuracyConfig(), EnvironmentConfig()
+_QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
+
+Trials = Annotated[int | None, typer.Option(help="Number of trials (default: see the experiment's docs).")]
+Links = Annotated[int | None, typer.Option(help=f"Links of the Purcell swimmer [default: {_A.n_links}].")]
+Seed = Annotated[int | None, typer.Option(help=f"Root random seed [default: {_A.seed}].")]
+Jobs = Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")]
+Scheduler = Annotated[str | None, typer.Option(help="Address of a Dask scheduler to run the trials on "
+                                                    "(needs geogait[dask]; then --jobs must be 1).")]
+Quick = Annotated[bool, typer.Option(help="Few trials and cycles: finishes in seconds.")]
+Out = Annotated[Path, typer.Option(help="Output folder.")]
+FromCsv = Annotated[Path | None, typer.Option(help="Redraw the figure from this CSV instead of running.")]
+SamplesPerCycle = Annotated[int | None, typer.Option(help=f"Samples per gait cycle [default: {_A.samples_per_cycle}].")]
+Perturbation = Annotated[float | None, typer.Option(
+    help=f"Std (rad) of the shape perturbation δ [default: {_A.perturbation}].")]
+ChunkSize = Annotated[int | None, typer.Option(
+    help=f"Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
+         f"[default: {_A.chunk_size}].")]
+
+
+def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
+    """Comma-separated numbers ('2,3,4') as a tuple; None stays None."""
+    if text is None:
+        return None
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"expected comma-separated numbers such as '2,3,4', got {text!r}",
+                                 param_hint=option) from None
+
+
+def _configure(base, **overrides):
+    """``base`` with every override that was given on the command line."""
+    return dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})
+
+
+def _write(result, folder: Path, name: str, command: str, started: float, extra: dict) -> dict:
+    """Write PNG, CSV (for fresh runs) and the JSON manifest; return the summary."""
+    summary = result.summary()
+    result.plot(folder / f"{name}.png")
+    if result.config is not None:
+        result.to_csv(folder / f"{name}.csv")
+    config = (result.config_dict() or {}) | extra
+    results = {"summary": summary, "sweep_wall_time_s": result.wall_time_s, "n_workers": result.n_workers}
+    write_manifest(folder / f"{name}.json", command=command, config=config, results=results, started=started)
+    return summary
+
+
+@figure_app.command("accuracy")
+def accuracy(
+    trials: Trials = None,
+    links: Links = None,
+    cycles: Annotated[int | None, typer.Option(
+        help=f"Cycles per trial; checkpoints every 5 [default: {_A.n_cycles}].")] = None,
+    noise: Annotated[float | None, typer.Option(
+        help=f"Sensor noise on ξ as a fraction of its RMS [default: {_A.sensor_noise}].")] = None,
+    perturbation: Perturbation = None,
+    samples_per_cycle: SamplesPerCycle = None,
+    chunk_size: ChunkSize = None,
+    seed: Seed = None,
+    jobs: Jobs = 1,
+    scheduler: Scheduler = None,
+    quick: Quick = False,
+    out: Out = Path("out/figures"),
+    from_csv: FromCsv = None,
+) -> None:
+    """Fig. 2: held-out Γ of the adaptive and the batch model after n training cycles.
+
+    Defaults: 200 trials (100 train/test pairs) × 40 cycles of the 3-link swimmer, sensor noise 0.3
+    of RMS. --quick: 16 trials × 10 cycles.
+    """
+    started = time.perf_counter()
+    folder = output_folder(out)
+    if from_csv is not None:
+        result = AccuracyResult.from_csv(from_csv)
+        extra = {"from_csv": str(from_csv)}
+    else:
+        config = _configure(_QA if quick else _A, n_trials=trials, n_links=links, n_cycles=cycles,
+                            sensor_noise=noise, perturbation=perturbation, samples_per_cycle=samples_per_cycle,
+                            chunk_size=chunk_size, seed=seed)
+        result = run_accuracy(config, jobs=jobs, scheduler=scheduler)
+        extra = {"jobs": jobs, "scheduler": scheduler, "quick": quick}
+    summary = _write(result, folder, "accuracy", "figure accuracy", started, extra)
+    console.print(_accuracy_table(summary))
+    console.print(f"wrote accuracy.png, accuracy.json{'' if from_csv else ', accuracy.csv'} to {folder}/ "
+                  f"in {time.perf_counter() - started:.1f} s")
+
+
+def _accuracy_table(summary: dict) -> Table:
+    table = Table(title=f"Held-out Γ, median [25–75 %], {summary['n_pairs']} pairs")
+    for column in ("training cycles", "adaptive", "batch", "adaptive online Γ"):
+        table.add_column(column, justify="right")
+    gamma = summary["held_out_gamma"]
+    for n in gamma["adaptive"]:
+        cells = [f"{g[n]['p50']:.3f} [{g[n]['p25']:.3f}–{g[n]['p75']:.3f}]"
+                 for g in (gamma["adaptive"], gamma["batch"])]
+        online = summary["online_gamma_median"].get(n)
+        table.add_row(n, *cells, "" if online is None else f"{online:.3f}")
+    return table
+
+
+@figure_app.command("environments")
+def environments(
+    trials: Trials = None,
+    links: Links = None,
+    cycles_per_environment: Annotated[int | None, typer.Option(
+        help=f"Cycles in each environment [default: {_E.cycles_per_environment}].")] = None,
+    drag_ratios: Annotated[str | None, typer.Option(
+        help="Comma-separated drag ratio of each environment [default: 2,3,4].")] = None,
+    forgetting_factors: Annotated[str | None, typer.Option(
+        help="Comma-separated λ of the adaptive models [default: 0.99,0.7].")] = None,
+    noise: Annotated[float | None, typer.Option(
+        help=f"Sensor noise on ξ as a fraction of its RMS [default: {_E.sensor_noise}].")] = None,
+    perturbation: Perturbation = None,
+    samples_per_cycle: SamplesPerCycle = None,
+    chunk_size: ChunkSize = None,
+    seed: Seed = None,
+    jobs: Jobs = 1,
+    scheduler: Scheduler = None,
+    quick: Quick = False,
+    out: Out = Path("out/figures"),
+    from_csv: FromCsv = None,
+) -> None:
+    """Fig. 3: a-priori prediction error through unannounced drag-ratio changes.
+
+    Defaults: 100 trials, 40 cycles each at drag ratio 2, 3, 4, adaptive λ = 0.99 and 0.7, batch
+    fit on environment 1 only, no sensor noise. --quick: 8 trials, 15 cycles per environment.
+    """
+    started = time.perf_counter()
+    folder = output_folder(out)
+    if from_csv is not None:
+        result = EnvironmentResult.from_csv(from_csv)
+        extra = {"from_csv": str(from_csv)}
+    else:
+        config = _configure(_QE if quick else _E, n_trials=trials, n_links=links,
+                            cycles_per_environment=cycles_per_environment,
+                            drag_ratios=_floats(drag_ratios, "--drag-ratios"),
+                            forgetting_factors=_floats(forgetting_factors, "--forgetting-factors"),
+                            sensor_noise=noise, perturbation=perturbation, samples_per_cycle=samples_per_cycle,
+                            chunk_size=chunk_size, seed=seed)
+        result = run_environments(config, jobs=jobs, scheduler=scheduler)
+        extra = {"jobs": jobs, "scheduler": scheduler, "quick": quick}
+    summary = _write(result, folder, "environments", "figure environments", started, extra)
+    console.print(_environment_table(summary))
+    console.print(f"wrote environments.png, environments.json{'' if from_csv else ', environments.csv'} to "
+                  f"{folder}/ in {time.perf_counter() - started:.1f} s")
+
+
+def _environment_table(summary: dict) -> Table:
+    switches = summary["switches"]
+    table = Table(title=f"Cycles to get back within {summary['factor']:g}× the pre-switch error "
+                        f"(median curve; median trial), {summary['n_trials']} trials")
+    table.add_column("model")
+    for switch in switches:
+        table.add_column(f"k {switch['from_ratio']:g} → {switch['to_ratio']:g}", justify="right")
+    table.add_column("settled error per environment", justify="right")
+    for model, entries in summary["recovery"].items():
+        cells = [f"{e['recovery_cycles_median_curve']}; {e['recovery_cycles_median_trial']}" for e in entries.values()]
+        settled = ", ".join(f"{v:.3g}" for v in summary["settled_error"][model].values())
+        table.add_row(model, *cells, settled)
+    return table
