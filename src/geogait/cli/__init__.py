@@ -2,6 +2,7 @@
 
 from . import _simulate  # noqa: F401  (registers the command)
 from ._app import app
+from ._figures import accuracy, environments  # noqa: F401  (registers `geogait figure ...`)
 
 __all__ = ["app", "main"]
 
