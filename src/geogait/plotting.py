@@ -53,3 +53,62 @@ def save_figure(fig, path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
+
+
+def height_function(system, direction, limit: float, resolution: int = 81):
+    """First-order height function of a 2-joint system along a body-frame ``direction`` ``(2,)``.
+
+    By Stokes, a small loop's net translation is ≈ ∬ −(∂A_2/∂r_1 − ∂A_1/∂r_2) dr (sign of ξ = −Aṙ);
+    projected on ``direction``. Returns the grid axis ``(m,)`` and values ``(m, m)`` indexed [r2, r1].
+    """
+    axis = np.linspace(-limit, limit, resolution)
+    r1, r2 = np.meshgrid(axis, axis)
+    shapes = np.stack([r1, r2], axis=-1)
+    h = 1e-5
+    d_by_r1 = (system.connection(shapes + [h, 0]) - system.connection(shapes - [h, 0])) / (2 * h)
+    d_by_r2 = (system.connection(shapes + [0, h]) - system.connection(shapes - [0, h])) / (2 * h)
+    curl = d_by_r1[..., :2, 1] - d_by_r2[..., :2, 0]  # (m, m, 2): x and y rows
+    return axis, -(curl @ np.asarray(direction, dtype=float))
+
+
+def plot_height_function(ax, system, direction, limit: float):
+    """Filled contours of :func:`height_function` as the background of a shape-space panel."""
+    axis, values = height_function(system, direction, limit)
+    bound = np.abs(values).max()
+    image = ax.contourf(axis, axis, values, levels=21, cmap="RdBu_r", vmin=-bound, vmax=bound, alpha=0.8)
+    ax.figure.colorbar(image, ax=ax, label="height function along travel (1/rad²)", shrink=0.8)
+    return ax
+
+
+def plot_joint_angles(ax, gaits: dict[str, FourierGait]):
+    """Joint angles θ_j(φ) over one cycle for each named gait (solid: first gait, dashed: others)."""
+    phase = np.linspace(0, 2 * np.pi, 200)
+    for index, (name, gait) in enumerate(gaits.items()):
+        values = gait.shape(phase)
+        for j in range(gait.n_joints):
+            ax.plot(phase, values[:, j], color=f"C{j % 10}", ls=["-", "--", ":"][index % 3], lw=1.2,
+                    label=f"{name}" if j == 0 else None)
+    ax.set_xlabel("phase φ (rad)")
+    ax.set_ylabel("joint angle θ_j (rad)")
+    ax.set_title("Joint angles over a cycle (colour: joint)")
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_progress(ax, log, *, seed_value: float, ceiling_value: float | None = None):
+    """True displacement per cycle of the nominal gait over cycles, steps marked, Γ on a twin axis."""
+    ax.plot(log["cycle"], log["true_objective"], "k-", lw=1.5, label="nominal gait (true)")
+    steps = log[log["step"]]
+    ax.plot(steps["cycle"], steps["true_objective"], "k.", ms=5, label="step taken")
+    ax.axhline(seed_value, color="0.5", ls=":", label="seed gait")
+    if ceiling_value is not None:
+        ax.axhline(ceiling_value, color="C3", ls="--", label="ceiling (true connection)")
+    ax.set_xlabel("cycle")
+    ax.set_ylabel("displacement per cycle (body lengths)")
+    twin = ax.twinx()
+    twin.plot(log["cycle"], log["gamma"], color="C0", lw=0.8, alpha=0.7)
+    twin.set_ylabel("online Γ (blue)", color="C0")
+    twin.set_ylim(0, 1)
+    ax.legend(loc="lower right", fontsize=8)
+    ax.set_title("In-situ optimisation")
+    return ax

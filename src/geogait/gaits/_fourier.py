@@ -95,6 +95,17 @@ class FourierGait:
         solution, *_ = np.linalg.lstsq(basis, shape, rcond=None)
         return cls(solution.T)
 
+    def with_order(self, order: int) -> FourierGait:
+        """The same gait written in a Fourier family of another order (extra terms zero; truncating
+        drops the higher harmonics)."""
+        order = check_int(order, "order", "FourierGait.with_order", minimum=0)
+        keep = min(order, self.order)
+        coefficients = np.zeros((self.n_joints, 2 * order + 1))
+        coefficients[:, 0] = self.coefficients[:, 0]
+        coefficients[:, 1:1 + keep] = self.coefficients[:, 1:1 + keep]
+        coefficients[:, 1 + order:1 + order + keep] = self.coefficients[:, 1 + self.order:1 + self.order + keep]
+        return FourierGait(coefficients)
+
     def with_params(self, params) -> FourierGait:
         """Same family, new flat parameter vector."""
         return FourierGait.from_params(params, self.n_joints)

@@ -193,7 +193,7 @@ class AdaptiveGaitModel(GaitModelBase):
         return self.bank_.covariance
 
     # -- Taylor rebase (eq. 7) ----------------------------------------------------------------
-    def rebase(self, new_gait: FourierGait, terms: str = "constant"):
+    def rebase(self, new_gait: FourierGait, terms: str = "constant", covariance_inflation: float = 1.0):
         r"""Re-centre every window on a new nominal gait θ' (eq. 7).
 
         With Δθ = θ'(φ_m) − θ(φ_m) and Δθ̇ = θ̇'(φ_m) − θ̇(φ_m), the constant term becomes the old
@@ -208,6 +208,14 @@ class AdaptiveGaitModel(GaitModelBase):
             re-expansion of the window polynomial about the new point: B gains ∂A·Δθ̇ and A gains
             Δθᵀ∂A too, so every window's predictions are unchanged by the rebase. ``"none"`` only
             moves the expansion point and keeps all weights (the ablation eq. 7 improves on).
+
+        covariance_inflation : float >= 1
+            Multiply every window covariance by this factor (then apply the trace clamp): the
+            evidence gathered about the old gait counts for less, so the first samples of the new
+            gait correct the extrapolated constant faster. 1 keeps P as the paper does.
+
+        The baseline phase model is re-seeded for the new gait (see ``_reseed_baseline``), so the
+        online Γ keeps measuring what the model explains beyond the *current* gait's phase average.
 
         Returns
         -------
@@ -229,10 +237,25 @@ class AdaptiveGaitModel(GaitModelBase):
             bilinear = weights[..., 1 + 2 * d:, :].reshape(weights.shape[:-2] + (d, d, 3))  # [i, j]: δ_i δ̇_j
             weights[..., 1:1 + d, :] += np.einsum("...mijk,mj->...mik", bilinear, shift_rate)
             weights[..., 1 + d:1 + 2 * d, :] += np.einsum("...mijk,mi->...mjk", bilinear, shift)
+        inflation = check_float(covariance_inflation, "covariance_inflation", "AdaptiveGaitModel.rebase", low=1)
         if terms != "none":
             weights[..., 0, :] = constant
+        if inflation > 1:
+            self.bank_.inflate(inflation)
         self._set_gait(new_gait)
+        self._reseed_baseline()
         return self
+
+    def _reseed_baseline(self) -> None:
+        """Start the phase model ξ_T of the new gait from the rebased constant terms, worth one sample.
+
+        The phase average of ξ changes with the nominal gait; a baseline left at the old gait's
+        average would make Γ = 1 − ψ_D/ψ_T look good for the wrong reason. The phase model goes on
+        learning on its own from the new gait's samples (the seed weighs as one of them).
+        """
+        bank = self.phase_model_.bank_
+        bank.weights[..., 0, :] = self.bank_.weights[..., 0, :]
+        bank.covariance[...] = 1.0
 
     # -- persistence --------------------------------------------------------------------------
     def _state(self) -> dict:

@@ -81,6 +81,13 @@ class RLSBank:
     def batch_shape(self) -> tuple:
         return self.n_updates.shape[:-1]
 
+    def inflate(self, factor: float) -> None:
+        """Multiply every covariance by ``factor`` (≥ 1), then re-apply the trace clamp."""
+        self.covariance *= factor
+        trace = np.einsum("...ii->...", self.covariance)
+        over = trace > self.max_trace
+        self.covariance[over] *= (self.max_trace / trace[over])[..., None, None]
+
     def update(self, x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> np.ndarray:
         """One round: every filter with ``valid`` True takes one sample.
 

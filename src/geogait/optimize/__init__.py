@@ -1,0 +1,8 @@
+"""Gait optimisation: the in-situ optimiser (paper Fig. 4), the model-based ceiling and the
+prior-work batch baseline."""
+
+from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
+from ._insitu import InSituOptimizer, OptimizationResult
+from ._objective import OBJECTIVES, joint_limit_constraints, objective, path_length
+
+__all__ = ["OBJECTIVES", "Ceiling", "cached_ceiling", "InSituOptimizer", "OptimizationResult", "joint_limit_constraints", "objective", "optimize_ceiling", "path_length"]
