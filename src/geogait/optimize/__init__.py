@@ -5,4 +5,14 @@ from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._insitu import InSituOptimizer, OptimizationResult
 from ._objective import OBJECTIVES, joint_limit_constraints, objective, path_length
 
-__all__ = ["OBJECTIVES", "Ceiling", "cached_ceiling", "InSituOptimizer", "OptimizationResult", "joint_limit_constraints", "objective", "optimize_ceiling", "path_length"]
+__all__ = [
+    "OBJECTIVES",
+    "Ceiling",
+    "InSituOptimizer",
+    "OptimizationResult",
+    "cached_ceiling",
+    "joint_limit_constraints",
+    "objective",
+    "optimize_ceiling",
+    "path_length",
+]

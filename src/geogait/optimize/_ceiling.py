@@ -139,7 +139,8 @@ def cached_ceiling(system: System, **options) -> Ceiling:
     ceiling = optimize_ceiling(system, **options)
     record = {"system": repr(system), "options": {k: str(v) for k, v in options.items()},
               "gait": ceiling.gait.coefficients.tolist(), "value": ceiling.value,
-              "displacement": ceiling.displacement.tolist(), "starts": ceiling.starts, "values": ceiling.values.tolist()}
+              "displacement": ceiling.displacement.tolist(), "starts": ceiling.starts,
+              "values": ceiling.values.tolist()}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         temporary = path.with_suffix(f".{os.getpid()}.tmp")

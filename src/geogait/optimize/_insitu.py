@@ -178,7 +178,8 @@ class InSituOptimizer:
         gait = stream.gait.with_order(self.order)
         limits = joint_limit_constraints(gait.n_joints, self.order, self.max_joint_angle)
         if gait.joint_limit().max() > self.max_joint_angle + 1e-12:
-            raise fail("stream", "InSituOptimizer.run", f"a seed gait within max_joint_angle = {self.max_joint_angle:.4g}",
+            raise fail("stream", "InSituOptimizer.run",
+                       f"a seed gait within max_joint_angle = {self.max_joint_angle:.4g}",
                        f"a gait reaching {gait.joint_limit().max():.4g} rad")
         stream.set_gait(gait)
         state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait))
