@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -10,6 +11,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from ..experiments.optimization import OptimizationConfig, OptimizationResult, run_optimization
 from ..gaits import Perturbation, seed_gait
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
 from ..plotting import (
@@ -23,7 +25,7 @@ from ..plotting import (
 )
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
-from ._app import app
+from ._app import app, figure_app
 from ._common import console, output_folder, progress_bar, write_manifest
 
 DEFAULT_CYCLES = {3: 40, 5: 60, 9: 60}
@@ -37,7 +39,8 @@ def optimize(
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
     perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
     gamma_threshold: Annotated[float, typer.Option(help="Γ* that gates a step.")] = 0.5,
-    forgetting_factor: Annotated[float, typer.Option(help="λ of the RLS filters.")] = 0.95,
+    forgetting_factor: Annotated[float | None, typer.Option(
+        help="λ of the RLS filters [default: 1 - 0.1/d for d joints].")] = None,
     order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
     objective: Annotated[str, typer.Option(help=f"Objective: {', '.join(OBJECTIVES)}.")] = "progress",
     max_joint_angle: Annotated[float, typer.Option(help="Joint limit r_max (rad).")] = 2 * np.pi / 3,
@@ -109,3 +112,54 @@ def _figures(folder, system, result, ceiling) -> None:
     fig, ax = plt.subplots(figsize=(6, 5))
     plot_path(ax, result.trajectory.pose)
     save_figure(fig, folder / "path.png")
+
+
+@figure_app.command("optimization")
+def figure_optimization(
+    trials: Annotated[int | None, typer.Option(help="In-situ trials per swimmer [default: 50].")] = None,
+    links: Annotated[str | None, typer.Option(help="Swimmers, comma-separated [default: 3,5,9].")] = None,
+    cycles: Annotated[str | None, typer.Option(help="Cycle budgets per swimmer [default: 40,60,60].")] = None,
+    baseline_trials: Annotated[int | None, typer.Option(help="Batch-method trials per swimmer [default: 10].")] = None,
+    baseline_iterations: Annotated[int | None, typer.Option(
+        help="Batch iterations of 30 cycles [default: 30].")] = None,
+    noise: Annotated[float | None, typer.Option(help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
+    seed: Annotated[int | None, typer.Option(help="Root random seed [default: 0].")] = None,
+    jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
+    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
+    quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
+    from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-optimization"),
+) -> None:
+    """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
+    started = time.perf_counter()
+    folder = output_folder(out)
+    if from_csv is not None:
+        result = OptimizationResult.from_csv(from_csv)
+    else:
+        base = OptimizationConfig.quick() if quick else OptimizationConfig()
+        changes = dict(n_trials=trials, baseline_trials=baseline_trials, baseline_iterations=baseline_iterations,
+                       sensor_noise=noise, seed=seed,
+                       links=_ints(links, "--links"), budgets=_ints(cycles, "--cycles"))
+        config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
+        if links is not None and cycles is None:
+            config = dataclasses.replace(config, budgets=tuple(DEFAULT_CYCLES.get(n, 60) for n in config.links))
+        result = run_optimization(config, jobs=jobs, scheduler=scheduler)
+        result.to_csv(folder / "optimization.csv")
+    result.plot(folder / "optimization.png")
+    summary = result.summary()
+    write_manifest(folder / "optimization.json", command="figure optimization",
+                   config=result.config_dict() or {"from_csv": str(from_csv)},
+                   results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers, **summary},
+                   started=started)
+    console.print(json.dumps(summary, indent=1, default=str))
+    console.print(f"wrote {folder}/ (optimization.png, .csv, .json)")
+
+
+def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
+    if text is None:
+        return None
+    try:
+        return tuple(int(v) for v in text.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"expected comma-separated integers such as '3,5,9', got {text!r}",
+                                 param_hint=option) from None

@@ -11,6 +11,14 @@ from .environments import (
     recovery_table,
     run_environments,
 )
+from .optimization import (
+    OptimizationConfig,
+    OptimizationResult,
+    optimization_summary,
+    optimization_trials,
+    plot_optimization,
+    run_optimization,
+)
 from .runner import SweepFailedError, SweepResult, TrialFailure, run_trials
 
 __all__ = [
@@ -32,4 +40,10 @@ __all__ = [
     "plot_environments",
     "recovery_table",
     "run_environments",
+    "OptimizationConfig",
+    "OptimizationResult",
+    "optimization_summary",
+    "optimization_trials",
+    "plot_optimization",
+    "run_optimization",
 ]

@@ -48,6 +48,7 @@ from rich.progress import (
     TimeElapsedColumn,
     TimeRemainingColumn,
 )
+from threadpoolctl import threadpool_limits
 
 from .._validation import GeogaitError, check_int, fail
 
@@ -400,9 +401,14 @@ def _make_chunks(n_trials: int, seed: int, chunk_size: int) -> list[_Chunk]:
 
 
 def _run_chunk(trial_function, chunk: _Chunk, config: dict) -> _Outcome:
-    """Run one chunk; any exception becomes the outcome's error instead of propagating."""
+    """Run one chunk; any exception becomes the outcome's error instead of propagating.
+
+    BLAS runs single-threaded inside a chunk: multithreaded reductions round differently with the
+    thread count, which differs between the main process, joblib workers and Dask workers.
+    """
     try:
-        frame = trial_function(chunk.trials.copy(), list(chunk.seeds), **config)
+        with threadpool_limits(limits=1):
+            frame = trial_function(chunk.trials.copy(), list(chunk.seeds), **config)
         problem = _frame_problem(frame, chunk.trials)
         if problem is not None:
             raise fail("trial_function", _OWNER, _FRAME_CONTRACT, problem)

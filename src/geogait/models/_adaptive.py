@@ -193,7 +193,8 @@ class AdaptiveGaitModel(GaitModelBase):
         return self.bank_.covariance
 
     # -- Taylor rebase (eq. 7) ----------------------------------------------------------------
-    def rebase(self, new_gait: FourierGait, terms: str = "constant", covariance_inflation: float = 1.0):
+    def rebase(self, new_gait: FourierGait, terms: str = "constant", covariance_inflation: float = 1.0,
+               constant_variance: float = 0.0, baseline: str = "reset"):
         r"""Re-centre every window on a new nominal gait θ' (eq. 7).
 
         With Δθ = θ'(φ_m) − θ(φ_m) and Δθ̇ = θ̇'(φ_m) − θ̇(φ_m), the constant term becomes the old
@@ -213,9 +214,17 @@ class AdaptiveGaitModel(GaitModelBase):
             Multiply every window covariance by this factor (then apply the trace clamp): the
             evidence gathered about the old gait counts for less, so the first samples of the new
             gait correct the extrapolated constant faster. 1 keeps P as the paper does.
-
-        The baseline phase model is re-seeded for the new gait (see ``_reseed_baseline``), so the
-        online Γ keeps measuring what the model explains beyond the *current* gait's phase average.
+        constant_variance : float >= 0
+            Added to every window's covariance entry of the constant term (a Kalman random-walk
+            step on the one coefficient the rebase extrapolates): the constant re-adapts to the new
+            gait within about ``1 / constant_variance`` samples per window while B, A and ∂A keep
+            their evidence. 0 keeps P as the paper does.
+        baseline : {"reset", "reseed", "keep"}
+            What happens to the phase model ξ_T, whose phase average belonged to the old gait.
+            ``"reset"`` (default) starts it afresh, so Γ compares the model with the *new* gait's own
+            phase average once that has been seen (discard about one cycle of Γ first:
+            :meth:`reset_gamma`). ``"reseed"`` starts it from the rebased constant terms, worth one
+            sample. ``"keep"`` leaves it at the old gait's average, which inflates Γ.
 
         Returns
         -------
@@ -240,22 +249,20 @@ class AdaptiveGaitModel(GaitModelBase):
         inflation = check_float(covariance_inflation, "covariance_inflation", "AdaptiveGaitModel.rebase", low=1)
         if terms != "none":
             weights[..., 0, :] = constant
+        variance = check_float(constant_variance, "constant_variance", "AdaptiveGaitModel.rebase", low=0)
         if inflation > 1:
             self.bank_.inflate(inflation)
+        if variance > 0:
+            self.bank_.covariance[..., 0, 0] += variance
+        check_choice(baseline, "baseline", "AdaptiveGaitModel.rebase", ("reset", "reseed", "keep"))
         self._set_gait(new_gait)
-        self._reseed_baseline()
-        return self
-
-    def _reseed_baseline(self) -> None:
-        """Start the phase model ξ_T of the new gait from the rebased constant terms, worth one sample.
-
-        The phase average of ξ changes with the nominal gait; a baseline left at the old gait's
-        average would make Γ = 1 − ψ_D/ψ_T look good for the wrong reason. The phase model goes on
-        learning on its own from the new gait's samples (the seed weighs as one of them).
-        """
         bank = self.phase_model_.bank_
-        bank.weights[..., 0, :] = self.bank_.weights[..., 0, :]
-        bank.covariance[...] = 1.0
+        if baseline == "reset":
+            self.phase_model_._reset(self.batch_shape_)
+        elif baseline == "reseed":
+            bank.weights[..., 0, :] = self.bank_.weights[..., 0, :]
+            bank.covariance[...] = 1.0
+        return self
 
     # -- persistence --------------------------------------------------------------------------
     def _state(self) -> dict:

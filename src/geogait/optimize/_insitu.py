@@ -77,8 +77,10 @@ class InSituOptimizer:
         ``cycles_per_iteration`` perturbed cycles, batch least-squares refit, same step rule.
     gamma_threshold : float
         Γ* (default 1/2).
-    forgetting_factor : float
-        λ_RLS of the adaptive model.
+    forgetting_factor : float, optional
+        λ_RLS of the adaptive model. Default ``1 - 0.1 / d`` for shape dimension d (0.95, 0.975 and
+        0.9875 for the 3-, 5- and 9-link swimmers): the filters must remember more samples when
+        they have more weights (1 + 2d + d² per window); tuned by the study in the issue notes.
     gamma_forgetting : float
         λ_Γ of the online Γ.
     order : int
@@ -93,21 +95,28 @@ class InSituOptimizer:
     rotation_tolerance : float
         Largest model-predicted |net rotation| per cycle of an accepted gait.
     min_cycles_per_iteration : int
-        Cycles on a gait before Γ may trigger a step.
+        Cycles on a gait before Γ may trigger a step. After a step the baseline phase model starts
+        afresh (``AdaptiveGaitModel.rebase(baseline="reset")``) and the first cycle on the new gait
+        only trains it: Γ over the iteration counts from the second cycle on, so it compares the
+        model with the new gait's own phase average and a stale constant term cannot pass the gate.
     cycles_per_iteration : int
         Cycles per iteration of the batch method.
     rebase : {"constant", "all", "none"}
         Taylor rebase terms (eq. 7 is ``"constant"``).
     covariance_inflation : float
         Factor on the RLS covariances at each rebase (see ``AdaptiveGaitModel.rebase``).
+    constant_variance : float
+        Variance added to the constant term's covariance at each rebase (``AdaptiveGaitModel.rebase``).
     n_windows, window_width, smoothing_order : model hyper-parameters.
     """
 
-    def __init__(self, *, method: str = "adaptive", gamma_threshold: float = 0.5, forgetting_factor: float = 0.95,
+    def __init__(self, *, method: str = "adaptive", gamma_threshold: float = 0.5,
+                 forgetting_factor: float | None = None,
                  gamma_forgetting: float = 0.995, order: int = 1, objective: str = "progress",
                  max_joint_angle: float = 2 * np.pi / 3, trust_radius: float = 0.1, min_trust_radius: float = 0.02,
-                 max_trust_radius: float = 0.15, rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 1,
+                 max_trust_radius: float = 0.15, rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2,
                  cycles_per_iteration: int = 30, rebase: str = "all", covariance_inflation: float = 1.0,
+                 constant_variance: float = 0.0,
                  n_windows: int = 20,
                  window_width: float | None = None, smoothing_order: int = 5):
         self.method = method
@@ -125,6 +134,7 @@ class InSituOptimizer:
         self.cycles_per_iteration = cycles_per_iteration
         self.rebase = rebase
         self.covariance_inflation = covariance_inflation
+        self.constant_variance = constant_variance
         self.n_windows = n_windows
         self.window_width = window_width
         self.smoothing_order = smoothing_order
@@ -150,8 +160,8 @@ class InSituOptimizer:
                       smoothing_order=self.smoothing_order)
         if self.method == "batch":
             return BatchGaitModel(**common)
-        return AdaptiveGaitModel(forgetting_factor=self.forgetting_factor, gamma_forgetting=self.gamma_forgetting,
-                                 **common)
+        lam = 1 - 0.1 / gait.n_joints if self.forgetting_factor is None else self.forgetting_factor
+        return AdaptiveGaitModel(forgetting_factor=lam, gamma_forgetting=self.gamma_forgetting, **common)
 
     # -- the loop -----------------------------------------------------------------------------
     def run(self, stream, n_cycles: int, *, ceiling: float | None = None,
@@ -182,7 +192,8 @@ class InSituOptimizer:
                        f"a seed gait within max_joint_angle = {self.max_joint_angle:.4g}",
                        f"a gait reaching {gait.joint_limit().max():.4g} rad")
         stream.set_gait(gait)
-        state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait))
+        state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait),
+                       batch_cycles=self.cycles_per_iteration)
         truth = _Oracle(stream, self.objective)
         seed_value = truth(gait)[1]
         rows, gaits, chunks = [], [gait], []
@@ -244,7 +255,8 @@ class InSituOptimizer:
                 restores = abs(pose[2]) > self.rotation_tolerance
                 if abs(new_pose[2]) <= self.rotation_tolerance and (restores or new_value > value):
                     state.move(candidate, predicted=new_value, boundary=np.linalg.norm(direction) > 0.9 * state.radius,
-                               rebase=self.rebase, inflation=self.covariance_inflation, method=self.method,
+                               rebase=self.rebase, inflation=(self.covariance_inflation, self.constant_variance),
+                               method=self.method,
                                new_model=self._new_model)
                     return True
             direction = direction / 2
@@ -294,6 +306,7 @@ class _State:
     promised: tuple | None = None  # (value before the step, predicted value after, at the boundary)
     history_gait: FourierGait | None = None
     iteration_data: list = field(default_factory=list)
+    batch_cycles: int = 30
 
     @property
     def gamma(self) -> float:
@@ -303,12 +316,14 @@ class _State:
         self.history_gait = self.gait
         self.cycles_in_iteration += 1
         args = (chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
-        if method == "batch":  # accumulate the iteration's cycles; the model is refit from scratch
+        if method == "batch":  # the iteration's cycles, fitted from scratch once the iteration is complete
             self.iteration_data.append(args)
-            if self.cycles_in_iteration >= 1:
+            if self.cycles_in_iteration >= self.batch_cycles:
                 self.model.fit(*(np.concatenate(parts) for parts in zip(*self.iteration_data, strict=True)))
-        else:
-            self.model.partial_fit(*args)
+            return
+        self.model.partial_fit(*args)
+        if self.iteration > 0 and self.cycles_in_iteration == 1:
+            self.model.reset_gamma()  # the fresh baseline has now seen the new gait once
 
     def update_radius(self, value_now, low, high):
         """Ratio test: compare the gain the last step promised with what the new model sees."""
@@ -328,7 +343,7 @@ class _State:
             self.model = new_model(gait)
             self.iteration_data = []
         else:
-            self.model.rebase(gait, terms=rebase, covariance_inflation=inflation)
+            self.model.rebase(gait, terms=rebase, covariance_inflation=inflation[0], constant_variance=inflation[1])
             self.model.reset_gamma()
         self.gait = gait
         self.iteration += 1

@@ -1,0 +1,60 @@
+import json
+
+import numpy as np
+import pandas as pd
+from typer.testing import CliRunner
+
+from geogait.cli import app
+from geogait.experiments import OptimizationConfig, OptimizationResult, run_optimization
+
+
+def test_quick_figure_writes_consistent_outputs(tmp_path):
+    result = CliRunner().invoke(app, ["figure", "optimization", "--quick", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    frame = pd.read_csv(tmp_path / "optimization.csv")
+    config = OptimizationConfig.quick()
+    assert list(frame.columns) == list(OptimizationResult.COLUMNS)
+    adaptive = frame[frame["method"] == "adaptive"]
+    assert adaptive["trial"].nunique() == config.n_trials and adaptive["cycle"].max() == config.budgets[0] - 1
+    batch = frame[frame["method"] == "batch"]
+    assert batch["cycle"].max() == 30 * config.baseline_iterations - 1
+    # The batch method only moves at the end of each 30-cycle iteration.
+    steps = batch.loc[batch["step"], "cycle"].to_numpy()
+    assert np.all((steps + 1) % 30 == 0)
+    manifest = json.loads((tmp_path / "optimization.json").read_text())
+    headline = manifest["results"]["3-link"]
+    final = adaptive[adaptive["cycle"] == adaptive["cycle"].max()]["improvement"]
+    assert headline["improvement_percentiles"]["p50"] == round(float(np.percentile(final, 50)), 4)
+    assert headline["improvement_percentiles"]["p50"] > 0.2  # the optimiser improves within 12 cycles
+    assert 0.9 < headline["ceiling_improvement"] < 1.05  # ceiling: +97 % over the seed gait
+    assert (tmp_path / "optimization.png").stat().st_size > 20_000
+    # Redraw from the CSV without rerunning.
+    again = CliRunner().invoke(app, ["figure", "optimization", "--from-csv", str(tmp_path / "optimization.csv"),
+                                     "--out", str(tmp_path / "redraw")])
+    assert again.exit_code == 0, again.output
+    redrawn = json.loads((tmp_path / "redraw" / "optimization.json").read_text())["results"]["3-link"]
+    assert redrawn["improvement_percentiles"] == headline["improvement_percentiles"]
+
+
+def test_sweep_is_identical_for_one_and_two_workers():
+    config = OptimizationConfig.quick(n_trials=2, budgets=(6,), baseline_trials=0)
+    one = run_optimization(config, jobs=1, progress=False).frame
+    two = run_optimization(config, jobs=2, progress=False).frame
+    pd.testing.assert_frame_equal(one, two)
+
+
+def test_optimize_command_writes_report(tmp_path):
+    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "8", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(tmp_path / "cycles.csv")
+    assert len(log) == 8 and {"gamma", "true_progress", "ceiling_fraction"} <= set(log.columns)
+    summary = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert summary["final_displacement_per_cycle"] == log["true_objective"].iloc[-1]
+    for name in ("gait.png", "progress.png", "path.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_bad_figure_options_are_reported(tmp_path):
+    result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
+                                      str(tmp_path)])
+    assert result.exit_code != 0 and "budgets" in str(result.exception)
