@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/geogait simulate --links 3 --cycles 40 --out out/demo
+	$(BIN)/geogait optimize --links 3 --out out/demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2
