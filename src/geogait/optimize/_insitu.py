@@ -107,6 +107,10 @@ class InSituOptimizer:
         Factor on the RLS covariances at each rebase (see ``AdaptiveGaitModel.rebase``).
     constant_variance : float
         Variance added to the constant term's covariance at each rebase (``AdaptiveGaitModel.rebase``).
+    min_gain : float
+        Smallest predicted relative gain worth a step (a gait the model sees rotating is restored
+        regardless). Near the optimum this stops the optimiser from re-randomising the gait every
+        iteration for gains below the model's resolution.
     n_windows, window_width, smoothing_order : model hyper-parameters.
     """
 
@@ -116,7 +120,7 @@ class InSituOptimizer:
                  max_joint_angle: float = 2 * np.pi / 3, trust_radius: float = 0.1, min_trust_radius: float = 0.02,
                  max_trust_radius: float = 0.15, rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2,
                  cycles_per_iteration: int = 30, rebase: str = "all", covariance_inflation: float = 1.0,
-                 constant_variance: float = 0.0,
+                 constant_variance: float = 0.0, min_gain: float = 0.005,
                  n_windows: int = 20,
                  window_width: float | None = None, smoothing_order: int = 5):
         self.method = method
@@ -135,6 +139,7 @@ class InSituOptimizer:
         self.rebase = rebase
         self.covariance_inflation = covariance_inflation
         self.constant_variance = constant_variance
+        self.min_gain = min_gain
         self.n_windows = n_windows
         self.window_width = window_width
         self.smoothing_order = smoothing_order
@@ -151,6 +156,7 @@ class InSituOptimizer:
         high = check_float(self.max_trust_radius, "max_trust_radius", owner, low=low)
         check_float(self.trust_radius, "trust_radius", owner, low=low, high=high)
         check_float(self.rotation_tolerance, "rotation_tolerance", owner, low=0, low_open=True)
+        check_float(self.min_gain, "min_gain", owner, low=0)
         check_int(self.min_cycles_per_iteration, "min_cycles_per_iteration", owner, minimum=1)
         check_int(self.cycles_per_iteration, "cycles_per_iteration", owner, minimum=1)
         check_choice(self.rebase, "rebase", owner, ("constant", "all", "none"))
@@ -240,39 +246,61 @@ class InSituOptimizer:
         return pose, pose_jacobian, *objective(self.objective, pose, pose_jacobian, gait)
 
     def _step(self, state, limits) -> bool:
-        """Propose, check and (maybe) take a step; returns whether the gait changed."""
+        """Propose, check and (maybe) take a step; returns whether the gait changed.
+
+        A predicted rotation beyond twice its standard error is real: the step brings it to zero.
+        One within it cannot be told from noise: the step then keeps the predicted rotation where it
+        is (J_ω Δ = 0) instead of chasing it, and is taken only for a predicted gain of at least
+        ``min_gain``.
+        """
         model, gait = state.model, state.gait
         pose, pose_jacobian, value, gradient = self._predict(model, gait, jacobian=True)
         state.update_radius(value, self.min_trust_radius, self.max_trust_radius)
         state.last_prediction = value
-        direction = _linear_step(gradient, pose[2], pose_jacobian[2], state.radius, limits, gait.params)
+        restores = abs(pose[2]) > max(self.rotation_tolerance, 2 * self._rotation_std(model, state))
+        target = 0.0 if restores else pose[2]
+        direction = _linear_step(gradient, pose[2] - target, pose_jacobian[2], state.radius, limits, gait.params)
         for _ in range(4):  # backtrack until the model predicts a feasible improvement
-            candidate = self._correct_rotation(model, gait.with_params(gait.params + direction))
+            candidate = self._correct_rotation(model, gait.with_params(gait.params + direction), target)
             if candidate is not None and np.all(limits[0] @ candidate.params <= limits[1] + 1e-12):
                 new_pose, new_value = self._predict(model, candidate)
-                # A gait the model sees rotating is first brought back to zero rotation, even at some
-                # cost in progress; a non-rotating gait moves only for a predicted gain.
-                restores = abs(pose[2]) > self.rotation_tolerance
-                if abs(new_pose[2]) <= self.rotation_tolerance and (restores or new_value > value):
+                on_target = abs(new_pose[2] - target) <= self.rotation_tolerance
+                if on_target and (restores or new_value > value * (1 + self.min_gain)):
                     state.move(candidate, predicted=new_value, boundary=np.linalg.norm(direction) > 0.9 * state.radius,
                                rebase=self.rebase, inflation=(self.covariance_inflation, self.constant_variance),
-                               method=self.method,
-                               new_model=self._new_model)
+                               method=self.method, new_model=self._new_model)
                     return True
             direction = direction / 2
-        state.radius = max(self.min_trust_radius, state.radius / 2)
+        if restores:  # the model could not find a feasible restoring step: trust it less far
+            state.radius = max(self.min_trust_radius, state.radius / 2)
         return False
 
-    def _correct_rotation(self, model, gait):
-        """Newton steps (minimum-norm) on the model's predicted net rotation."""
+    @staticmethod
+    def _rotation_std(model, state) -> float:
+        """Standard error of the model's predicted net rotation of its own nominal gait.
+
+        At δ = 0 the predicted rotation is ≈ Σ_m C_m,ω · 2π / (M φ̇) (the smoothed constant terms'
+        mean over a cycle), so its variance is ≈ σ_ω² (2π / (M φ̇))² Σ_m P_m[0, 0], with σ_ω² the
+        recent mean squared a-priori error of ω. Only a predicted rotation beyond twice this is
+        treated as real and restored; smaller ones are within what the data can resolve.
+        """
+        if not np.isfinite(state.residual_variance):
+            return np.inf
+        p00 = model.covariance_[..., 0, 0]
+        scale = 2 * np.pi / (p00.shape[-1] * model._phase_rate())
+        return float(np.sqrt(state.residual_variance * p00.sum()) * scale)
+
+    def _correct_rotation(self, model, gait, target: float):
+        """Newton steps (minimum-norm) bringing the model's predicted net rotation to ``target``."""
         for _ in range(3):
             pose, pose_jacobian = predicted_displacement(model, gait, jacobian=True)
-            if abs(pose[2]) <= self.rotation_tolerance / 10:
+            miss = pose[2] - target
+            if abs(miss) <= self.rotation_tolerance / 10:
                 return gait
             row = pose_jacobian[2]
             if row @ row == 0:
                 return None
-            gait = gait.with_params(gait.params - pose[2] * row / (row @ row))
+            gait = gait.with_params(gait.params - miss * row / (row @ row))
         return gait
 
 
@@ -306,6 +334,7 @@ class _State:
     promised: tuple | None = None  # (value before the step, predicted value after, at the boundary)
     history_gait: FourierGait | None = None
     iteration_data: list = field(default_factory=list)
+    residual_variance: float = np.nan  # recent mean squared a-priori error of ω
     batch_cycles: int = 30
 
     @property
@@ -322,6 +351,9 @@ class _State:
                 self.model.fit(*(np.concatenate(parts) for parts in zip(*self.iteration_data, strict=True)))
             return
         self.model.partial_fit(*args)
+        error = float(np.mean((self.model.prior_prediction_[..., 2] - chunk.body_velocity[..., 2]) ** 2))
+        previous = self.residual_variance
+        self.residual_variance = error if np.isnan(previous) else 0.8 * previous + 0.2 * error
         if self.iteration > 0 and self.cycles_in_iteration == 1:
             self.model.reset_gamma()  # the fresh baseline has now seen the new gait once
 
