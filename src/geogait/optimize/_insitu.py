@@ -257,7 +257,8 @@ class InSituOptimizer:
         pose, pose_jacobian, value, gradient = self._predict(model, gait, jacobian=True)
         state.update_radius(value, self.min_trust_radius, self.max_trust_radius)
         state.last_prediction = value
-        restores = abs(pose[2]) > max(self.rotation_tolerance, 2 * self._rotation_std(model, state))
+        resolution = 0.0 if self.method == "batch" else 2 * self._rotation_std(model, state)
+        restores = abs(pose[2]) > max(self.rotation_tolerance, resolution)
         target = 0.0 if restores else pose[2]
         direction = _linear_step(gradient, pose[2] - target, pose_jacobian[2], state.radius, limits, gait.params)
         for _ in range(4):  # backtrack until the model predicts a feasible improvement
@@ -273,6 +274,8 @@ class InSituOptimizer:
             direction = direction / 2
         if restores:  # the model could not find a feasible restoring step: trust it less far
             state.radius = max(self.min_trust_radius, state.radius / 2)
+        if self.method == "batch":  # prior work: another block of cycles on this gait before trying again
+            state.cycles_in_iteration = 0
         return False
 
     @staticmethod
