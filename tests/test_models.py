@@ -283,3 +283,13 @@ def test_bad_samples_name_the_field(runs):
         model.fit(run.phase, bad, run.shape_velocity, run.body_velocity)
     with pytest.raises(ValueError, match="not fitted"):
         AdaptiveGaitModel().predict(run.phase, run.shape, run.shape_velocity)
+
+
+def test_model_without_the_bilinear_block(runs):
+    run = runs["train"].cycles(0, 10)
+    model = AdaptiveGaitModel(gait=GAIT, interaction=False).fit(*fit_args(run))
+    assert model.window_weights_.shape == (20, 1 + 2 * 2, 3)
+    assert np.all(model.coefficients([0.3])["dA"] == 0)
+    assert model.score(*fit_args(runs["test"])) > 0.9  # noise-free: the linear terms carry most of ξ
+    batch = BatchGaitModel(gait=GAIT, interaction=False).fit(*fit_args(run))
+    np.testing.assert_allclose(model.window_weights_, batch.window_weights_, atol=0.05)

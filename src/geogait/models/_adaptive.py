@@ -42,6 +42,9 @@ class AdaptiveGaitModel(GaitModelBase):
         λ_Γ of the online confidence Γ (eq. 6), per sample.
     phase_rate : float > 0
         φ̇ (rad per time unit) used for θ̇ = θ'(φ) φ̇; 2π means time is measured in cycles.
+    interaction : bool
+        Keep the bilinear δ ⊗ δ̇ block of eq. 3 (d² of the 1 + 2d + d² weights per window). Without it
+        the model is linear in (δ, δ̇) and needs far fewer samples for many joints.
 
     Attributes
     ----------
@@ -87,7 +90,7 @@ class AdaptiveGaitModel(GaitModelBase):
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, forgetting_factor: float = 0.99,
                  initial_covariance: float = 100.0, smoothing_order: int = 5,
-                 gamma_forgetting: float = 0.995, phase_rate: float = 2 * np.pi):
+                 gamma_forgetting: float = 0.995, phase_rate: float = 2 * np.pi, interaction: bool = True):
         self.gait = gait
         self.n_windows = n_windows
         self.window_width = window_width
@@ -96,6 +99,7 @@ class AdaptiveGaitModel(GaitModelBase):
         self.smoothing_order = smoothing_order
         self.gamma_forgetting = gamma_forgetting
         self.phase_rate = phase_rate
+        self.interaction = interaction
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
@@ -108,8 +112,8 @@ class AdaptiveGaitModel(GaitModelBase):
         self._set_gait(gait)
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
-        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n_regressors(self.n_joints_), 3,
-                             lam, delta0)
+        n = n_regressors(self.n_joints_, self.interaction)
+        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, lam, delta0)
         self.phase_model_ = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
                                        forgetting_factor=lam, smoothing_order=self.smoothing_order)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
@@ -147,7 +151,7 @@ class AdaptiveGaitModel(GaitModelBase):
         def window_regressors(sample, rows):  # regressors of window m's sample about θ(φ_m), eq. 4
             r = np.take_along_axis(flat_shape[rows], sample[..., None], axis=-2)
             r_dot = np.take_along_axis(flat_rate[rows], sample[..., None], axis=-2)
-            return regressors(r - nominal, r_dot - nominal_rate)
+            return regressors(r - nominal, r_dot - nominal_rate, self.interaction)
 
         prior = self._run_rounds(self.bank_, phase, body_velocity, window_regressors)
         baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
@@ -241,8 +245,8 @@ class AdaptiveGaitModel(GaitModelBase):
         shift, shift_rate = new - old, new_rate - old_rate  # (M, d)
         weights = self.bank_.weights  # batch + (M, n, 3)
         d = self.n_joints_
-        constant = np.einsum("mi,...mij->...mj", regressors(shift, shift_rate), weights)
-        if terms == "all":
+        constant = np.einsum("mi,...mij->...mj", regressors(shift, shift_rate, self.interaction), weights)
+        if terms == "all" and self.interaction:
             bilinear = weights[..., 1 + 2 * d:, :].reshape(weights.shape[:-2] + (d, d, 3))  # [i, j]: δ_i δ̇_j
             weights[..., 1:1 + d, :] += np.einsum("...mijk,mj->...mik", bilinear, shift_rate)
             weights[..., 1 + d:1 + 2 * d, :] += np.einsum("...mijk,mi->...mjk", bilinear, shift)

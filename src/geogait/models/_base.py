@@ -127,7 +127,7 @@ class GaitModelBase:
     def _sample_regressors(self, phase, shape, shape_velocity, gait=None):
         """Regressors about the nominal gait at each sample's own phase, ``(..., n, 1+2d+d²)``."""
         nominal, nominal_rate = self._nominal(phase, gait)
-        return regressors(shape - nominal, shape_velocity - nominal_rate)
+        return regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)
 
     def _run_rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
         """Feed time-ordered samples to the window filters of ``bank``, window by window in time

@@ -33,6 +33,8 @@ class BatchGaitModel(GaitModelBase):
     phase_rate : float
     rcond : float
         Relative singular-value cut-off of the pseudo-inverse.
+    interaction : bool
+        Keep the bilinear δ ⊗ δ̇ block of the regressor.
 
     Examples
     --------
@@ -48,19 +50,20 @@ class BatchGaitModel(GaitModelBase):
 
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, smoothing_order: int = 5,
-                 phase_rate: float = 2 * np.pi, rcond: float = 1e-10):
+                 phase_rate: float = 2 * np.pi, rcond: float = 1e-10, interaction: bool = True):
         self.gait = gait
         self.n_windows = n_windows
         self.window_width = window_width
         self.smoothing_order = smoothing_order
         self.phase_rate = phase_rate
         self.rcond = rcond
+        self.interaction = interaction
 
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
         self.windows_ = self._windows()
         self._phase_rate()
         check_float(self.rcond, "rcond", "BatchGaitModel", low=0)
-        n = n_regressors(n_joints)
+        n = n_regressors(n_joints, self.interaction)
         self.gait_, self.n_joints_, self.batch_shape_ = gait, n_joints, batch
         self.gram_ = np.zeros(batch + (self.windows_.n_windows, n, n))
         self.moment_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
@@ -86,7 +89,8 @@ class BatchGaitModel(GaitModelBase):
         for start in range(0, phase.shape[-1], _CHUNK):
             part = slice(start, start + _CHUNK)
             cover = self.windows_.cover(phase[..., part]).astype(float)  # batch + (c, M)
-            x = regressors(shape[..., part, None, :] - nominal, shape_velocity[..., part, None, :] - nominal_rate)
+            x = regressors(shape[..., part, None, :] - nominal, shape_velocity[..., part, None, :] - nominal_rate,
+                           self.interaction)
             x = np.moveaxis(x * cover[..., None], -3, -2)  # batch + (M, c, n), zero outside a window
             self.gram_ += np.swapaxes(x, -1, -2) @ x
             self.moment_ += np.swapaxes(x, -1, -2) @ body_velocity[..., None, part, :]

@@ -57,7 +57,7 @@ def predicted_displacement(model, gait: FourierGait | None = None, *, resolution
     delta = gait.shape(phase) - model.gait_.shape(phase)
     delta_rate = (gait.velocity(phase) - model.gait_.velocity(phase)) * rate
     weights = model._weights_at(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)
-    velocity = np.einsum("nr,...nrj->...nj", regressors(delta, delta_rate), weights) / rate
+    velocity = np.einsum("nr,...nrj->...nj", regressors(delta, delta_rate, model.interaction), weights) / rate
     velocity = velocity.reshape(velocity.shape[:-2] + nodes.shape + (3,))
     if not jacobian:
         return integrate_cycle(velocity, step)

@@ -21,20 +21,23 @@ from .._validation import check_float, check_int, fail
 __all__ = ["PhaseWindows", "regressors", "n_regressors", "split_coefficients"]
 
 
-def n_regressors(n_joints: int) -> int:
-    """1 + 2d + d²."""
-    return 1 + 2 * n_joints + n_joints**2
+def n_regressors(n_joints: int, interaction: bool = True) -> int:
+    """1 + 2d + d² (or 1 + 2d without the bilinear term)."""
+    return 1 + 2 * n_joints + (n_joints**2 if interaction else 0)
 
 
-def regressors(delta, delta_rate) -> np.ndarray:
+def regressors(delta, delta_rate, interaction: bool = True) -> np.ndarray:
     """Regressor ``[1, δ, δ̇, vec(δ ⊗ δ̇)]`` for perturbations ``(..., d)`` → ``(..., 1 + 2d + d²)``.
 
-    ``vec`` is row-major: entry ``1 + 2d + i d + j`` is ``δ_i δ̇_j``.
+    ``vec`` is row-major: entry ``1 + 2d + i d + j`` is ``δ_i δ̇_j``. ``interaction=False`` drops the
+    bilinear block (the model is then linear in δ and δ̇, with ``1 + 2d`` weights per window).
     """
     delta = np.asarray(delta, dtype=float)
     delta_rate = np.asarray(delta_rate, dtype=float)
-    outer = (delta[..., :, None] * delta_rate[..., None, :]).reshape(delta.shape[:-1] + (-1,))
-    return np.concatenate([np.ones(delta.shape[:-1] + (1,)), delta, delta_rate, outer], axis=-1)
+    parts = [np.ones(delta.shape[:-1] + (1,)), delta, delta_rate]
+    if interaction:
+        parts.append((delta[..., :, None] * delta_rate[..., None, :]).reshape(delta.shape[:-1] + (-1,)))
+    return np.concatenate(parts, axis=-1)
 
 
 def split_coefficients(weights: np.ndarray, n_joints: int) -> dict[str, np.ndarray]:
@@ -46,11 +49,12 @@ def split_coefficients(weights: np.ndarray, n_joints: int) -> dict[str, np.ndarr
     """
     d = n_joints
     w = np.swapaxes(weights, -1, -2)  # (..., 3, n)
+    bilinear = w[..., 1 + 2 * d:]
     return {
         "C": w[..., 0],
         "B": w[..., 1:1 + d],
         "A": w[..., 1 + d:1 + 2 * d],
-        "dA": w[..., 1 + 2 * d:].reshape(w.shape[:-1] + (d, d)),
+        "dA": bilinear.reshape(w.shape[:-1] + (d, d)) if bilinear.shape[-1] else np.zeros(w.shape[:-1] + (d, d)),
     }
 
 

@@ -120,7 +120,7 @@ class InSituOptimizer:
                  max_joint_angle: float = 2 * np.pi / 3, trust_radius: float = 0.1, min_trust_radius: float = 0.02,
                  max_trust_radius: float = 0.15, rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2,
                  cycles_per_iteration: int = 30, rebase: str = "all", covariance_inflation: float = 1.0,
-                 constant_variance: float = 0.0, min_gain: float = 0.005,
+                 constant_variance: float = 0.0, min_gain: float = 0.005, interaction: bool = True,
                  n_windows: int = 20,
                  window_width: float | None = None, smoothing_order: int = 5):
         self.method = method
@@ -140,6 +140,7 @@ class InSituOptimizer:
         self.covariance_inflation = covariance_inflation
         self.constant_variance = constant_variance
         self.min_gain = min_gain
+        self.interaction = interaction
         self.n_windows = n_windows
         self.window_width = window_width
         self.smoothing_order = smoothing_order
@@ -163,7 +164,7 @@ class InSituOptimizer:
 
     def _new_model(self, gait):
         common = dict(gait=gait, n_windows=self.n_windows, window_width=self.window_width,
-                      smoothing_order=self.smoothing_order)
+                      smoothing_order=self.smoothing_order, interaction=self.interaction)
         if self.method == "batch":
             return BatchGaitModel(**common)
         lam = 1 - 0.1 / gait.n_joints if self.forgetting_factor is None else self.forgetting_factor
