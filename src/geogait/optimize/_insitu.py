@@ -43,7 +43,8 @@ class OptimizationResult:
     Attributes
     ----------
     log : pandas.DataFrame
-        One row per cycle: ``cycle``, ``iteration``, ``gamma``, ``step`` (a step was taken after
+        One row per cycle: ``cycle``, ``iteration``, ``gamma`` (online Γ over the iteration so far;
+        NaN on the burn-in cycle after a step, which only trains the reset baseline), ``step`` (a step was taken after
         this cycle), ``trust_radius``, ``predicted_objective`` (the model's estimate for the gait of
         this cycle), ``true_x``, ``true_y``, ``true_heading``, ``true_progress`` and
         ``true_objective`` (oracle, when the stream exposes its system), ``improvement`` (relative
@@ -341,9 +342,7 @@ class _State:
     residual_variance: float = np.nan  # recent mean squared a-priori error of ω
     batch_cycles: int = 30
 
-    @property
-    def gamma(self) -> float:
-        return float(getattr(self.model, "gamma_", np.nan)) if hasattr(self.model, "batch_shape_") else np.nan
+    gamma: float = np.nan  # online Γ over the iteration after the last cycle (NaN on a burn-in cycle)
 
     def learn(self, chunk, method):
         self.history_gait = self.gait
@@ -360,6 +359,9 @@ class _State:
         self.residual_variance = error if np.isnan(previous) else 0.8 * previous + 0.2 * error
         if self.iteration > 0 and self.cycles_in_iteration == 1:
             self.model.reset_gamma()  # the fresh baseline has now seen the new gait once
+            self.gamma = np.nan
+        else:
+            self.gamma = float(self.model.gamma_)
 
     def update_radius(self, value_now, low, high):
         """Ratio test: compare the gain the last step promised with what the new model sees."""
