@@ -106,7 +106,7 @@ def plot_progress(ax, log, *, seed_value: float, ceiling_value: float | None = N
     ax.set_xlabel("cycle")
     ax.set_ylabel("displacement per cycle (body lengths)")
     twin = ax.twinx()
-    twin.plot(log["cycle"], log["gamma"], color="C0", lw=0.8, alpha=0.7)
+    twin.plot(log["cycle"], log["gamma"], ".", color="C0", ms=4, alpha=0.7)  # NaN on burn-in cycles
     twin.set_ylabel("online Γ (blue)", color="C0")
     twin.set_ylim(0, 1)
     ax.legend(loc="lower right", fontsize=8)
