@@ -116,6 +116,7 @@ class AdaptiveGaitModel(GaitModelBase):
         self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, lam, delta0)
         self.phase_model_ = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
                                        forgetting_factor=lam, smoothing_order=self.smoothing_order)
+        self.phase_model_._reset(self.batch_shape_)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
 
@@ -143,8 +144,28 @@ class AdaptiveGaitModel(GaitModelBase):
             owner="AdaptiveGaitModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
-        nominal, nominal_rate = self._centre_nominal
+        if phase.shape == (1,):  # the real-time case: one sample, one model
+            prior, baseline = self._learn_one(phase[0], shape[0], shape_velocity[0], body_velocity[0])
+        else:
+            prior, baseline = self._learn(phase, shape, shape_velocity, body_velocity)
+        self._update_gamma(prior, baseline, body_velocity)
+        self.prior_prediction_ = prior
+        self.n_samples_seen_ += phase.shape[-1]
+        return self
 
+    def _learn_one(self, phase, shape, shape_velocity, body_velocity):
+        """One sample straight into its covering windows (same arithmetic as :meth:`_learn`)."""
+        valid = self.windows_.cover(phase)
+        nominal, nominal_rate = self._centre_nominal
+        x = regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)  # (M, n)
+        targets = np.broadcast_to(body_velocity, (valid.size, 3))
+        prior = self.bank_.update(x, targets, valid)[valid].mean(axis=0)
+        baseline = self.phase_model_.learn_one(valid, body_velocity)
+        return prior[None], baseline[None]
+
+    def _learn(self, phase, shape, shape_velocity, body_velocity):
+        """Time-ordered samples (any batch shape) through the window rounds; a-priori predictions."""
+        nominal, nominal_rate = self._centre_nominal
         flat_shape = shape.reshape((-1,) + shape.shape[-2:])
         flat_rate = shape_velocity.reshape(flat_shape.shape)
 
@@ -154,18 +175,17 @@ class AdaptiveGaitModel(GaitModelBase):
             return regressors(r - nominal, r_dot - nominal_rate, self.interaction)
 
         prior = self._run_rounds(self.bank_, phase, body_velocity, window_regressors)
-        baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
-        self._update_gamma(prior, baseline, body_velocity)
-        self.prior_prediction_ = prior
-        self.n_samples_seen_ += phase.shape[-1]
-        return self
+        return prior, self.phase_model_.partial_fit_predict(phase, body_velocity)
 
     def _update_gamma(self, prior, baseline, body_velocity):
         """ψ ← λ_Γ ψ + ‖error‖ per sample for model and baseline (eq. 6), as a linear filter."""
         errors = np.stack([np.linalg.norm(prior - body_velocity, axis=-1),
                            np.linalg.norm(baseline - body_velocity, axis=-1)], axis=-2)  # batch+(2,n)
         lam = self.gamma_forgetting
-        psi, _ = lfilter([1.0], [1.0, -lam], errors, axis=-1, zi=lam * self.psi_[..., None])
+        if errors.shape[-1] == 1:
+            psi = lam * self.psi_[..., None] + errors
+        else:
+            psi, _ = lfilter([1.0], [1.0, -lam], errors, axis=-1, zi=lam * self.psi_[..., None])
         self.psi_ = psi[..., -1]
         with np.errstate(invalid="ignore", divide="ignore"):
             self.online_gamma_ = np.where(psi[..., 1, :] > 0, 1 - psi[..., 0, :] / psi[..., 1, :], 0.0)

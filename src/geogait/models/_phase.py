@@ -73,6 +73,14 @@ class PhaseModel(GaitModelBase):
         self.n_samples_seen_ += phase.shape[-1]
         return prior
 
+    def learn_one(self, valid, body_velocity) -> np.ndarray:
+        """One sample of an unbatched model: ``valid`` ``(M,)`` are its covering windows; returns the
+        a-priori prediction ``(3,)`` (the fast path of :meth:`partial_fit_predict`)."""
+        ones = np.ones((valid.size, 1))
+        prior = self.bank_.update(ones, np.broadcast_to(body_velocity, (valid.size, 3)), valid)[valid].mean(axis=0)
+        self.n_samples_seen_ += 1
+        return prior
+
     @property
     def window_weights_(self) -> np.ndarray:
         return self.bank_.weights
