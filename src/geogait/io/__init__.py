@@ -1,5 +1,52 @@
-"""Robot logs in: CSV/Parquet/DataFrame ingestion, body velocity from poses, column mappings."""
+"""Robot logs and streams in: CSV/Parquet/DataFrame ingestion, body velocity from poses, column
+mappings; fitting a model to a log, predicting with it; learning from a live stream."""
 
+from ._fit import (
+    LogFit,
+    LogPrediction,
+    fit_log,
+    mapping_to_json,
+    predict_log,
+    read_log_for_prediction,
+    resolve_mapping,
+)
 from ._logs import ColumnMapping, Log, body_velocity_from_poses, load_column_mapping, read_log
+from ._streaming import (
+    CsvReader,
+    JsonLinesReader,
+    OnlineDifferentiator,
+    StreamLearner,
+    StreamOutput,
+    StreamSample,
+    StreamSummary,
+    load_stream_model,
+    model_config,
+    model_from_config,
+    run_stream,
+)
 
-__all__ = ["ColumnMapping", "Log", "body_velocity_from_poses", "load_column_mapping", "read_log"]
+__all__ = [
+    "ColumnMapping",
+    "CsvReader",
+    "JsonLinesReader",
+    "Log",
+    "LogFit",
+    "LogPrediction",
+    "OnlineDifferentiator",
+    "StreamLearner",
+    "StreamOutput",
+    "StreamSample",
+    "StreamSummary",
+    "body_velocity_from_poses",
+    "fit_log",
+    "load_column_mapping",
+    "load_stream_model",
+    "mapping_to_json",
+    "model_config",
+    "model_from_config",
+    "predict_log",
+    "read_log",
+    "read_log_for_prediction",
+    "resolve_mapping",
+    "run_stream",
+]

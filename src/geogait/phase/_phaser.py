@@ -142,6 +142,9 @@ class Phaser:
         Phase of the Poincaré section before re-zeroing.
     n_cycles_ : float
         Cycles in the training data.
+    samples_per_cycle_ : float
+        Mean samples per cycle of the training data (sets the window of
+        :class:`~geogait.phase.OnlinePhaser`).
 
     Examples
     --------
@@ -181,6 +184,7 @@ class Phaser:
         self._fit_scaling(records)
         theta = [_protophase(self._zscore(r)) for r in records]
         self._check_cycles(theta, min_cycles)
+        self.samples_per_cycle_ = sum(len(r) for r in records) / self.n_cycles_
         keep = self._interior(theta, edge)
         self.channel_coefficients_ = _density_coefficients(_stack(theta, keep), order)
         phi = [_correct(t, self.channel_coefficients_) for t in theta]
@@ -289,6 +293,23 @@ class Phaser:
         combined = self._combine(_correct(theta, self.channel_coefficients_))
         phase = _correct(combined, self.final_coefficients_) - self.zero_
         return phase if unwrap else np.mod(phase, 2 * np.pi)
+
+    # -- persistence --------------------------------------------------------------------------
+    def save(self, path):
+        """Write the fitted Phaser to ``path`` (``.npz`` + JSON metadata, no pickle), atomically.
+
+        See :func:`~geogait.phase.save_phaser`. Returns the path.
+        """
+        from ._persistence import save_phaser
+
+        return save_phaser(self, path)
+
+    @classmethod
+    def load(cls, path) -> Phaser:
+        """Read a Phaser written by :meth:`save` (:func:`~geogait.phase.load_phaser`)."""
+        from ._persistence import load_phaser
+
+        return load_phaser(path)
 
     def _check_is_fitted(self) -> None:
         if not hasattr(self, "final_coefficients_"):

@@ -1,0 +1,92 @@
+"""Streaming throughput (issue 6): ``geogait stream`` as a real subprocess fed JSON lines through a
+pipe, and the same loop in process (:func:`geogait.io.run_stream` on in-memory text), for the 3-
+and 9-link swimmers; the in-process loop also with online phase estimation (OnlinePhaser).
+
+The subprocess rows time the whole command (start-up, N samples, final atomic save); the
+start-up cost alone is measured by piping an empty input, and "steady state" is
+N / (t(N) − t(empty)).
+"""
+
+import io
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from run import best_time
+
+from geogait.gaits import seed_gait
+from geogait.io import StreamLearner, model_config, run_stream
+from geogait.models import AdaptiveGaitModel
+from geogait.phase import Phaser
+from geogait.simulate import simulate
+from geogait.systems import PurcellSwimmer
+
+N_SAMPLES = 5000
+SCRIPT = Path(sys.executable).with_name("geogait")
+COMMAND = [str(SCRIPT)] if SCRIPT.exists() else [sys.executable, "-c", "from geogait.cli import main; main()"]
+
+
+def _json_lines(run, phase: bool = True) -> str:
+    keys = ("time", "phase", "shape", "shape_velocity", "body_velocity") if phase else (
+        "time", "shape", "shape_velocity", "body_velocity")
+    rows = []
+    for s in range(run.n_samples):
+        values = {"time": float(run.time[s]), "phase": float(run.phase[s]), "shape": run.shape[s].tolist(),
+                  "shape_velocity": run.shape_velocity[s].tolist(), "body_velocity": run.body_velocity[s].tolist()}
+        rows.append(json.dumps({k: values[k] for k in keys}))
+    return "\n".join(rows) + "\n"
+
+
+def _subprocess_seconds(config: Path, text: str, folder: Path, repeats: int = 2) -> float:
+    """Best wall time of ``geogait stream config`` on ``text`` (fresh model each time)."""
+    best = float("inf")
+    for _ in range(repeats):
+        started = time.perf_counter()
+        done = subprocess.run([*COMMAND, "stream", str(config), "--out", str(folder / "model.npz")], input=text,
+                              text=True, capture_output=True, env=os.environ.copy(), check=False)
+        best = min(best, time.perf_counter() - started)
+        if done.returncode != 0:
+            raise RuntimeError(done.stderr)
+    return best
+
+
+def _in_process(gait, text: str, phaser=None) -> float:
+    def once():
+        learner = StreamLearner(AdaptiveGaitModel(gait=gait), phaser=phaser)
+        run_stream(learner, io.StringIO(text), io.StringIO())
+
+    return best_time(once, repeats=2, min_time=0.0)
+
+
+def run():
+    rows = []
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
+        for links in (3, 9):
+            gait = seed_gait(links - 1)
+            trajectory = simulate(PurcellSwimmer(links), gait, N_SAMPLES // 100, seed=0, sensor_noise=0.1)
+            config = folder / f"config{links}.json"
+            config.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=gait))))
+            text = _json_lines(trajectory)
+            empty = _subprocess_seconds(config, "", folder)
+            full = _subprocess_seconds(config, text, folder)
+            case = f"{links}-link, {N_SAMPLES} JSON lines through a pipe"
+            rows.append(dict(benchmark="geogait stream", case=f"{case}, incl. start-up", value=N_SAMPLES / full,
+                             unit="samples/s"))
+            rows.append(dict(benchmark="geogait stream", case=f"{case}, steady state", value=N_SAMPLES / (full - empty),
+                             unit="samples/s"))
+            rows.append(dict(benchmark="geogait stream", case=f"{links}-link, start-up (empty input)", value=empty,
+                             unit="s"))
+            seconds = _in_process(gait, text)
+            rows.append(dict(benchmark="stream loop in process", case=f"{links}-link, parse + learn + write",
+                             value=N_SAMPLES / seconds, unit="samples/s"))
+            phaser = Phaser().fit(trajectory.shape)
+            seconds = _in_process(gait, _json_lines(trajectory, phase=False), phaser)
+            rows.append(dict(benchmark="stream loop in process",
+                             case=f"{links}-link, with OnlinePhaser (2-cycle window)", value=N_SAMPLES / seconds,
+                             unit="samples/s"))
+    return rows

@@ -1,0 +1,160 @@
+"""``geogait fit`` and ``geogait predict``: a local gait model from a robot log, and its predictions.
+
+Thin layer: options → :func:`geogait.io.read_log` / :func:`geogait.io.fit_log` /
+:func:`geogait.io.predict_log`. Bad logs and options end with the library's message on stderr
+and exit code 1.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated
+
+import pandas as pd
+import typer
+
+from .._validation import GeogaitError
+from ..io import fit_log, predict_log, read_log, read_log_for_prediction, resolve_mapping
+from ..io._fit import DEFAULT_TEST_FRACTION
+from ..models import AdaptiveGaitModel
+from ..phase import load_phaser
+from ._app import app
+
+Columns = Annotated[str | None, typer.Option(help="Comma-separated column names.")]
+Mapping = Annotated[Path | None, typer.Option(help="Column mapping file (.json or .toml); options override it.")]
+Time = Annotated[str | None, typer.Option(help="Time column (default: time).")]
+Phase = Annotated[str | None, typer.Option(help="Phase column (rad); estimated with a Phaser when omitted.")]
+Degrees = Annotated[bool | None, typer.Option("--degrees/--radians",
+                                              help="Angles of the log in degrees (default: radians).")]
+SmoothingWindow = Annotated[int | None, typer.Option(
+    help="Savitzky–Golay window (samples) for shape velocities and pose smoothing (default: read_log's, 11).")]
+DropNan = Annotated[bool, typer.Option(help="Drop rows with NaN (splitting segments there) instead of failing.")]
+
+
+def _names(text: str | None, option: str) -> list[str] | None:
+    """'a,b,c' → ['a', 'b', 'c']; None stays None."""
+    if text is None:
+        return None
+    names = [name.strip() for name in text.split(",")]
+    if not all(names):
+        raise typer.BadParameter(f"expected comma-separated column names, got {text!r}", param_hint=option)
+    return names
+
+
+def _gait_order(text: str) -> int | None:
+    if text == "auto":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        raise typer.BadParameter(f"expected 'auto' or an integer, got {text!r}", param_hint="--gait-order") from None
+
+
+def _window(smoothing_window: int | None) -> dict:
+    """read_log's ``window`` keyword when the option was given (read_log's default otherwise)."""
+    return {} if smoothing_window is None else {"window": smoothing_window}
+
+
+@contextmanager
+def _user_errors():
+    """Bad input → its message on stderr and exit code 1 (no traceback)."""
+    try:
+        yield
+    except (GeogaitError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
+        typer.echo(f"error: {error}", err=True)
+        raise typer.Exit(code=1) from None
+
+
+@app.command()
+def fit(
+    log: Annotated[Path, typer.Argument(help="Log file: .csv, .parquet or .pq.")],
+    out: Annotated[Path, typer.Option(help="Output folder.")],
+    mapping: Mapping = None,
+    time_column: Annotated[str | None, typer.Option("--time", help="Time column (default: time).")] = None,
+    shape: Columns = None,
+    pose: Annotated[str | None, typer.Option(help="Pose columns x,y,heading (world frame).")] = None,
+    body_velocity: Annotated[str | None, typer.Option(help="Body-velocity columns v_x,v_y,omega.")] = None,
+    shape_velocity: Annotated[str | None, typer.Option(
+        help="Shape-velocity columns; Savitzky–Golay derivative of the shapes when omitted.")] = None,
+    phase: Phase = None,
+    degrees: Degrees = None,
+    smoothing_window: SmoothingWindow = None,
+    drop_nan: DropNan = False,
+    forgetting_factor: Annotated[float | None, typer.Option(
+        help="λ of the model's RLS filters (default: AdaptiveGaitModel's, 0.99).")] = None,
+    windows: Annotated[int | None, typer.Option(
+        help="Phase windows M of the model (default: AdaptiveGaitModel's, 20).")] = None,
+    gait_order: Annotated[str, typer.Option(
+        help="Fourier order of the nominal gait, or 'auto' (cross-validated held-out error).")] = "auto",
+    test_fraction: Annotated[float, typer.Option(
+        help="Fraction of each segment's cycles held out (the last).")] = DEFAULT_TEST_FRACTION,
+    refit: Annotated[bool, typer.Option(
+        help="Save a model refit on all data after scoring (else the scored training-cycles model).")] = True,
+) -> None:
+    """Fit a local gait model to a log; write model.npz, phaser.npz, config.json, report.json and PNGs.
+
+    Γ is scored on the held-out last cycles of every segment (report.json: Γ overall and per cycle, online Γ,
+    gait order, phase rate). phaser.npz is written when the phase is estimated (no --phase column).
+    """
+    started = time.perf_counter()
+    order = _gait_order(gait_order)
+    with _user_errors():
+        columns = resolve_mapping(mapping, time=time_column, shape=_names(shape, "--shape"),
+                                  pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
+                                  shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase,
+                                  degrees=degrees)
+        data = read_log(log, columns, drop_nan=drop_nan, **_window(smoothing_window))
+        result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
+                         test_fraction=test_fraction, refit=refit)
+        options = {"log": str(log), "smoothing_window": smoothing_window, "drop_nan": drop_nan,
+                   "forgetting_factor": forgetting_factor, "windows": windows, "gait_order": gait_order,
+                   "test_fraction": test_fraction, "refit": refit}
+        paths = result.save(out, mapping=columns, extra={"command": "fit", "options": options,
+                                                         "wall_time_s": round(time.perf_counter() - started, 3)})
+    summary = result.summary()
+    typer.echo(f"held-out Γ {summary['held_out_gamma']:.3f} over {summary['n_test_cycles']} cycles "
+               f"({summary['n_train_cycles']} training); online Γ {summary['online_gamma_end']:.3f}; "
+               f"gait order {summary['gait_order']}; phase rate {summary['phase_rate']:.4g} rad per time unit",
+               err=True)
+    typer.echo(f"wrote {', '.join(sorted(p.name for p in paths.values()))} to {out}/", err=True)
+
+
+@app.command()
+def predict(
+    model: Annotated[Path, typer.Argument(help="Saved model (.npz), e.g. from 'geogait fit'.")],
+    log: Annotated[Path, typer.Argument(help="Log file: .csv, .parquet or .pq.")],
+    phaser: Annotated[Path | None, typer.Option(
+        help="Saved Phaser (phaser.npz of 'geogait fit'), for logs without a phase column.")] = None,
+    out: Annotated[Path, typer.Option(help="Predictions CSV; the Γ summary goes beside it as .json.")] = Path(
+        "predictions.csv"),
+    mapping: Mapping = None,
+    time_column: Annotated[str | None, typer.Option("--time", help="Time column (default: time).")] = None,
+    shape: Columns = None,
+    pose: Annotated[str | None, typer.Option(help="Pose columns x,y,heading, for measured ξ.")] = None,
+    body_velocity: Annotated[str | None, typer.Option(help="Measured body-velocity columns.")] = None,
+    shape_velocity: Annotated[str | None, typer.Option(help="Shape-velocity columns.")] = None,
+    phase: Phase = None,
+    degrees: Degrees = None,
+    measured: Annotated[bool, typer.Option(
+        help="Read measured ξ (body-velocity or pose columns) when the mapping names them, for Γ.")] = True,
+    smoothing_window: SmoothingWindow = None,
+    drop_nan: DropNan = False,
+) -> None:
+    """Predict the body velocity of every sample of a log; write a CSV and Γ (if ξ was measured)."""
+    with _user_errors():
+        fitted = AdaptiveGaitModel.load(model)
+        estimator = None if phaser is None else load_phaser(phaser)
+        data, has_measured = read_log_for_prediction(
+            log, mapping, measured=measured, time=time_column, shape=_names(shape, "--shape"),
+            pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
+            shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase, degrees=degrees,
+            drop_nan=drop_nan, **_window(smoothing_window))
+        result = predict_log(fitted, data, phaser=estimator, measured=has_measured)
+        paths = result.save(out, extra={"command": "predict", "model": str(model), "log": str(log),
+                                        "phaser": None if phaser is None else str(phaser)})
+    value = result.gamma()
+    typer.echo(f"Γ {value:.3f} over {data.n_samples} samples" if value is not None
+               else f"predicted {data.n_samples} samples (no measured body velocity: no Γ)", err=True)
+    typer.echo(f"wrote {paths[0]} and {paths[1]}", err=True)

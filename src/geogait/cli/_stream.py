@@ -1,0 +1,103 @@
+"""``geogait stream``: learn a model from samples on stdin, one flushed output line per sample.
+
+Thin layer over :func:`geogait.io.run_stream` (the loop, input formats, warm-up and signal
+handling are documented in :mod:`geogait.io._streaming`). Exit codes: 0 at the end of the input
+(or when stdout is closed), 1 after a bad record or bad options, 130 after SIGINT (Ctrl-C), 143
+after SIGTERM — in every case after saving what was learned.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ..io import CsvReader, JsonLinesReader, StreamLearner, load_stream_model, run_stream
+from ..phase import load_phaser
+from ._app import app
+from ._fit import _user_errors
+
+_EXIT = {"eof": 0, "output closed": 0, "error": 1, "SIGINT": 128 + signal.SIGINT, "SIGTERM": 128 + signal.SIGTERM}
+
+
+def _target(source: Path, out: Path | None) -> Path:
+    """Where the model is saved: --out, else the model itself, else the config's name with .npz."""
+    if out is not None:
+        return out
+    return source if source.suffix.lower() == ".npz" else source.with_suffix(".npz")
+
+
+@app.command()
+def stream(
+    model_or_config: Annotated[Path, typer.Argument(
+        help="Saved model (.npz) to keep learning, or a JSON config (hyper-parameters + nominal gait) to start "
+             "a fresh one; 'geogait fit' writes both.")],
+    phaser: Annotated[Path | None, typer.Option(
+        help="Saved Phaser: estimate each sample's phase online (input phases are then ignored).")] = None,
+    fmt: Annotated[str, typer.Option("--format", help="Input: jsonl (one JSON object per line) or csv (header "
+                                     "line first); the output uses the same format.")] = "jsonl",
+    save_every: Annotated[int | None, typer.Option(help="Also save after every N learned samples.")] = None,
+    out: Annotated[Path | None, typer.Option(
+        help="Where to save the model (default: the model file itself; for a config, <config>.npz).")] = None,
+    phase_window: Annotated[int | None, typer.Option(
+        help="Samples in the online Phaser's window (default: two cycles).")] = None,
+    derivative_window: Annotated[int, typer.Option(
+        help="Samples of the causal differentiator used when samples have no shape_velocity.")] = 5,
+) -> None:
+    """Learn from samples on stdin; write each sample's a-priori prediction and online Γ to stdout.
+
+    Input keys (JSON) or columns (CSV): time, phase, shape (shape_0, ...), shape_velocity (shape_velocity_0, ...),
+    body_velocity (body_velocity_x, _y, _theta).
+
+    The model is saved atomically at the end of the input, on Ctrl-C or SIGTERM, and every --save-every samples.
+    """
+    if fmt not in ("jsonl", "csv"):
+        raise typer.BadParameter(f"expected 'jsonl' or 'csv', got {fmt!r}", param_hint="--format")
+    with _user_errors():
+        model = load_stream_model(model_or_config)
+        estimator = None if phaser is None else load_phaser(phaser)
+        learner = StreamLearner(model, phaser=estimator, phase_window=phase_window,
+                                derivative_window=derivative_window, path=_target(model_or_config, out),
+                                save_every=save_every)
+    reader = (CsvReader if fmt == "csv" else JsonLinesReader)(sys.stdin, learner.n_joints)
+    summary = run_stream(learner, sys.stdin, sys.stdout, fmt=fmt, reader=_noting(reader, estimator is not None))
+    if summary.reason == "output closed":
+        _silence_stdout()
+    _report(summary)
+    raise typer.Exit(code=_EXIT[summary.reason])
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so Python's final flush into a closed pipe raises nothing."""
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def _noting(reader, with_phaser: bool):
+    """The reader's samples; notes on stderr about ignored CSV columns and input phases, once."""
+    noted = False
+    for sample in reader:
+        if not noted:
+            noted = True
+            ignored = getattr(reader, "ignored", [])
+            if ignored:
+                typer.echo(f"note: ignoring input columns {ignored}", err=True)
+            if with_phaser and sample.phase is not None:
+                typer.echo("note: the phase is estimated by the Phaser; input phases are ignored", err=True)
+        yield sample
+
+
+def _report(summary) -> None:
+    if summary.error is not None:
+        typer.echo(f"error: {summary.error}", err=True)
+    elif summary.reason not in ("eof",):
+        typer.echo(f"stopped ({summary.reason})", err=True)
+    gamma = "n/a" if summary.gamma is None else f"{summary.gamma:.3f}"
+    saved = f"saved the model to {summary.saved}" if summary.saved else "nothing new learned: no model written"
+    typer.echo(f"{summary.n_learned} of {summary.n_samples} samples learned; online Γ {gamma}; {saved}", err=True)

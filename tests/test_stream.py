@@ -1,0 +1,319 @@
+"""``geogait stream`` and the streaming library: equality with the batch path, signals, kills, bad
+lines, online phase and differentiation, Phaser persistence, the robot example."""
+
+import importlib.util
+import io
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.signal import savgol_coeffs
+from typer.testing import CliRunner
+
+from geogait.cli import app
+from geogait.gaits import seed_gait
+from geogait.io import (
+    OnlineDifferentiator,
+    StreamLearner,
+    load_stream_model,
+    model_config,
+    model_from_config,
+    run_stream,
+)
+from geogait.models import AdaptiveGaitModel, load_model
+from geogait.phase import OnlinePhaser, Phaser, load_phaser, save_phaser
+from geogait.simulate import simulate
+from geogait.systems import PurcellSwimmer
+
+GAIT = seed_gait(2)
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = Path(sys.executable).with_name("geogait")
+COMMAND = [str(SCRIPT)] if SCRIPT.exists() else [sys.executable, "-c", "from geogait.cli import main; main()"]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+@pytest.fixture(scope="module")
+def run():
+    return simulate(PurcellSwimmer(3), GAIT, 50, seed=4, sensor_noise=0.1)  # 5 000 samples
+
+
+def record(run, s, *, phase=True, rate=True):
+    entry = {"time": float(run.time[s]), "shape": run.shape[s].tolist(), "body_velocity": run.body_velocity[s].tolist()}
+    if phase:
+        entry["phase"] = float(run.phase[s])
+    if rate:
+        entry["shape_velocity"] = run.shape_velocity[s].tolist()
+    return entry
+
+
+def lines(run, start=0, stop=None, **options):
+    stop = run.n_samples if stop is None else stop
+    return "".join(json.dumps(record(run, s, **options)) + "\n" for s in range(start, stop))
+
+
+def fit_args(run, stop=None):
+    return run.phase[:stop], run.shape[:stop], run.shape_velocity[:stop], run.body_velocity[:stop]
+
+
+@pytest.fixture
+def config(tmp_path):
+    path = tmp_path / "config.json"
+    path.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=GAIT))))
+    return path
+
+
+def assert_same_model(saved, expected):
+    np.testing.assert_array_equal(saved.window_weights_, expected.window_weights_)
+    np.testing.assert_array_equal(saved.covariance_, expected.covariance_)
+    np.testing.assert_array_equal(saved.psi_, expected.psi_)
+    np.testing.assert_array_equal(saved.phase_model_.bank_.weights, expected.phase_model_.bank_.weights)
+    np.testing.assert_array_equal(saved.phase_model_.bank_.covariance, expected.phase_model_.bank_.covariance)
+    assert saved.n_samples_seen_ == expected.n_samples_seen_ and saved.gait_ == expected.gait_
+
+
+# -- the real console script ----------------------------------------------------------------------
+def test_5000_samples_through_the_console_script_equal_the_in_process_and_batch_paths(run, config, tmp_path):
+    out = tmp_path / "model.npz"
+    done = subprocess.run([*COMMAND, "stream", str(config), "--out", str(out)], input=lines(run), text=True,
+                          capture_output=True, env=ENV, timeout=120)
+    assert done.returncode == 0, done.stderr
+    outputs = [json.loads(line) for line in done.stdout.splitlines()]
+    assert len(outputs) == 5000 and [o["index"] for o in outputs] == list(range(5000))
+    assert all(o["learned"] for o in outputs) and outputs[7]["time"] == run.time[7]
+    prediction = np.array([o["prediction"] for o in outputs])
+    gamma = np.array([o["gamma"] for o in outputs])
+    single = AdaptiveGaitModel(gait=GAIT)  # the same samples, one partial_fit each, in process
+    expected_prediction, expected_gamma = [], []
+    for s in range(run.n_samples):
+        single.partial_fit(*(a[s] for a in fit_args(run)))
+        expected_prediction.append(single.prior_prediction_[0])
+        expected_gamma.append(single.gamma_)
+    np.testing.assert_array_equal(prediction, expected_prediction)
+    np.testing.assert_array_equal(gamma, expected_gamma)
+    batch = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run))  # one partial_fit of all 5 000 samples
+    np.testing.assert_allclose(prediction, batch.prior_prediction_, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(gamma, batch.online_gamma_, rtol=0, atol=1e-13)
+    assert_same_model(load_model(out), batch)  # RLS state bit-identical to the batch path
+    assert "5000 of 5000 samples learned" in done.stderr and gamma[-1] > 0.6  # measured 0.741 (noise 0.1)
+
+
+def _start(arguments, tmp_path):
+    return subprocess.Popen([*COMMAND, "stream", *arguments], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, bufsize=1, env=ENV, cwd=tmp_path)
+
+
+def _feed(process, text):
+    try:
+        process.stdin.write(text)
+        process.stdin.flush()
+    except BrokenPipeError:  # the process was killed while we were writing
+        pass
+
+
+def test_sigkill_mid_stream_leaves_the_last_checkpoint_valid(run, config, tmp_path):
+    out = tmp_path / "model.npz"
+    process = _start([str(config), "--out", str(out), "--save-every", "500"], tmp_path)
+    threading.Thread(target=_feed, args=(process, lines(run, 0, 4000)), daemon=True).start()
+    for _ in range(2600):
+        assert process.stdout.readline()
+    process.send_signal(signal.SIGKILL)
+    process.wait(timeout=30)
+    assert process.returncode == -signal.SIGKILL
+    saved = load_model(out)  # valid and loadable: the saves are atomic
+    assert saved.n_samples_seen_ % 500 == 0 and 2500 <= saved.n_samples_seen_ <= 4000
+    assert_same_model(saved, AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run, saved.n_samples_seen_)))
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_sigint_and_sigterm_save_everything_learned(run, tmp_path, signum):
+    path = tmp_path / "model.npz"
+    AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run, 1000)).save(path)  # keeps learning in place
+    process = _start([str(path)], tmp_path)
+    process.stdin.write(lines(run, 1000, 1300))
+    process.stdin.flush()
+    for _ in range(300):  # all learned; the stream now waits for input
+        assert process.stdout.readline()
+    process.send_signal(signum)
+    _, stderr = process.communicate(timeout=30)
+    assert process.returncode == 128 + signum, stderr
+    assert f"stopped ({signal.Signals(signum).name})" in stderr and "300 of 300 samples learned" in stderr
+    assert_same_model(load_model(path), AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run, 1300)))
+
+
+# -- bad input: the line and field named, exit 1, what was learned saved ---------------------------
+GOOD = {"time": 1.0, "phase": 0.5, "shape": [1.0, 0.0], "shape_velocity": [0.0, 6.0], "body_velocity": [0, 0, 0]}
+
+
+@pytest.mark.parametrize("bad, message", [
+    ("not json", r"'record' parameter of input line 21 must be a JSON object. Got 'invalid JSON"),
+    ('[1, 2]', r"'record' parameter of input line 21 must be a JSON object"),
+    ({"extra": 1}, r"unknown key\(s\) \['extra'\]"),
+    ({"shape": [1.0, 2.0, 3.0]}, r"'shape' parameter of input line 21 must be a list of 2 numbers"),
+    ({"shape": [1.0, "x"]}, r"'shape' parameter of input line 21 must be a list of 2 numbers"),
+    ('{"time": 1.0, "phase": 0.5, "shape": [NaN, 0], "body_velocity": [0, 0, 0]}', r"2 finite numbers"),
+    ({"body_velocity": None}, r"'body_velocity' parameter of input line 21 must be given"),
+    ({"phase": None}, r"'phase' parameter of input line 21 must be given \(or stream with a fitted Phaser\)"),
+    ({"time": 0.0}, r"'time' parameter of input line 21 must be greater than the previous sample's time"),
+    ({"phase": "0.1"}, r"'phase' parameter of input line 21 must be a finite number"),
+])
+def test_bad_lines_name_line_and_field_and_save_what_was_learned(run, config, tmp_path, bad, message):
+    if isinstance(bad, dict):
+        entry = {**GOOD, "time": float(run.time[20]), **bad}
+        bad = json.dumps({k: v for k, v in entry.items() if v is not None})
+    out = tmp_path / "m.npz"
+    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(out)],
+                                input=lines(run, 0, 20) + bad + "\n" + lines(run, 21, 30))
+    assert result.exit_code == 1
+    assert re.search(message, result.stderr), result.stderr
+    assert "20 of 20 samples learned" in result.stderr
+    assert load_model(out).n_samples_seen_ == 20
+
+
+def test_bad_models_and_configs(tmp_path, config):
+    runner = CliRunner()
+    (tmp_path / "bad.json").write_text(json.dumps({"gait": GAIT.coefficients.tolist(), "params": {"forgetting_factor":
+                                                                                                   1.5}}))
+    result = runner.invoke(app, ["stream", str(tmp_path / "bad.json")], input="")
+    assert result.exit_code == 1 and "'forgetting_factor' parameter of AdaptiveGaitModel" in result.stderr
+    with pytest.raises(ValueError, match=r"unknown key\(s\) \['lambda'\]"):
+        model_from_config({"gait": [[0, 1, 0]], "lambda": 0.9})
+    with pytest.raises(ValueError, match="'gait' parameter of the model config.*Fourier coefficients"):
+        model_from_config({"params": {}})
+    with pytest.raises(ValueError, match="'n_windowz' parameter of AdaptiveGaitModel"):
+        model_from_config({"gait": [[0, 1, 0]], "params": {"n_windowz": 3}})
+    result = runner.invoke(app, ["stream", str(tmp_path / "missing.npz")], input="")
+    assert result.exit_code == 1 and "does not exist" in result.stderr
+    result = runner.invoke(app, ["stream", str(config), "--format", "xml"], input="")
+    assert result.exit_code != 0 and "'jsonl' or 'csv'" in result.output
+    result = runner.invoke(app, ["stream", str(config)], input="")  # empty input: nothing to save
+    assert result.exit_code == 0 and "no model written" in result.stderr and not (tmp_path / "config.npz").exists()
+    assert isinstance(load_stream_model(config), AdaptiveGaitModel)
+
+
+# -- CSV, derivatives, online phase, gaps -----------------------------------------------------------
+def test_csv_stream_differentiates_and_notes_ignored_columns(run, config, tmp_path):
+    frame = run.to_pandas().iloc[:400].drop(columns=["shape_velocity_0", "shape_velocity_1"])
+    result = CliRunner().invoke(app, ["stream", str(config), "--format", "csv", "--out", str(tmp_path / "m.npz")],
+                                input=frame.to_csv(index=False))
+    assert result.exit_code == 0, result.output
+    assert "ignoring input columns ['cycle', 'x', 'y', 'heading']" in result.stderr
+    rows = result.stdout.splitlines()
+    assert rows[0] == ("index,time,phase,predicted_body_velocity_x,predicted_body_velocity_y,"
+                       "predicted_body_velocity_theta,gamma,learned")
+    assert len(rows) == 401 and rows[1].endswith(",0") and all(row.endswith(",1") for row in rows[2:])
+    assert rows[1].split(",")[3] == "" and "399 of 400 samples learned" in result.stderr
+    bad = frame.to_csv(index=False).replace("\n", "\nnot,enough\n", 1)
+    result = CliRunner().invoke(app, ["stream", str(config), "--format", "csv", "--out", str(tmp_path / "n.npz")],
+                                input=bad)
+    assert result.exit_code == 1 and "'row' parameter of input line 2 must be" in result.stderr
+    result = CliRunner().invoke(app, ["stream", str(config), "--format", "csv", "--out", str(tmp_path / "n.npz")],
+                                input=frame.drop(columns="body_velocity_y").to_csv(index=False))
+    assert result.exit_code == 1 and "without ['body_velocity_y']" in result.stderr
+
+
+def test_online_differentiator_is_a_causal_savitzky_golay_filter():
+    rng = np.random.default_rng(0)
+    differentiator = OnlineDifferentiator(window=7, polyorder=2)
+    times = np.cumsum(rng.uniform(0.5, 1.5, 12))  # irregular stamps: exact for quadratics
+    for t in times:
+        differentiator.push(t, [3 * t**2 - t, 5.0])
+    np.testing.assert_allclose(differentiator.derivative(), [6 * times[-1] - 1, 0.0], rtol=1e-9, atol=1e-9)
+    values = rng.normal(size=(20, 2))
+    differentiator.reset()
+    assert differentiator.derivative() is None
+    for n, value in enumerate(values):
+        differentiator.push(0.1 * n, value)
+    expected = savgol_coeffs(7, 2, deriv=1, delta=0.1, pos=6, use="dot") @ values[-7:]
+    np.testing.assert_allclose(differentiator.derivative(), expected, rtol=1e-10, atol=1e-12)
+    with pytest.raises(ValueError, match="'window' parameter of OnlineDifferentiator"):
+        OnlineDifferentiator(window=1)
+
+
+@pytest.fixture(scope="module")
+def phaser(run):
+    return Phaser().fit(run.shape[:3000])
+
+
+def test_online_phaser_equals_the_last_sample_of_a_sliding_window(run, phaser):
+    online = OnlinePhaser(phaser, window=150, min_samples=60)
+    estimates = [online.update(shape) for shape in run.shape[:700]]
+    assert estimates[:59] == [None] * 59 and online.n_buffered == 150
+    for end in (60, 100, 150, 151, 400, 700):
+        reference = phaser.transform(run.shape[max(0, end - 150):end])[-1]
+        assert abs(np.angle(np.exp(1j * (estimates[end - 1] - reference)))) < 1e-9
+    default = OnlinePhaser(phaser)
+    assert default.window == 200 and default.min_samples == 100
+    phases = np.array([default.update(shape) for shape in run.shape[3000:]][100:], dtype=float)
+    truth = run.phase[3100:]
+    difference = np.exp(1j * (phases - truth))
+    error = np.abs(np.angle(difference * np.conj(difference.mean())))
+    assert np.median(error) < 0.15  # measured 0.09 rad (two-cycle window, data not fitted on)
+    with pytest.raises(ValueError, match="'shape' parameter of OnlinePhaser.update"):
+        default.update([1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="'min_samples' parameter of OnlinePhaser"):
+        OnlinePhaser(phaser, window=10, min_samples=11)
+
+
+def test_stream_with_a_phaser_and_a_gap(run, phaser, tmp_path):
+    save_phaser(phaser, tmp_path / "phaser.npz")
+    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT), phaser=load_phaser(tmp_path / "phaser.npz"),
+                            path=tmp_path / "m.npz")
+    text = lines(run, 3000, 4000, phase=False) + lines(run, 4300, 4600, phase=False)  # a gap of 3 cycles
+    sink = io.StringIO()
+    summary = run_stream(learner, io.StringIO(text), sink)
+    outputs = [json.loads(line) for line in sink.getvalue().splitlines()]
+    learned = np.array([o["learned"] for o in outputs])
+    # Warm-up of one cycle (99 samples without a phase) at the start and again after the gap.
+    assert not learned[:99].any() and learned[99:1000].all() and not learned[1000:1099].any() and learned[1099:].all()
+    assert summary.reason == "eof" and summary.n_learned == 1300 - 2 * 99 and summary.saved == tmp_path / "m.npz"
+    assert summary.gamma > 0.7 and load_model(tmp_path / "m.npz").n_samples_seen_ == summary.n_learned
+
+
+def test_phaser_files_round_trip_without_pickle(run, phaser, tmp_path):
+    path = phaser.save(tmp_path / "phaser.npz")
+    with np.load(path, allow_pickle=False) as archive:
+        assert "state/channel_coefficients_.imag" in archive.files
+        assert all(archive[name].dtype != object for name in archive.files)
+    loaded = Phaser.load(path)
+    np.testing.assert_array_equal(loaded.transform(run.shape[3000:]), phaser.transform(run.shape[3000:]))
+    assert loaded.samples_per_cycle_ == phaser.samples_per_cycle_
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(ValueError, match="not a readable geogait phaser"):
+        load_phaser(truncated)
+    model_path = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run, 300)).save(tmp_path / "model.npz")
+    with pytest.raises(ValueError, match="not a geogait phaser file"):
+        load_phaser(model_path)
+    with pytest.raises(ValueError, match="does not exist"):
+        load_phaser(tmp_path / "none.npz")
+    with pytest.raises(ValueError, match="fitted Phaser"):
+        save_phaser(Phaser(), tmp_path / "unfitted.npz")
+
+
+# -- the robot example -------------------------------------------------------------------------------
+def test_robot_example_runs_quick(tmp_path, capsys):
+    spec = importlib.util.spec_from_file_location("robot_stream", ROOT / "examples" / "robot_stream.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    summary = example.main(["--quick", "--save-every", "200", "--out", str(tmp_path)])
+    assert summary["samples"] == 500 and summary["saves"] == 3 and summary["online_gamma"] > 0.5
+    assert load_model(tmp_path / "model.npz").n_samples_seen_ == 500
+    assert "cycle   5  online Γ" in capsys.readouterr().out
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    from geogait.io import _fit, _streaming
+    from geogait.phase import _online, _persistence
+
+    for module in (_streaming, _fit, _online, _persistence):
+        outcome = doctest.testmod(module)
+        assert outcome.attempted > 0 and outcome.failed == 0, module.__name__
