@@ -53,7 +53,9 @@ from __future__ import annotations
 import copy
 import csv
 import json
+import math
 import signal
+import statistics
 import threading
 from collections import deque
 from collections.abc import Iterator
@@ -346,6 +348,7 @@ class StreamLearner:
         self.path = None if path is None else Path(path)
         self.save_every = None if save_every is None else check_int(save_every, "save_every", owner, minimum=1)
         self.n_samples = self.n_learned = 0
+        self._gamma = float(model.gamma_) if hasattr(model, "batch_shape_") else None
         self._unsaved = 0
         self._last_time: float | None = None
         self._steps: deque[float] = deque(maxlen=15)
@@ -353,7 +356,7 @@ class StreamLearner:
     @property
     def gamma(self) -> float | None:
         """Online Γ now (None before anything was learned)."""
-        return float(self.model.gamma_) if hasattr(self.model, "batch_shape_") else None
+        return self._gamma
 
     def step(self, sample: StreamSample) -> StreamOutput:
         """Process one sample: phase, ṙ, a-priori prediction, learning, checkpoint."""
@@ -367,7 +370,8 @@ class StreamLearner:
         self.model.partial_fit(phase, sample.shape, rate, sample.body_velocity)
         self.n_learned += 1
         self._unsaved += 1
-        output = StreamOutput(index, sample.time, phase, self.model.prior_prediction_[0], self.gamma, True)
+        self._gamma = float(self.model.online_gamma_[-1])  # = model.gamma_, without recomputing it
+        output = StreamOutput(index, sample.time, phase, self.model.prior_prediction_[0], self._gamma, True)
         if self.save_every is not None and self.n_learned % self.save_every == 0:
             self.save()
         return output
@@ -389,11 +393,17 @@ class StreamLearner:
             if step <= 0:
                 raise fail("time", f"input line {sample.line}", f"greater than the previous sample's time "
                            f"{self._last_time!r} (strictly increasing)", sample.time)
-            if len(self._steps) >= 2 and step > self.gap_factor * float(np.median(self._steps)):
+            if self._is_gap(step):
                 self._restart()
             else:
                 self._steps.append(step)
         self._last_time = sample.time
+
+    def _is_gap(self, step: float) -> bool:
+        """Longer than ``gap_factor`` × the median recent step (the minimum rules most steps out cheaply)."""
+        if len(self._steps) < 2 or step <= self.gap_factor * min(self._steps):
+            return False
+        return step > self.gap_factor * statistics.median(self._steps)
 
     def _restart(self) -> None:
         self.differentiator.reset()
@@ -437,18 +447,17 @@ def _vector(value, name: str, line: int, size: int, required: bool) -> np.ndarra
         if required:
             raise fail(name, f"input line {line}", f"given: a list of {size} numbers", None)
         return None
-    if not isinstance(value, list) or len(value) != size or any(isinstance(v, bool | str) for v in value):
+    if not isinstance(value, list) or len(value) != size or not all(type(v) in (int, float) for v in value):
         raise fail(name, f"input line {line}", f"a list of {size} numbers", value)
-    array = np.asarray(value, dtype=float) if all(isinstance(v, int | float) for v in value) else None
-    if array is None or not np.all(np.isfinite(array)):
+    if not all(math.isfinite(v) for v in value):
         raise fail(name, f"input line {line}", f"a list of {size} finite numbers", value)
-    return array
+    return np.array(value, dtype=float)
 
 
 def _scalar(value, name: str, line: int) -> float | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
+    if type(value) not in (int, float) or not math.isfinite(value):
         raise fail(name, f"input line {line}", "a finite number", value)
     return float(value)
 
