@@ -15,8 +15,8 @@ their ``n`` seed sequences, and the returned long-format frame has a ``trial`` c
 indices of the chunk. Results are bit-identical across back-ends provided the trial function is
 deterministic given its seeds (multithreaded BLAS reductions may depend on the thread count).
 
-With ``cache_dir`` every finished chunk is written atomically as ``chunk_XXXXX.parquet`` beside a
-``sweep.json`` manifest, so an interrupted sweep resumes where it stopped.
+With ``cache_dir`` every finished chunk is written atomically as ``chunk_00012.parquet`` (zero-padded
+chunk index) beside a ``sweep.json`` manifest, so an interrupted sweep resumes where it stopped.
 """
 
 from __future__ import annotations

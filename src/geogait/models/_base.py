@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import inspect
 import json
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from .._files import atomic_savez
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ._features import PhaseWindows, regressors, split_coefficients
@@ -255,17 +254,7 @@ class GaitModelBase:
         path = Path(path)
         arrays = {f"state/{k}": np.asarray(v) for k, v in self._state().items()}
         arrays["metadata"] = np.frombuffer(json.dumps(self._metadata()).encode(), dtype=np.uint8)
-        handle, temporary = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(handle, "wb") as stream:
-                np.savez(stream, **arrays)
-                stream.flush()
-                os.fsync(stream.fileno())
-            os.replace(temporary, path)
-        except BaseException:
-            Path(temporary).unlink(missing_ok=True)
-            raise
-        return path
+        return atomic_savez(path, arrays)
 
     @classmethod
     def load(cls, path, n_joints: int | None = None):

@@ -11,48 +11,21 @@ renamed over the target, so an interrupted save leaves the previous file intact.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from .._files import atomic_savez
 from .._validation import GeogaitError
 from ._phaser import Phaser
 
-__all__ = ["atomic_savez", "load_phaser", "save_phaser"]
+__all__ = ["load_phaser", "save_phaser"]
 
 FORMAT = "geogait-phaser"
 FORMAT_VERSION = 1
 _REAL = ("mean_", "scale_", "offsets_", "weights_", "zero_", "n_cycles_", "samples_per_cycle_")
 _COMPLEX = ("channel_coefficients_", "final_coefficients_")
-
-
-def atomic_savez(path, arrays: dict[str, np.ndarray]) -> Path:
-    """Write ``arrays`` to the ``.npz`` file ``path`` through a temporary file and a rename.
-
-    Parameters
-    ----------
-    path : path-like
-    arrays : dict of str to ndarray
-
-    Returns
-    -------
-    Path
-    """
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, **arrays)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def save_phaser(phaser: Phaser, path) -> Path:
