@@ -62,7 +62,8 @@ def optimize(
         task = progress.add_task(f"{links}-link {method}", total=cycles, status="")
 
         def show(row):
-            status = (f"Γ {row['gamma']:.2f}  {row['true_objective']:.4f}/cycle  "
+            gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in cycle after a step
+            status = (f"Γ {gamma}  {row['true_objective']:.4f}/cycle  "
                       f"{100 * row['ceiling_fraction']:.0f}% of ceiling  steps {row['iteration']}")
             progress.update(task, advance=1, status=status)
 
