@@ -82,6 +82,7 @@ class OptimizationConfig:
                        "baseline_iterations": 2} | changes))
 
     def validate(self) -> OptimizationConfig:
+        """Check every field (errors name the field); returns ``self``."""
         if len(self.links) != len(self.budgets) or not self.links:
             raise fail("budgets", _OWNER, f"one budget per swimmer in links = {self.links}", self.budgets)
         for n_links in self.links:
@@ -132,9 +133,11 @@ class OptimizationResult(ExperimentResult):
                "improvement", "ceiling_fraction", "params")
 
     def summary(self) -> dict:
+        """Headline numbers per swimmer (:func:`optimization_summary`)."""
         return optimization_summary(self.frame)
 
     def plot(self, path):
+        """Draw the figure to ``path`` (:func:`plot_optimization`)."""
         plot_optimization(self.frame, path)
         return path
 

@@ -154,6 +154,7 @@ class SwimmerStream:
             self._pending_gait = gait
 
     def current_system(self) -> System:
+        """The system in force for the current cycle (after the environment schedule)."""
         return self.system if self.environment is None else self.environment(self.cycle)
 
     def next_sample(self) -> Trajectory:

@@ -112,11 +112,13 @@ class Trajectory:
         )
 
     def to_parquet(self, path) -> Path:
+        """Write :meth:`to_pandas` as Parquet; returns the path."""
         path = Path(path)
         self.to_pandas().to_parquet(path, index=False)
         return path
 
     def to_csv(self, path) -> Path:
+        """Write :meth:`to_pandas` as CSV; returns the path."""
         path = Path(path)
         self.to_pandas().to_csv(path, index=False)
         return path

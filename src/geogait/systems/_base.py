@@ -67,6 +67,7 @@ class FunctionSystem:
             raise fail("connection_function", "FunctionSystem", "callable", self.connection_function)
 
     def connection(self, shapes) -> np.ndarray:
+        """The user's connection at shapes ``(..., d)``, checked to be finite and ``(..., 3, d)``."""
         shapes = check_shapes(shapes, self.n_joints, f"{self.name}.connection")
         value = np.asarray(self.connection_function(shapes), dtype=float)
         expected = shapes.shape[:-1] + (3, self.n_joints)
