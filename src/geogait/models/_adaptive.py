@@ -293,7 +293,7 @@ class AdaptiveGaitModel(GaitModelBase):
         state = {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
                  "n_updates": self.bank_.n_updates, "psi": self.psi_, "gait": self.gait_.coefficients,
                  "n_samples_seen": self.n_samples_seen_,
-                 **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+                 **self._baseline_state()}
         if self.gait is not None:
             state["initial_gait"] = self.gait.coefficients
         return state
@@ -311,5 +311,4 @@ class AdaptiveGaitModel(GaitModelBase):
             raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
         self.psi_ = psi
         self.n_samples_seen_ = int(state["n_samples_seen"])
-        phase_state = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_._set_state(phase_state, {"batch_shape": list(batch)})
+        self._set_baseline_state(state)

@@ -244,6 +244,15 @@ class GaitModelBase:
         return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
                 "params": params, "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
 
+    def _baseline_state(self) -> dict:
+        """The phase model's arrays, prefixed for storage beside the gait model's own."""
+        return {f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}
+
+    def _set_baseline_state(self, state: dict) -> None:
+        """Inverse of :meth:`_baseline_state`."""
+        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_._set_state(own, {"batch_shape": list(self.batch_shape_)})
+
     def save(self, path) -> Path:
         """Write the model to ``path`` (``.npz``: arrays + JSON metadata; no pickle), atomically.
 

@@ -102,7 +102,7 @@ class BatchGaitModel(GaitModelBase):
     def _state(self) -> dict:
         return {"gram": self.gram_, "moment": self.moment_, "gait": self.gait_.coefficients,
                 "n_samples_seen": self.n_samples_seen_,
-                **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+                **self._baseline_state()}
 
     def _set_state(self, state, metadata):
         batch, d = tuple(metadata["batch_shape"]), int(metadata["n_joints"])
@@ -114,5 +114,4 @@ class BatchGaitModel(GaitModelBase):
             setattr(self, f"{name}_", saved)
         self.window_weights_ = np.linalg.pinv(self.gram_, rcond=self.rcond, hermitian=True) @ self.moment_
         self.n_samples_seen_ = int(state["n_samples_seen"])
-        phase_state = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_._set_state(phase_state, {"batch_shape": list(batch)})
+        self._set_baseline_state(state)
