@@ -9,7 +9,7 @@ from .._validation import check_choice, check_float, fail
 from ..gaits import FourierGait
 from ._base import GaitModelBase
 from ._features import n_regressors, regressors
-from ._phase import PhaseModel, _assign_bank
+from ._phase import _assign_bank
 from ._rls import RLSBank
 
 __all__ = ["AdaptiveGaitModel"]
@@ -114,16 +114,13 @@ class AdaptiveGaitModel(GaitModelBase):
         self.batch_shape_ = batch
         n = n_regressors(self.n_joints_, self.interaction)
         self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, lam, delta0)
-        self.phase_model_ = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
-                                       forgetting_factor=lam, smoothing_order=self.smoothing_order)
-        self.phase_model_._reset(self.batch_shape_)
+        self.phase_model_ = self._new_baseline(lam)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
         """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
-        for name in ("batch_shape_", "n_joints_"):
-            self.__dict__.pop(name, None)
+        self._forget()
         return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):

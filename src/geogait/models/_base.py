@@ -4,13 +4,11 @@ coefficients along φ, prediction, the Γ score, and ``.npz`` persistence."""
 from __future__ import annotations
 
 import inspect
-import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_savez
+from .._files import read_state, write_state
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ._features import PhaseWindows, regressors, split_coefficients
@@ -244,6 +242,20 @@ class GaitModelBase:
         return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
                 "params": params, "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
 
+    def _new_baseline(self, forgetting_factor: float):
+        """The phase model ξ_T learned alongside: same windows and smoothing, given forgetting."""
+        from ._phase import PhaseModel
+
+        baseline = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
+                              forgetting_factor=forgetting_factor, smoothing_order=self.smoothing_order)
+        baseline._reset(self.batch_shape_)
+        return baseline
+
+    def _forget(self) -> None:
+        """Drop the learned state so the next ``partial_fit`` starts from scratch (``fit``)."""
+        for name in ("batch_shape_", "n_joints_"):
+            self.__dict__.pop(name, None)
+
     def _baseline_state(self) -> dict:
         """The phase model's arrays, prefixed for storage beside the gait model's own."""
         return {f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}
@@ -261,9 +273,7 @@ class GaitModelBase:
         """
         self._check_is_fitted()
         path = Path(path)
-        arrays = {f"state/{k}": np.asarray(v) for k, v in self._state().items()}
-        arrays["metadata"] = np.frombuffer(json.dumps(self._metadata()).encode(), dtype=np.uint8)
-        return atomic_savez(path, arrays)
+        return write_state(path, self._metadata(), self._state())
 
     @classmethod
     def load(cls, path, n_joints: int | None = None):
@@ -272,24 +282,6 @@ class GaitModelBase:
         if not isinstance(model, cls):
             raise GeogaitError(f"{path} holds a {type(model).__name__}, not a {cls.__name__}.")
         return model
-
-
-def _read(path) -> tuple[dict, dict]:
-    path = Path(path)
-    if not path.is_file():
-        raise GeogaitError(f"Model file {path} does not exist.")
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            arrays = {name: archive[name] for name in archive.files}
-        metadata = json.loads(arrays.pop("metadata").tobytes().decode())
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError) as error:
-        raise GeogaitError(f"{path} is not a readable geogait model (corrupt or truncated file): {error}") from None
-    if metadata.get("format") != FORMAT:
-        raise GeogaitError(f"{path} is not a geogait model file (format {metadata.get('format')!r}).")
-    if metadata.get("format_version") != FORMAT_VERSION:
-        raise GeogaitError(f"{path} has model format version {metadata.get('format_version')}; this geogait "
-                           f"reads version {FORMAT_VERSION}.")
-    return metadata, {k.removeprefix("state/"): v for k, v in arrays.items()}
 
 
 def load_model(path, n_joints: int | None = None):
@@ -305,7 +297,7 @@ def load_model(path, n_joints: int | None = None):
     from ._batch import BatchGaitModel
     from ._phase import PhaseModel
 
-    metadata, state = _read(path)
+    metadata, state = read_state(path, "model", FORMAT, FORMAT_VERSION)
     classes = {c.__name__: c for c in (AdaptiveGaitModel, BatchGaitModel, PhaseModel)}
     if metadata.get("class") not in classes:
         raise GeogaitError(f"{path} holds an unknown model class {metadata.get('class')!r}.")

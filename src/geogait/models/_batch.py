@@ -8,7 +8,6 @@ from .._validation import check_float
 from ..gaits import FourierGait
 from ._base import GaitModelBase
 from ._features import n_regressors, regressors
-from ._phase import PhaseModel
 
 __all__ = ["BatchGaitModel"]
 
@@ -68,14 +67,12 @@ class BatchGaitModel(GaitModelBase):
         self.gram_ = np.zeros(batch + (self.windows_.n_windows, n, n))
         self.moment_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
         self.window_weights_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
-        self.phase_model_ = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
-                                       forgetting_factor=1.0, smoothing_order=self.smoothing_order)
+        self.phase_model_ = self._new_baseline(1.0)
         self.n_samples_seen_ = 0
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
         """Least squares on exactly these samples (forgets earlier data). Returns ``self``."""
-        for name in ("batch_shape_", "n_joints_"):
-            self.__dict__.pop(name, None)
+        self._forget()
         return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):

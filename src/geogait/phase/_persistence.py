@@ -10,13 +10,11 @@ renamed over the target, so an interrupted save leaves the previous file intact.
 
 from __future__ import annotations
 
-import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_savez
+from .._files import read_state, write_state
 from .._validation import GeogaitError
 from ._phaser import Phaser
 
@@ -54,14 +52,13 @@ def save_phaser(phaser: Phaser, path) -> Path:
     if not isinstance(phaser, Phaser):
         raise GeogaitError(f"save_phaser needs a Phaser, got a {type(phaser).__name__}.")
     phaser._check_is_fitted()
-    arrays = {f"state/{name}": np.asarray(getattr(phaser, name), dtype=float) for name in _REAL}
+    state = {name: np.asarray(getattr(phaser, name), dtype=float) for name in _REAL}
     for name in _COMPLEX:
         value = np.asarray(getattr(phaser, name))
-        arrays[f"state/{name}.real"], arrays[f"state/{name}.imag"] = value.real.copy(), value.imag.copy()
+        state[f"{name}.real"], state[f"{name}.imag"] = value.real.copy(), value.imag.copy()
     metadata = {"format": FORMAT, "format_version": FORMAT_VERSION, "class": "Phaser",
                 "params": _params(phaser), "n_channels": int(phaser.n_channels_)}
-    arrays["metadata"] = np.frombuffer(json.dumps(metadata).encode(), dtype=np.uint8)
-    return atomic_savez(path, arrays)
+    return write_state(path, metadata, state)
 
 
 def _params(phaser: Phaser) -> dict:
@@ -83,7 +80,7 @@ def load_phaser(path) -> Phaser:
     Phaser
         Fitted, transforming exactly like the saved one.
     """
-    metadata, state = _read(Path(path))
+    metadata, state = read_state(path, "phaser", FORMAT, FORMAT_VERSION)
     phaser = Phaser(**metadata["params"])
     try:
         for name in _REAL:
@@ -96,24 +93,6 @@ def load_phaser(path) -> Phaser:
     except (KeyError, ValueError, TypeError) as error:
         raise GeogaitError(f"{path} is inconsistent (corrupt phaser file): {error}") from None
     return phaser
-
-
-def _read(path: Path) -> tuple[dict, dict]:
-    if not path.is_file():
-        raise GeogaitError(f"Phaser file {path} does not exist.")
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            arrays = {name: archive[name] for name in archive.files}
-        metadata = json.loads(arrays.pop("metadata").tobytes().decode())
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError) as error:
-        raise GeogaitError(f"{path} is not a readable geogait phaser (corrupt or truncated file): {error}") from None
-    if not isinstance(metadata, dict) or metadata.get("format") != FORMAT:
-        found = metadata.get("format") if isinstance(metadata, dict) else None
-        raise GeogaitError(f"{path} is not a geogait phaser file (format {found!r}).")
-    if metadata.get("format_version") != FORMAT_VERSION:
-        raise GeogaitError(f"{path} has phaser format version {metadata.get('format_version')}; this geogait "
-                           f"reads version {FORMAT_VERSION}.")
-    return metadata, {k.removeprefix("state/"): v for k, v in arrays.items()}
 
 
 def _check_shapes(phaser: Phaser) -> None:
