@@ -3,6 +3,7 @@ coefficients along φ, prediction, the Γ score, and ``.npz`` persistence."""
 
 from __future__ import annotations
 
+import functools
 import inspect
 from pathlib import Path
 
@@ -168,9 +169,7 @@ class GaitModelBase:
     # -- smoothing along φ --------------------------------------------------------------------
     def _smoother(self, phase) -> np.ndarray:
         """Linear map from window values to their Fourier fit at ``phase``: ``(..., n_windows)``."""
-        centres = self.windows_.centres
-        fit = np.linalg.pinv(fourier_basis(centres, self.smoothing_order))
-        return fourier_basis(phase, self.smoothing_order) @ fit
+        return fourier_basis(phase, self.smoothing_order) @ _fourier_fit(self.windows_.n_windows, self.smoothing_order)
 
     def _weights_at(self, phase) -> np.ndarray:
         """Fourier-smoothed weights ``batch + (n, 1+2d+d², 3)`` at phases ``batch + (n,)``."""
@@ -282,6 +281,15 @@ class GaitModelBase:
         if not isinstance(model, cls):
             raise GeogaitError(f"{path} holds a {type(model).__name__}, not a {cls.__name__}.")
         return model
+
+
+@functools.lru_cache(maxsize=32)
+def _fourier_fit(n_windows: int, order: int) -> np.ndarray:
+    """Least-squares map from values at the equally spaced window centres to Fourier coefficients."""
+    centres = 2 * np.pi * np.arange(n_windows) / n_windows
+    fit = np.linalg.pinv(fourier_basis(centres, order))
+    fit.setflags(write=False)
+    return fit
 
 
 def load_model(path, n_joints: int | None = None):
