@@ -79,8 +79,9 @@ def _trial_generators(seed, n_trials):
 class SwimmerStream:
     """Sample-by-sample (or cycle-by-cycle) simulation; the gait may change between cycles.
 
-    This is the streaming interface the in-situ optimiser drives; a real robot driver offers the
-    same three members: :attr:`gait`, :meth:`set_gait` and :meth:`next_cycle`.
+    It implements :class:`geogait.robots.Robot` (with the extras ``current_system`` for the oracle
+    and ``robot_state`` / ``restore_robot_state`` for bit-identical checkpoints); each sample's
+    ``commanded_shape`` is θ(φ) + δ, its ``shape`` the same plus any shape sensor noise.
 
     Parameters
     ----------
@@ -137,6 +138,11 @@ class SwimmerStream:
         self.cycle = 0
         self.position = 0  # sample index within the current cycle
         self._rms_key = None
+
+    @property
+    def n_joints(self) -> int:
+        """Shape dimension d."""
+        return self._gait.n_joints
 
     @property
     def gait(self) -> FourierGait:
@@ -203,7 +209,7 @@ class SwimmerStream:
                       phase=np.broadcast_to(phase, batch + (m,)).copy(),
                       cycle=np.broadcast_to(cycle, batch + (m,)).copy(),
                       shape=measured[0], shape_velocity=measured[1], body_velocity=measured[2],
-                      pose=pose[..., :-1, :])
+                      pose=pose[..., :-1, :], commanded_shape=shape)
         if not self._batched:
             arrays = {k: v[0] for k, v in arrays.items()}
         return Trajectory(**arrays)

@@ -35,6 +35,9 @@ class Trajectory:
         Measured body velocity ξ = (v_x, v_y, ω).
     pose : ndarray of shape (..., n, 3)
         World pose g = (x, y, heading) at each sample (from the noise-free body velocity).
+    commanded_shape : ndarray of shape (..., n, d), optional
+        Shape the locomotor was commanded to take (nominal gait plus exploration perturbation);
+        the realised ``shape`` may differ when actuators lag or saturate.
     """
 
     time: np.ndarray
@@ -44,6 +47,10 @@ class Trajectory:
     shape_velocity: np.ndarray
     body_velocity: np.ndarray
     pose: np.ndarray
+    commanded_shape: np.ndarray | None = None
+
+    def _arrays(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
 
     @property
     def n_joints(self) -> int:
@@ -55,7 +62,7 @@ class Trajectory:
 
     def trial(self, index: int) -> Trajectory:
         """One trial of a batched trajectory."""
-        return Trajectory(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
+        return Trajectory(**{name: value[index] for name, value in self._arrays().items()})
 
     def cycles(self, start: int, stop: int) -> Trajectory:
         """Samples of cycles ``start <= cycle < stop`` (unbatched trajectories only)."""
@@ -63,15 +70,14 @@ class Trajectory:
             raise fail("trajectory", "Trajectory.cycles", "unbatched (select a trial first)",
                        f"time of shape {self.time.shape}")
         keep = (self.cycle >= start) & (self.cycle < stop)
-        return Trajectory(**{f.name: getattr(self, f.name)[keep] for f in fields(self)})
+        return Trajectory(**{name: value[keep] for name, value in self._arrays().items()})
 
     @classmethod
     def concatenate(cls, parts: list[Trajectory]) -> Trajectory:
         """Join trajectories along time."""
-        return cls(**{
-            f.name: np.concatenate([getattr(p, f.name) for p in parts], axis=parts[0].time.ndim - 1)
-            for f in fields(cls)
-        })
+        names = [f.name for f in fields(cls) if all(getattr(p, f.name) is not None for p in parts)]
+        return cls(**{name: np.concatenate([getattr(p, name) for p in parts], axis=parts[0].time.ndim - 1)
+                      for name in names})
 
     def to_pandas(self) -> pd.DataFrame:
         """Long table: one row per sample (and a ``trial`` column when batched)."""
@@ -82,7 +88,9 @@ class Trajectory:
         columns["time"] = self.time.ravel()
         columns["phase"] = self.phase.ravel()
         columns["cycle"] = self.cycle.ravel()
-        for name in ("shape", "shape_velocity"):
+        for name in ("shape", "shape_velocity", "commanded_shape"):
+            if getattr(self, name) is None:
+                continue
             values = getattr(self, name).reshape(-1, self.n_joints)
             for j in range(self.n_joints):
                 columns[f"{name}_{j}"] = values[:, j]
@@ -109,6 +117,8 @@ class Trajectory:
             shape_velocity=frame[[f"shape_velocity_{j}" for j in range(d)]].to_numpy(float),
             body_velocity=frame[list(BODY_VELOCITY_COLUMNS)].to_numpy(float),
             pose=frame[list(POSE_COLUMNS)].to_numpy(float),
+            commanded_shape=frame[[f"commanded_shape_{j}" for j in range(d)]].to_numpy(float)
+            if "commanded_shape_0" in frame else None,
         )
 
     def to_parquet(self, path) -> Path:
