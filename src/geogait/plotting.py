@@ -96,10 +96,17 @@ def plot_joint_angles(ax, gaits: dict[str, FourierGait]):
 
 
 def plot_progress(ax, log, *, seed_value: float, ceiling_value: float | None = None):
-    """True displacement per cycle of the nominal gait over cycles, steps marked, Γ on a twin axis."""
-    ax.plot(log["cycle"], log["true_objective"], "k-", lw=1.5, label="nominal gait (true)")
+    """Displacement per cycle over cycles — measured on every cycle, the nominal gait's true value
+    where the robot has a truth — steps and rejections marked, Γ on a twin axis."""
+    ax.plot(log["cycle"], log["measured_objective"], ".", color="0.6", ms=4, label="measured (each cycle)")
+    column = "true_objective" if "true_objective" in log else "measured_objective"
+    if column == "true_objective":
+        ax.plot(log["cycle"], log[column], "k-", lw=1.5, label="nominal gait (true)")
     steps = log[log["step"]]
-    ax.plot(steps["cycle"], steps["true_objective"], "k.", ms=5, label="step taken")
+    ax.plot(steps["cycle"], steps[column], "k.", ms=6, label="step taken")
+    if "rejected" in log and log["rejected"].any():
+        rejected = log[log["rejected"]]
+        ax.plot(rejected["cycle"], rejected[column], "rx", ms=6, label="step rejected (tracking)")
     ax.axhline(seed_value, color="0.5", ls=":", label="seed gait")
     if ceiling_value is not None:
         ax.axhline(ceiling_value, color="C3", ls="--", label="ceiling (true connection)")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import time
@@ -11,6 +12,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import OptimizationConfig, OptimizationResult, run_optimization
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel
@@ -24,85 +26,204 @@ from ..plotting import (
     plt,
     save_figure,
 )
+from ..robots import ProcessRobot
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
 from ._common import console, output_folder, progress_bar, write_manifest
+from ._fit import _user_errors
 
 DEFAULT_CYCLES = {3: 40, 5: 60, 9: 60}
+RUN_FILE = "run.json"  # the settings of a run, read back by --resume
+CHECKPOINT_FILE = "checkpoint.npz"
 
 
 @app.command()
 def optimize(
-    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.")] = 3,
-    cycles: Annotated[int | None, typer.Option(help="Cycle budget (default 40 for 3 links, else 60).")] = None,
+    links: Annotated[int, typer.Option(help="Number of links N of the built-in Purcell swimmer.")] = 3,
+    cycles: Annotated[int | None, typer.Option(
+        help="Cycle budget [default: 40 for 3 links, else 60; 100 with --robot]. With --resume: the new total.",
+    )] = None,
     seed: Annotated[int, typer.Option(help="Random seed of perturbations and sensor noise.")] = 0,
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
     perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
+    period: Annotated[float, typer.Option(help="Seconds per cycle of the built-in swimmer.")] = 1.0,
     gamma_threshold: Annotated[float, typer.Option(help="Γ* that gates a step.")] = 0.5,
     forgetting_factor: Annotated[float | None, typer.Option(
         help="λ of the RLS filters [default: 1 - 0.1/d for d joints].")] = None,
     order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
-    objective: Annotated[str, typer.Option(help=f"Objective: {', '.join(OBJECTIVES)}.")] = "progress",
+    objective: Annotated[str, typer.Option(
+        help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the seed's initial heading).")] = "progress",
     max_joint_angle: Annotated[float, typer.Option(help="Joint limit r_max (rad).")] = 2 * np.pi / 3,
+    max_joint_velocity: Annotated[float | None, typer.Option(help="Joint speed limit (rad/s) [default: none].")] = None,
+    settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
+    max_tracking_error: Annotated[str, typer.Option(
+        help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
     method: Annotated[str, typer.Option(help="adaptive (this paper) or batch (Bittner 2018).")] = "adaptive",
+    robot: Annotated[str | None, typer.Option(
+        help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
+    robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
+    checkpoint_every: Annotated[int, typer.Option(help="Write OUT/checkpoint.npz every this many cycles.")] = 1,
+    resume: Annotated[Path | None, typer.Option(
+        help="Continue the run whose folder this is (its settings; other options ignored except --cycles).")] = None,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/optimize"),
 ) -> None:
-    """Optimise the seed gait in situ; write PNGs, the per-cycle CSV and a JSON summary."""
+    """Optimise a gait in situ (built-in swimmer or --robot); write PNGs, per-cycle CSV, JSON summary."""
     started = time.perf_counter()
-    system = PurcellSwimmer(links)
-    cycles = cycles if cycles is not None else DEFAULT_CYCLES.get(links, 60)
-    if method not in ("adaptive", "batch"):
-        raise typer.BadParameter(f"expected 'adaptive' or 'batch', got {method!r}", param_hint="--method")
-    model = BatchGaitModel() if method == "batch" else (
-        None if forgetting_factor is None else AdaptiveGaitModel(forgetting_factor=forgetting_factor))
-    optimizer = InSituOptimizer(model=model, gamma_threshold=gamma_threshold, order=order, objective=objective,
-                                max_joint_angle=max_joint_angle).validate()
-    with console.status("computing the ceiling with the true connection (cached after the first run)"):
-        ceiling = cached_ceiling(system, order=order, objective_kind=objective, max_joint_angle=max_joint_angle)
-    stream = SwimmerStream(system, seed_gait(system.n_joints), perturbation=Perturbation.from_std(perturbation),
-                           sensor_noise=noise, seed=seed)
+    with _user_errors():
+        if resume is not None:
+            folder, settings = Path(resume), _read_settings(Path(resume))
+            if cycles is not None:
+                settings["cycles"] = cycles
+        else:
+            settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
+                            period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
+                            order=order, objective=objective, max_joint_angle=max_joint_angle,
+                            max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
+                            max_tracking_error=max_tracking_error, method=method, robot=robot,
+                            robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
+            folder = out
+        optimizer = _optimizer(settings)  # every option checked before anything starts or is written
+        folder = output_folder(folder)
+        system, target = _target(settings)
+        ceiling = None
+        if system is not None:
+            with console.status("computing the ceiling with the true connection (cached after the first run)"):
+                ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
+                                         max_joint_angle=settings["max_joint_angle"])
+        with target() as robot_driver:
+            if resume is None:
+                _write_settings(folder, settings)
+            result = _run(optimizer, robot_driver, settings, folder, ceiling, resume is not None)
+        result.log.to_csv(folder / "cycles.csv", index=False)
+        _figures(folder, system, result, ceiling)
+        summary = _summary(result, ceiling)
+        write_manifest(folder / "summary.json", command="optimize", config={**settings,
+                       "optimizer": optimizer.describe(), "resumed": resume is not None}, results=summary,
+                       started=started)
+    console.print(json.dumps(summary, indent=1))
+    console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
+
+
+def _optimizer(settings) -> InSituOptimizer:
+    if settings["method"] not in ("adaptive", "batch"):
+        raise typer.BadParameter(f"expected 'adaptive' or 'batch', got {settings['method']!r}", param_hint="--method")
+    tracking = settings["max_tracking_error"]
+    if tracking not in ("auto", "off"):
+        try:
+            tracking = float(tracking)
+        except ValueError:
+            raise typer.BadParameter(f"expected a number, 'auto' or 'off', got {tracking!r}",
+                                     param_hint="--max-tracking-error") from None
+    if settings["cycles"] is not None:
+        check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
+    check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
+    forgetting = settings["forgetting_factor"]
+    model = BatchGaitModel() if settings["method"] == "batch" else (
+        None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting))
+    return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
+                           objective=settings["objective"], max_joint_angle=settings["max_joint_angle"],
+                           max_joint_velocity=settings["max_joint_velocity"],
+                           settle_cycles=settings["settle_cycles"],
+                           max_tracking_error=None if tracking == "off" else tracking).validate()
+
+
+def _ceiling_kind(settings) -> str:
+    return "progress" if settings["objective"] == "forward" else settings["objective"]
+
+
+def _target(settings):
+    """(system or None, context manager giving the robot): the built-in swimmer or a driver process."""
+    if settings["robot"] is not None:
+        return None, lambda: ProcessRobot(settings["robot"], timeout=settings["robot_timeout"])
+    system = PurcellSwimmer(settings["links"])
+    check_float(settings["period"], "period", "geogait optimize", low=0, low_open=True)
+    perturbation = Perturbation.from_std(settings["perturbation"], frequency=2.0 / settings["period"])
+    stream = SwimmerStream(system, seed_gait(system.n_joints), perturbation=perturbation,
+                           sensor_noise=settings["noise"], seed=settings["seed"], cycle_period=settings["period"])
+    return system, lambda: contextlib.nullcontext(stream)
+
+
+def _run(optimizer, robot, settings, folder, ceiling, resumed):
+    cycles = settings["cycles"]
+    if cycles is None:
+        cycles = 100 if settings["robot"] is not None else DEFAULT_CYCLES.get(settings["links"], 60)
+    name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
     with progress_bar() as progress:
-        task = progress.add_task(f"{links}-link {method}", total=cycles, status="")
+        task = progress.add_task(f"{name} {settings['method']}", total=cycles, status="")
 
         def show(row):
-            gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in cycle after a step
-            status = (f"Γ {gamma}  {row['true_objective']:.4f}/cycle  "
-                      f"{100 * row['ceiling_fraction']:.0f}% of ceiling  steps {row['iteration']}")
-            progress.update(task, advance=1, status=status)
+            gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in or settle cycle
+            value = row.get("true_objective", row["measured_objective"])
+            share = f"  {100 * row['ceiling_fraction']:.0f}% of ceiling" if "ceiling_fraction" in row else ""
+            status = f"Γ {gamma}  {value:.4f}/cycle{share}  steps {row['iteration']}"
+            progress.update(task, completed=row["cycle"] + 1, status=status)
 
-        result = optimizer.run(stream, cycles, ceiling=ceiling.value, callback=show, record=True)
-    folder = output_folder(out)
-    result.log.to_csv(folder / "cycles.csv", index=False)
-    _figures(folder, system, result, ceiling)
-    summary = _summary(result, ceiling)
-    config = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
-                  method=method, optimizer=optimizer.describe())
-    write_manifest(folder / "summary.json", command="optimize", config=config, results=summary, started=started)
-    console.print(json.dumps(summary, indent=1))
-    console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png)")
+        checkpoint = folder / CHECKPOINT_FILE
+        if resumed:
+            return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
+        return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
+                             record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"])
+
+
+def _write_settings(folder: Path, settings: dict) -> None:
+    temporary = folder / f".{RUN_FILE}.tmp"
+    temporary.write_text(json.dumps(settings, indent=1) + "\n")
+    temporary.replace(folder / RUN_FILE)
+
+
+def _read_settings(folder: Path) -> dict:
+    path = folder / RUN_FILE
+    if not path.is_file() or not (folder / CHECKPOINT_FILE).is_file():
+        raise GeogaitError(f"--resume {folder}: not the folder of an optimisation run "
+                           f"(needs {RUN_FILE} and {CHECKPOINT_FILE}).")
+    try:
+        return json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise GeogaitError(f"{path} is not valid JSON: {error}") from None
+
+
+def _finite(value):
+    return None if value is None or not np.isfinite(value) else float(value)
 
 
 def _summary(result, ceiling) -> dict:
     log = result.log
-    first_90 = log.index[log["ceiling_fraction"] >= 0.9]
-    return {
-        "seed_displacement_per_cycle": float(log["true_objective"].iloc[0]),
-        "final_displacement_per_cycle": float(log["true_objective"].iloc[-1]),
-        "ceiling_displacement_per_cycle": ceiling.value,
-        "final_improvement": float(log["improvement"].iloc[-1]),
-        "final_ceiling_fraction": float(log["ceiling_fraction"].iloc[-1]),
-        "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
+    measured = log[~log["settling"] & ~log["rejected"]]
+    seed = measured.loc[measured["iteration"] == 0, "measured_objective"].mean()
+    final = measured.loc[measured["iteration"] == measured["iteration"].iloc[-1], "measured_objective"].mean()
+    summary = {
+        "seed_measured_objective": _finite(seed),
+        "final_measured_objective": _finite(final),
+        "final_measured_improvement": _finite(final / seed - 1),
         "steps": result.n_steps,
-        "max_abs_rotation_of_commanded_gaits": float(np.abs(log["true_heading"]).max()),
+        "rejected_steps": result.n_rejected,
+        "max_tracking_error_rad": _finite(log["tracking_error"].max()),
         "final_gait_params": result.final_gait.params.tolist(),
     }
+    if "true_objective" in log:
+        first_90 = log.index[log["ceiling_fraction"] >= 0.9] if ceiling is not None else []
+        summary.update({
+            "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),
+            "final_displacement_per_cycle": _finite(log["true_objective"].iloc[-1]),
+            "final_improvement": _finite(log["improvement"].iloc[-1]),
+            "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
+        })
+    if ceiling is not None:
+        summary.update({
+            "ceiling_displacement_per_cycle": ceiling.value,
+            "final_ceiling_fraction": _finite(log["ceiling_fraction"].iloc[-1]),
+            "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
+        })
+    return summary
 
 
 def _figures(folder, system, result, ceiling) -> None:
-    gaits = {"seed": result.initial_gait, "final": result.final_gait, "ceiling": ceiling.gait}
+    gaits = {"seed": result.initial_gait, "final": result.final_gait}
+    if ceiling is not None:
+        gaits["ceiling"] = ceiling.gait
     fig, ax = plt.subplots(figsize=(6.4, 5.4))
-    if system.n_joints == 2:
+    if system is not None and system.n_joints == 2:
         pose = ceiling.displacement
         limit = max(g.joint_limit().max() for g in gaits.values()) * 1.15
         plot_height_function(ax, system, pose[:2] / np.hypot(*pose[:2]), limit)
@@ -111,11 +232,16 @@ def _figures(folder, system, result, ceiling) -> None:
         plot_joint_angles(ax, gaits)
     save_figure(fig, folder / "gait.png")
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    seed_value = result.log["true_objective"].iloc[0]
-    plot_progress(ax, result.log, seed_value=seed_value, ceiling_value=ceiling.value)
+    log = result.log
+    seed_value = log["true_objective"].iloc[0] if "true_objective" in log else \
+        log.loc[log["iteration"] == 0, "measured_objective"].mean()
+    plot_progress(ax, log, seed_value=seed_value, ceiling_value=None if ceiling is None else ceiling.value)
     save_figure(fig, folder / "progress.png")
     fig, ax = plt.subplots(figsize=(6, 5))
-    plot_path(ax, result.trajectory.pose)
+    # A resumed run recorded only its last part: draw the cycle-start poses of the whole log then.
+    whole = result.trajectory is not None and result.trajectory.n_samples >= len(log) * 4 \
+        and int(result.trajectory.cycle[0]) == 0
+    plot_path(ax, result.trajectory.pose if whole else log[["world_x", "world_y", "world_heading"]].to_numpy())
     save_figure(fig, folder / "path.png")
 
 

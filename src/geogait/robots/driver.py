@@ -1,0 +1,71 @@
+"""Reference driver of the JSON-lines robot bridge: the built-in Purcell swimmer as a process.
+
+``python -m geogait.robots.driver --links 3`` speaks the ``geogait-robot`` protocol
+(:mod:`geogait.robots._bridge`) on stdin / stdout, so ``geogait optimize --robot "python -m
+geogait.robots.driver"`` optimises a robot that lives in another process. Copy its loop for a
+driver in any language: read a line, act on its ``type``, write lines, flush.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ..gaits import FourierGait, Perturbation, seed_gait
+from ..simulate import SwimmerStream
+from ..systems import PurcellSwimmer
+from ._bridge import PROTOCOL, PROTOCOL_VERSION
+
+
+def _arguments(argv):
+    parser = argparse.ArgumentParser(prog="python -m geogait.robots.driver", description=__doc__.splitlines()[0])
+    parser.add_argument("--links", type=int, default=3, help="links of the Purcell swimmer (default 3)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--noise", type=float, default=0.1, help="sensor noise on ξ, fraction of RMS (default 0.1)")
+    parser.add_argument("--perturbation", type=float, default=0.15, help="std of δ in rad (default 0.15)")
+    parser.add_argument("--period", type=float, default=1.0, help="seconds per cycle (default 1)")
+    parser.add_argument("--samples-per-cycle", type=int, default=100, help="samples per cycle (default 100)")
+    parser.add_argument("--poses-only", action="store_true", help="send poses but no body velocities")
+    return parser.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    args = _arguments(argv)
+    swimmer = PurcellSwimmer(args.links)
+    # eq. 8 at the same number of oscillations per cycle whatever the period
+    perturbation = Perturbation.from_std(args.perturbation, frequency=2.0 / args.period)
+    stream = SwimmerStream(swimmer, seed_gait(swimmer.n_joints), perturbation=perturbation,
+                           sensor_noise=args.noise, seed=args.seed, cycle_period=args.period,
+                           samples_per_cycle=args.samples_per_cycle)
+    out = sys.stdout
+
+    def send(message):
+        out.write(json.dumps(message) + "\n")
+
+    send({"type": "hello", "protocol": PROTOCOL, "version": PROTOCOL_VERSION, "n_joints": swimmer.n_joints,
+          "cycle_period": args.period, "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}})
+    out.flush()
+    for line in sys.stdin:
+        message = json.loads(line)
+        kind = message.get("type")
+        if kind == "stop":
+            break
+        if kind == "set_gait":
+            stream.set_gait(FourierGait.from_params(message["params"], swimmer.n_joints))
+        elif kind == "run_cycle":
+            cycle = stream.next_cycle()
+            for k in range(cycle.n_samples):
+                sample = {"type": "sample", "time": float(cycle.time[k]), "phase": float(cycle.phase[k]),
+                          "shape": cycle.shape[k].tolist(), "shape_velocity": cycle.shape_velocity[k].tolist(),
+                          "pose": cycle.pose[k].tolist(), "commanded_shape": cycle.commanded_shape[k].tolist()}
+                if not args.poses_only:
+                    sample["body_velocity"] = cycle.body_velocity[k].tolist()
+                send(sample)
+            send({"type": "cycle_end"})
+            out.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,112 @@
+"""The JSON-lines robot bridge: the reference driver through a process, and drivers that misbehave."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from geogait.gaits import Perturbation, seed_gait
+from geogait.optimize import InSituOptimizer
+from geogait.robots import ProcessRobot, Robot
+from geogait.simulate import SwimmerStream
+from geogait.systems import PurcellSwimmer
+
+DRIVER = [sys.executable, "-m", "geogait.robots.driver"]
+GEOGAIT = [sys.executable, "-c", "from geogait.cli import main; main()"]
+
+
+def test_the_reference_driver_through_a_process_gives_the_in_process_result():
+    with ProcessRobot(DRIVER + ["--period", "2", "--seed", "3"]) as robot:
+        assert isinstance(robot, Robot) and robot.cycle_period == 2.0
+        bridged = InSituOptimizer().run(robot, 8)
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.15, frequency=1.0),
+                           sensor_noise=0.1, seed=3, cycle_period=2.0)
+    direct = InSituOptimizer().run(stream, 8)
+    assert direct.n_steps >= 2
+    np.testing.assert_array_equal(bridged.final_gait.params, direct.final_gait.params)  # JSON floats round-trip
+
+
+def test_poses_only_drivers_get_body_velocities_from_poses():
+    with ProcessRobot(DRIVER + ["--poses-only", "--perturbation", "0", "--noise", "0"]) as robot:
+        cycle = robot.next_cycle()
+    with ProcessRobot(DRIVER + ["--perturbation", "0", "--noise", "0"]) as robot:
+        reference = robot.next_cycle()
+    np.testing.assert_allclose(cycle.body_velocity[:-1], reference.body_velocity[:-1], atol=1e-9)
+
+
+def _driver(tmp_path, body):
+    script = tmp_path / "driver.py"
+    script.write_text("import json, sys, time\n" + body)
+    return [sys.executable, str(script)]
+
+
+HELLO = ('print(json.dumps({"type": "hello", "protocol": "geogait-robot", "version": 1, "n_joints": 2, '
+         '"cycle_period": 1.0, "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}}), flush=True)\n')
+
+
+@pytest.mark.parametrize(("body", "match"), [
+    ("sys.exit(3)\n", "closed its output \\(exit code 3\\)"),
+    ("print('hello there', flush=True)\n", "line 1 is not JSON"),
+    (HELLO.replace('"version": 1', '"version": 7'), "protocol version 7"),
+    (HELLO + "sys.stdin.readline(); sys.stdin.readline()\n"
+     "print(json.dumps({'type': 'sample', 'time': 0, 'phase': 0, 'shape': [0], 'shape_velocity': [0, 0], "
+     "'pose': [0, 0, 0]}), flush=True)\n", "field 'shape' must be a list of 2 finite numbers"),
+    (HELLO + "sys.stdin.readline(); sys.stdin.readline()\n"
+     "print(json.dumps({'type': 'error', 'message': 'battery low'}), flush=True)\n", "battery low"),
+    (HELLO + "sys.stderr.write('motor 2 fault\\n'); sys.stderr.flush(); time.sleep(0.3); sys.exit(1)\n",
+     "motor 2 fault"),
+    (HELLO + "time.sleep(30)\n", "within 1 s \\(hung\\)"),
+])
+def test_misbehaving_drivers_give_clear_errors(tmp_path, body, match):
+    with pytest.raises(ValueError, match=match):
+        with ProcessRobot(_driver(tmp_path, body), timeout=1.0) as robot:
+            InSituOptimizer().run(robot, 3)
+
+
+def test_a_driver_that_cannot_start_is_a_clear_error():
+    with pytest.raises(ValueError, match="could not start the robot driver"):
+        ProcessRobot("/nonexistent/driver --fast")
+
+
+def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
+    driver = " ".join(DRIVER + ["--period", "0.5"])
+    done = subprocess.run(GEOGAIT + ["optimize", "--robot", driver, "--cycles", "6", "--out", str(tmp_path / "r")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["results"]["steps"] >= 1 and "ceiling_displacement_per_cycle" not in summary["results"]
+    assert len(pd.read_csv(tmp_path / "r" / "cycles.csv")) == 6
+    broken = subprocess.run(GEOGAIT + ["optimize", "--robot", "false", "--cycles", "3", "--out", str(tmp_path / "b")],
+                            capture_output=True, text=True, timeout=60)
+    assert broken.returncode == 1 and broken.stderr.strip().splitlines()[-1].startswith("error: robot driver 'false'")
+
+
+def test_sigkill_then_resume_gives_the_uninterrupted_final_gait(tmp_path):
+    options = ["optimize", "--links", "3", "--cycles", "24", "--seed", "7"]
+    whole = subprocess.run(GEOGAIT + options + ["--out", str(tmp_path / "whole")], capture_output=True, text=True,
+                           timeout=180)
+    assert whole.returncode == 0, whole.stderr
+    killed = tmp_path / "killed"
+    process = subprocess.Popen(GEOGAIT + options + ["--out", str(killed)], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline:  # kill it mid-run, once a few checkpoints exist
+        if (killed / "checkpoint.npz").exists() and os.path.getmtime(killed / "checkpoint.npz") > 0:
+            time.sleep(0.6)
+            break
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    resumed = subprocess.run(GEOGAIT + ["optimize", "--resume", str(killed)], capture_output=True, text=True,
+                             timeout=180)
+    assert resumed.returncode == 0, resumed.stderr
+    first = json.loads((tmp_path / "whole" / "summary.json").read_text())["results"]
+    second = json.loads((killed / "summary.json").read_text())["results"]
+    assert second["final_gait_params"] == first["final_gait_params"]
+    pd.testing.assert_frame_equal(pd.read_csv(killed / "cycles.csv"), pd.read_csv(tmp_path / "whole" / "cycles.csv"))
