@@ -57,4 +57,4 @@ def test_optimize_command_writes_report(tmp_path):
 def test_bad_figure_options_are_reported(tmp_path):
     result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
                                       str(tmp_path)])
-    assert result.exit_code != 0 and "budgets" in str(result.exception)
+    assert result.exit_code == 1 and "error: " in result.stderr and "budgets" in result.stderr

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import read_state, write_state
-from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from .._validation import GeogaitError, check_array, check_float, check_int, check_magnitude, fail
 from ..gaits import FourierGait, fourier_basis
 from ._features import PhaseWindows, regressors, split_coefficients
 from ._rls import schedule_rounds
@@ -73,14 +73,19 @@ class GaitModelBase:
         single = phase.ndim == 0 or (hasattr(self, "batch_shape_") and phase.ndim == len(self.batch_shape_))
         if single:
             phase = phase[..., None]
+        if phase.shape[-1] == 0:
+            raise fail("phase", owner, "at least one sample (n >= 1)", f"shape {phase.shape}")
         out = [phase]
         for array, name in zip(arrays, names, strict=True):
             width = 3 if name == "body_velocity" else None
-            value = check_array(array, name, owner, trailing=(width,))
+            value = check_magnitude(check_array(array, name, owner, trailing=(width,)), name, owner)
             if single:
                 value = value[..., None, :]
             if value.shape[:-1] != phase.shape:
-                raise fail(name, owner, f"an array of shape {phase.shape + (value.shape[-1],)} matching 'phase'",
+                columns = "3" if width else "d"
+                hint = (" (transposed? samples go along the first axis)"
+                        if value.ndim >= 2 and value.shape[-1] == phase.shape[-1] else "")
+                raise fail(name, owner, f"an array of shape {phase.shape} + ({columns},) matching 'phase'{hint}",
                            f"shape {value.shape}")
             out.append(value)
         d = getattr(self, "n_joints_", None)

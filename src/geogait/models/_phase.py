@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_float
-from ._base import GaitModelBase
+from ._base import FORMAT, FORMAT_VERSION, GaitModelBase
 from ._rls import RLSBank
 
 __all__ = ["PhaseModel"]
@@ -93,9 +93,9 @@ class PhaseModel(GaitModelBase):
         return value[..., 0, :] if self._single else value
 
     def _metadata(self) -> dict:
-        metadata = super()._metadata()
-        metadata["n_joints"] = None
-        return metadata
+        params = self.get_params()
+        return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
+                "params": params, "n_joints": None, "batch_shape": list(self.batch_shape_)}
 
     def _state(self) -> dict:
         return {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
