@@ -225,7 +225,11 @@ class ExperimentResult:
         path = Path(path)
         if not path.is_file():
             raise GeogaitError(f"The CSV file {path} does not exist.")
-        frame = pd.read_csv(path, **_EXACT_FLOATS)
+        try:
+            frame = pd.read_csv(path, **_EXACT_FLOATS)
+        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as error:
+            reason = " ".join(str(error).split())[:200]
+            raise GeogaitError(f"{path} is not a readable {cls.__name__} CSV ({reason}).") from None
         missing = [column for column in cls.COLUMNS if column not in frame.columns]
         if missing or frame.empty:
             raise GeogaitError(f"{path} is not a {cls.__name__} CSV: expected columns {list(cls.COLUMNS)} and at "
