@@ -518,3 +518,16 @@ def test_files_module_is_the_only_atomic_writer():
     writers = [path.relative_to(source).as_posix() for path in source.rglob("*.py")
                if "os.replace(" in path.read_text() or "mkstemp(" in path.read_text()]
     assert writers == ["_files.py"]
+
+
+def test_a_failed_fit_leaves_the_fitted_model_unchanged(run):
+    model = AdaptiveGaitModel(gait=GAIT).fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    weights, seen = model.window_weights_.copy(), model.n_samples_seen_
+    with pytest.raises(GeogaitError, match="'shape_velocity' parameter"):
+        model.fit(run.phase, run.shape, run.shape_velocity[:, :1], run.body_velocity)
+    np.testing.assert_array_equal(model.window_weights_, weights)
+    assert model.n_samples_seen_ == seen
+    phase_model = PhaseModel().fit(run.phase, run.body_velocity)
+    with pytest.raises(GeogaitError, match="'body_velocity' parameter"):
+        phase_model.fit(run.phase, run.body_velocity[:, :2])
+    assert phase_model.n_samples_seen_ == run.n_samples

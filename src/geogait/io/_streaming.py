@@ -79,6 +79,7 @@ from .._validation import (
 )
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, load_model
+from ..models._base import MAX_PHASE
 from ..phase import OnlinePhaser, Phaser
 from ._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 
@@ -429,6 +430,9 @@ class StreamLearner:
         d = self.n_joints
         given_rate = np.full(d, np.nan) if sample.shape_velocity is None else sample.shape_velocity
         problem = self._implausible(np.concatenate([sample.shape, given_rate, sample.body_velocity]))
+        own_phase = self.online_phaser is None and sample.phase is not None
+        if problem is None and own_phase and abs(sample.phase) > MAX_PHASE:
+            problem = f"phase = {sample.phase:g} is beyond ±{MAX_PHASE:g} rad (wrap it to [0, 2π))"
         if problem is None:
             phase = self._phase(sample)
             rate = self._rate(sample)

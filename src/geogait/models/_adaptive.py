@@ -119,9 +119,10 @@ class AdaptiveGaitModel(GaitModelBase):
         self.n_samples_seen_ = 0
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
-        self._forget()
-        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        with self._unchanged_on_error():
+            self._forget()
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn from samples in time order (one sample or a batch; optional leading trial axes).

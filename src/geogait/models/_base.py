@@ -3,6 +3,7 @@ coefficients along φ, prediction, the Γ score, and ``.npz`` persistence."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import inspect
 from pathlib import Path
@@ -18,7 +19,9 @@ from ._rls import schedule_rounds
 __all__ = ["GaitModelBase", "gamma", "load_model"]
 
 FORMAT = "geogait-model"
-_GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
+_GROUP_BYTES = 8 << 20
+#: Largest |phase| (rad) accepted: beyond it, φ mod 2π loses the precision that the windows need.
+MAX_PHASE = 1e9  # covariance bytes of the trials updated together (about the size of a cache)
 FORMAT_VERSION = 1
 
 
@@ -69,7 +72,7 @@ class GaitModelBase:
 
     def _check_samples(self, phase, *arrays, names, owner):
         """Validate time-ordered samples; returns arrays with a time axis (batch + (n, ...))."""
-        phase = np.asarray(check_array(phase, "phase", owner))
+        phase = check_magnitude(np.asarray(check_array(phase, "phase", owner)), "phase", owner, MAX_PHASE)
         single = phase.ndim == 0 or (hasattr(self, "batch_shape_") and phase.ndim == len(self.batch_shape_))
         if single:
             phase = phase[..., None]
@@ -88,7 +91,14 @@ class GaitModelBase:
                 raise fail(name, owner, f"an array of shape {phase.shape} + ({columns},) matching 'phase'{hint}",
                            f"shape {value.shape}")
             out.append(value)
+        widths = {name: value.shape[-1] for value, name in zip(out[1:], names, strict=True) if name != "body_velocity"}
         d = getattr(self, "n_joints_", None)
+        if d is None and len(set(widths.values())) > 1:
+            first = next(iter(widths))
+            for name, width in widths.items():
+                if width != widths[first]:
+                    raise fail(name, owner, f"an array of shape (..., {widths[first]}) like '{first}'",
+                               f"shape {out[1 + names.index(name)].shape}")
         for value, name in zip(out[1:], names, strict=True):
             if name != "body_velocity" and d is not None and value.shape[-1] != d:
                 raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
@@ -254,6 +264,17 @@ class GaitModelBase:
                               forgetting_factor=forgetting_factor, smoothing_order=self.smoothing_order)
         baseline._reset(self.batch_shape_)
         return baseline
+
+    @contextlib.contextmanager
+    def _unchanged_on_error(self):
+        """Restore every attribute when the block raises: a failed ``fit`` leaves the model as it was."""
+        saved = dict(self.__dict__)
+        try:
+            yield
+        except BaseException:
+            self.__dict__.clear()
+            self.__dict__.update(saved)
+            raise
 
     def _forget(self) -> None:
         """Drop the learned state so the next ``partial_fit`` starts from scratch (``fit``)."""

@@ -53,10 +53,11 @@ class PhaseModel(GaitModelBase):
         self.n_samples_seen_ = 0
 
     def fit(self, phase, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
-        for name in ("batch_shape_", "bank_"):
-            self.__dict__.pop(name, None)
-        return self.partial_fit(phase, body_velocity)
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        with self._unchanged_on_error():
+            for name in ("batch_shape_", "bank_"):
+                self.__dict__.pop(name, None)
+            return self.partial_fit(phase, body_velocity)
 
     def partial_fit(self, phase, body_velocity):
         """Update with time-ordered samples ``phase`` batch + (n,), ``body_velocity`` batch + (n, 3)."""
