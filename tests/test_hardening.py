@@ -531,3 +531,11 @@ def test_a_failed_fit_leaves_the_fitted_model_unchanged(run):
     with pytest.raises(GeogaitError, match="'body_velocity' parameter"):
         phase_model.fit(run.phase, run.body_velocity[:, :2])
     assert phase_model.n_samples_seen_ == run.n_samples
+
+
+@pytest.mark.parametrize("command", ["accuracy", "environments", "optimization"])
+@pytest.mark.parametrize("option", [["--links", "300"], ["--seed", "-1"], ["--trials", "0"], ["--jobs", "0"]])
+def test_figure_options_are_checked_before_running(tmp_path, command, option):
+    result = CliRunner().invoke(app, ["figure", command, "--quick", *option, "--out", str(tmp_path)])
+    assert option[0].lstrip("-") in one_error_line(result).lower()
+    assert not any(tmp_path.iterdir())

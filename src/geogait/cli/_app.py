@@ -48,6 +48,9 @@ def error_message(error: BaseException) -> str:
     if isinstance(error, GeogaitError):
         return _one_line(str(error))
     kind = type(error).__name__
+    if kind == "SweepFailedError":  # trials of an experiment failed: their summary, without the tracebacks
+        summary = str(error).split(" Traceback of trial")[0].split("\nTraceback")[0]
+        return _one_line(f"{summary} (the failed trials' tracebacks are in the exception's failures)")
     if isinstance(error, _input_errors()):
         return _one_line(f"unreadable input ({kind}): {error}")
     return _one_line(f"unexpected {kind}: {error} (a bug in geogait; run with GEOGAIT_TRACEBACK=1 for the "

@@ -25,7 +25,7 @@ _QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
 
 Trials = Annotated[int | None, typer.Option(help="Number of trials (default: see the experiment's docs).", min=1)]
 Links = Annotated[int | None, typer.Option(help=f"Links of the Purcell swimmer [default: {_A.n_links}].")]
-Seed = Annotated[int | None, typer.Option(help=f"Root random seed [default: {_A.seed}].")]
+Seed = Annotated[int | None, typer.Option(help=f"Root random seed [default: {_A.seed}].", min=0)]
 Jobs = Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")]
 Scheduler = Annotated[str | None, typer.Option(help="Address of a Dask scheduler to run the trials on "
                                                     "(needs geogait[dask]; then --jobs must be 1).")]

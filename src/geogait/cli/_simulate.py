@@ -33,7 +33,7 @@ def simulate(
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.")] = 0.0,
     shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.")] = 0.0,
     body_frame: Annotated[str, typer.Option(help=f"Body frame: {', '.join(BODY_FRAMES)}.")] = "middle",
-    seed: Annotated[int, typer.Option(help="Root random seed.")] = 0,
+    seed: Annotated[int, typer.Option(help="Root random seed.", min=0)] = 0,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/simulate"),
 ) -> None:
     """Simulate the seed gait with perturbations; write Parquet + CSV + a PNG."""

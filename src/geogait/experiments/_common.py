@@ -14,10 +14,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .._validation import GeogaitError, check_float, check_int
+from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
 from ..systems import PurcellSwimmer
+from ..systems._purcell import MAX_LINKS
 from .runner import run_trials
 
 __all__ = ["PERCENTILES", "ExperimentResult", "box_stats", "child_seeds", "cycle_block", "percentile_frame",
@@ -45,9 +46,16 @@ def swimmer_and_gait(n_links: int, owner: str) -> tuple[PurcellSwimmer, FourierG
     gait : FourierGait
         ``seed_gait(n_links - 1)``: first order, amplitude 1 rad, equal phase lags.
     """
-    n_links = check_int(n_links, "n_links", owner, minimum=2)
-    system = PurcellSwimmer(n_links)
+    system = PurcellSwimmer(check_links(n_links, "n_links", owner))
     return system, seed_gait(system.n_joints)
+
+
+def check_links(n_links, name: str, owner: str) -> int:
+    """A number of links a :class:`~geogait.systems.PurcellSwimmer` accepts (2 to ``MAX_LINKS``)."""
+    n = check_int(n_links, name, owner, minimum=2)
+    if n > MAX_LINKS:
+        raise fail(name, owner, f"an int in [2, {MAX_LINKS}]", n_links)
+    return n
 
 
 def child_seeds(seeds, key: int) -> list[np.random.SeedSequence]:
