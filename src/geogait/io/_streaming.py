@@ -44,8 +44,8 @@ Stopping: SIGINT (Ctrl-C) and SIGTERM stop the loop at once while it waits for i
 sample is being learned or the model saved, they take effect after that (the model is never
 saved half-updated), and a signal during the final save is ignored: the save completes. A
 signal that arrives while an output line is being written may cut that line. SIGKILL cannot be
-caught: the last checkpoint (``save_every``) survives intact, a temporary ``.<name>.*.tmp`` file
-may be left beside it.
+caught: the last checkpoint (``save_every``) survives intact, a temporary ``.<name>.<pid>.*.tmp``
+file may be left beside it (the next save of that model removes it).
 """
 
 from __future__ import annotations
