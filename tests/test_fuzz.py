@@ -325,3 +325,24 @@ class _Sink:
 
     def flush(self):
         pass
+
+
+MAPPING_VALUES = st.one_of(st.none(), st.integers(), st.text(max_size=4), st.lists(st.text(max_size=3), max_size=4),
+                           st.lists(st.integers(), max_size=3), st.booleans(), st.dictionaries(st.text(max_size=2),
+                                                                                                st.integers(),
+                                                                                                max_size=2))
+
+
+@FUZZ
+@given(entries=st.dictionaries(st.sampled_from(["time", "shape", "pose", "body_velocity", "shape_velocity", "phase",
+                                                "degrees", "other"]), MAPPING_VALUES, max_size=5))
+def test_column_mappings_are_checked(tmp_path_factory, run, entries):
+    from geogait.io import load_column_mapping
+
+    path = tmp_path_factory.mktemp("map") / "mapping.json"
+    path.write_text(json.dumps(entries))
+    try:
+        mapping = load_column_mapping(path)
+        read_log(run.to_pandas(), mapping)
+    except GeogaitError as error:
+        assert names_a_field(error), error

@@ -169,7 +169,8 @@ class ColumnMapping:
 def _names(value, name: str, owner: str) -> tuple[str, ...] | None:
     if value is None:
         return None
-    if isinstance(value, str) or not all(isinstance(v, str) for v in value):
+    if isinstance(value, str | bytes | dict) or not hasattr(value, "__iter__") or not all(isinstance(v, str)
+                                                                                        for v in value):
         raise fail(name, owner, "a list of column names (str)", value)
     return tuple(value)
 
