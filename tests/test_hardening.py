@@ -539,3 +539,17 @@ def test_figure_options_are_checked_before_running(tmp_path, command, option):
     result = CliRunner().invoke(app, ["figure", command, "--quick", *option, "--out", str(tmp_path)])
     assert option[0].lstrip("-") in one_error_line(result).lower()
     assert not any(tmp_path.iterdir())
+
+
+def test_more_entry_points_name_the_field(tmp_path):
+    from geogait.phase import Phaser
+    from geogait.simulate import cycle_displacement
+
+    with pytest.raises(GeogaitError, match=r"'x' parameter of Phaser.fit must be plausible values, within ±1e\+12"):
+        Phaser().fit(np.full((1000, 2), 1e300))
+    with pytest.raises(GeogaitError, match=r"'gait' parameter of cycle_displacement must be a FourierGait with 2 "
+                                           r"joints \(the system's\). Got '3 joints'"):
+        cycle_displacement(PurcellSwimmer(3), seed_gait(3))
+    for option, value in (("--noise", "1e300"), ("--amplitude", "1e6"), ("--seed", "-1")):
+        one_error_line(CliRunner().invoke(app, ["simulate", option, value, "--out", str(tmp_path)]),
+                       f"Invalid value for '{option}'")

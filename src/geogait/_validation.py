@@ -89,7 +89,7 @@ def check_array(
     for axis, size in enumerate(trailing):
         actual = array.shape[array.ndim - len(trailing) + axis]
         if size is not None and actual != size:
-            transposed = len(trailing) == 1 and array.ndim >= 2 and array.shape[-2] == size
+            transposed = len(trailing) == 1 and array.ndim == 2 and array.shape[-2] == size
             hint = " (transposed? samples go along the first axis)" if transposed else ""
             raise fail(name, owner, f"an array of shape {spec}{hint}", f"shape {array.shape}")
     if not np.all(np.isfinite(array)):

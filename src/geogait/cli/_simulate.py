@@ -6,6 +6,7 @@ import time
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from .._validation import GeogaitError
@@ -28,10 +29,12 @@ def simulate(
         help="Drag ratio k, or comma-separated ratios for an environment schedule (e.g. 2,3,4).")] = "2",
     cycles_per_environment: Annotated[int, typer.Option(help="Cycles per drag ratio of a schedule.", min=1)] = 40,
     samples_per_cycle: Annotated[int, typer.Option(help="Samples per gait cycle.", min=4, max=100_000)] = 100,
-    amplitude: Annotated[float, typer.Option(help="Amplitude (rad) of the seed gait.")] = 1.0,
-    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
-    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.")] = 0.0,
-    shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.")] = 0.0,
+    amplitude: Annotated[float, typer.Option(help="Amplitude (rad) of the seed gait.", min=0, max=2 * np.pi)] = 1.0,
+    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.", min=0,
+                                                max=2 * np.pi)] = 0.15,
+    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.", min=0, max=100)] = 0.0,
+    shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.", min=0,
+                                               max=100)] = 0.0,
     body_frame: Annotated[str, typer.Option(help=f"Body frame: {', '.join(BODY_FRAMES)}.")] = "middle",
     seed: Annotated[int, typer.Option(help="Root random seed.", min=0)] = 0,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/simulate"),
