@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._files import write_text
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
@@ -216,9 +217,9 @@ class ExperimentResult:
         return self.frame.copy()
 
     def to_csv(self, path) -> Path:
-        """Write the frame as CSV (full float precision) and return the path."""
+        """Write the frame as CSV (full float precision, atomically) and return the path."""
         path = Path(path)
-        self.frame.to_csv(path, index=False)
+        write_text(path, self.frame.to_csv(index=False))
         return path
 
     @classmethod
