@@ -256,15 +256,16 @@ def write_json(path, value, *, indent: int | None = 2) -> Path:
 
 
 # -- saved state --------------------------------------------------------------------------------
-def write_state(path, metadata: dict, state: dict[str, np.ndarray]) -> Path:
+def write_state(path, metadata: dict, state: dict[str, np.ndarray], *, require_finite: bool = False) -> Path:
     """Atomically write ``metadata`` (JSON) and ``state`` arrays to ``path``.
 
-    Refuses (with :class:`~geogait.GeogaitError`, writing nothing) when a floating-point array
-    holds NaN or infinity: a non-finite model or phaser never replaces a good file.
+    With ``require_finite`` (models and phasers), refuses with :class:`~geogait.GeogaitError`,
+    writing nothing, when a floating-point array holds NaN or infinity: a non-finite model never
+    replaces a good file. Records that hold NaN on purpose (a log with "no value yet") pass False.
     """
     arrays = {f"state/{name}": np.asarray(value) for name, value in state.items()}
     bad = [name for name, value in arrays.items()
-           if np.issubdtype(value.dtype, np.inexact) and not np.all(np.isfinite(value))]
+           if require_finite and np.issubdtype(value.dtype, np.inexact) and not np.all(np.isfinite(value))]
     if bad:
         raise GeogaitError(f"Refusing to save {Path(path)}: the state went non-finite (NaN or inf in "
                            f"{', '.join(name.removeprefix('state/') for name in bad)}); the previous file, "

@@ -326,11 +326,12 @@ class GaitModelBase:
         """Write the model to ``path`` (``.npz``: arrays + JSON metadata; no pickle), atomically.
 
         The file is written to a temporary name in the same folder and renamed over ``path``, so
-        an interrupted save never leaves a truncated model behind.
+        an interrupted save never leaves a truncated model behind; a model holding NaN or infinity
+        is refused (:class:`~geogait.GeogaitError`) and an existing file is kept.
         """
         self._check_is_fitted()
         path = Path(path)
-        return write_state(path, self._metadata(), self._state())
+        return write_state(path, self._metadata(), self._state(), require_finite=True)
 
     @classmethod
     def load(cls, path, n_joints: int | None = None):
