@@ -69,8 +69,17 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+_CLEANED: set[Path] = set()
+
+
 def _remove_stale_temporaries(target: Path) -> None:
-    """Delete ``.<name>.<pid>.*.tmp`` files beside ``target`` whose writing process is gone."""
+    """Delete ``.<name>.<pid>.*.tmp`` files beside ``target`` whose writing process is gone.
+
+    Once per target and process: later temporaries of this process are its own and cleaned up.
+    """
+    if target in _CLEANED:
+        return
+    _CLEANED.add(target)
     pattern = re.compile(re.escape(f".{target.name}.") + r"(\d+)\.[^.]+\.tmp$")
     try:
         entries = list(os.scandir(target.parent))
@@ -246,8 +255,14 @@ def json_ready(value):
 
 
 def dumps_json(value, **options) -> str:
-    """``json.dumps(json_ready(value))``, strict (never NaN/Infinity tokens)."""
-    return json.dumps(json_ready(value), allow_nan=False, **options)
+    """``json.dumps(json_ready(value))``, strict (never NaN/Infinity tokens).
+
+    Plain finite values (the common case: every stream line) skip the sanitiser.
+    """
+    try:
+        return json.dumps(value, allow_nan=False, **options)
+    except (ValueError, TypeError):
+        return json.dumps(json_ready(value), allow_nan=False, **options)
 
 
 def write_json(path, value, *, indent: int | None = 2) -> Path:

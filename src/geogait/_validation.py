@@ -69,8 +69,11 @@ def check_array(
     trailing: Sequence[int | None] = (),
     min_ndim: int | None = None,
     ndim: int | None = None,
+    limit: float | None = None,
 ) -> np.ndarray:
     """A finite float array whose last axes match ``trailing`` (``None`` = any length).
+
+    With ``limit``, every value must also lie within ``±limit`` (see :func:`check_magnitude`).
 
     ``shape`` names in messages read like ``(..., 3)``.
     """
@@ -92,6 +95,12 @@ def check_array(
             transposed = len(trailing) == 1 and array.ndim == 2 and array.shape[-2] == size
             hint = " (transposed? samples go along the first axis)" if transposed else ""
             raise fail(name, owner, f"an array of shape {spec}{hint}", f"shape {array.shape}")
+    if limit is not None:  # one reduction checks finiteness and magnitude together (NaN fails `<=`)
+        if array.size and not float(np.max(np.abs(array))) <= limit:
+            if np.all(np.isfinite(array)):
+                check_magnitude(array, name, owner, limit)
+        else:
+            return array
     if not np.all(np.isfinite(array)):
         bad = int(np.size(array) - np.count_nonzero(np.isfinite(array)))
         raise fail(name, owner, "finite (no NaN or inf)", f"{bad} non-finite value(s)")

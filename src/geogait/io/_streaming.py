@@ -96,8 +96,8 @@ _KEYS = ("time", "phase", "shape", "shape_velocity", "body_velocity")
 PLAUSIBILITY_WINDOW = 1000
 #: Accepted samples before the relative bound applies (before: only ±1e12).
 PLAUSIBILITY_MIN_SAMPLES = 50
-#: Accepted samples between refreshes of the medians and spreads.
-PLAUSIBILITY_REFRESH = 50
+#: Accepted samples between refreshes of the medians and spreads (each costs ~1 ms).
+PLAUSIBILITY_REFRESH = 250
 
 
 # -- records ------------------------------------------------------------------------------------
@@ -406,8 +406,11 @@ class StreamLearner:
         self.last_saved: Path | None = None
         self.broken: str | None = None
         self._history: deque[np.ndarray] = deque(maxlen=PLAUSIBILITY_WINDOW)
-        self._centre: np.ndarray | None = None
+        width = 2 * self.n_joints + 3
+        self._values = np.empty(width)
+        self._centre = np.zeros(width)
         self._spread: np.ndarray | None = None
+        self._bound = np.full(width, MAX_MAGNITUDE)
         self._advance = self._duration = 0.0
         self._previous: tuple[float, float] | None = None
         self._rate_checked = False
@@ -428,8 +431,10 @@ class StreamLearner:
         sample = self._in_seconds(sample)
         self._clock(sample)
         d = self.n_joints
-        given_rate = np.full(d, np.nan) if sample.shape_velocity is None else sample.shape_velocity
-        problem = self._implausible(np.concatenate([sample.shape, given_rate, sample.body_velocity]))
+        values = self._values  # [shape, ṙ, ξ]; NaN where not given
+        values[:d], values[2 * d:] = sample.shape, sample.body_velocity
+        values[d:2 * d] = np.nan if sample.shape_velocity is None else sample.shape_velocity
+        problem = self._implausible(values)
         own_phase = self.online_phaser is None and sample.phase is not None
         if problem is None and own_phase and abs(sample.phase) > MAX_PHASE:
             problem = f"phase = {sample.phase:g} is beyond ±{MAX_PHASE:g} rad (wrap it to [0, 2π))"
@@ -437,7 +442,8 @@ class StreamLearner:
             phase = self._phase(sample)
             rate = self._rate(sample)
             if rate is not None and sample.shape_velocity is None:
-                problem = self._implausible(np.concatenate([np.full(d, np.nan), rate, np.full(3, np.nan)]))
+                values[d:2 * d] = rate
+                problem = self._implausible(values)
         index = self.n_samples
         self.n_samples += 1
         if problem is not None:
@@ -454,7 +460,7 @@ class StreamLearner:
             self.broken = (f"The model went non-finite at input line {sample.line} (online Γ {self._gamma}); it is "
                            "not saved (the last checkpoint, if any, is kept).")
             raise GeogaitError(self.broken)
-        self._remember(np.concatenate([sample.shape, rate, sample.body_velocity]))
+        self._remember(values)
         self.n_learned += 1
         self._unsaved += 1
         output = StreamOutput(index, sample.time, phase, prediction, self._gamma, True)
@@ -489,31 +495,35 @@ class StreamLearner:
                 + [f"body_velocity[{k}]" for k in range(3)])
 
     def _implausible(self, values: np.ndarray) -> str | None:
-        """Why ``values`` ([shape, ṙ, ξ], NaN = not given) are implausible, or None."""
-        known = ~np.isnan(values)
-        big = known & (np.abs(np.where(known, values, 0.0)) > MAX_MAGNITUDE)
+        """Why ``values`` ([shape, ṙ, ξ], NaN = not given) are implausible, or None.
+
+        One vectorised test per sample against ``_bound`` (±MAX_MAGNITUDE about 0 until the
+        statistics exist); comparisons with NaN are False, so channels not given pass.
+        """
+        if not (np.abs(values - self._centre) > self._bound).any():
+            return None
+        big = np.abs(values) > MAX_MAGNITUDE
         if big.any():
             c = int(np.flatnonzero(big)[0])
             return f"{self._channel_names()[c]} = {values[c]:g} is beyond ±{MAX_MAGNITUDE:g}"
-        if self.outlier_limit is None or self._spread is None:
-            return None
-        with np.errstate(invalid="ignore"):
-            far = known & (self._spread > 0) & (np.abs(values - self._centre) > self.outlier_limit * self._spread)
-        if not far.any():
-            return None
-        c = int(np.flatnonzero(far)[0])
+        c = int(np.flatnonzero(np.abs(values - self._centre) > self._bound)[0])
         return (f"{self._channel_names()[c]} = {values[c]:g} is implausible: more than outlier_limit = "
                 f"{self.outlier_limit:g} robust standard deviations ({self._spread[c]:.3g}) from the median "
                 f"{self._centre[c]:.4g} of the last {len(self._history)} accepted samples")
 
     def _remember(self, values: np.ndarray) -> None:
         """Add an accepted sample; refresh the medians and spreads every ``PLAUSIBILITY_REFRESH`` samples."""
-        self._history.append(values)
+        self._history.append(values.copy())
         n = len(self._history)
-        if n >= PLAUSIBILITY_MIN_SAMPLES and (self._spread is None or self.n_learned % PLAUSIBILITY_REFRESH == 0):
-            history = np.asarray(self._history)
-            self._centre = np.median(history, axis=0)
-            self._spread = 1.4826 * np.median(np.abs(history - self._centre), axis=0)
+        if self.outlier_limit is None or n < PLAUSIBILITY_MIN_SAMPLES or (
+                self._spread is not None and self.n_learned % PLAUSIBILITY_REFRESH):
+            return
+        history = np.asarray(self._history)
+        self._centre = np.median(history, axis=0)
+        self._spread = 1.4826 * np.median(np.abs(history - self._centre), axis=0)
+        # a channel without spread cannot be judged; nothing beyond ±MAX_MAGNITUDE passes either way
+        relative = np.where(self._spread > 0, self.outlier_limit * self._spread, np.inf)
+        self._bound = np.minimum(relative, MAX_MAGNITUDE - np.abs(self._centre))
 
     def _check_phase_rate(self, time: float | None, phase: float) -> None:
         """Warn once when the stream's phase rate disagrees 10-fold with the model's ``phase_rate``."""

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import read_state, write_state
-from .._validation import GeogaitError, check_array, check_float, check_int, check_magnitude, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
@@ -80,7 +80,7 @@ class GaitModelBase:
 
     def _check_samples(self, phase, *arrays, names, owner):
         """Validate time-ordered samples; returns arrays with a time axis (batch + (n, ...))."""
-        phase = check_magnitude(np.asarray(check_array(phase, "phase", owner)), "phase", owner, MAX_PHASE)
+        phase = np.asarray(check_array(phase, "phase", owner, limit=MAX_PHASE))
         single = phase.ndim == 0 or (hasattr(self, "batch_shape_") and phase.ndim == len(self.batch_shape_))
         if single:
             phase = phase[..., None]
@@ -89,7 +89,7 @@ class GaitModelBase:
         out = [phase]
         for array, name in zip(arrays, names, strict=True):
             width = 3 if name == "body_velocity" else None
-            value = check_magnitude(check_array(array, name, owner, trailing=(width,)), name, owner)
+            value = check_array(array, name, owner, trailing=(width,), limit=MAX_MAGNITUDE)
             if single:
                 value = value[..., None, :]
             if value.shape[:-1] != phase.shape:
