@@ -166,13 +166,33 @@ def _fsync_folder(folder: Path) -> None:
 
 
 def write_text(path, text: str) -> Path:
-    """Atomically write ``text`` (UTF-8) to ``path`` (see :func:`atomic_write`)."""
+    """Atomically write ``text`` (UTF-8) to ``path`` (see :func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : path-like
+    text : str
+
+    Returns
+    -------
+    Path
+    """
     data = text.encode("utf-8")
     return atomic_write(path, lambda stream: stream.write(data))
 
 
 def atomic_savez(path, arrays: dict[str, np.ndarray]) -> Path:
-    """Atomically write ``arrays`` to the ``.npz`` file ``path`` (see :func:`atomic_write`)."""
+    """Atomically write ``arrays`` to the ``.npz`` file ``path`` (see :func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : path-like
+    arrays : dict of str to ndarray
+
+    Returns
+    -------
+    Path
+    """
     return atomic_write(path, lambda stream: np.savez(stream, **arrays))
 
 
@@ -238,6 +258,14 @@ def json_ready(value):
     ``"<key>_null_reason"`` naming what it was (``"was nan"``, ``"[2] was -inf"`` for an element
     of a list).
 
+    Parameters
+    ----------
+    value : dict, list, tuple, ndarray, scalar or Path
+
+    Returns
+    -------
+    dict, list or scalar
+
     Examples
     --------
     >>> json_ready({"gamma": float("nan"), "prediction": [1.0, float("inf")]})
@@ -258,6 +286,17 @@ def dumps_json(value, **options) -> str:
     """``json.dumps(json_ready(value))``, strict (never NaN/Infinity tokens).
 
     Plain finite values (the common case: every stream line) skip the sanitiser.
+
+    Parameters
+    ----------
+    value
+        Anything :func:`json_ready` accepts.
+    **options
+        Keywords of :func:`json.dumps` (``indent``, ...).
+
+    Returns
+    -------
+    str
     """
     try:
         return json.dumps(value, allow_nan=False, **options)
@@ -266,7 +305,19 @@ def dumps_json(value, **options) -> str:
 
 
 def write_json(path, value, *, indent: int | None = 2) -> Path:
-    """Atomically write ``value`` (through :func:`json_ready`) as JSON with a final newline."""
+    """Atomically write ``value`` (through :func:`json_ready`) as strict JSON with a final newline.
+
+    Parameters
+    ----------
+    path : path-like
+    value
+        Anything :func:`json_ready` accepts.
+    indent : int or None
+
+    Returns
+    -------
+    Path
+    """
     return write_text(path, dumps_json(value, indent=indent) + "\n")
 
 

@@ -120,7 +120,21 @@ MAX_MAGNITUDE = 1e12
 
 
 def check_magnitude(array: np.ndarray, name: str, owner: str, limit: float = MAX_MAGNITUDE) -> np.ndarray:
-    """Raise the standard error when a finite ``array`` holds a value beyond ``±limit``."""
+    """Raise the standard error when a finite ``array`` holds a value beyond ``±limit``.
+
+    Parameters
+    ----------
+    array : ndarray
+        Finite.
+    name, owner : str
+        For the message.
+    limit : float
+
+    Returns
+    -------
+    ndarray
+        ``array``.
+    """
     if array.size and np.abs(array).max() > limit:
         index = np.unravel_index(int(np.argmax(np.abs(array))), array.shape)
         raise fail(name, owner, f"plausible values, within ±{limit:g}",
@@ -133,9 +147,19 @@ class GeogaitWarning(UserWarning):
 
 
 def warn_if_degrees(shape: np.ndarray, name: str, owner: str) -> bool:
-    """Warn (once per call) when joint angles span more than 2π: degrees given as radians?
+    """Warn when joint angles reach beyond a full turn (2π): degrees given as radians?
 
-    Returns True when it warned.
+    Parameters
+    ----------
+    shape : ndarray
+        Joint angles, finite.
+    name, owner : str
+        For the message.
+
+    Returns
+    -------
+    bool
+        Whether it warned.
     """
     import warnings
 

@@ -511,7 +511,18 @@ class LogPrediction:
 
 
 def default_summary_path(out) -> Path:
-    """Where the Γ summary of predictions written to ``out`` goes by default (never ``out`` itself)."""
+    """Where the Γ summary of predictions written to ``out`` goes by default (never ``out`` itself).
+
+    Parameters
+    ----------
+    out : path-like
+        The predictions file.
+
+    Returns
+    -------
+    Path
+        ``out`` with suffix ``.json``, or ``<stem>.summary.json`` when ``out`` ends in ``.json``.
+    """
     out = Path(out)
     return out.with_name(f"{out.stem}.summary.json") if out.suffix.lower() == ".json" else out.with_suffix(".json")
 
