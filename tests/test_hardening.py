@@ -553,3 +553,15 @@ def test_more_entry_points_name_the_field(tmp_path):
     for option, value in (("--noise", "1e300"), ("--amplitude", "1e6"), ("--seed", "-1")):
         one_error_line(CliRunner().invoke(app, ["simulate", option, value, "--out", str(tmp_path)]),
                        f"Invalid value for '{option}'")
+
+
+def test_undecodable_stream_input_stops_with_a_clear_error(run, tmp_path):
+    class Broken:
+        def __iter__(self):
+            yield from lines(run, 0, 5).splitlines(True)
+            raise UnicodeDecodeError("utf-8", b"\xff", 0, 1, "invalid start byte")
+
+    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT), path=tmp_path / "m.npz")
+    summary = run_stream(learner, Broken(), _Sink())
+    assert summary.reason == "error" and "unreadable input after 5 sample(s)" in summary.error
+    assert summary.saved == tmp_path / "m.npz" and load_model(summary.saved).n_samples_seen_ == 5

@@ -834,6 +834,8 @@ def run_stream(learner: StreamLearner, source, sink: TextIO, *, fmt: str = "json
             reason = str(stopped)
         except GeogaitError as bad:
             reason, error = "error", str(bad)
+        except (UnicodeDecodeError, csv.Error) as bad:  # undecodable bytes, a broken CSV quote
+            reason, error = "error", f"unreadable input after {learner.n_samples} sample(s): {bad}"
         except BrokenPipeError:
             reason = "output closed"
         finally:
