@@ -297,10 +297,17 @@ def test_cli_stream(files, tmp_path_factory, lines, option):
 
 @settings(FUZZ, max_examples=30)
 @given(command=st.sampled_from(["accuracy", "environments", "optimization"]),
-       content=st.sampled_from([b"", b"\x00\xff", b"trial,value\n0,1\n", b"a,b\n1,2,3\n"]),
+       content=st.sampled_from([b"", b"\x00\xff", b"trial,value\n0,1\n", b"a,b\n1,2,3\n", "columns"]),
+       fill=st.sampled_from(["x", "nan", "1e300", "-1", "3", ""]),
        option=st.sampled_from([[], ["--trials", "0"], ["--links", "1"], ["--seed", "x"], ["--jobs", "x"]]))
-def test_cli_figures_from_bad_csv(tmp_path_factory, command, content, option):
+def test_cli_figures_from_bad_csv(tmp_path_factory, command, content, fill, option):
+    from geogait.experiments import AccuracyResult, EnvironmentResult, OptimizationResult
+
     folder = tmp_path_factory.mktemp("fig")
+    if content == "columns":  # the right header, values that do not form a result
+        columns = {"accuracy": AccuracyResult, "environments": EnvironmentResult,
+                   "optimization": OptimizationResult}[command].COLUMNS
+        content = (",".join(columns) + "\n" + (",".join([fill] * len(columns)) + "\n") * 3).encode()
     (folder / "in.csv").write_bytes(content)
     result = CliRunner().invoke(app, ["figure", command, "--from-csv", str(folder / "in.csv"), *option,
                                       "--out", str(folder)])

@@ -29,6 +29,8 @@ PERCENTILES = (5, 25, 50, 75, 95)
 """Percentiles reported by every modeling figure: box edges at 25/75, whiskers at 5/95."""
 
 # pandas >= 3 parses floats exactly by default and deprecates the option that older versions need.
+#: Columns of experiment CSVs that hold integers (checked when a CSV is read back).
+_INTEGER_COLUMNS = frozenset({"trial", "links", "cycle", "cycles", "environment"})
 _EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
 
 
@@ -229,7 +231,8 @@ class ExperimentResult:
         Raises
         ------
         GeogaitError
-            When the file lacks a column this experiment writes.
+            When the file cannot be parsed, lacks a column this experiment writes, or holds values
+            that do not form a result (text or NaN where numbers belong, ...).
         """
         path = Path(path)
         if not path.is_file():
@@ -243,7 +246,20 @@ class ExperimentResult:
         if missing or frame.empty:
             raise GeogaitError(f"{path} is not a {cls.__name__} CSV: expected columns {list(cls.COLUMNS)} and at "
                                f"least one row. Got columns {list(frame.columns)} and {len(frame)} rows instead.")
-        return cls(frame=frame[list(cls.COLUMNS)])
+        for column in [c for c in cls.COLUMNS if c in _INTEGER_COLUMNS]:
+            values = pd.to_numeric(frame[column], errors="coerce").to_numpy(float)
+            bad = np.flatnonzero(~np.isfinite(values) | (values != np.round(values)))
+            if bad.size:
+                raise GeogaitError(f"{path} is not a valid {cls.__name__} CSV: column {column!r} must hold integers. "
+                                   f"Got {str(frame[column].iloc[bad[0]])!r} in data row {bad[0]} instead.")
+        result = cls(frame=frame[list(cls.COLUMNS)])
+        try:  # the columns are right; do the values form a result?
+            result.summary()
+        except (KeyError, ValueError, TypeError, IndexError, ZeroDivisionError, AttributeError) as error:
+            reason = " ".join(f"{type(error).__name__}: {error}".split())[:200]
+            raise GeogaitError(f"{path} is not a valid {cls.__name__} CSV: its values do not form a result "
+                               f"({reason}).") from None
+        return result
 
     def config_dict(self) -> dict | None:
         """The configuration as a plain dict (None when read from a CSV)."""
