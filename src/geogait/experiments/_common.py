@@ -30,7 +30,7 @@ PERCENTILES = (5, 25, 50, 75, 95)
 
 # pandas >= 3 parses floats exactly by default and deprecates the option that older versions need.
 #: Columns of experiment CSVs that hold integers (checked when a CSV is read back).
-_INTEGER_COLUMNS = frozenset({"trial", "links", "cycle", "cycles", "environment"})
+_INTEGER_COLUMNS = frozenset({"trial", "links", "cycle"})
 _EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
 
 
