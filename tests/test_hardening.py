@@ -565,3 +565,16 @@ def test_undecodable_stream_input_stops_with_a_clear_error(run, tmp_path):
     summary = run_stream(learner, Broken(), _Sink())
     assert summary.reason == "error" and "unreadable input after 5 sample(s)" in summary.error
     assert summary.saved == tmp_path / "m.npz" and load_model(summary.saved).n_samples_seen_ == 5
+
+
+def test_stream_never_saves_over_its_phaser_or_config(run, config, tmp_path):
+    from geogait.phase import Phaser, save_phaser
+
+    phaser = save_phaser(Phaser().fit(run.shape), tmp_path / "phaser.npz")
+    before = phaser.read_bytes()
+    result = CliRunner().invoke(app, ["stream", str(config), "--phaser", str(phaser), "--out", str(phaser)],
+                                input=lines(run, 0, 10))
+    one_error_line(result, "'--out' parameter of stream must be a file other than the inputs")
+    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(config)], input=lines(run, 0, 10))
+    one_error_line(result, "'--out' parameter of stream")
+    assert phaser.read_bytes() == before and json.loads(config.read_text())["format"] == "geogait-model-config"

@@ -74,9 +74,9 @@ def stream(
         raise typer.BadParameter(f"expected one of {', '.join(TIME_UNITS)}, got {time_unit!r}",
                                  param_hint="--time-unit")
     target = _target(model_or_config, out)
-    if model_or_config.suffix.lower() == ".json" or phaser is not None:
-        check_outputs({"--out": target}, [phaser] + ([model_or_config] if target != model_or_config else []),
-                      "stream")
+    # the saved model may be the output (learning goes on in it); a config or the phaser may not
+    config = model_or_config if model_or_config.suffix.lower() == ".json" else None
+    check_outputs({"--out": target}, [phaser, config], "stream")
     model = load_stream_model(model_or_config)
     estimator = None if phaser is None else load_phaser(phaser)
     learner = StreamLearner(model, phaser=estimator, phase_window=phase_window, derivative_window=derivative_window,
