@@ -336,7 +336,8 @@ def write_state(path, metadata: dict, state: dict[str, np.ndarray], *, require_f
         raise GeogaitError(f"Refusing to save {Path(path)}: the state went non-finite (NaN or inf in "
                            f"{', '.join(name.removeprefix('state/') for name in bad)}); the previous file, "
                            "if any, is kept.")
-    arrays["metadata"] = np.frombuffer(dumps_json(metadata).encode(), dtype=np.uint8)
+    # json.dumps as written since format version 1: readers (optimiser checkpoints) rely on NaN round trips
+    arrays["metadata"] = np.frombuffer(json.dumps(metadata).encode(), dtype=np.uint8)
     return atomic_savez(path, arrays)
 
 
