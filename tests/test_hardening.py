@@ -578,3 +578,17 @@ def test_stream_never_saves_over_its_phaser_or_config(run, config, tmp_path):
     result = CliRunner().invoke(app, ["stream", str(config), "--out", str(config)], input=lines(run, 0, 10))
     one_error_line(result, "'--out' parameter of stream")
     assert phaser.read_bytes() == before and json.loads(config.read_text())["format"] == "geogait-model-config"
+
+
+def test_predict_warns_when_the_log_is_in_another_time_unit(fitted, frame):
+    in_ms = frame.assign(time=frame["time"] * 1000)  # time and rates in ms
+    for name in ("shape_velocity_0", "shape_velocity_1", *BODY):
+        in_ms[name] /= 1000
+    in_ms.to_csv(fitted / "ms.csv", index=False)
+    base = ["predict", str(fitted / "fit" / "model.npz"), str(fitted / "ms.csv"), *CLI_COLUMNS]
+    result = CliRunner().invoke(app, [*base, "--out", str(fitted / "ms_p.csv")])
+    assert result.exit_code == 0 and "warning: The log's phase advances at 0.006283 rad per time unit, 0.001 times" \
+        in result.stderr, result.stderr
+    result = CliRunner().invoke(app, [*base, "--time-unit", "ms", "--out", str(fitted / "ms_p.csv")])
+    assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
+    assert strict_json((fitted / "ms_p.json").read_text())["results"]["gamma"] > 0.5  # converted: a good fit

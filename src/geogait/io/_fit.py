@@ -585,11 +585,25 @@ def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = N
         raise fail("log", "predict_log", f"a log with {model.n_joints_} shape columns (the model's joints)",
                    f"{log.n_joints} shape columns")
     unwrapped, used = _unwrapped_phase(log, phaser, fit=False)
+    _warn_on_rate_mismatch(log, unwrapped, float(model.phase_rate))
     log = log.with_phase(unwrapped)
     prediction = model.predict(log.phase, log.shape, log.shape_velocity)
     baseline = model.phase_model_.predict(log.phase)
     return LogPrediction(log=log, cycle=_cycles(unwrapped), prediction=prediction, baseline=baseline,
                          measured=bool(measured), phase_source="phase column" if used is None else "Phaser")
+
+
+def _warn_on_rate_mismatch(log: Log, unwrapped: list[np.ndarray], expected: float) -> None:
+    """Warn when the log's phase rate is 10× off the model's: time stamps in another unit than the fit's?"""
+    advance = sum(float(u[-1] - u[0]) for u in unwrapped)
+    duration = sum(float(part.time[-1] - part.time[0]) for part in log.segments())
+    if duration <= 0 or advance <= 0:
+        return
+    ratio = advance / duration / expected
+    if not 0.1 <= ratio <= 10:
+        warnings.warn(f"The log's phase advances at {advance / duration:.4g} rad per time unit, {ratio:.3g} times the "
+                      f"model's phase_rate {expected:.4g}: are its time stamps in another unit than the fitted log's "
+                      "(time_unit, --time-unit s|ms|us|ns)?", GeogaitWarning, stacklevel=3)
 
 
 def _per_cycle(predicted, baseline, measured, cycle, segment) -> list[dict]:
