@@ -592,3 +592,21 @@ def test_predict_warns_when_the_log_is_in_another_time_unit(fitted, frame):
     result = CliRunner().invoke(app, [*base, "--time-unit", "ms", "--out", str(fitted / "ms_p.csv")])
     assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
     assert strict_json((fitted / "ms_p.json").read_text())["results"]["gamma"] > 0.5  # converted: a good fit
+
+
+def test_a_stream_after_kill_9_removes_the_dead_writers_temporary(run, config, tmp_path, monkeypatch):
+    import subprocess
+    import sys
+
+    import geogait._files
+
+    out = tmp_path / "m.npz"
+    CliRunner().invoke(app, ["stream", str(config), "--out", str(out)], input=lines(run, 0, 50))
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()  # a pid that is certainly gone, as after kill -9 during a save
+    leftover = tmp_path / f".m.npz.{dead.pid}.k9x3.tmp"
+    leftover.write_bytes(b"half a model")
+    monkeypatch.setattr(geogait._files, "_CLEANED", set())  # the next `geogait stream` is a new process
+    result = CliRunner().invoke(app, ["stream", str(out)], input=lines(run, 50, 100))
+    assert result.exit_code == 0 and not leftover.exists()
+    assert load_model(out).n_samples_seen_ == 100
