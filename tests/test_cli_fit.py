@@ -182,6 +182,6 @@ def test_bad_options(tmp_path):
     result = CliRunner().invoke(app, ["fit", "log.csv", "--gait-order", "high", "--out", str(tmp_path)])
     assert result.exit_code != 0 and "'auto' or an integer" in result.output
     result = CliRunner().invoke(app, ["fit", "log.csv", "--shape", "a,,b", "--out", str(tmp_path)])
-    assert result.exit_code != 0 and "comma-separated column names" in result.output
+    assert result.exit_code != 0 and "error: Invalid value for --shape: expected comma-separated names" in result.stderr
     result = CliRunner().invoke(app, ["fit", "log.csv", "--shape", "a,b", "--out", str(tmp_path)])
     assert result.exit_code == 1 and "'pose'" in result.stderr

@@ -144,7 +144,7 @@ def test_cli_rejects_a_csv_of_another_experiment(tmp_path):
     path = tmp_path / "other.csv"
     pd.DataFrame({"trial": [0], "value": [1.0]}).to_csv(path, index=False)
     result = CliRunner().invoke(app, ["figure", "accuracy", "--from-csv", str(path), "--out", str(tmp_path)])
-    assert result.exit_code != 0 and "expected columns" in str(result.exception)
+    assert result.exit_code == 1 and "error: " in result.stderr and "expected columns" in result.stderr
 
 
 def test_docstring_examples_run():

@@ -34,6 +34,13 @@ def test_quick_figure_writes_consistent_outputs(tmp_path):
     assert again.exit_code == 0, again.output
     redrawn = json.loads((tmp_path / "redraw" / "optimization.json").read_text())["results"]["3-link"]
     assert redrawn["improvement_percentiles"] == headline["improvement_percentiles"]
+    # Redrawn into the run's own folder: the run's manifest stays, the redraw's goes beside it.
+    before = (tmp_path / "optimization.json").read_bytes()
+    again = CliRunner().invoke(app, ["figure", "optimization", "--from-csv", str(tmp_path / "optimization.csv"),
+                                     "--out", str(tmp_path)])
+    assert again.exit_code == 0, again.output
+    assert (tmp_path / "optimization.json").read_bytes() == before
+    assert "from_csv" in json.loads((tmp_path / "optimization.redraw.json").read_text())["config"]
 
 
 def test_sweep_is_identical_for_one_and_two_workers():
@@ -57,4 +64,4 @@ def test_optimize_command_writes_report(tmp_path):
 def test_bad_figure_options_are_reported(tmp_path):
     result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
                                       str(tmp_path)])
-    assert result.exit_code != 0 and "budgets" in str(result.exception)
+    assert result.exit_code == 1 and "error: " in result.stderr and "budgets" in result.stderr

@@ -8,4 +8,6 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+from ._validation import GeogaitError, GeogaitWarning
+
+__all__ = ["GeogaitError", "GeogaitWarning", "__version__"]

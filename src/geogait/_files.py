@@ -1,44 +1,342 @@
-"""The one container every saved artefact uses: an ``.npz`` holding a JSON metadata record (with a
-format name and version) and ``state/…`` arrays, never pickled, always written atomically."""
+"""Every file geogait writes goes through here.
+
+* :func:`atomic_write` (and :func:`write_text`, :func:`write_json`, :func:`atomic_savez`): a
+  temporary file in the target's folder, fsynced, then renamed over the target. A crash or
+  ``kill -9`` at any moment leaves the previous file or the new one, never a truncated one. The
+  new file keeps the mode of the file it replaces (a new file gets ``0o666`` minus the umask,
+  like ``open``), and a symbolic link is written through: its target is replaced, the link stays.
+  Temporary files left by a killed process (``.<name>.<pid>.<random>.tmp``) are removed by the
+  next write of the same file.
+* :func:`json_ready`: the one JSON sanitiser. NumPy values become Python ones; a NaN or infinity
+  becomes ``null`` and the enclosing object gains ``"<key>_null_reason"`` saying which value it
+  was, so every JSON file geogait writes is valid JSON (no ``NaN`` / ``Infinity`` tokens).
+* :func:`write_state` / :func:`read_state`: the one container every saved artefact uses, an
+  ``.npz`` holding a JSON metadata record (with a format name and version) and ``state/…``
+  arrays, never pickled.
+* :func:`check_writable`: can a file be written at a path (checked before long work starts).
+"""
 
 from __future__ import annotations
 
+import io
 import json
+import math
 import os
+import re
 import tempfile
+import threading
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from ._validation import GeogaitError
 
-__all__ = ["atomic_savez", "read_state", "write_state"]
+__all__ = ["atomic_savez", "atomic_write", "check_writable", "dumps_json", "json_ready", "read_state", "write_json",
+           "write_state", "write_text"]
+
+_UMASK_LOCK = threading.Lock()
 
 
-def atomic_savez(path, arrays: dict[str, np.ndarray]) -> Path:
-    """Write ``arrays`` to the ``.npz`` file ``path`` through a temporary file and a rename.
+def _umask() -> int:
+    """The process umask, read without changing it where the system allows."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    with _UMASK_LOCK:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
 
-    The temporary file lives in the same folder and is fsynced before ``os.replace``, so a crash
-    or a kill at any moment leaves either the previous file or the new one, never a truncated one.
+
+def _resolve(path) -> Path:
+    """The file a write to ``path`` must replace: symbolic links followed (even dangling ones)."""
+    return Path(os.path.realpath(Path(path)))
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+_CLEANED: set[Path] = set()
+
+
+def _remove_stale_temporaries(target: Path) -> None:
+    """Delete ``.<name>.<pid>.*.tmp`` files beside ``target`` whose writing process is gone.
+
+    Once per target and process: later temporaries of this process are its own and cleaned up.
     """
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    if target in _CLEANED:
+        return
+    _CLEANED.add(target)
+    pattern = re.compile(re.escape(f".{target.name}.") + r"(\d+)\.[^.]+\.tmp$")
+    try:
+        entries = list(os.scandir(target.parent))
+    except OSError:
+        return
+    for entry in entries:
+        match = pattern.match(entry.name)
+        if match and int(match.group(1)) != os.getpid() and not _pid_alive(int(match.group(1))):
+            try:
+                os.unlink(entry.path)
+            except OSError:
+                pass
+
+
+def atomic_write(path, write: Callable[[io.BufferedWriter], object]) -> Path:
+    """Write a file atomically: ``write(stream)`` fills a temporary file that then replaces ``path``.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to (re)place. A symbolic link is written through (its target is replaced); the
+        parent folder must exist.
+    write : callable
+        Called with a binary stream open for writing.
+
+    Returns
+    -------
+    Path
+        ``path`` as given.
+
+    Notes
+    -----
+    The temporary file lives in the target's folder, is fsynced, takes the mode of the file it
+    replaces (or ``0o666`` minus the umask), and is renamed with :func:`os.replace`; the folder is
+    fsynced after the rename where the system allows. Any error removes the temporary file and
+    leaves the previous file untouched.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
+    >>> atomic_write(target, lambda stream: stream.write(b"hello")).read_text()
+    'hello'
+    """
+    given = Path(path)
+    target = _resolve(given)
+    if target.is_dir():
+        raise IsADirectoryError(21, "Is a directory", str(given))
+    try:
+        mode = target.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        mode = 0o666 & ~_umask()
+    _remove_stale_temporaries(target)
+    try:
+        handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.{os.getpid()}.",
+                                             suffix=".tmp")
+    except OSError as error:  # name the file the caller asked for, not the temporary one
+        raise type(error)(error.errno, error.strerror, str(given)) from None
     try:
         with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, **arrays)
+            os.fchmod(stream.fileno(), mode)
+            write(stream)
             stream.flush()
             os.fsync(stream.fileno())
-        os.replace(temporary, path)
+        os.replace(temporary, target)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
-    return path
+    _fsync_folder(target.parent)
+    return given
 
 
-def write_state(path, metadata: dict, state: dict[str, np.ndarray]) -> Path:
-    """Atomically write ``metadata`` (JSON) and ``state`` arrays to ``path``."""
+def _fsync_folder(folder: Path) -> None:
+    try:
+        handle = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(handle)
+    except OSError:
+        pass
+    finally:
+        os.close(handle)
+
+
+def write_text(path, text: str) -> Path:
+    """Atomically write ``text`` (UTF-8) to ``path`` (see :func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : path-like
+    text : str
+
+    Returns
+    -------
+    Path
+    """
+    data = text.encode("utf-8")
+    return atomic_write(path, lambda stream: stream.write(data))
+
+
+def atomic_savez(path, arrays: dict[str, np.ndarray]) -> Path:
+    """Atomically write ``arrays`` to the ``.npz`` file ``path`` (see :func:`atomic_write`).
+
+    Parameters
+    ----------
+    path : path-like
+    arrays : dict of str to ndarray
+
+    Returns
+    -------
+    Path
+    """
+    return atomic_write(path, lambda stream: np.savez(stream, **arrays))
+
+
+def check_writable(path, what: str = "output file") -> Path:
+    """Raise a clear :class:`~geogait.GeogaitError` unless a file can be written at ``path``.
+
+    Checks that the parent folder exists and accepts new files (by creating and removing a
+    temporary file there, as :func:`atomic_write` will) and that ``path`` is not a folder.
+
+    Parameters
+    ----------
+    path : path-like
+    what : str
+        What the file is, for the message ("model file", ...).
+
+    Returns
+    -------
+    Path
+    """
+    given = Path(path)
+    target = _resolve(given)
+    if target.is_dir():
+        raise GeogaitError(f"Cannot write the {what} {given}: it is a folder.")
+    if not target.parent.is_dir():
+        raise GeogaitError(f"Cannot write the {what} {given}: its folder {target.parent} does not exist.")
+    try:
+        handle, probe = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp")
+    except OSError as error:
+        raise GeogaitError(f"Cannot write the {what} {given}: {error.strerror} ({target.parent}).") from None
+    os.close(handle)
+    os.unlink(probe)
+    return given
+
+
+# -- JSON ---------------------------------------------------------------------------------------
+def _non_finite(value: float) -> str:
+    return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+
+
+def _clean(value, reasons: list[str], where: str):
+    """Plain JSON value; non-finite floats → None, each noted in ``reasons``."""
+    if isinstance(value, dict):
+        return json_ready(value)
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, list | tuple):
+        return [_clean(v, reasons, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        reasons.append(f"{where} was {_non_finite(value)}" if where else f"was {_non_finite(value)}")
+        return None
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def json_ready(value):
+    """A copy of ``value`` that :func:`json.dumps` writes as strict JSON.
+
+    Dicts, lists, tuples, NumPy arrays and scalars and paths become plain JSON values. A NaN or
+    infinite float becomes ``None`` and, inside a dict, the dict gains the key
+    ``"<key>_null_reason"`` naming what it was (``"was nan"``, ``"[2] was -inf"`` for an element
+    of a list).
+
+    Parameters
+    ----------
+    value : dict, list, tuple, ndarray, scalar or Path
+
+    Returns
+    -------
+    dict, list or scalar
+
+    Examples
+    --------
+    >>> json_ready({"gamma": float("nan"), "prediction": [1.0, float("inf")]})
+    {'gamma': None, 'gamma_null_reason': 'was nan', 'prediction': [1.0, None], 'prediction_null_reason': '[1] was inf'}
+    """
+    if not isinstance(value, dict):
+        return _clean(value, [], "")
+    out = {}
+    for key, item in value.items():
+        reasons: list[str] = []
+        out[str(key)] = _clean(item, reasons, "")
+        if reasons:
+            out[f"{key}_null_reason"] = "; ".join(reasons)
+    return out
+
+
+def dumps_json(value, **options) -> str:
+    """``json.dumps(json_ready(value))``, strict (never NaN/Infinity tokens).
+
+    Plain finite values (the common case: every stream line) skip the sanitiser.
+
+    Parameters
+    ----------
+    value
+        Anything :func:`json_ready` accepts.
+    **options
+        Keywords of :func:`json.dumps` (``indent``, ...).
+
+    Returns
+    -------
+    str
+    """
+    try:
+        return json.dumps(value, allow_nan=False, **options)
+    except (ValueError, TypeError):
+        return json.dumps(json_ready(value), allow_nan=False, **options)
+
+
+def write_json(path, value, *, indent: int | None = 2) -> Path:
+    """Atomically write ``value`` (through :func:`json_ready`) as strict JSON with a final newline.
+
+    Parameters
+    ----------
+    path : path-like
+    value
+        Anything :func:`json_ready` accepts.
+    indent : int or None
+
+    Returns
+    -------
+    Path
+    """
+    return write_text(path, dumps_json(value, indent=indent) + "\n")
+
+
+# -- saved state --------------------------------------------------------------------------------
+def write_state(path, metadata: dict, state: dict[str, np.ndarray], *, require_finite: bool = False) -> Path:
+    """Atomically write ``metadata`` (JSON) and ``state`` arrays to ``path``.
+
+    With ``require_finite`` (models and phasers), refuses with :class:`~geogait.GeogaitError`,
+    writing nothing, when a floating-point array holds NaN or infinity: a non-finite model never
+    replaces a good file. Records that hold NaN on purpose (a log with "no value yet") pass False.
+    """
     arrays = {f"state/{name}": np.asarray(value) for name, value in state.items()}
+    bad = [name for name, value in arrays.items()
+           if require_finite and np.issubdtype(value.dtype, np.inexact) and not np.all(np.isfinite(value))]
+    if bad:
+        raise GeogaitError(f"Refusing to save {Path(path)}: the state went non-finite (NaN or inf in "
+                           f"{', '.join(name.removeprefix('state/') for name in bad)}); the previous file, "
+                           "if any, is kept.")
+    # json.dumps as written since format version 1: readers (optimiser checkpoints) rely on NaN round trips
     arrays["metadata"] = np.frombuffer(json.dumps(metadata).encode(), dtype=np.uint8)
     return atomic_savez(path, arrays)
 
@@ -53,12 +351,16 @@ def read_state(path, kind: str, file_format: str, version: int | tuple[int, ...]
     path = Path(path)
     if not path.is_file():
         raise GeogaitError(f"{kind.capitalize()} file {path} does not exist.")
+    if not zipfile.is_zipfile(path):
+        raise GeogaitError(f"{path} is not a readable geogait {kind} (corrupt or truncated file, or another kind "
+                           "of file: not an .npz archive).")
     try:
         with np.load(path, allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
         metadata = json.loads(arrays.pop("metadata").tobytes().decode())
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError) as error:
-        raise GeogaitError(f"{path} is not a readable geogait {kind} (corrupt or truncated file): {error}") from None
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError):
+        raise GeogaitError(f"{path} is not a readable geogait {kind} (corrupt or truncated file, or an .npz "
+                           "written by another program).") from None
     found = metadata.get("format") if isinstance(metadata, dict) else None
     if found != file_format:
         raise GeogaitError(f"{path} is not a geogait {kind} file (format {found!r}).")

@@ -69,11 +69,16 @@ def check_array(
     trailing: Sequence[int | None] = (),
     min_ndim: int | None = None,
     ndim: int | None = None,
+    limit: float | None = None,
 ) -> np.ndarray:
     """A finite float array whose last axes match ``trailing`` (``None`` = any length).
 
+    With ``limit``, every value must also lie within ``±limit`` (see :func:`check_magnitude`).
+
     ``shape`` names in messages read like ``(..., 3)``.
     """
+    if value is None:
+        raise fail(name, owner, "an array of real numbers", None)
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -87,7 +92,15 @@ def check_array(
     for axis, size in enumerate(trailing):
         actual = array.shape[array.ndim - len(trailing) + axis]
         if size is not None and actual != size:
-            raise fail(name, owner, f"an array of shape {spec}", f"shape {array.shape}")
+            transposed = len(trailing) == 1 and array.ndim == 2 and array.shape[-2] == size
+            hint = " (transposed? samples go along the first axis)" if transposed else ""
+            raise fail(name, owner, f"an array of shape {spec}{hint}", f"shape {array.shape}")
+    if limit is not None:  # one reduction checks finiteness and magnitude together (NaN fails `<=`)
+        if array.size and not float(np.max(np.abs(array))) <= limit:
+            if np.all(np.isfinite(array)):
+                check_magnitude(array, name, owner, limit)
+        else:
+            return array
     if not np.all(np.isfinite(array)):
         bad = int(np.size(array) - np.count_nonzero(np.isfinite(array)))
         raise fail(name, owner, "finite (no NaN or inf)", f"{bad} non-finite value(s)")
@@ -98,3 +111,61 @@ def check_choice(value, name: str, owner: str, choices: Sequence[str]) -> str:
     if value not in choices:
         raise fail(name, owner, "one of " + ", ".join(repr(c) for c in choices), value)
     return value
+
+
+#: Largest magnitude accepted for any sample value (angles, rates, velocities, poses, time steps):
+#: far beyond any physical reading in any unit, and small enough that the products the models form
+#: (regressors δ ⊗ δ̇, covariance updates) stay far from overflow.
+MAX_MAGNITUDE = 1e12
+
+
+def check_magnitude(array: np.ndarray, name: str, owner: str, limit: float = MAX_MAGNITUDE) -> np.ndarray:
+    """Raise the standard error when a finite ``array`` holds a value beyond ``±limit``.
+
+    Parameters
+    ----------
+    array : ndarray
+        Finite.
+    name, owner : str
+        For the message.
+    limit : float
+
+    Returns
+    -------
+    ndarray
+        ``array``.
+    """
+    if array.size and np.abs(array).max() > limit:
+        index = np.unravel_index(int(np.argmax(np.abs(array))), array.shape)
+        raise fail(name, owner, f"plausible values, within ±{limit:g}",
+                   f"{float(array[index]):g} at index {tuple(int(i) for i in index)}")
+    return array
+
+
+class GeogaitWarning(UserWarning):
+    """Warnings about implausible but accepted input (degrees given as radians, time units)."""
+
+
+def warn_if_degrees(shape: np.ndarray, name: str, owner: str) -> bool:
+    """Warn when joint angles reach beyond a full turn (2π): degrees given as radians?
+
+    Parameters
+    ----------
+    shape : ndarray
+        Joint angles, finite.
+    name, owner : str
+        For the message.
+
+    Returns
+    -------
+    bool
+        Whether it warned.
+    """
+    import warnings
+
+    if shape.size and np.abs(shape).max() > 2 * np.pi:
+        warnings.warn(f"The '{name}' values of {owner} reach {float(np.abs(shape).max()):.4g}, more than a full "
+                      "turn (2π): geogait expects radians; were they given in degrees?", GeogaitWarning,
+                      stacklevel=3)
+        return True
+    return False

@@ -7,9 +7,12 @@ import matplotlib
 
 matplotlib.use("Agg")  # geogait writes files; it never needs a screen
 
+from pathlib import Path  # noqa: E402
+
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ._files import atomic_write  # noqa: E402
 from .gaits import FourierGait  # noqa: E402
 
 __all__ = ["plt", "plot_path", "plot_shape_space", "save_figure"]
@@ -50,9 +53,13 @@ def plot_shape_space(ax, shape=None, gaits: dict[str, FourierGait] | None = None
 
 
 def save_figure(fig, path) -> None:
+    """Write ``fig`` to ``path`` atomically (format from the suffix, 130 dpi) and close it."""
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        fmt = Path(path).suffix.lstrip(".").lower() or "png"
+        atomic_write(path, lambda stream: fig.savefig(stream, dpi=130, format=fmt))
+    finally:
+        plt.close(fig)
 
 
 def height_function(system, direction, limit: float, resolution: int = 81):

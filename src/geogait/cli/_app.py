@@ -1,6 +1,111 @@
-"""The typer application objects every command module registers on."""
+"""The typer application objects every command module registers on, and the one error path.
+
+Every command of ``geogait`` ends in one of two ways: its normal output, or one line
+``error: <message>`` on stderr and exit code 1. That holds for bad option values (typer/click
+usage errors), the library's :class:`~geogait.GeogaitError`, operating-system errors (an output
+path that is a file or read-only, a missing folder), unreadable CSV/Parquet files, and, as a last
+resort, for anything unexpected (then the line says it is a bug; ``GEOGAIT_TRACEBACK=1`` shows the
+traceback). Library warnings are printed as ``warning: <message>`` lines. Commands do not need to
+catch anything themselves: the handling lives in :class:`GeogaitGroup`, the click group of the
+application.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import warnings
+from contextlib import contextmanager
 
 import typer
+from typer.core import TyperGroup
+from typer.exceptions import TyperException
+
+from .._validation import GeogaitError
+
+__all__ = ["GeogaitGroup", "app", "error_message", "figure_app"]
+
+
+def _input_errors() -> tuple[type[BaseException], ...]:
+    """Exception types that mean bad input or a bad environment, not a bug."""
+    import pandas as pd
+    import pyarrow as pa
+
+    return (GeogaitError, OSError, pd.errors.ParserError, pd.errors.EmptyDataError, pa.ArrowException)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def error_message(error: BaseException) -> str:
+    """The one-line message of ``error`` for the ``error: …`` line (no traceback)."""
+    if isinstance(error, TyperException) and hasattr(error, "format_message"):  # usage errors, bad values
+        return _one_line(error.format_message())
+    if isinstance(error, OSError) and error.strerror:
+        names = [name for name in (error.filename, error.filename2) if name is not None]
+        return _one_line(f"{error.strerror}: {' → '.join(str(n) for n in names)}" if names else error.strerror)
+    if isinstance(error, GeogaitError):
+        return _one_line(str(error))
+    kind = type(error).__name__
+    if kind == "SweepFailedError":  # trials of an experiment failed: their summary, without the tracebacks
+        summary = str(error).split(" Traceback of trial")[0].split("\nTraceback")[0]
+        return _one_line(f"{summary} (the failed trials' tracebacks are in the exception's failures)")
+    if isinstance(error, _input_errors()):
+        return _one_line(f"unreadable input ({kind}): {error}")
+    return _one_line(f"unexpected {kind}: {error} (a bug in geogait; run with GEOGAIT_TRACEBACK=1 for the "
+                     "traceback and please report it)")
+
+
+@contextmanager
+def _warnings_as_lines():
+    """Show warnings raised while a command runs as ``warning: …`` lines on stderr."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        typer.echo(f"warning: {_one_line(str(message))}", err=True)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        warnings.showwarning = show
+        yield
+
+
+def _escape_help(command) -> None:
+    """Escape ``[`` in help texts so that rich shows "[default: 3]" and "geogait[dask]" as written."""
+    from rich.markup import escape
+
+    if getattr(command, "_geogait_escaped", False):
+        return
+    command._geogait_escaped = True
+    for param in getattr(command, "params", []):
+        if getattr(param, "help", None):
+            param.help = escape(param.help)
+    for child in getattr(command, "commands", {}).values():
+        _escape_help(child)
+
+
+class GeogaitGroup(TyperGroup):
+    """The click group of ``geogait``: turns every failure into ``error: …`` and exit code 1."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        _escape_help(self)
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            with _warnings_as_lines():
+                code = super().main(args, prog_name, complete_var, False, **extra)
+        except typer.Abort:
+            typer.echo("error: aborted", err=True)
+            sys.exit(1)
+        except Exception as error:  # the one place every failure is reported
+            if type(error).__name__ == "NoArgsIsHelpError":  # `geogait` or `geogait figure` alone: the help
+                error.show()
+                sys.exit(0)
+            if os.environ.get("GEOGAIT_TRACEBACK") and not isinstance(error, TyperException):
+                raise
+            typer.echo(f"error: {error_message(error)}", err=True)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
+
 
 app = typer.Typer(
     name="geogait",
@@ -9,6 +114,7 @@ app = typer.Typer(
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
+    cls=GeogaitGroup,
 )
 figure_app = typer.Typer(help="Reproduce the paper's figures.", no_args_is_help=True)
 app.add_typer(figure_app, name="figure")

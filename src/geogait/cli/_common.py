@@ -1,54 +1,112 @@
-"""Small helpers shared by the CLI commands: output folders, JSON manifests, progress bars."""
+"""Small helpers shared by the CLI commands: output folders, comma lists, JSON manifests, progress bars."""
 
 from __future__ import annotations
 
 import json
 import platform
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 import geogait
 
+from .._files import write_json
+from .._validation import GeogaitError
+
 console = Console(stderr=True)
+
+_KINDS: dict[type, tuple[str, str]] = {float: ("numbers", "2,3,4"), int: ("integers", "3,5,9"),
+                                       str: ("names", "q1,q2")}
 
 
 def output_folder(path: Path) -> Path:
+    """Create the output folder ``path`` (and its parents) now, before any long work; return it.
+
+    Raises a :class:`~geogait.GeogaitError` when ``path`` is a file or cannot be created.
+    """
     path = Path(path)
-    path.mkdir(parents=True, exist_ok=True)
+    if path.exists() and not path.is_dir():
+        raise GeogaitError(f"The output folder {path} is a file; give a folder with --out.")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise GeogaitError(f"Cannot create the output folder {path}: {error.strerror}.") from None
     return path
 
 
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    return value
+def comma_list(text: str | None, option: str, kind: Callable = float) -> tuple | None:
+    """Parse a comma-separated option value ('2,3,4') into a tuple of ``kind``; None stays None.
+
+    Parameters
+    ----------
+    text : str or None
+    option : str
+        The option's name (``"--links"``), for the message.
+    kind : {float, int, str}
+
+    Returns
+    -------
+    tuple or None
+
+    Raises
+    ------
+    typer.BadParameter
+        For an empty item or an item that is not a ``kind``; floats must be finite.
+    """
+    if text is None:
+        return None
+    what, example = _KINDS[kind]
+    items = [item.strip() for item in text.split(",")]
+    try:
+        if not all(items):
+            raise ValueError
+        values = tuple(kind(item) for item in items)
+    except ValueError:
+        raise typer.BadParameter(f"expected comma-separated {what} such as '{example}', got {text!r}",
+                                 param_hint=option) from None
+    if kind is float and not all(np.isfinite(values)):
+        raise typer.BadParameter(f"expected finite numbers, got {text!r}", param_hint=option)
+    return values
+
+
+def versions() -> dict:
+    """Package and interpreter versions, recorded in every manifest."""
+    return {"geogait_version": geogait.__version__, "numpy_version": np.__version__,
+            "python_version": platform.python_version()}
+
+
+def _is_fresh_run_manifest(path: Path, command: str) -> bool:
+    """Whether ``path`` holds the manifest of a run of ``command`` (not of a redraw from CSV)."""
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    config = record.get("config") if isinstance(record, dict) else None
+    return record.get("command") == command and isinstance(config, dict) and "from_csv" not in config
 
 
 def write_manifest(path: Path, *, command: str, config: dict, results: dict, started: float) -> Path:
-    """JSON record of a run: config, seed, versions, wall time and headline numbers."""
-    manifest = {
-        "command": command,
-        "geogait_version": geogait.__version__,
-        "numpy_version": np.__version__,
-        "python_version": platform.python_version(),
-        "config": config,
-        "wall_time_s": round(time.perf_counter() - started, 3),
-        "results": results,
-    }
-    path.write_text(json.dumps(_plain(manifest), indent=2) + "\n")
-    return path
+    """JSON record of a run: config, seed, versions, wall time and headline numbers (strict JSON).
+
+    A redraw (``config`` has ``from_csv``) never replaces the manifest of the run that produced
+    the data: when ``path`` holds one, the redraw's record goes to ``<stem>.redraw.json``.
+
+    Returns
+    -------
+    Path
+        Where the manifest was written.
+    """
+    path = Path(path)
+    if "from_csv" in config and _is_fresh_run_manifest(path, command):
+        path = path.with_name(f"{path.stem}.redraw.json")
+    manifest = {"command": command, **versions(), "config": config,
+                "wall_time_s": round(time.perf_counter() - started, 3), "results": results}
+    return write_json(path, manifest)
 
 
 def progress_bar() -> Progress:

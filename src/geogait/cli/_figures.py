@@ -18,21 +18,22 @@ from rich.table import Table
 from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 from ._app import figure_app
-from ._common import console, output_folder, write_manifest
+from ._common import comma_list, console, output_folder, write_manifest
 
 _A, _E = AccuracyConfig(), EnvironmentConfig()
 _QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
 
-Trials = Annotated[int | None, typer.Option(help="Number of trials (default: see the experiment's docs).")]
+Trials = Annotated[int | None, typer.Option(help="Number of trials (default: see the experiment's docs).", min=1)]
 Links = Annotated[int | None, typer.Option(help=f"Links of the Purcell swimmer [default: {_A.n_links}].")]
-Seed = Annotated[int | None, typer.Option(help=f"Root random seed [default: {_A.seed}].")]
+Seed = Annotated[int | None, typer.Option(help=f"Root random seed [default: {_A.seed}].", min=0)]
 Jobs = Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")]
 Scheduler = Annotated[str | None, typer.Option(help="Address of a Dask scheduler to run the trials on "
                                                     "(needs geogait[dask]; then --jobs must be 1).")]
 Quick = Annotated[bool, typer.Option(help="Few trials and cycles: finishes in seconds.")]
 Out = Annotated[Path, typer.Option(help="Output folder.")]
 FromCsv = Annotated[Path | None, typer.Option(help="Redraw the figure from this CSV instead of running.")]
-SamplesPerCycle = Annotated[int | None, typer.Option(help=f"Samples per gait cycle [default: {_A.samples_per_cycle}].")]
+SamplesPerCycle = Annotated[int | None, typer.Option(help=f"Samples per gait cycle [default: {_A.samples_per_cycle}].",
+                                                     min=4, max=100_000)]
 Perturbation = Annotated[float | None, typer.Option(
     help=f"Std (rad) of the shape perturbation δ [default: {_A.perturbation}].")]
 ChunkSize = Annotated[int | None, typer.Option(
@@ -40,32 +41,27 @@ ChunkSize = Annotated[int | None, typer.Option(
          f"[default: {_A.chunk_size}].")]
 
 
-def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
-    """Comma-separated numbers ('2,3,4') as a tuple; None stays None."""
-    if text is None:
-        return None
-    try:
-        return tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise typer.BadParameter(f"expected comma-separated numbers such as '2,3,4', got {text!r}",
-                                 param_hint=option) from None
-
-
 def _configure(base, **overrides):
     """``base`` with every override that was given on the command line."""
     return dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})
 
 
-def _write(result, folder: Path, name: str, command: str, started: float, extra: dict) -> dict:
-    """Write PNG, CSV (for fresh runs) and the JSON manifest; return the summary."""
+def _write(result, folder: Path, name: str, command: str, started: float, extra: dict) -> tuple[dict, list[str]]:
+    """Write PNG, CSV (for fresh runs) and the JSON manifest; return the summary and the file names.
+
+    A redraw (``--from-csv``) writes no CSV and keeps the run's manifest (see :func:`write_manifest`).
+    """
     summary = result.summary()
     result.plot(folder / f"{name}.png")
+    written = [f"{name}.png"]
     if result.config is not None:
         result.to_csv(folder / f"{name}.csv")
+        written.append(f"{name}.csv")
     config = (result.config_dict() or {}) | extra
     results = {"summary": summary, "sweep_wall_time_s": result.wall_time_s, "n_workers": result.n_workers}
-    write_manifest(folder / f"{name}.json", command=command, config=config, results=results, started=started)
-    return summary
+    manifest = write_manifest(folder / f"{name}.json", command=command, config=config, results=results,
+                              started=started)
+    return summary, [*written, manifest.name]
 
 
 @figure_app.command("accuracy")
@@ -102,10 +98,9 @@ def accuracy(
                             chunk_size=chunk_size, seed=seed)
         result = run_accuracy(config, jobs=jobs, scheduler=scheduler)
         extra = {"jobs": jobs, "scheduler": scheduler, "quick": quick}
-    summary = _write(result, folder, "accuracy", "figure accuracy", started, extra)
+    summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra)
     console.print(_accuracy_table(summary))
-    console.print(f"wrote accuracy.png, accuracy.json{'' if from_csv else ', accuracy.csv'} to {folder}/ "
-                  f"in {time.perf_counter() - started:.1f} s")
+    console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
 
 
 def _accuracy_table(summary: dict) -> Table:
@@ -156,16 +151,15 @@ def environments(
     else:
         config = _configure(_QE if quick else _E, n_trials=trials, n_links=links,
                             cycles_per_environment=cycles_per_environment,
-                            drag_ratios=_floats(drag_ratios, "--drag-ratios"),
-                            forgetting_factors=_floats(forgetting_factors, "--forgetting-factors"),
+                            drag_ratios=comma_list(drag_ratios, "--drag-ratios"),
+                            forgetting_factors=comma_list(forgetting_factors, "--forgetting-factors"),
                             sensor_noise=noise, perturbation=perturbation, samples_per_cycle=samples_per_cycle,
                             chunk_size=chunk_size, seed=seed)
         result = run_environments(config, jobs=jobs, scheduler=scheduler)
         extra = {"jobs": jobs, "scheduler": scheduler, "quick": quick}
-    summary = _write(result, folder, "environments", "figure environments", started, extra)
+    summary, written = _write(result, folder, "environments", "figure environments", started, extra)
     console.print(_environment_table(summary))
-    console.print(f"wrote environments.png, environments.json{'' if from_csv else ', environments.csv'} to "
-                  f"{folder}/ in {time.perf_counter() - started:.1f} s")
+    console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
 
 
 def _environment_table(summary: dict) -> Table:

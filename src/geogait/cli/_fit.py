@@ -8,19 +8,18 @@ and exit code 1.
 from __future__ import annotations
 
 import time
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
-import pandas as pd
 import typer
 
-from .._validation import GeogaitError
 from ..io import fit_log, predict_log, read_log, read_log_for_prediction, resolve_mapping
-from ..io._fit import DEFAULT_TEST_FRACTION
+from ..io._fit import DEFAULT_TEST_FRACTION, check_outputs, default_summary_path
+from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ..models import AdaptiveGaitModel
 from ..phase import load_phaser
 from ._app import app
+from ._common import comma_list, output_folder, versions
 
 Columns = Annotated[str | None, typer.Option(help="Comma-separated column names.")]
 Mapping = Annotated[Path | None, typer.Option(help="Column mapping file (.json or .toml); options override it.")]
@@ -31,16 +30,30 @@ Degrees = Annotated[bool | None, typer.Option("--degrees/--radians",
 SmoothingWindow = Annotated[int | None, typer.Option(
     help="Savitzky–Golay window (samples) for shape velocities and pose smoothing (default: read_log's, 11).")]
 DropNan = Annotated[bool, typer.Option(help="Drop rows with NaN (splitting segments there) instead of failing.")]
+TimeUnit = Annotated[str | None, typer.Option(
+    help=f"Unit of the time column and of rate columns ({'|'.join(TIME_UNITS)}); converted to seconds. Default: "
+         "the log's own unit, assumed to be seconds when checking the phase rate.")]
+OutlierLimit = Annotated[float, typer.Option(
+    help="Plausibility bound in robust standard deviations (1.4826 × MAD) from each column's median; "
+         "0 switches it off.", min=0)]
 
 
 def _names(text: str | None, option: str) -> list[str] | None:
     """'a,b,c' → ['a', 'b', 'c']; None stays None."""
-    if text is None:
-        return None
-    names = [name.strip() for name in text.split(",")]
-    if not all(names):
-        raise typer.BadParameter(f"expected comma-separated column names, got {text!r}", param_hint=option)
-    return names
+    names = comma_list(text, option, str)
+    return None if names is None else list(names)
+
+
+def _log_options(smoothing_window: int | None, time_unit: str | None, outlier_limit: float) -> dict:
+    """read_log's keywords for the options that were given (read_log's defaults otherwise)."""
+    options = {} if smoothing_window is None else {"window": smoothing_window}
+    if time_unit is not None:
+        if time_unit not in TIME_UNITS:
+            raise typer.BadParameter(f"expected one of {', '.join(TIME_UNITS)}, got {time_unit!r}",
+                                     param_hint="--time-unit")
+        options["time_unit"] = time_unit
+    options["outlier_limit"] = None if outlier_limit == 0 else outlier_limit
+    return options
 
 
 def _gait_order(text: str) -> int | None:
@@ -50,21 +63,6 @@ def _gait_order(text: str) -> int | None:
         return int(text)
     except ValueError:
         raise typer.BadParameter(f"expected 'auto' or an integer, got {text!r}", param_hint="--gait-order") from None
-
-
-def _window(smoothing_window: int | None) -> dict:
-    """read_log's ``window`` keyword when the option was given (read_log's default otherwise)."""
-    return {} if smoothing_window is None else {"window": smoothing_window}
-
-
-@contextmanager
-def _user_errors():
-    """Bad input → its message on stderr and exit code 1 (no traceback)."""
-    try:
-        yield
-    except (GeogaitError, pd.errors.ParserError, pd.errors.EmptyDataError) as error:
-        typer.echo(f"error: {error}", err=True)
-        raise typer.Exit(code=1) from None
 
 
 @app.command()
@@ -82,6 +80,8 @@ def fit(
     degrees: Degrees = None,
     smoothing_window: SmoothingWindow = None,
     drop_nan: DropNan = False,
+    time_unit: TimeUnit = None,
+    outlier_limit: OutlierLimit = DEFAULT_OUTLIER_LIMIT,
     forgetting_factor: Annotated[float | None, typer.Option(
         help="λ of the model's RLS filters (default: AdaptiveGaitModel's, 0.99).")] = None,
     windows: Annotated[int | None, typer.Option(
@@ -100,19 +100,22 @@ def fit(
     """
     started = time.perf_counter()
     order = _gait_order(gait_order)
-    with _user_errors():
-        columns = resolve_mapping(mapping, time=time_column, shape=_names(shape, "--shape"),
-                                  pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
-                                  shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase,
-                                  degrees=degrees)
-        data = read_log(log, columns, drop_nan=drop_nan, **_window(smoothing_window))
-        result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
-                         test_fraction=test_fraction, refit=refit)
-        options = {"log": str(log), "smoothing_window": smoothing_window, "drop_nan": drop_nan,
-                   "forgetting_factor": forgetting_factor, "windows": windows, "gait_order": gait_order,
-                   "test_fraction": test_fraction, "refit": refit}
-        paths = result.save(out, mapping=columns, extra={"command": "fit", "options": options,
-                                                         "wall_time_s": round(time.perf_counter() - started, 3)})
+    log_options = _log_options(smoothing_window, time_unit, outlier_limit)
+    columns = resolve_mapping(mapping, time=time_column, shape=_names(shape, "--shape"),
+                              pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
+                              shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase,
+                              degrees=degrees)
+    output_folder(out)
+    check_outputs({"--out": out}, [log, mapping], "fit")
+    data = read_log(log, columns, drop_nan=drop_nan, **log_options)
+    result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
+                     test_fraction=test_fraction, refit=refit)
+    options = {"log": str(log), "smoothing_window": smoothing_window, "drop_nan": drop_nan,
+               "time_unit": time_unit, "outlier_limit": outlier_limit,
+               "forgetting_factor": forgetting_factor, "windows": windows, "gait_order": gait_order,
+               "test_fraction": test_fraction, "refit": refit}
+    paths = result.save(out, mapping=columns, extra={"command": "fit", **versions(), "options": options,
+                                                     "wall_time_s": round(time.perf_counter() - started, 3)})
     summary = result.summary()
     typer.echo(f"held-out Γ {summary['held_out_gamma']:.3f} over {summary['n_test_cycles']} cycles "
                f"({summary['n_train_cycles']} training); online Γ {summary['online_gamma_end']:.3f}; "
@@ -127,8 +130,10 @@ def predict(
     log: Annotated[Path, typer.Argument(help="Log file: .csv, .parquet or .pq.")],
     phaser: Annotated[Path | None, typer.Option(
         help="Saved Phaser (phaser.npz of 'geogait fit'), for logs without a phase column.")] = None,
-    out: Annotated[Path, typer.Option(help="Predictions CSV; the Γ summary goes beside it as .json.")] = Path(
-        "predictions.csv"),
+    out: Annotated[Path, typer.Option(help="Predictions CSV (never one of the inputs).")] = Path("predictions.csv"),
+    summary: Annotated[Path | None, typer.Option(
+        help="Γ summary JSON [default: --out with suffix .json; <name>.summary.json for an --out ending in .json].")
+    ] = None,
     mapping: Mapping = None,
     time_column: Annotated[str | None, typer.Option("--time", help="Time column (default: time).")] = None,
     shape: Columns = None,
@@ -141,19 +146,29 @@ def predict(
         help="Read measured ξ (body-velocity or pose columns) when the mapping names them, for Γ.")] = True,
     smoothing_window: SmoothingWindow = None,
     drop_nan: DropNan = False,
+    time_unit: TimeUnit = None,
+    outlier_limit: OutlierLimit = DEFAULT_OUTLIER_LIMIT,
 ) -> None:
     """Predict the body velocity of every sample of a log; write a CSV and Γ (if ξ was measured)."""
-    with _user_errors():
-        fitted = AdaptiveGaitModel.load(model)
-        estimator = None if phaser is None else load_phaser(phaser)
-        data, has_measured = read_log_for_prediction(
-            log, mapping, measured=measured, time=time_column, shape=_names(shape, "--shape"),
-            pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
-            shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase, degrees=degrees,
-            drop_nan=drop_nan, **_window(smoothing_window))
-        result = predict_log(fitted, data, phaser=estimator, measured=has_measured)
-        paths = result.save(out, extra={"command": "predict", "model": str(model), "log": str(log),
-                                        "phaser": None if phaser is None else str(phaser)})
+    started = time.perf_counter()
+    summary_path = default_summary_path(out) if summary is None else summary
+    inputs = (model, log, phaser, mapping)
+    check_outputs({"--out": out, "--summary": summary_path}, inputs, "predict")
+    log_options = _log_options(smoothing_window, time_unit, outlier_limit)
+    fitted = AdaptiveGaitModel.load(model)
+    estimator = None if phaser is None else load_phaser(phaser)
+    data, has_measured = read_log_for_prediction(
+        log, mapping, measured=measured, time=time_column, shape=_names(shape, "--shape"),
+        pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
+        shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase, degrees=degrees,
+        drop_nan=drop_nan, **log_options)
+    result = predict_log(fitted, data, phaser=estimator, measured=has_measured)
+    options = {"time_unit": time_unit, "outlier_limit": outlier_limit, "smoothing_window": smoothing_window,
+               "drop_nan": drop_nan, "measured": measured}
+    paths = result.save(out, summary_path=summary_path, protect=inputs,
+                        extra={"command": "predict", **versions(), "model": str(model), "log": str(log),
+                               "phaser": None if phaser is None else str(phaser), "options": options,
+                               "wall_time_s": round(time.perf_counter() - started, 3)})
     value = result.gamma()
     typer.echo(f"Γ {value:.3f} over {data.n_samples} samples" if value is not None
                else f"predicted {data.n_samples} samples (no measured body velocity: no Γ)", err=True)

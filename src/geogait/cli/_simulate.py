@@ -6,42 +6,46 @@ import time
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
+from .._validation import GeogaitError
 from ..gaits import Perturbation, seed_gait
 from ..plotting import plot_path, plot_shape_space, plt, save_figure
 from ..simulate import DragRatioSchedule, SwimmerStream, Trajectory
 from ..systems import BODY_FRAMES, PurcellSwimmer
 from ._app import app
-from ._common import console, output_folder, progress_bar, write_manifest
+from ._common import comma_list, console, output_folder, progress_bar, write_manifest
 
-
-def _drag_ratios(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise typer.BadParameter(f"expected comma-separated numbers such as '2,3,4', got {text!r}") from None
+#: At most this many samples in one simulation (cycles × samples per cycle): about 1 GB of output.
+MAX_SAMPLES = 10_000_000
 
 
 @app.command()
 def simulate(
-    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.")] = 3,
-    cycles: Annotated[int, typer.Option(help="Number of gait cycles.")] = 40,
+    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.", min=2)] = 3,
+    cycles: Annotated[int, typer.Option(help="Number of gait cycles.", min=1)] = 40,
     drag_ratio: Annotated[str, typer.Option(
         help="Drag ratio k, or comma-separated ratios for an environment schedule (e.g. 2,3,4).")] = "2",
-    cycles_per_environment: Annotated[int, typer.Option(help="Cycles per drag ratio of a schedule.")] = 40,
-    samples_per_cycle: Annotated[int, typer.Option(help="Samples per gait cycle.")] = 100,
-    amplitude: Annotated[float, typer.Option(help="Amplitude (rad) of the seed gait.")] = 1.0,
-    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
-    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.")] = 0.0,
-    shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.")] = 0.0,
+    cycles_per_environment: Annotated[int, typer.Option(help="Cycles per drag ratio of a schedule.", min=1)] = 40,
+    samples_per_cycle: Annotated[int, typer.Option(help="Samples per gait cycle.", min=4, max=100_000)] = 100,
+    amplitude: Annotated[float, typer.Option(help="Amplitude (rad) of the seed gait.", min=0, max=2 * np.pi)] = 1.0,
+    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.", min=0,
+                                                max=2 * np.pi)] = 0.15,
+    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.", min=0, max=100)] = 0.0,
+    shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.", min=0,
+                                               max=100)] = 0.0,
     body_frame: Annotated[str, typer.Option(help=f"Body frame: {', '.join(BODY_FRAMES)}.")] = "middle",
-    seed: Annotated[int, typer.Option(help="Root random seed.")] = 0,
+    seed: Annotated[int, typer.Option(help="Root random seed.", min=0)] = 0,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/simulate"),
 ) -> None:
     """Simulate the seed gait with perturbations; write Parquet + CSV + a PNG."""
     started = time.perf_counter()
-    ratios = _drag_ratios(drag_ratio)
+    ratios = comma_list(drag_ratio, "--drag-ratio")
+    if cycles * samples_per_cycle > MAX_SAMPLES:
+        raise GeogaitError(f"--cycles × --samples-per-cycle must be at most {MAX_SAMPLES:,} samples. Got "
+                           f"{cycles} × {samples_per_cycle} = {cycles * samples_per_cycle:,} instead.")
+    folder = output_folder(out)
     system = PurcellSwimmer(links, drag_ratio=ratios[0], body_frame=body_frame)
     gait = seed_gait(system.n_joints, amplitude)
     schedule = DragRatioSchedule(system, ratios, cycles_per_environment) if len(ratios) > 1 else None
@@ -55,7 +59,6 @@ def simulate(
             parts.append(stream.next_cycle())
             progress.update(task, advance=1, status=f"k = {stream.current_system().drag_ratio:g}")
     run = Trajectory.concatenate(parts)
-    folder = output_folder(out)
     run.to_parquet(folder / "trajectory.parquet")
     run.to_csv(folder / "trajectory.csv")
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))

@@ -11,15 +11,18 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import time
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from ..io import CsvReader, JsonLinesReader, StreamLearner, load_stream_model, run_stream
+from ..io._fit import check_outputs
+from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ..phase import load_phaser
 from ._app import app
-from ._fit import _user_errors
+from ._common import write_manifest
 
 _EXIT = {"eof": 0, "output closed": 0, "error": 1, "SIGINT": 128 + signal.SIGINT, "SIGTERM": 128 + signal.SIGTERM}
 
@@ -40,13 +43,22 @@ def stream(
         help="Saved Phaser: estimate each sample's phase online (input phases are then ignored).")] = None,
     fmt: Annotated[str, typer.Option("--format", help="Input: jsonl (one JSON object per line) or csv (header "
                                      "line first); the output uses the same format.")] = "jsonl",
-    save_every: Annotated[int | None, typer.Option(help="Also save after every N learned samples.")] = None,
+    save_every: Annotated[int | None, typer.Option(
+        help="Also save after every N learned samples [default: only at the end].", min=1)] = None,
     out: Annotated[Path | None, typer.Option(
         help="Where to save the model (default: the model file itself; for a config, <config>.npz).")] = None,
     phase_window: Annotated[int | None, typer.Option(
-        help="Samples in the online Phaser's window (default: two cycles).")] = None,
+        help="Samples in the online Phaser's window [default: two cycles].", min=2)] = None,
     derivative_window: Annotated[int, typer.Option(
-        help="Samples of the causal differentiator used when samples have no shape_velocity.")] = 5,
+        help="Samples of the causal differentiator used when samples have no shape_velocity.", min=2,
+        max=1000)] = 5,
+    time_unit: Annotated[str | None, typer.Option(
+        help=f"Unit of the time stamps and rates ({'|'.join(TIME_UNITS)}), converted to seconds; use the unit "
+             "'geogait fit --time-unit' was given. Default: the stream's own unit.")] = None,
+    outlier_limit: Annotated[float, typer.Option(
+        help="Quarantine samples further than this many robust standard deviations from the median of the last "
+             "1000 accepted ones (0: off; values beyond ±1e12 are always quarantined).", min=0)
+    ] = DEFAULT_OUTLIER_LIMIT,
 ) -> None:
     """Learn from samples on stdin; write each sample's a-priori prediction and online Γ to stdout.
 
@@ -55,19 +67,37 @@ def stream(
 
     The model is saved atomically at the end of the input, on Ctrl-C or SIGTERM, and every --save-every samples.
     """
+    started = time.perf_counter()
     if fmt not in ("jsonl", "csv"):
         raise typer.BadParameter(f"expected 'jsonl' or 'csv', got {fmt!r}", param_hint="--format")
-    with _user_errors():
-        model = load_stream_model(model_or_config)
-        estimator = None if phaser is None else load_phaser(phaser)
-        learner = StreamLearner(model, phaser=estimator, phase_window=phase_window,
-                                derivative_window=derivative_window, path=_target(model_or_config, out),
-                                save_every=save_every)
+    if time_unit is not None and time_unit not in TIME_UNITS:
+        raise typer.BadParameter(f"expected one of {', '.join(TIME_UNITS)}, got {time_unit!r}",
+                                 param_hint="--time-unit")
+    target = _target(model_or_config, out)
+    # the saved model may be the output (learning goes on in it); a config or the phaser may not
+    config = model_or_config if model_or_config.suffix.lower() == ".json" else None
+    check_outputs({"--out": target}, [phaser, config], "stream")
+    model = load_stream_model(model_or_config)
+    estimator = None if phaser is None else load_phaser(phaser)
+    learner = StreamLearner(model, phaser=estimator, phase_window=phase_window, derivative_window=derivative_window,
+                            path=target, save_every=save_every, time_unit=time_unit,
+                            outlier_limit=None if outlier_limit == 0 else outlier_limit)
     reader = (CsvReader if fmt == "csv" else JsonLinesReader)(sys.stdin, learner.n_joints)
     summary = run_stream(learner, sys.stdin, sys.stdout, fmt=fmt, reader=_noting(reader, estimator is not None))
     if summary.reason == "output closed":
         _silence_stdout()
     _report(summary)
+    config = {"model_or_config": str(model_or_config), "phaser": None if phaser is None else str(phaser),
+              "format": fmt, "save_every": save_every, "out": str(target), "phase_window": phase_window,
+              "derivative_window": derivative_window, "time_unit": time_unit, "outlier_limit": outlier_limit}
+    results = {"n_samples": summary.n_samples, "n_learned": summary.n_learned, "n_rejected": summary.n_rejected,
+               "first_rejection": summary.first_rejection, "online_gamma": summary.gamma, "reason": summary.reason,
+               "error": summary.error, "saved": None if summary.saved is None else str(summary.saved)}
+    try:
+        write_manifest(target.with_name(f"{target.stem}.stream.json"), command="stream", config=config,
+                       results=results, started=started)
+    except OSError as failure:
+        typer.echo(f"warning: could not write the stream manifest: {failure}", err=True)
     raise typer.Exit(code=_EXIT[summary.reason])
 
 
@@ -94,10 +124,18 @@ def _noting(reader, with_phaser: bool):
 
 
 def _report(summary) -> None:
+    if summary.n_rejected:
+        typer.echo(f"warning: {summary.n_rejected} implausible sample(s) quarantined (not learned); the first: "
+                   f"{summary.first_rejection}", err=True)
     if summary.error is not None:
         typer.echo(f"error: {summary.error}", err=True)
     elif summary.reason not in ("eof",):
         typer.echo(f"stopped ({summary.reason})", err=True)
     gamma = "n/a" if summary.gamma is None else f"{summary.gamma:.3f}"
-    saved = f"saved the model to {summary.saved}" if summary.saved else "nothing new learned: no model written"
+    if summary.saved:
+        saved = f"saved the model to {summary.saved}"
+    elif summary.n_learned:
+        saved = "the model was not saved"
+    else:
+        saved = "nothing learned: no model written"
     typer.echo(f"{summary.n_learned} of {summary.n_samples} samples learned; online Γ {gamma}; {saved}", err=True)

@@ -14,10 +14,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .._validation import GeogaitError, check_float, check_int
+from .._files import write_text
+from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
 from ..systems import PurcellSwimmer
+from ..systems._purcell import MAX_LINKS
 from .runner import run_trials
 
 __all__ = ["PERCENTILES", "ExperimentResult", "box_stats", "child_seeds", "cycle_block", "percentile_frame",
@@ -27,6 +29,8 @@ PERCENTILES = (5, 25, 50, 75, 95)
 """Percentiles reported by every modeling figure: box edges at 25/75, whiskers at 5/95."""
 
 # pandas >= 3 parses floats exactly by default and deprecates the option that older versions need.
+#: Columns of experiment CSVs that hold integers (checked when a CSV is read back).
+_INTEGER_COLUMNS = frozenset({"trial", "links", "cycle"})
 _EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
 
 
@@ -45,9 +49,16 @@ def swimmer_and_gait(n_links: int, owner: str) -> tuple[PurcellSwimmer, FourierG
     gait : FourierGait
         ``seed_gait(n_links - 1)``: first order, amplitude 1 rad, equal phase lags.
     """
-    n_links = check_int(n_links, "n_links", owner, minimum=2)
-    system = PurcellSwimmer(n_links)
+    system = PurcellSwimmer(check_links(n_links, "n_links", owner))
     return system, seed_gait(system.n_joints)
+
+
+def check_links(n_links, name: str, owner: str) -> int:
+    """A number of links a :class:`~geogait.systems.PurcellSwimmer` accepts (2 to ``MAX_LINKS``)."""
+    n = check_int(n_links, name, owner, minimum=2)
+    if n > MAX_LINKS:
+        raise fail(name, owner, f"an int in [2, {MAX_LINKS}]", n_links)
+    return n
 
 
 def child_seeds(seeds, key: int) -> list[np.random.SeedSequence]:
@@ -208,9 +219,9 @@ class ExperimentResult:
         return self.frame.copy()
 
     def to_csv(self, path) -> Path:
-        """Write the frame as CSV (full float precision) and return the path."""
+        """Write the frame as CSV (full float precision, atomically) and return the path."""
         path = Path(path)
-        self.frame.to_csv(path, index=False)
+        write_text(path, self.frame.to_csv(index=False))
         return path
 
     @classmethod
@@ -220,17 +231,35 @@ class ExperimentResult:
         Raises
         ------
         GeogaitError
-            When the file lacks a column this experiment writes.
+            When the file cannot be parsed, lacks a column this experiment writes, or holds values
+            that do not form a result (text or NaN where numbers belong, ...).
         """
         path = Path(path)
         if not path.is_file():
             raise GeogaitError(f"The CSV file {path} does not exist.")
-        frame = pd.read_csv(path, **_EXACT_FLOATS)
+        try:
+            frame = pd.read_csv(path, **_EXACT_FLOATS)
+        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as error:
+            reason = " ".join(str(error).split())[:200]
+            raise GeogaitError(f"{path} is not a readable {cls.__name__} CSV ({reason}).") from None
         missing = [column for column in cls.COLUMNS if column not in frame.columns]
         if missing or frame.empty:
             raise GeogaitError(f"{path} is not a {cls.__name__} CSV: expected columns {list(cls.COLUMNS)} and at "
                                f"least one row. Got columns {list(frame.columns)} and {len(frame)} rows instead.")
-        return cls(frame=frame[list(cls.COLUMNS)])
+        for column in [c for c in cls.COLUMNS if c in _INTEGER_COLUMNS]:
+            values = pd.to_numeric(frame[column], errors="coerce").to_numpy(float)
+            bad = np.flatnonzero(~np.isfinite(values) | (values != np.round(values)))
+            if bad.size:
+                raise GeogaitError(f"{path} is not a valid {cls.__name__} CSV: column {column!r} must hold integers. "
+                                   f"Got {str(frame[column].iloc[bad[0]])!r} in data row {bad[0]} instead.")
+        result = cls(frame=frame[list(cls.COLUMNS)])
+        try:  # the columns are right; do the values form a result?
+            result.summary()
+        except (KeyError, ValueError, TypeError, IndexError, ZeroDivisionError, AttributeError) as error:
+            reason = " ".join(f"{type(error).__name__}: {error}".split())[:200]
+            raise GeogaitError(f"{path} is not a valid {cls.__name__} CSV: its values do not form a result "
+                               f"({reason}).") from None
+        return result
 
     def config_dict(self) -> dict | None:
         """The configuration as a plain dict (None when read from a CSV)."""

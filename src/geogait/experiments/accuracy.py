@@ -49,6 +49,7 @@ from ._common import (
     ExperimentResult,
     box_stats,
     check_fraction,
+    check_links,
     child_seeds,
     cycle_block,
     percentile_frame,
@@ -133,7 +134,7 @@ class AccuracyConfig:
         GeogaitError
             Naming the bad field and what was expected.
         """
-        check_int(self.n_links, "n_links", _OWNER, minimum=2)
+        check_links(self.n_links, "n_links", _OWNER)
         if check_int(self.n_trials, "n_trials", _OWNER, minimum=2) % 2:
             raise fail("n_trials", _OWNER, "an even int >= 2 (trials form train/test pairs)", self.n_trials)
         every = check_int(self.checkpoint_every, "checkpoint_every", _OWNER, minimum=1)

@@ -62,6 +62,7 @@ from ..simulate import DragRatioSchedule, simulate
 from ._common import (
     ExperimentResult,
     check_fraction,
+    check_links,
     cycle_block,
     percentile_frame,
     run_sweep,
@@ -137,7 +138,7 @@ class EnvironmentConfig:
         GeogaitError
             Naming the bad field and what was expected.
         """
-        check_int(self.n_links, "n_links", _OWNER, minimum=2)
+        check_links(self.n_links, "n_links", _OWNER)
         check_int(self.n_trials, "n_trials", _OWNER, minimum=1)
         if not isinstance(self.drag_ratios, tuple) or len(self.drag_ratios) < 2:
             raise fail("drag_ratios", _OWNER, "a tuple of at least two drag ratios", self.drag_ratios)

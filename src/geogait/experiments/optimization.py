@@ -29,7 +29,15 @@ from ..models import BatchGaitModel
 from ..optimize import InSituOptimizer, cached_ceiling
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
 from ..simulate import SwimmerStream
-from ._common import PERCENTILES, ExperimentResult, box_stats, check_fraction, run_sweep, swimmer_and_gait
+from ._common import (
+    PERCENTILES,
+    ExperimentResult,
+    box_stats,
+    check_fraction,
+    check_links,
+    run_sweep,
+    swimmer_and_gait,
+)
 
 __all__ = ["OptimizationConfig", "OptimizationResult", "optimization_trials", "run_optimization",
            "optimization_summary", "plot_optimization"]
@@ -87,7 +95,7 @@ class OptimizationConfig:
         if len(self.links) != len(self.budgets) or not self.links:
             raise fail("budgets", _OWNER, f"one budget per swimmer in links = {self.links}", self.budgets)
         for n_links in self.links:
-            check_int(n_links, "links", _OWNER, minimum=2)
+            check_links(n_links, "links", _OWNER)
         for budget in self.budgets:
             check_int(budget, "budgets", _OWNER, minimum=1)
         check_int(self.n_trials, "n_trials", _OWNER, minimum=1)

@@ -27,7 +27,6 @@ import json
 import os
 import time
 import traceback
-import uuid
 import warnings
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -50,6 +49,7 @@ from rich.progress import (
 )
 from threadpoolctl import threadpool_limits
 
+from .._files import atomic_write, write_text
 from .._validation import GeogaitError, check_int, fail
 
 __all__ = ["run_trials", "SweepResult", "TrialFailure", "SweepFailedError"]
@@ -560,7 +560,7 @@ def _claim_folder(folder: Path, manifest: dict) -> None:
     elif any(folder.glob("chunk_*.parquet")):
         raise _cache_error(folder, f"chunk files but no {_MANIFEST}")
     else:
-        _write_atomic(path, lambda tmp: tmp.write_text(json.dumps(manifest, indent=2) + "\n"))
+        write_text(path, json.dumps(manifest, indent=2) + "\n")
 
 
 def _read_manifest(path: Path) -> dict | None:
@@ -605,14 +605,4 @@ def _load_chunk(folder: Path, chunk: _Chunk) -> pd.DataFrame | None:
 
 
 def _save_chunk(folder: Path, index: int, frame: pd.DataFrame) -> None:
-    _write_atomic(_chunk_path(folder, index), lambda tmp: frame.to_parquet(tmp, index=False))
-
-
-def _write_atomic(path: Path, write: Callable[[Path], object]) -> None:
-    """Write through a temporary file in the same folder, then rename it over ``path``."""
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    atomic_write(_chunk_path(folder, index), lambda stream: frame.to_parquet(stream, index=False))

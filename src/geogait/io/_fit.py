@@ -34,13 +34,16 @@ filter of sampled shapes can follow).
 from __future__ import annotations
 
 import json
+import os
+import warnings
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from .._validation import check_float, fail
+from .._files import write_json, write_text
+from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
@@ -144,13 +147,58 @@ def _unwrapped_phase(log: Log, phaser: Phaser | None, fit: bool) -> tuple[list[n
 
 
 def _phase_rate(log: Log, unwrapped: list[np.ndarray]) -> float:
-    """Mean φ̇: total unwrapped advance over total duration of the segments."""
+    """Mean φ̇: total unwrapped advance over total duration of the segments (checked: see
+    :func:`check_phase_rate`)."""
     advance = sum(float(u[-1] - u[0]) for u in unwrapped)
     duration = sum(float(part.time[-1] - part.time[0]) for part in log.segments())
     if duration <= 0 or advance <= 0:
         raise fail("phase", "fit_log", "a phase that advances over time (positive rate)",
                    f"an advance of {advance:.3g} rad in {duration:.3g} time units")
-    return advance / duration
+    return check_phase_rate(advance / duration, log.time_unit, "fit_log")
+
+
+#: Gait frequencies (cycles per second) the model's defaults are made for; outside: a warning.
+PLAUSIBLE_FREQUENCY = (0.01, 100.0)
+#: Gait frequencies outside which a declared time unit must be wrong: an error.
+POSSIBLE_FREQUENCY = (1 / 86400, 1000.0)
+
+
+def check_phase_rate(rate: float, time_unit: str | None, owner: str) -> float:
+    """Warn about (or, with a declared ``time_unit``, refuse) an implausible phase rate.
+
+    Parameters
+    ----------
+    rate : float
+        φ̇ in rad per time unit (per second when ``time_unit`` is ``"s"``).
+    time_unit : str or None
+        ``"s"`` when times were declared and converted to seconds; None when undeclared (assumed
+        seconds, and only a warning is possible).
+    owner : str
+        For the message.
+
+    Returns
+    -------
+    float
+        ``rate``.
+    """
+    from ._logs import TIME_UNITS
+
+    frequency = rate / (2 * np.pi)
+    low, high = PLAUSIBLE_FREQUENCY
+    if low <= frequency <= high:
+        return rate
+    # the unit whose reading of the same stamps gives the frequency closest to 1 cycle per second
+    guesses = {unit: frequency / seconds for unit, seconds in TIME_UNITS.items()}
+    best = min(guesses, key=lambda unit: abs(np.log10(guesses[unit])))
+    hint = (f"if the time column is in {best}, pass time_unit={best!r} (--time-unit {best}), which gives "
+            f"{guesses[best]:.3g} cycles/s" if best != "s" else "check the time column and the phase")
+    unit = "s" if time_unit else "time unit (undeclared; seconds assumed)"
+    message = (f"The phase rate found by {owner} is {frequency:.3g} cycles per {unit}, outside the "
+               f"{low:g}–{high:g} cycles/s that locomotion and the model's defaults are made for; {hint}.")
+    if time_unit is not None and not POSSIBLE_FREQUENCY[0] <= frequency <= POSSIBLE_FREQUENCY[1]:
+        raise GeogaitError(message)
+    warnings.warn(message, GeogaitWarning, stacklevel=3)
+    return rate
 
 
 def _cycles(unwrapped: list[np.ndarray]) -> np.ndarray:
@@ -305,15 +353,13 @@ class LogFit:
         paths = {"model": self.model.save(folder / "model.npz")}
         if self.phaser is not None:
             paths["phaser"] = self.phaser.save(folder / "phaser.npz")
-        paths["config"] = folder / "config.json"
-        paths["config"].write_text(json.dumps(model_config(self.model), indent=2) + "\n")
+        paths["config"] = write_json(folder / "config.json", model_config(self.model))
         if mapping is not None:
-            paths["mapping"] = folder / "mapping.json"
-            paths["mapping"].write_text(mapping_to_json(mapping))
+            paths["mapping"] = write_text(folder / "mapping.json", mapping_to_json(mapping))
         paths.update(write_fit_figures(self, folder))
         paths["report"] = folder / "report.json"
         report = {**(extra or {}), "results": self.summary(), "files": {k: p.name for k, p in paths.items()}}
-        paths["report"].write_text(json.dumps(_plain(report), indent=2) + "\n")
+        write_json(paths["report"], report)
         return paths
 
 
@@ -431,14 +477,87 @@ class LogPrediction:
                 "n_segments": self.log.n_segments, "n_cycles": int(np.unique(self.cycle).size),
                 "measured_body_velocity": self.measured, "phase_source": self.phase_source}
 
-    def save(self, path, extra: dict | None = None) -> tuple[Path, Path]:
-        """Write the CSV ``path`` and the Γ summary ``path`` with suffix ``.json``."""
+    def save(self, path, extra: dict | None = None, *, summary_path=None,
+             protect: tuple = ()) -> tuple[Path, Path]:
+        """Write the predictions as CSV to ``path`` and the Γ summary as JSON to ``summary_path``.
+
+        Parameters
+        ----------
+        path : path-like
+            Predictions CSV; its folder is created if missing.
+        extra : dict, optional
+            Added to the summary (e.g. the command line's options).
+        summary_path : path-like, optional
+            Default: ``path`` with suffix ``.json``, or ``<stem>.summary.json`` when ``path``
+            itself ends in ``.json``.
+        protect : tuple of path-like
+            Files that must not be overwritten (the inputs); naming one of them as ``path`` or
+            ``summary_path`` is an error, raised before anything is written.
+
+        Returns
+        -------
+        (Path, Path)
+            The CSV and the summary.
+        """
         path = Path(path)
+        summary_path = default_summary_path(path) if summary_path is None else Path(summary_path)
+        check_outputs({"out": path, "summary": summary_path}, protect, "LogPrediction.save")
         path.parent.mkdir(parents=True, exist_ok=True)
-        self.to_pandas().to_csv(path, index=False)
-        summary_path = path.with_suffix(".json")
-        summary_path.write_text(json.dumps(_plain({**(extra or {}), "results": self.summary()}), indent=2) + "\n")
+        summary_path.parent.mkdir(parents=True, exist_ok=True)
+        frame = self.to_pandas()
+        write_text(path, frame.to_csv(index=False))
+        write_json(summary_path, {**(extra or {}), "results": self.summary()})
         return path, summary_path
+
+
+def default_summary_path(out) -> Path:
+    """Where the Γ summary of predictions written to ``out`` goes by default (never ``out`` itself).
+
+    Parameters
+    ----------
+    out : path-like
+        The predictions file.
+
+    Returns
+    -------
+    Path
+        ``out`` with suffix ``.json``, or ``<stem>.summary.json`` when ``out`` ends in ``.json``.
+    """
+    out = Path(out)
+    return out.with_name(f"{out.stem}.summary.json") if out.suffix.lower() == ".json" else out.with_suffix(".json")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and a.samefile(b)
+    except OSError:
+        return False
+
+
+def check_outputs(outputs: dict, inputs, owner: str) -> None:
+    """Refuse outputs that are the same file as an input or as each other (before writing anything).
+
+    Parameters
+    ----------
+    outputs : dict of str to path-like
+        Name (for the message) → path.
+    inputs : iterable of path-like or None
+    owner : str
+    """
+    resolved = {name: Path(os.path.realpath(p)) for name, p in outputs.items()}
+    for name, path in resolved.items():
+        for given in inputs:
+            if given is None:
+                continue
+            source = Path(os.path.realpath(given))
+            if source == path or _same_file(source, path):
+                raise fail(name, owner, "a file other than the inputs (it would be overwritten)",
+                           f"{str(outputs[name])!r}, which is the input {str(given)!r}")
+    names = list(resolved)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if resolved[a] == resolved[b]:
+                raise fail(b, owner, f"a file other than '{a}'", str(outputs[b]))
 
 
 def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = None,
@@ -466,11 +585,25 @@ def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = N
         raise fail("log", "predict_log", f"a log with {model.n_joints_} shape columns (the model's joints)",
                    f"{log.n_joints} shape columns")
     unwrapped, used = _unwrapped_phase(log, phaser, fit=False)
+    _warn_on_rate_mismatch(log, unwrapped, float(model.phase_rate))
     log = log.with_phase(unwrapped)
     prediction = model.predict(log.phase, log.shape, log.shape_velocity)
     baseline = model.phase_model_.predict(log.phase)
     return LogPrediction(log=log, cycle=_cycles(unwrapped), prediction=prediction, baseline=baseline,
                          measured=bool(measured), phase_source="phase column" if used is None else "Phaser")
+
+
+def _warn_on_rate_mismatch(log: Log, unwrapped: list[np.ndarray], expected: float) -> None:
+    """Warn when the log's phase rate is 10× off the model's: time stamps in another unit than the fit's?"""
+    advance = sum(float(u[-1] - u[0]) for u in unwrapped)
+    duration = sum(float(part.time[-1] - part.time[0]) for part in log.segments())
+    if duration <= 0 or advance <= 0:
+        return
+    ratio = advance / duration / expected
+    if not 0.1 <= ratio <= 10:
+        warnings.warn(f"The log's phase advances at {advance / duration:.4g} rad per time unit, {ratio:.3g} times the "
+                      f"model's phase_rate {expected:.4g}: are its time stamps in another unit than the fitted log's "
+                      "(time_unit, --time-unit s|ms|us|ns)?", GeogaitWarning, stacklevel=3)
 
 
 def _per_cycle(predicted, baseline, measured, cycle, segment) -> list[dict]:
@@ -482,16 +615,3 @@ def _per_cycle(predicted, baseline, measured, cycle, segment) -> list[dict]:
         rows.append({"cycle": int(c), "segment": int(segment[mine][0]), "n_samples": int(mine.sum()),
                      "gamma": float(gamma(model_error[mine], baseline_error[mine]))})
     return rows
-
-
-def _plain(value):
-    """JSON-ready copy: numpy scalars and arrays to Python, tuples to lists, paths to str."""
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray | np.generic):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    return value

@@ -7,8 +7,16 @@ columns ṙ and a phase column. Column names come from keyword arguments or a ma
 
 Units: angles in radians (``degrees=True`` converts the shape, shape-velocity and heading
 columns and the ω column of body velocity; the phase column is always radians), lengths in any
-unit (body velocities come out in that unit per time unit), time in any unit (numbers, or
-pandas datetimes/timedeltas, which become seconds).
+unit (body velocities come out in that unit per time unit), time in seconds or in the unit
+declared by ``time_unit`` (``"ms"``, ``"us"``, ``"ns"``: time and the rate columns are converted to
+seconds); pandas datetimes/timedeltas become seconds. The model's RLS prior is scaled for rates
+per second of a gait of about 0.01–100 cycles per second: :func:`~geogait.io.fit_log` warns when
+the phase rate is outside that range and refuses rates outside 1 cycle per day – 1000 cycles per
+second.
+
+Plausibility: every value must lie within ±1e12, and a value further than ``outlier_limit``
+(default 1000) robust standard deviations from its column's median (shapes, rates, body
+velocities, steps of the x, y pose columns) is an error naming the column and row.
 
 Derived quantities, computed independently in every segment:
 
@@ -58,10 +66,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 from scipy.signal import savgol_filter
 
 from .. import se2
-from .._validation import GeogaitError, check_array, check_choice, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_choice, check_float, check_int, fail
 from ..phase import cycle_index
 from ..simulate import Trajectory
 from ..simulate._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS
@@ -69,6 +78,10 @@ from ..simulate._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS
 __all__ = ["ColumnMapping", "Log", "body_velocity_from_poses", "load_column_mapping", "read_log"]
 
 _READ = "read_log"
+#: Seconds per unit of the ``time_unit`` argument.
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: Default plausibility bound of :func:`read_log`, in robust standard deviations from the median.
+DEFAULT_OUTLIER_LIMIT = 1000.0
 _SCHEMES = ("forward", "central")
 
 
@@ -156,7 +169,8 @@ class ColumnMapping:
 def _names(value, name: str, owner: str) -> tuple[str, ...] | None:
     if value is None:
         return None
-    if isinstance(value, str) or not all(isinstance(v, str) for v in value):
+    if isinstance(value, str | bytes | dict) or not hasattr(value, "__iter__") or not all(isinstance(v, str)
+                                                                                        for v in value):
         raise fail(name, owner, "a list of column names (str)", value)
     return tuple(value)
 
@@ -216,6 +230,9 @@ class Log:
         (x, y, heading) as logged (heading unwrapped within segments), if the log had poses.
     phase : ndarray of shape (n,) or None
         Phase in ``[0, 2π)``, if known.
+    time_unit : str or None
+        ``"s"`` when :func:`read_log` converted time and rates to seconds (its ``time_unit``);
+        None when they are in the log's own, undeclared unit.
 
     Examples
     --------
@@ -234,6 +251,7 @@ class Log:
     row: np.ndarray
     pose: np.ndarray | None = None
     phase: np.ndarray | None = None
+    time_unit: str | None = None
 
     @property
     def n_samples(self) -> int:
@@ -254,8 +272,8 @@ class Log:
         return [self._take(slice(a, b)) for a, b in slices]
 
     def _take(self, index) -> Log:
-        return Log(**{f.name: None if getattr(self, f.name) is None else getattr(self, f.name)[index]
-                      for f in fields(self)})
+        return Log(**{f.name: getattr(self, f.name) if not isinstance(getattr(self, f.name), np.ndarray)
+                      else getattr(self, f.name)[index] for f in fields(self)})
 
     def with_phase(self, phase) -> Log:
         """The same log with ``phase``: an array ``(n,)`` or a list of per-segment arrays."""
@@ -372,7 +390,8 @@ class _Options:
 def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_velocity=None,
              pose=None, shape_velocity=None, phase: str | None = None, degrees: bool | None = None,
              drop_nan: bool = False, gap_factor: float = 1.5, max_jitter: float = 0.1, window: int = 11,
-             polyorder: int = 3, smooth_poses: bool = True, scheme: str = "forward") -> Log:
+             polyorder: int = 3, smooth_poses: bool = True, scheme: str = "forward", time_unit: str | None = None,
+             outlier_limit: float | None = DEFAULT_OUTLIER_LIMIT) -> Log:
     """Read a robot log into a :class:`Log`.
 
     Parameters
@@ -400,6 +419,15 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
         Smooth poses before computing body velocities (see the module notes).
     scheme : {"forward", "central"}
         Sample assignment of the pose-derived body velocity (:func:`body_velocity_from_poses`).
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        Unit of the time column and of every rate column (shape velocity, body velocity): all are
+        converted to seconds. None (default) keeps them in the log's own unit.
+    outlier_limit : float > 0, optional
+        Plausibility bound: a value further than ``outlier_limit`` robust standard deviations
+        (1.4826 × the median absolute deviation) from its column's median is an error naming the
+        column and row. It is applied to the shape, shape-velocity and body-velocity columns and to
+        the steps of the x, y columns of poses; None switches it off. Every value must also lie
+        within ±1e12 (:data:`geogait._validation.MAX_MAGNITUDE`).
 
     Returns
     -------
@@ -417,6 +445,9 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     columns = _resolve_mapping(mapping, dict(time=time, shape=shape, body_velocity=body_velocity, pose=pose,
                                              shape_velocity=shape_velocity, phase=phase, degrees=degrees))
     options = _check_options(drop_nan, gap_factor, max_jitter, window, polyorder, smooth_poses, scheme)
+    scale = _time_scale(time_unit)
+    limit = None if outlier_limit is None else check_float(outlier_limit, "outlier_limit", _READ, low=0,
+                                                           low_open=True)
     frame = _load_frame(source)
     data = _numeric_columns(frame, columns)
     keep = _finite_rows(data, columns, options.drop_nan)
@@ -424,10 +455,87 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     if rows.size < 2:
         raise fail("source", _READ, "a log with at least 2 usable rows", f"{rows.size} usable row(s)")
     data = {name: values[keep] for name, values in data.items()}
+    _check_plausible(data, columns, rows, limit)
+    if scale != 1.0:
+        data = _to_seconds(data, columns, scale)
     stamps = data[columns.time]
     _check_increasing(stamps, rows, columns.time)
     segment = _segments(stamps, rows, options.gap_factor)
-    return _build(data, columns, options, stamps, segment, rows)
+    log = _build(data, columns, options, stamps, segment, rows)
+    return log if time_unit is None else replace(log, time_unit="s")
+
+
+def _time_scale(time_unit: str | None) -> float:
+    """Seconds per time unit (1 when the unit is not given)."""
+    if time_unit is None:
+        return 1.0
+    return TIME_UNITS[check_choice(time_unit, "time_unit", _READ, tuple(TIME_UNITS))]
+
+
+def _to_seconds(data: dict[str, np.ndarray], columns: ColumnMapping, scale: float) -> dict[str, np.ndarray]:
+    """Time in seconds, rates per second (``scale`` seconds per unit)."""
+    data = dict(data)
+    data[columns.time] = data[columns.time] * scale
+    for name in (columns.shape_velocity or ()) + (columns.body_velocity or ()):
+        data[name] = data[name] / scale
+    return data
+
+
+def robust_outliers(values: np.ndarray, limit: float, floor: float = 0.0) -> np.ndarray:
+    """Mask of the values further than ``limit`` robust standard deviations from the median.
+
+    The robust standard deviation is 1.4826 × the median absolute deviation (the standard
+    deviation for Gaussian data), at least ``floor``; when that is zero (a column that is constant
+    but for a few values) nothing can be judged and nothing is an outlier.
+
+    Parameters
+    ----------
+    values : ndarray of shape (n,)
+    limit : float > 0
+    floor : float >= 0
+
+    Returns
+    -------
+    ndarray of shape (n,), bool
+    """
+    median = np.median(values)
+    deviation = np.abs(values - median)
+    spread = max(1.4826 * float(np.median(deviation)), floor)
+    if spread == 0:
+        return np.zeros(values.shape, dtype=bool)
+    return deviation > limit * spread
+
+
+def _check_plausible(data: dict[str, np.ndarray], columns: ColumnMapping, rows: np.ndarray,
+                     limit: float | None) -> None:
+    """Every used value but time within ±MAX_MAGNITUDE; with ``limit``, no robust outliers."""
+    for name, values in data.items():
+        if name == columns.time:  # only its steps matter (epoch stamps in ns are ~1e18)
+            continue
+        big = np.flatnonzero(np.abs(values) > MAX_MAGNITUDE)
+        if big.size:
+            raise fail(name, _READ, f"plausible values, within ±{MAX_MAGNITUDE:g}",
+                       f"{values[big[0]]:g} at row {rows[big[0]]}")
+    if limit is None:
+        return
+    checked = {name: data[name] for name in columns.shape + (columns.shape_velocity or ())
+               + (columns.body_velocity or ())}
+    if columns.pose is not None:
+        for name in columns.pose[:2]:
+            checked[f"step of {name}"] = np.diff(data[name])
+    for name, values in checked.items():
+        if values.size < 8:
+            continue
+        bad = np.flatnonzero(robust_outliers(values, limit))
+        if bad.size:
+            i = bad[0]
+            row = rows[i + 1] if name.startswith("step of ") else rows[i]
+            raise fail(name.removeprefix("step of "), _READ,
+                       f"plausible: within outlier_limit = {limit:g} robust standard deviations of the column's "
+                       f"median{' step' if name.startswith('step of ') else ''} (raise or disable outlier_limit if "
+                       "the data are right)",
+                       f"{'a step of ' if name.startswith('step of ') else ''}{values[i]:g} at row {row} "
+                       f"(the first of {bad.size} such value(s); median {np.median(values):.4g})")
 
 
 def _resolve_mapping(mapping, overrides: dict) -> ColumnMapping:
@@ -476,7 +584,14 @@ def _load_frame(source) -> pd.DataFrame:
         raise fail("source", _READ, "a file ending in .csv, .parquet or .pq", str(path))
     if not path.is_file():
         raise fail("source", _READ, "an existing file", str(path))
-    return pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+    kind = "CSV" if suffix == ".csv" else "Parquet"
+    try:
+        return pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, pa.ArrowException,
+            ValueError) as error:
+        reason = " ".join(str(error).split())[:200]
+        raise GeogaitError(f"The 'source' parameter of {_READ} must be a readable {kind} file. Got {str(path)!r} "
+                           f"({reason}) instead.") from None
 
 
 def _numeric_columns(frame: pd.DataFrame, columns: ColumnMapping) -> dict[str, np.ndarray]:

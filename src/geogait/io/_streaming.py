@@ -44,8 +44,8 @@ Stopping: SIGINT (Ctrl-C) and SIGTERM stop the loop at once while it waits for i
 sample is being learned or the model saved, they take effect after that (the model is never
 saved half-updated), and a signal during the final save is ignored: the save completes. A
 signal that arrives while an output line is being written may cut that line. SIGKILL cannot be
-caught: the last checkpoint (``save_every``) survives intact, a temporary ``.<name>.*.tmp`` file
-may be left beside it.
+caught: the last checkpoint (``save_every``) survives intact, a temporary ``.<name>.<pid>.*.tmp``
+file may be left beside it (the next save of that model removes it).
 """
 
 from __future__ import annotations
@@ -57,6 +57,7 @@ import math
 import signal
 import statistics
 import threading
+import warnings
 from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -65,10 +66,22 @@ from typing import TextIO
 
 import numpy as np
 
-from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from .._files import check_writable, dumps_json
+from .._validation import (
+    MAX_MAGNITUDE,
+    GeogaitError,
+    GeogaitWarning,
+    check_array,
+    check_choice,
+    check_float,
+    check_int,
+    fail,
+)
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, load_model
+from ..models._base import MAX_PHASE
 from ..phase import OnlinePhaser, Phaser
+from ._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 
 __all__ = ["CONFIG_FORMAT", "CsvReader", "JsonLinesReader", "OnlineDifferentiator", "StreamLearner",
            "StreamOutput", "StreamSample", "StreamSummary", "load_stream_model", "model_config",
@@ -79,6 +92,12 @@ CONFIG_VERSION = 1
 PREDICTION_COLUMNS = ("predicted_body_velocity_x", "predicted_body_velocity_y", "predicted_body_velocity_theta")
 _BODY = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
 _KEYS = ("time", "phase", "shape", "shape_velocity", "body_velocity")
+#: Accepted samples whose medians and spreads define the stream's plausibility bound.
+PLAUSIBILITY_WINDOW = 1000
+#: Accepted samples before the relative bound applies (before: only ±1e12).
+PLAUSIBILITY_MIN_SAMPLES = 50
+#: Accepted samples between refreshes of the medians and spreads (each costs ~1 ms).
+PLAUSIBILITY_REFRESH = 250
 
 
 # -- records ------------------------------------------------------------------------------------
@@ -119,6 +138,8 @@ class StreamOutput:
     gamma : float or None
         Online Γ after the sample (None before anything was learned).
     learned : bool
+    rejected : str or None
+        Why the sample was quarantined (implausible values, see :class:`StreamLearner`); None otherwise.
     """
 
     index: int
@@ -127,12 +148,16 @@ class StreamOutput:
     prediction: np.ndarray | None
     gamma: float | None
     learned: bool
+    rejected: str | None = None
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (floats are written exactly by :func:`json.dumps`)."""
-        return {"index": self.index, "time": self.time, "phase": self.phase,
-                "prediction": None if self.prediction is None else self.prediction.tolist(),
-                "gamma": self.gamma, "learned": self.learned}
+        """JSON-ready dict (floats are written exactly by :func:`json.dumps`; ``rejected`` only when set)."""
+        record = {"index": self.index, "time": self.time, "phase": self.phase,
+                  "prediction": None if self.prediction is None else self.prediction.tolist(),
+                  "gamma": self.gamma, "learned": self.learned}
+        if self.rejected is not None:
+            record["rejected"] = self.rejected
+        return record
 
 
 @dataclass(frozen=True)
@@ -151,7 +176,12 @@ class StreamSummary:
     error : str or None
         The error message when ``reason == "error"``.
     saved : Path or None
-        Where the model was written at the end (None if nothing new was learned).
+        Where the model was last written during the stream or at its end (None if nothing was
+        learned, or if the model could not be saved: see ``error``).
+    n_rejected : int
+        Samples quarantined as implausible (neither predicted nor learned).
+    first_rejection : str or None
+        Line and reason of the first of them.
     """
 
     n_samples: int
@@ -160,6 +190,8 @@ class StreamSummary:
     reason: str
     error: str | None
     saved: Path | None
+    n_rejected: int = 0
+    first_rejection: str | None = None
 
 
 # -- model configs ------------------------------------------------------------------------------
@@ -320,6 +352,22 @@ class StreamLearner:
         Where :meth:`save` writes the model; nothing is saved without it.
     save_every : int >= 1, optional
         Also save after every ``save_every`` learned samples.
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        Unit of the samples' ``time`` and of their rates (``shape_velocity``, ``body_velocity``),
+        converted to seconds before use; None keeps the stream's own unit.
+    outlier_limit : float > 0, optional
+        Quarantine a sample with a value (shape, shape velocity, body velocity) further than this
+        many robust standard deviations (1.4826 × MAD) from the median of the last
+        ``PLAUSIBILITY_WINDOW`` accepted samples (active once ``PLAUSIBILITY_MIN_SAMPLES`` were
+        accepted); None switches it off. Values beyond ±1e12 are always quarantined. A quarantined
+        sample is neither predicted nor learned and does not reach the phase estimator or the
+        differentiator; its output says why (``rejected``).
+
+    Notes
+    -----
+    ``path`` is checked for writability here, before the first sample. The model is never saved
+    once it holds NaN or infinity (the previous file is kept and the stream stops with an error);
+    a checkpoint's path is kept in :attr:`last_saved`.
 
     Examples
     --------
@@ -333,10 +381,16 @@ class StreamLearner:
     """
 
     def __init__(self, model: AdaptiveGaitModel, *, phaser: Phaser | None = None, phase_window: int | None = None,
-                 derivative_window: int = 5, gap_factor: float = 3.0, path=None, save_every: int | None = None):
+                 derivative_window: int = 5, gap_factor: float = 3.0, path=None, save_every: int | None = None,
+                 time_unit: str | None = None, outlier_limit: float | None = DEFAULT_OUTLIER_LIMIT):
         owner = "StreamLearner"
         if not isinstance(model, AdaptiveGaitModel):
             raise fail("model", owner, "an AdaptiveGaitModel", type(model).__name__)
+        self.time_scale = 1.0 if time_unit is None else TIME_UNITS[check_choice(time_unit, "time_unit", owner,
+                                                                                  tuple(TIME_UNITS))]
+        self.time_unit = time_unit
+        self.outlier_limit = None if outlier_limit is None else check_float(outlier_limit, "outlier_limit", owner,
+                                                                            low=0, low_open=True)
         self.model = model
         self.n_joints = _n_joints(model)
         self.online_phaser = None if phaser is None else OnlinePhaser(phaser, window=phase_window)
@@ -345,9 +399,21 @@ class StreamLearner:
                        f"{phaser.n_channels_} channels")
         self.differentiator = OnlineDifferentiator(derivative_window, min(2, derivative_window - 1))
         self.gap_factor = check_float(gap_factor, "gap_factor", owner, low=1, low_open=True)
-        self.path = None if path is None else Path(path)
         self.save_every = None if save_every is None else check_int(save_every, "save_every", owner, minimum=1)
-        self.n_samples = self.n_learned = 0
+        self.path = None if path is None else check_writable(path, "model file")
+        self.n_samples = self.n_learned = self.n_rejected = 0
+        self.first_rejection: str | None = None
+        self.last_saved: Path | None = None
+        self.broken: str | None = None
+        self._history: deque[np.ndarray] = deque(maxlen=PLAUSIBILITY_WINDOW)
+        width = 2 * self.n_joints + 3
+        self._values = np.empty(width)
+        self._centre = np.zeros(width)
+        self._spread: np.ndarray | None = None
+        self._bound = np.full(width, MAX_MAGNITUDE)
+        self._advance = self._duration = 0.0
+        self._previous: tuple[float, float] | None = None
+        self._rate_checked = False
         self._gamma = float(model.gamma_) if hasattr(model, "batch_shape_") else None
         self._unsaved = 0
         self._last_time: float | None = None
@@ -359,30 +425,124 @@ class StreamLearner:
         return self._gamma
 
     def step(self, sample: StreamSample) -> StreamOutput:
-        """Process one sample: phase, ṙ, a-priori prediction, learning, checkpoint."""
+        """Process one sample: plausibility, phase, ṙ, a-priori prediction, learning, checkpoint."""
+        if self.broken is not None:
+            raise GeogaitError(self.broken)
+        sample = self._in_seconds(sample)
         self._clock(sample)
-        phase = self._phase(sample)
-        rate = self._rate(sample)
+        d = self.n_joints
+        values = self._values  # [shape, ṙ, ξ]; NaN where not given
+        values[:d], values[2 * d:] = sample.shape, sample.body_velocity
+        values[d:2 * d] = np.nan if sample.shape_velocity is None else sample.shape_velocity
+        problem = self._implausible(values)
+        own_phase = self.online_phaser is None and sample.phase is not None
+        if problem is None and own_phase and abs(sample.phase) > MAX_PHASE:
+            problem = f"phase = {sample.phase:g} is beyond ±{MAX_PHASE:g} rad (wrap it to [0, 2π))"
+        if problem is None:
+            phase = self._phase(sample)
+            rate = self._rate(sample)
+            if rate is not None and sample.shape_velocity is None:
+                values[d:2 * d] = rate
+                problem = self._implausible(values)
         index = self.n_samples
         self.n_samples += 1
+        if problem is not None:
+            self.n_rejected += 1
+            self.first_rejection = self.first_rejection or f"input line {sample.line}: {problem}"
+            return StreamOutput(index, sample.time, None, None, self.gamma, False, rejected=problem)
         if phase is None or rate is None:
             return StreamOutput(index, sample.time, phase, None, self.gamma, False)
+        self._check_phase_rate(sample.time, phase)
         self.model.partial_fit(phase, sample.shape, rate, sample.body_velocity)
+        self._gamma = float(self.model.online_gamma_[-1])  # = model.gamma_, without recomputing it
+        prediction = self.model.prior_prediction_[0]
+        if not (math.isfinite(self._gamma) and np.all(np.isfinite(prediction))):
+            self.broken = (f"The model went non-finite at input line {sample.line} (online Γ {self._gamma}); it is "
+                           "not saved (the last checkpoint, if any, is kept).")
+            raise GeogaitError(self.broken)
+        self._remember(values)
         self.n_learned += 1
         self._unsaved += 1
-        self._gamma = float(self.model.online_gamma_[-1])  # = model.gamma_, without recomputing it
-        output = StreamOutput(index, sample.time, phase, self.model.prior_prediction_[0], self._gamma, True)
+        output = StreamOutput(index, sample.time, phase, prediction, self._gamma, True)
         if self.save_every is not None and self.n_learned % self.save_every == 0:
             self.save()
         return output
 
     def save(self) -> Path | None:
-        """Write the model to ``path`` if anything was learned since the last save; returns the path."""
-        if self.path is None or self._unsaved == 0:
+        """Write the model to ``path`` if anything was learned since the last save; returns the path.
+
+        Nothing is written once the model went non-finite (:attr:`broken`).
+        """
+        if self.path is None or self._unsaved == 0 or self.broken is not None:
             return None
         self.model.save(self.path)
         self._unsaved = 0
+        self.last_saved = self.path
         return self.path
+
+    # -- plausibility and units ---------------------------------------------------------------
+    def _in_seconds(self, sample: StreamSample) -> StreamSample:
+        if self.time_scale == 1.0:
+            return sample
+        scale = self.time_scale
+        return StreamSample(line=sample.line, shape=sample.shape, body_velocity=sample.body_velocity / scale,
+                            time=None if sample.time is None else sample.time * scale, phase=sample.phase,
+                            shape_velocity=None if sample.shape_velocity is None else sample.shape_velocity / scale)
+
+    def _channel_names(self) -> list[str]:
+        d = self.n_joints
+        return ([f"shape[{j}]" for j in range(d)] + [f"shape_velocity[{j}]" for j in range(d)]
+                + [f"body_velocity[{k}]" for k in range(3)])
+
+    def _implausible(self, values: np.ndarray) -> str | None:
+        """Why ``values`` ([shape, ṙ, ξ], NaN = not given) are implausible, or None.
+
+        One vectorised test per sample against ``_bound`` (±MAX_MAGNITUDE about 0 until the
+        statistics exist); comparisons with NaN are False, so channels not given pass.
+        """
+        if not (np.abs(values - self._centre) > self._bound).any():
+            return None
+        big = np.abs(values) > MAX_MAGNITUDE
+        if big.any():
+            c = int(np.flatnonzero(big)[0])
+            return f"{self._channel_names()[c]} = {values[c]:g} is beyond ±{MAX_MAGNITUDE:g}"
+        c = int(np.flatnonzero(np.abs(values - self._centre) > self._bound)[0])
+        return (f"{self._channel_names()[c]} = {values[c]:g} is implausible: more than outlier_limit = "
+                f"{self.outlier_limit:g} robust standard deviations ({self._spread[c]:.3g}) from the median "
+                f"{self._centre[c]:.4g} of the last {len(self._history)} accepted samples")
+
+    def _remember(self, values: np.ndarray) -> None:
+        """Add an accepted sample; refresh the medians and spreads every ``PLAUSIBILITY_REFRESH`` samples."""
+        self._history.append(values.copy())
+        n = len(self._history)
+        if self.outlier_limit is None or n < PLAUSIBILITY_MIN_SAMPLES or (
+                self._spread is not None and self.n_learned % PLAUSIBILITY_REFRESH):
+            return
+        history = np.asarray(self._history)
+        self._centre = np.median(history, axis=0)
+        self._spread = 1.4826 * np.median(np.abs(history - self._centre), axis=0)
+        # a channel without spread cannot be judged; nothing beyond ±MAX_MAGNITUDE passes either way
+        relative = np.where(self._spread > 0, self.outlier_limit * self._spread, np.inf)
+        self._bound = np.minimum(relative, MAX_MAGNITUDE - np.abs(self._centre))
+
+    def _check_phase_rate(self, time: float | None, phase: float) -> None:
+        """Warn once when the stream's phase rate disagrees 10-fold with the model's ``phase_rate``."""
+        if self._rate_checked or time is None:
+            return
+        if self._previous is not None:
+            step = (phase - self._previous[1] + np.pi) % (2 * np.pi) - np.pi
+            self._advance += step
+            self._duration += time - self._previous[0]
+        self._previous = (time, phase)
+        if self._advance < 4 * np.pi or self._duration <= 0:
+            return
+        self._rate_checked = True
+        rate, expected = self._advance / self._duration, float(self.model.phase_rate)
+        if not 0.1 <= rate / expected <= 10:
+            warnings.warn(f"The stream's phase advances at {rate:.4g} rad per time unit, {rate / expected:.3g} times "
+                          f"the model's phase_rate {expected:.4g}: are the time stamps in another unit than the "
+                          "model's (time_unit, --time-unit s|ms|us|ns)? Shape velocities differentiated from them "
+                          "are then wrong by the same factor.", GeogaitWarning, stacklevel=3)
 
     def _clock(self, sample: StreamSample) -> None:
         """Check the time stamp increases; after a gap, restart the differentiator and phase window."""
@@ -575,7 +735,7 @@ class _JsonLinesWriter:
         self.sink = sink
 
     def write(self, output: StreamOutput) -> None:
-        self.sink.write(json.dumps(output.to_dict()) + "\n")
+        self.sink.write(dumps_json(output.to_dict()) + "\n")
         self.sink.flush()
 
 
@@ -674,9 +834,16 @@ def run_stream(learner: StreamLearner, source, sink: TextIO, *, fmt: str = "json
             reason = str(stopped)
         except GeogaitError as bad:
             reason, error = "error", str(bad)
+        except (UnicodeDecodeError, csv.Error) as bad:  # undecodable bytes, a broken CSV quote
+            reason, error = "error", f"unreadable input after {learner.n_samples} sample(s): {bad}"
         except BrokenPipeError:
             reason = "output closed"
         finally:
             stop.busy = True
-            saved = learner.save()
-    return StreamSummary(learner.n_samples, learner.n_learned, learner.gamma, reason, error, saved)
+            try:
+                learner.save()
+            except (GeogaitError, OSError) as failure:
+                message = f"could not save the model: {failure}"
+                reason, error = "error", message if error is None else f"{error}; {message}"
+    return StreamSummary(learner.n_samples, learner.n_learned, learner.gamma, reason, error, learner.last_saved,
+                         learner.n_rejected, learner.first_rejection)

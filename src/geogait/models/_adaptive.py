@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from .._validation import check_choice, check_float, fail
+from .._validation import check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
 from ._base import GaitModelBase
 from ._features import n_regressors, regressors
@@ -119,9 +119,10 @@ class AdaptiveGaitModel(GaitModelBase):
         self.n_samples_seen_ = 0
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
-        self._forget()
-        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        with self._unchanged_on_error():
+            self._forget()
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn from samples in time order (one sample or a batch; optional leading trial axes).
@@ -139,6 +140,8 @@ class AdaptiveGaitModel(GaitModelBase):
         phase, shape, shape_velocity, body_velocity = self._check_samples(
             phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
             owner="AdaptiveGaitModel.partial_fit")
+        if not self.__dict__.get("_warned_degrees", False):
+            self._warned_degrees = warn_if_degrees(shape, "shape", "AdaptiveGaitModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
         scale = self._time_scale()  # the filters work in cycle time (see geogait.models._base)
@@ -256,11 +259,14 @@ class AdaptiveGaitModel(GaitModelBase):
         -------
         self
         """
+        owner = "AdaptiveGaitModel.rebase"
         self._check_is_fitted()
-        check_choice(terms, "terms", "AdaptiveGaitModel.rebase", ("constant", "all", "none"))
+        check_choice(terms, "terms", owner, ("constant", "all", "none"))
         if not isinstance(new_gait, FourierGait) or new_gait.n_joints != self.n_joints_:
-            raise fail("new_gait", "AdaptiveGaitModel.rebase", f"a FourierGait with {self.n_joints_} joints",
-                       new_gait)
+            raise fail("new_gait", owner, f"a FourierGait with {self.n_joints_} joints", new_gait)
+        inflation = check_float(covariance_inflation, "covariance_inflation", owner, low=1)
+        variance = check_float(constant_variance, "constant_variance", owner, low=0)
+        check_choice(baseline, "baseline", owner, ("reset", "reseed", "keep"))
         centres = self.windows_.centres
         old, old_rate = self._nominal(centres)
         new, new_rate = self._nominal(centres, new_gait)
@@ -272,15 +278,12 @@ class AdaptiveGaitModel(GaitModelBase):
             bilinear = weights[..., 1 + 2 * d:, :].reshape(weights.shape[:-2] + (d, d, 3))  # [i, j]: δ_i δ̇_j
             weights[..., 1:1 + d, :] += np.einsum("...mijk,mj->...mik", bilinear, shift_rate)
             weights[..., 1 + d:1 + 2 * d, :] += np.einsum("...mijk,mi->...mjk", bilinear, shift)
-        inflation = check_float(covariance_inflation, "covariance_inflation", "AdaptiveGaitModel.rebase", low=1)
         if terms != "none":
             weights[..., 0, :] = constant
-        variance = check_float(constant_variance, "constant_variance", "AdaptiveGaitModel.rebase", low=0)
         if inflation > 1:
             self.bank_.inflate(inflation)
         if variance > 0:
             self.bank_.covariance[..., 0, 0] += variance
-        check_choice(baseline, "baseline", "AdaptiveGaitModel.rebase", ("reset", "reseed", "keep"))
         self._set_gait(new_gait)
         bank = self.phase_model_.bank_
         if baseline == "reset":

@@ -10,6 +10,7 @@ in seconds at any cycle period gives the same gaits as one in cycles; at φ̇ = 
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import inspect
 from pathlib import Path
@@ -17,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import read_state, write_state
-from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
@@ -28,6 +29,8 @@ FORMAT = "geogait-model"
 _GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
 FORMAT_VERSION = 2  # 2: weights in cycle time (module docstring); version-1 files are converted on load
 _CYCLE_RATE = 2 * np.pi  # φ̇ in cycle time
+#: Largest |phase| (rad) accepted: beyond it, φ mod 2π loses the precision that the windows need.
+MAX_PHASE = 1e9
 
 
 def gamma(error_model, error_baseline) -> np.ndarray:
@@ -77,21 +80,33 @@ class GaitModelBase:
 
     def _check_samples(self, phase, *arrays, names, owner):
         """Validate time-ordered samples; returns arrays with a time axis (batch + (n, ...))."""
-        phase = np.asarray(check_array(phase, "phase", owner))
+        phase = np.asarray(check_array(phase, "phase", owner, limit=MAX_PHASE))
         single = phase.ndim == 0 or (hasattr(self, "batch_shape_") and phase.ndim == len(self.batch_shape_))
         if single:
             phase = phase[..., None]
+        if phase.shape[-1] == 0:
+            raise fail("phase", owner, "at least one sample (n >= 1)", f"shape {phase.shape}")
         out = [phase]
         for array, name in zip(arrays, names, strict=True):
             width = 3 if name == "body_velocity" else None
-            value = check_array(array, name, owner, trailing=(width,))
+            value = check_array(array, name, owner, trailing=(width,), limit=MAX_MAGNITUDE)
             if single:
                 value = value[..., None, :]
             if value.shape[:-1] != phase.shape:
-                raise fail(name, owner, f"an array of shape {phase.shape + (value.shape[-1],)} matching 'phase'",
+                columns = "3" if width else "d"
+                hint = (" (transposed? samples go along the first axis)"
+                        if value.ndim >= 2 and value.shape[-1] == phase.shape[-1] else "")
+                raise fail(name, owner, f"an array of shape {phase.shape} + ({columns},) matching 'phase'{hint}",
                            f"shape {value.shape}")
             out.append(value)
+        widths = {name: value.shape[-1] for value, name in zip(out[1:], names, strict=True) if name != "body_velocity"}
         d = getattr(self, "n_joints_", None)
+        if d is None and len(set(widths.values())) > 1:
+            first = next(iter(widths))
+            for name, width in widths.items():
+                if width != widths[first]:
+                    raise fail(name, owner, f"an array of shape (..., {widths[first]}) like '{first}'",
+                               f"shape {out[1 + names.index(name)].shape}")
         for value, name in zip(out[1:], names, strict=True):
             if name != "body_velocity" and d is not None and value.shape[-1] != d:
                 raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
@@ -265,6 +280,17 @@ class GaitModelBase:
         baseline._reset(self.batch_shape_)
         return baseline
 
+    @contextlib.contextmanager
+    def _unchanged_on_error(self):
+        """Restore every attribute when the block raises: a failed ``fit`` leaves the model as it was."""
+        saved = dict(self.__dict__)
+        try:
+            yield
+        except BaseException:
+            self.__dict__.clear()
+            self.__dict__.update(saved)
+            raise
+
     def _forget(self) -> None:
         """Drop the learned state so the next ``partial_fit`` starts from scratch (``fit``)."""
         for name in ("batch_shape_", "n_joints_"):
@@ -300,11 +326,12 @@ class GaitModelBase:
         """Write the model to ``path`` (``.npz``: arrays + JSON metadata; no pickle), atomically.
 
         The file is written to a temporary name in the same folder and renamed over ``path``, so
-        an interrupted save never leaves a truncated model behind.
+        an interrupted save never leaves a truncated model behind; a model holding NaN or infinity
+        is refused (:class:`~geogait.GeogaitError`) and an existing file is kept.
         """
         self._check_is_fitted()
         path = Path(path)
-        return write_state(path, self._metadata(), self._state())
+        return write_state(path, self._metadata(), self._state(), require_finite=True)
 
     @classmethod
     def load(cls, path, n_joints: int | None = None):

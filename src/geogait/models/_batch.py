@@ -71,9 +71,11 @@ class BatchGaitModel(GaitModelBase):
         self.n_samples_seen_ = 0
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Least squares on exactly these samples (forgets earlier data). Returns ``self``."""
-        self._forget()
-        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+        """Least squares on exactly these samples (forgets earlier data). Returns ``self``; on an error the
+        model is unchanged."""
+        with self._unchanged_on_error():
+            self._forget()
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_float
-from ._base import GaitModelBase
+from ._base import FORMAT, FORMAT_VERSION, GaitModelBase
 from ._rls import RLSBank
 
 __all__ = ["PhaseModel"]
@@ -53,10 +53,11 @@ class PhaseModel(GaitModelBase):
         self.n_samples_seen_ = 0
 
     def fit(self, phase, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
-        for name in ("batch_shape_", "bank_"):
-            self.__dict__.pop(name, None)
-        return self.partial_fit(phase, body_velocity)
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        with self._unchanged_on_error():
+            for name in ("batch_shape_", "bank_"):
+                self.__dict__.pop(name, None)
+            return self.partial_fit(phase, body_velocity)
 
     def partial_fit(self, phase, body_velocity):
         """Update with time-ordered samples ``phase`` batch + (n,), ``body_velocity`` batch + (n, 3)."""
@@ -93,9 +94,9 @@ class PhaseModel(GaitModelBase):
         return value[..., 0, :] if self._single else value
 
     def _metadata(self) -> dict:
-        metadata = super()._metadata()
-        metadata["n_joints"] = None
-        return metadata
+        params = self.get_params()
+        return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
+                "params": params, "n_joints": None, "batch_shape": list(self.batch_shape_)}
 
     def _state(self) -> dict:
         return {"weights": self.bank_.weights, "covariance": self.bank_.covariance,

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
+from .._files import write_json
 from .._validation import check_float, check_int
 from ..gaits import FourierGait, seed_gait
 from ..simulate import cycle_displacement
@@ -143,9 +144,7 @@ def cached_ceiling(system: System, **options) -> Ceiling:
               "values": ceiling.values.tolist()}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_text(json.dumps(record))
-        os.replace(temporary, path)
+        write_json(path, record, indent=None)
     except OSError:
         pass  # a read-only home only costs recomputation next time
     return ceiling

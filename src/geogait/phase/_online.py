@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_array, check_int, fail
+from .._validation import check_array, check_int, check_magnitude, fail
 from ._phaser import Phaser
 
 __all__ = ["OnlinePhaser"]
@@ -106,7 +106,7 @@ class OnlinePhaser:
 
     def update(self, shape) -> float | None:
         """Add one sample ``(n_channels,)``; return its phase in ``[0, 2π)``, or None while warming up."""
-        sample = check_array(shape, "shape", f"{_OWNER}.update", ndim=1)
+        sample = check_magnitude(check_array(shape, "shape", f"{_OWNER}.update", ndim=1), "shape", f"{_OWNER}.update")
         if sample.shape != (self.phaser.n_channels_,):
             raise fail("shape", f"{_OWNER}.update", f"an array of shape ({self.phaser.n_channels_},)",
                        f"shape {sample.shape}")

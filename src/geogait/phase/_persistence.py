@@ -58,7 +58,7 @@ def save_phaser(phaser: Phaser, path) -> Path:
         state[f"{name}.real"], state[f"{name}.imag"] = value.real.copy(), value.imag.copy()
     metadata = {"format": FORMAT, "format_version": FORMAT_VERSION, "class": "Phaser",
                 "params": _params(phaser), "n_channels": int(phaser.n_channels_)}
-    return write_state(path, metadata, state)
+    return write_state(path, metadata, state, require_finite=True)
 
 
 def _params(phaser: Phaser) -> dict:

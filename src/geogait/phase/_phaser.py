@@ -59,7 +59,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import hilbert
 
-from .._validation import check_array, check_float, check_int, fail
+from .._validation import check_array, check_float, check_int, check_magnitude, fail
 from ..gaits import fourier_basis
 
 __all__ = ["Phaser"]
@@ -76,7 +76,7 @@ def _as_records(x, name: str, owner: str) -> tuple[list[np.ndarray], bool]:
     records = []
     for index, item in enumerate(items):
         label = name if single else f"{name}[{index}]"
-        array = check_array(item, label, owner)
+        array = check_magnitude(check_array(item, label, owner), label, owner)
         if array.ndim == 1:
             array = array[:, None]
         if array.ndim != 2:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import se2
-from .._validation import check_int
+from .._validation import check_int, fail
 from ..gaits import FourierGait
 from ..systems import System
 
@@ -87,6 +87,9 @@ def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256,
     ndarray of shape (3,), and ndarray of shape (3, p) when ``jacobian``.
     """
     resolution = check_int(resolution, "resolution", "cycle_displacement", minimum=4)
+    if not isinstance(gait, FourierGait) or gait.n_joints != system.n_joints:
+        raise fail("gait", "cycle_displacement", f"a FourierGait with {system.n_joints} joints (the system's)",
+                   gait if not isinstance(gait, FourierGait) else f"{gait.n_joints} joints")
     phases, step = gauss_phases(resolution)
     shape, rate = gait.shape(phases), gait.velocity(phases)
     connection = system.connection(shape)  # (n, 2, 3, d)

@@ -30,6 +30,13 @@ from ._base import check_shapes
 __all__ = ["PurcellSwimmer", "BODY_FRAMES"]
 
 BODY_FRAMES = ("middle", "center_of_mass", "tail")
+#: Most links accepted: the connection's cost grows with N², and no swimmer studied has more.
+MAX_LINKS = 200
+#: Accepted range of link lengths, drag coefficient and drag ratio (beyond it the RFT matrices
+#: overflow or become singular in floating point: l³ and c·k·l³ must stay representable).
+SCALE_RANGE = (1e-6, 1e6)
+#: Largest ratio of the longest to the shortest link.
+MAX_LENGTH_RATIO = 1e4
 
 
 @dataclass(frozen=True)
@@ -38,12 +45,13 @@ class PurcellSwimmer:
 
     Parameters
     ----------
-    n_links : int >= 2
+    n_links : int in [2, 200]
     link_lengths : array-like of shape (n_links,), optional
-        Positive lengths; equal links of total length 1 by default.
-    drag_coefficient : float > 0
+        Positive lengths in [1e-6, 1e6], within a factor 1e4 of each other; equal links of total
+        length 1 by default.
+    drag_coefficient : float in [1e-6, 1e6]
         Longitudinal drag per unit length ``c``.
-    drag_ratio : float > 0
+    drag_ratio : float in [1e-6, 1e6]
         Lateral over longitudinal drag ``k`` (classically 2; ``k = 1`` cannot swim).
     body_frame : {"middle", "center_of_mass", "tail"}
         ``"middle"``: centre and orientation of the middle link (for even N: the middle joint,
@@ -70,6 +78,8 @@ class PurcellSwimmer:
     def __post_init__(self):
         owner = "PurcellSwimmer"
         n = check_int(self.n_links, "n_links", owner, minimum=2)
+        if n > MAX_LINKS:
+            raise fail("n_links", owner, f"an int in [2, {MAX_LINKS}]", self.n_links)
         if self.link_lengths is None:
             lengths = np.full(n, 1.0 / n)
         else:
@@ -77,8 +87,14 @@ class PurcellSwimmer:
             if lengths.shape != (n,) or np.any(lengths <= 0):
                 raise fail("link_lengths", owner, f"{n} positive lengths (one per link)",
                            self.link_lengths)
-        check_float(self.drag_coefficient, "drag_coefficient", owner, low=0, low_open=True)
-        check_float(self.drag_ratio, "drag_ratio", owner, low=0, low_open=True)
+            if lengths.min() < SCALE_RANGE[0] or lengths.max() > SCALE_RANGE[1]:
+                raise fail("link_lengths", owner, f"lengths in [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}] (rescale "
+                           "the length unit)", self.link_lengths)
+            if lengths.max() / lengths.min() > MAX_LENGTH_RATIO:
+                raise fail("link_lengths", owner, f"lengths within a factor {MAX_LENGTH_RATIO:g} of each other",
+                           self.link_lengths)
+        for name in ("drag_coefficient", "drag_ratio"):
+            check_float(getattr(self, name), name, owner, low=SCALE_RANGE[0], high=SCALE_RANGE[1])
         check_choice(self.body_frame, "body_frame", owner, BODY_FRAMES)
         object.__setattr__(self, "link_lengths", tuple(float(x) for x in lengths))
         object.__setattr__(self, "_geometry", _chain_geometry(lengths, self.body_frame))
