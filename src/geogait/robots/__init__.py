@@ -1,5 +1,18 @@
-"""Robots and simulators geogait did not write: the protocol they implement and adapters for them."""
+"""Robots and simulators geogait did not write: the protocol they implement and adapters for them.
 
+:class:`MujocoRobot` turns any MuJoCo model with hinge joints into a :class:`Robot`; it needs the
+optional extra ``pip install 'geogait[mujoco]'`` (imported only when a MuJoCo model is loaded).
+"""
+
+from ._mujoco import (
+    MODELS_DIRECTORY,
+    MujocoRobot,
+    gymnasium_swimmer,
+    load_model,
+    mujoco_swimmer,
+    purcell_swimmer_xml,
+)
 from ._protocol import ROBOT_EXTRAS, Robot, check_robot
 
-__all__ = ["ROBOT_EXTRAS", "Robot", "check_robot"]
+__all__ = ["MODELS_DIRECTORY", "ROBOT_EXTRAS", "MujocoRobot", "Robot", "check_robot", "gymnasium_swimmer",
+           "load_model", "mujoco_swimmer", "purcell_swimmer_xml"]
