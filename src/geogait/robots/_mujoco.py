@@ -433,7 +433,7 @@ class MujocoRobot:
                 mujoco.mj_kinematics(model, data)
                 mujoco.mj_comPos(model, data)
                 mujoco.mj_comVel(model, data)
-                mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, twist, 1)
+                mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, twist, 1)
                 body_velocity[sample] = (twist[3], twist[4], twist[2])
                 rotation = data.xmat[body]
                 wrapped = np.arctan2(rotation[3], rotation[0])

@@ -1,0 +1,282 @@
+"""MujocoRobot: the Robot contract, physics checked against independent facts, state, errors."""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from geogait import se2
+from geogait.gaits import FourierGait, Perturbation, seed_gait
+from geogait.models import AdaptiveGaitModel
+from geogait.robots import (
+    MODELS_DIRECTORY,
+    MujocoRobot,
+    Robot,
+    check_robot,
+    gymnasium_swimmer,
+    load_model,
+    mujoco_swimmer,
+    purcell_swimmer_xml,
+)
+
+pytest.importorskip("mujoco")
+
+STILL = Perturbation(eta=0)
+ROBOTS = {"purcell3": lambda **kw: mujoco_swimmer(3, **kw), "purcell5": lambda **kw: mujoco_swimmer(5, **kw),
+          "gymnasium": lambda **kw: gymnasium_swimmer(**kw)}
+
+
+def net_motion(trajectory, start, stop):
+    """Net SE(2) motion between samples ``start`` and ``stop``, in the frame of ``start``."""
+    return se2.between(trajectory.pose[start], trajectory.pose[stop])
+
+
+def realised_amplitude(trajectory):
+    """Per joint, the amplitude of the first harmonic of the measured shapes."""
+    coefficients = FourierGait.from_shapes(trajectory.phase, trajectory.shape, 1).coefficients
+    return np.hypot(coefficients[:, 1], coefficients[:, 2])
+
+
+# -- the contract ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_robot_protocol_and_trajectory_contract(name):
+    robot = ROBOTS[name](seed=0)
+    assert isinstance(robot, Robot)
+    check_robot(robot, "test")
+    d, n, period = robot.n_joints, robot.samples_per_cycle, robot.cycle_period
+    first, second = robot.next_cycle(), robot.next_cycle()
+    for k, cycle in enumerate((first, second)):
+        assert cycle.time.shape == cycle.phase.shape == cycle.cycle.shape == (n,)
+        assert cycle.shape.shape == cycle.shape_velocity.shape == cycle.commanded_shape.shape == (n, d)
+        assert cycle.body_velocity.shape == cycle.pose.shape == (n, 3)
+        np.testing.assert_allclose(cycle.time, (k + np.arange(n) / n) * period, rtol=0, atol=1e-12)
+        assert np.all((cycle.phase >= 0) & (cycle.phase < 2 * np.pi)) and np.all(np.diff(cycle.phase) > 0)
+        assert np.all(cycle.cycle == k)
+        assert np.all(np.isfinite(cycle.body_velocity)) and np.all(np.isfinite(cycle.pose))
+    assert robot.cycle == 2
+    # The commanded shape is the nominal gait plus a perturbation of the stated size (0.15 rad std).
+    delta = np.concatenate([c.commanded_shape - robot.gait.shape(c.phase) for c in (first, second)])
+    assert 0.03 < delta.std() < 0.4
+
+
+def test_default_joints_body_and_gait_come_from_the_model():
+    robot = mujoco_swimmer(5)
+    assert robot.joint_names == ("joint0", "joint1", "joint2", "joint3")
+    assert robot.body_name == "link2"  # the middle link carries the planar base
+    assert robot.gait == seed_gait(4)
+    gym = gymnasium_swimmer()
+    assert gym.joint_names == ("motor1_rot", "motor2_rot") and gym.body_name == "torso"
+    assert gym.steps_per_sample == 2  # 2 s / 100 samples / 0.01 s
+    # Tight joint ranges shrink the default seed amplitude to 80 % of the tightest range.
+    tight = MujocoRobot(purcell_swimmer_xml(3, joint_range=0.5))
+    assert tight.gait.joint_limit() == pytest.approx([0.4, 0.4])
+
+
+def test_shipped_models_are_the_generator_output():
+    for n in (3, 5):
+        assert (MODELS_DIRECTORY / f"purcell{n}.xml").read_text() == purcell_swimmer_xml(n)
+    assert load_model("geogait:purcell5").nu == 4
+    assert load_model("gymnasium:swimmer").nu == 2
+    model = load_model(purcell_swimmer_xml(4))
+    assert load_model(model) is model
+
+
+# -- physics against independent facts ------------------------------------------------------------
+@pytest.mark.parametrize("name", ["purcell3", "gymnasium"])
+def test_integrated_body_velocity_reproduces_the_poses(name):
+    """ξ from mj_objectVelocity, integrated with SE(2) exponentials, converges (first order in the
+    sample interval) to the poses read from xpos / xmat: two independent computations."""
+    errors = []
+    for samples in (50, 250) if name == "purcell3" else (40, 200):
+        robot = ROBOTS[name](samples_per_cycle=samples, seed=1)
+        run = robot.next_cycles(2)
+        poses = se2.integrate_body_velocity(run.body_velocity, robot.cycle_period / samples, run.pose[0])[:-1]
+        errors.append(np.abs(poses - run.pose).max(axis=0))
+        scale = np.ptp(run.pose, axis=0)
+    coarse, fine = errors
+    assert np.all(fine < 0.025 * scale), (fine, scale)
+    assert np.all(coarse / fine > 2.5), (coarse, fine)
+
+
+def test_heading_rate_is_exact_with_one_physics_step_per_sample():
+    """implicitfast advances the base hinge by h · (velocity after the step): the recorded ω of the
+    next sample integrates to the recorded heading to rounding."""
+    robot = mujoco_swimmer(3, samples_per_cycle=500, seed=2)
+    assert robot.steps_per_sample == 1
+    run = robot.next_cycle()
+    heading = run.pose[0, 2] + np.cumsum(run.body_velocity[1:, 2]) * robot.timestep
+    np.testing.assert_allclose(heading, run.pose[1:, 2], rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", ["purcell3", "gymnasium"])
+def test_mirrored_gait_gives_mirrored_motion(name):
+    """The swimmers are symmetric under y → −y: the gait −θ must give (x, −y, −heading) exactly."""
+    gait = ROBOTS[name]().gait
+    mirrored_gait = FourierGait(-gait.coefficients)
+    run = ROBOTS[name](gait=gait, perturbation=STILL).next_cycles(2)
+    mirrored = ROBOTS[name](gait=mirrored_gait, perturbation=STILL).next_cycles(2)
+    flip = np.array([1.0, -1.0, -1.0])
+    assert np.abs(run.pose[-1, :2]).max() > 0.05  # it does move
+    np.testing.assert_allclose(mirrored.pose, run.pose * flip, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(mirrored.body_velocity, run.body_velocity * flip, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(mirrored.shape, -run.shape, rtol=0, atol=1e-12)
+
+
+def test_time_reversed_gait_undoes_the_motion_and_the_period_does_not_matter():
+    """A kinematic locomotor: the net motion per cycle depends on the path in shape space only, so
+    (a) running the gait backwards (φ → −φ) gives the inverse motion and (b) a twice slower cycle
+    gives the same motion per cycle (to the tracking error and the little inertia left)."""
+    gait = seed_gait(2)
+    backwards = gait.coefficients.copy()
+    backwards[:, 2] *= -1  # sin terms change sign: θ(−φ)
+
+    def per_cycle(gait, period):
+        robot = mujoco_swimmer(3, gait=gait, perturbation=STILL, cycle_period=period)
+        robot.next_cycle()  # let the start transient pass
+        run = robot.next_cycles(2)
+        return net_motion(run, 0, robot.samples_per_cycle)
+
+    forward = per_cycle(gait, 1.0)
+    assert np.hypot(*forward[:2]) > 0.15 and abs(forward[2]) < 1e-9  # symmetric gait: no net turn
+    np.testing.assert_allclose(per_cycle(FourierGait(backwards), 1.0)[:2], -forward[:2], rtol=0.06)
+    np.testing.assert_allclose(per_cycle(gait, 2.0)[:2], forward[:2], rtol=0.02)
+
+
+def test_no_shape_motion_leaves_the_body_at_rest():
+    coefficients = np.zeros((2, 3))
+    coefficients[:, 0] = (0.4, -0.3)  # a bent but constant shape
+    robot = mujoco_swimmer(3, gait=FourierGait(coefficients), perturbation=STILL)
+    run = robot.next_cycles(2)
+    assert np.abs(run.body_velocity).max() < 1e-12
+    assert np.abs(run.pose - run.pose[0]).max() < 1e-12
+    np.testing.assert_allclose(run.shape, np.broadcast_to(coefficients[:, 0], run.shape.shape), atol=1e-12)
+
+
+def test_pd_tracks_a_gentle_gait_and_saturates_on_an_aggressive_one():
+    gentle = mujoco_swimmer(3, gait=seed_gait(2, 0.5), cycle_period=2.0, perturbation=STILL)
+    gentle.next_cycle()
+    run = gentle.next_cycle()
+    error = np.sqrt(np.mean((run.shape - run.commanded_shape) ** 2))
+    assert error < 0.01 * 0.5
+    np.testing.assert_allclose(realised_amplitude(run), 0.5, rtol=0.02)
+
+    tight = MujocoRobot(purcell_swimmer_xml(3, ctrl_limit=0.1), gait=seed_gait(2, 1.5), perturbation=STILL)
+    tight.next_cycle()
+    run = tight.next_cycle()
+    assert np.all(realised_amplitude(run) < 0.5 * 1.5)  # well below the command (measured 0.57, 0.49)
+    assert np.sqrt(np.mean((run.shape - run.commanded_shape) ** 2)) > 0.3
+    assert np.all(np.abs(tight.data.ctrl) <= 0.1)
+
+
+def test_position_actuators_track_the_command():
+    model = purcell_swimmer_xml(3, actuator="position", position_gain=20.0, ctrl_limit=5.0)
+    robot = MujocoRobot(model, control="position", gait=seed_gait(2, 0.5), cycle_period=2.0, perturbation=STILL)
+    assert robot.kp is None
+    robot.next_cycle()
+    run = robot.next_cycle()
+    np.testing.assert_allclose(realised_amplitude(run), 0.5, rtol=0.1)
+    assert np.hypot(*net_motion(run, 0, -1)[:2]) > 0.01
+
+
+# -- state ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["purcell3", "gymnasium"])
+def test_restored_robot_continues_bit_identically(name):
+    robot = ROBOTS[name](seed=3)
+    robot.next_cycle()
+    robot.set_gait(seed_gait(2, 0.7))
+    state = robot.robot_state()
+    json.dumps({k: v for k, v in state.items() if not isinstance(v, np.ndarray)})  # JSON values besides arrays
+    expected = robot.next_cycles(2)
+    other = ROBOTS[name](seed=99)
+    other.restore_robot_state(state)
+    assert other.gait == seed_gait(2, 0.7) and other.cycle == 1
+    got = other.next_cycles(2)
+    for field in ("time", "phase", "cycle", "shape", "shape_velocity", "body_velocity", "pose", "commanded_shape"):
+        np.testing.assert_array_equal(getattr(got, field), getattr(expected, field), err_msg=field)
+    # The same seed gives the same run; another seed another perturbation.
+    first = ROBOTS[name](seed=3).next_cycle()
+    np.testing.assert_array_equal(first.shape, ROBOTS[name](seed=3).next_cycle().shape)
+    assert not np.array_equal(first.commanded_shape, ROBOTS[name](seed=4).next_cycle().commanded_shape)
+
+
+def test_close_ends_the_robot():
+    robot = mujoco_swimmer(3)
+    robot.close()
+    with pytest.raises(ValueError, match="closed"):
+        robot.next_cycle()
+
+
+# -- a local model learns it -----------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_adaptive_model_reaches_a_positive_held_out_gamma(name):
+    robot = ROBOTS[name](seed=0)
+    train = robot.next_cycles(20)
+    test = ROBOTS[name](seed=1).next_cycles(10)
+    model = AdaptiveGaitModel(gait=robot.gait, phase_rate=2 * np.pi / robot.cycle_period)
+    model.fit(train.phase, train.shape, train.shape_velocity, train.body_velocity)
+    gamma = model.score(test.phase, test.shape, test.shape_velocity, test.body_velocity)
+    assert gamma > 0.8  # measured: 0.91 (purcell3), 0.91 (purcell5), 0.90 (gymnasium)
+
+
+# -- errors --------------------------------------------------------------------------------------
+def test_bad_arguments_give_clear_errors():
+    model = purcell_swimmer_xml(3)
+    with pytest.raises(ValueError, match=r"'joints' parameter of MujocoRobot must be names of joints of the model "
+                                         r"\(x, y, heading, joint0, joint1\)\. Got 'elbow'"):
+        MujocoRobot(model, joints=["joint0", "elbow"])
+    with pytest.raises(ValueError, match="'joints' parameter of MujocoRobot must be names of hinge joints. Got "
+                                         "\"'x', a slide joint\""):
+        MujocoRobot(model, joints=["x"])
+    with pytest.raises(ValueError, match="exactly one motor actuator.*Joint 'heading' has 0"):
+        MujocoRobot(model, joints=["heading", "joint0"])
+    with pytest.raises(ValueError, match="exactly one position actuator.*Joint 'joint0' has 0; its actuators: "
+                                         r"motor0 \(motor\)"):
+        MujocoRobot(model, control="position")
+    with pytest.raises(ValueError, match=r"'body' parameter of MujocoRobot must be the name of a body of the model "
+                                         r"\(link1, link0, link2\)"):
+        MujocoRobot(model, body="head")
+    with pytest.raises(ValueError, match=r"'cycle_period' parameter of MujocoRobot must be a positive multiple of "
+                                         r"samples_per_cycle × the model's timestep \(100 × 0.002 s = 0.2 s\)"):
+        MujocoRobot(model, cycle_period=0.5)
+    with pytest.raises(ValueError, match="'control' parameter of MujocoRobot must be one of 'pd', 'position'"):
+        MujocoRobot(model, control="torque")
+    with pytest.raises(ValueError, match=r"'gait' parameter of MujocoRobot must be a FourierGait with 2 joints"):
+        MujocoRobot(model, gait=seed_gait(3))
+    with pytest.raises(ValueError, match="'kp' parameter of MujocoRobot must be a float or an array of shape"):
+        MujocoRobot(model, kp=-1.0)
+    with pytest.raises(ValueError, match="'kd' parameter of MujocoRobot must be None with control='position'"):
+        MujocoRobot(purcell_swimmer_xml(3, actuator="position"), control="position", kd=1.0)
+    with pytest.raises(ValueError, match="'samples_per_cycle' parameter of MujocoRobot must be an int >= 4"):
+        MujocoRobot(model, samples_per_cycle=2)
+    with pytest.raises(ValueError, match="'perturbation' parameter of MujocoRobot must be a geogait.gaits"):
+        MujocoRobot(model, perturbation=0.1)
+    with pytest.raises(ValueError, match="'source' parameter of load_model must be one of geogait:purcell3, "
+                                         "geogait:purcell5"):
+        load_model("geogait:purcell7")
+    with pytest.raises(ValueError, match="'source' parameter of load_model must be one of gymnasium:"):
+        load_model("gymnasium:no_such_env")
+    with pytest.raises(ValueError, match="'source' parameter of load_model must be an existing MJCF file"):
+        load_model("no/such/file.xml")
+    robot = MujocoRobot(model)
+    with pytest.raises(ValueError, match="'gait' parameter of MujocoRobot.set_gait must be a FourierGait with 2"):
+        robot.set_gait(seed_gait(4))
+    with pytest.raises(ValueError, match="'state' parameter of MujocoRobot.restore_robot_state"):
+        robot.restore_robot_state({"physics": np.zeros(3)})
+    state = mujoco_swimmer(5).robot_state()
+    with pytest.raises(ValueError, match="'state' parameter of MujocoRobot.restore_robot_state must be a physics "
+                                         "state of"):
+        robot.restore_robot_state(state)
+
+
+def test_a_body_that_leaves_the_plane_is_rejected():
+    tilted = purcell_swimmer_xml(3).replace('<body name="link1">', '<body name="link1" euler="1.5707963 0 0">')
+    with pytest.raises(ValueError, match="'body' parameter of MujocoRobot must be a body whose z-axis is the world "
+                                         "z-axis"):
+        MujocoRobot(tilted)
+
+
+def test_missing_mujoco_says_what_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # `import mujoco` now raises ImportError
+    with pytest.raises(ImportError, match=r"pip install 'geogait\[mujoco\]'"):
+        mujoco_swimmer(3)
