@@ -8,9 +8,10 @@ and returns one cycle of measured samples. At every physics step of a cycle of p
     \phi = 2\pi t / T,\qquad r_{cmd} = \theta(\phi) + \delta,\qquad
     \dot r_{cmd} = \theta'(\phi)\,\frac{2\pi}{T} + \dot\delta
 
-with (δ, δ̇) the exploration perturbation of eq. 8 (:class:`~geogait.gaits.Perturbation`). Its
-parameters are read **per gait cycle** (as in the paper), so one ``Perturbation`` explores the same
-fraction of a cycle at any period; δ̇ is converted to rad/s. The joints track ``r_cmd`` with
+with (δ, δ̇) the exploration perturbation of eq. 8 (:class:`~geogait.gaits.Perturbation`, its time
+in seconds as in :class:`~geogait.simulate.SwimmerStream`), integrated exactly at the physics step.
+The default, ``Perturbation.from_std(0.15, frequency=2 / cycle_period)``, explores like the paper's
+at any period: δ std 0.15 rad, two oscillations per cycle. The joints track ``r_cmd`` with
 
 * ``control="pd"``: a PD law on ``motor`` actuators,
   :math:`u = k_p (r_{cmd} - r) + k_d (\dot r_{cmd} - \dot r)`, clipped to the actuator's
@@ -50,6 +51,9 @@ _INSTALL = "pip install 'geogait[mujoco]'"
 _CONTROLS = ("pd", "position")
 #: Tracking error (rad) at which the default PD gains reach the actuator's ctrl limit.
 _DEFAULT_SATURATION_ERROR = 0.05
+#: Largest natural frequency × timestep of a joint's inertia under the default PD gains (the PD law is
+#: explicit: it sees the state at the start of each step).
+_MAX_GAIN_FREQUENCY = 0.4
 
 
 def _mujoco():
@@ -134,15 +138,16 @@ class MujocoRobot:
         Samples recorded per cycle (the physics runs ``T / (samples_per_cycle · timestep)`` steps
         between samples).
     perturbation : Perturbation, optional
-        Exploration δ of eq. 8, parameters per gait cycle; default ``Perturbation()`` (δ std 0.15
-        rad). ``Perturbation(eta=0)`` for none.
+        Exploration δ of eq. 8, time in seconds; default ``Perturbation.from_std(0.15, frequency=2 /
+        cycle_period)`` (δ std 0.15 rad, two oscillations per cycle). ``Perturbation(eta=0)`` for none.
     control : {"pd", "position"}
         Joint tracking (module docstring): PD torque on ``motor`` actuators, or the commanded shape as
         the ``ctrl`` of ``position`` actuators.
     kp, kd : float or array-like of shape (d,), optional
         PD gains in ctrl units per rad and per rad/s (``control="pd"`` only). Default from the
-        model: ``kp`` reaches the ctrl limit at a 0.05 rad error, capped so that the joint's
-        inertial natural frequency stays below ``0.5 / timestep``; ``kd`` damps that critically.
+        model: ``kp`` reaches the ctrl limit at a 0.05 rad error, capped so that the natural
+        frequency of the joint's effective inertia 1 / (M⁻¹)_jj (every other degree of freedom
+        free, at the initial pose) stays below ``0.4 / timestep``; ``kd`` damps that critically.
     seed : int or numpy.random.SeedSequence, optional
         Seed of the perturbation.
 
@@ -195,7 +200,8 @@ class MujocoRobot:
         self.steps_per_sample = self._resolve_steps()
         if perturbation is not None and not isinstance(perturbation, Perturbation):
             raise fail("perturbation", owner, "a geogait.gaits.Perturbation", type(perturbation).__name__)
-        self.perturbation = Perturbation() if perturbation is None else perturbation
+        self.perturbation = (Perturbation.from_std(0.15, frequency=2 / self.cycle_period) if perturbation is None
+                             else perturbation)
         gait = self._default_gait(d) if gait is None else gait
         self._check_gait(gait, owner)
         self._gait = gait
@@ -203,7 +209,7 @@ class MujocoRobot:
             raise fail("seed", owner, "an int, a numpy.random.SeedSequence or None", seed)
         self._rng = np.random.default_rng(seed)
         steps_per_cycle = self.steps_per_sample * self.samples_per_cycle
-        self._perturbation = self.perturbation.stream(1.0 / steps_per_cycle, d, self._rng)
+        self._perturbation = self.perturbation.stream(self.cycle_period / steps_per_cycle, d, self._rng)
         self.kp, self.kd = self._resolve_gains(kp, kd)
         self.cycle = 0
         self._start(mujoco)
@@ -330,14 +336,15 @@ class MujocoRobot:
         gear = self.model.actuator_gear[self._actuators, 0].copy()
         data = mujoco.MjData(self.model)
         mujoco.mj_forward(self.model, data)
+        # Effective inertia of each joint with every other degree of freedom free: 1 / (M⁻¹)_jj.
         inertia = np.empty(d)
-        unit, column = np.zeros(self.model.nv), np.zeros(self.model.nv)
-        for j, dof in enumerate(self._dof):  # diagonal of the joint-space inertia (incl. armature)
+        unit, column = np.zeros((1, self.model.nv)), np.zeros((1, self.model.nv))
+        for j, dof in enumerate(self._dof):
             unit[:] = 0
-            unit[dof] = 1
-            mujoco.mj_mulM(self.model, data, column, unit)
-            inertia[j] = column[dof]
-        omega = 0.5 / float(self.model.opt.timestep)
+            unit[0, dof] = 1
+            mujoco.mj_solveM(self.model, data, column, unit)
+            inertia[j] = 1 / column[0, dof]
+        omega = _MAX_GAIN_FREQUENCY / float(self.model.opt.timestep)
         stable = inertia * omega**2 / np.abs(gear)
         default_kp = np.minimum(limits / _DEFAULT_SATURATION_ERROR, stable)
         kp = default_kp if kp is None else self._gain(kp, "kp", d)
@@ -385,6 +392,11 @@ class MujocoRobot:
         """The model's physics timestep (s)."""
         return float(self.model.opt.timestep)
 
+    @property
+    def n_physics_steps(self) -> int:
+        """Physics (environment) steps run so far: ``cycle · samples_per_cycle · steps_per_sample``."""
+        return self.cycle * self.samples_per_cycle * self.steps_per_sample
+
     def set_gait(self, gait: FourierGait) -> None:
         """Command ``gait`` from the next cycle on (:meth:`next_cycle` always runs whole cycles)."""
         self._check_gait(gait, "MujocoRobot.set_gait")
@@ -394,7 +406,7 @@ class MujocoRobot:
         """Commanded shape and rate (rad, rad/s) at ``phase`` (n,) with perturbation ``state`` (n, d, 2)."""
         phase_rate = 2 * np.pi / self.cycle_period
         shape = self._gait.shape(phase) + state[..., 0]
-        rate = self._gait.velocity(phase) * phase_rate + state[..., 1] / self.cycle_period
+        rate = self._gait.velocity(phase) * phase_rate + state[..., 1]
         return shape, rate
 
     def next_cycle(self) -> Trajectory:
@@ -517,52 +529,64 @@ class MujocoRobot:
 
 
 # -- shipped models -----------------------------------------------------------------------------
-def purcell_swimmer_xml(n_links: int = 3, *, length: float = 1.0, radius: float = 0.025, body_density: float = 100.0,
+def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, radius: float = 0.025,
+                        drag_coefficient: float = 1.0, drag_ratio: float = 2.0, body_density: float | None = None,
                         fluid_density: float = 4000.0, viscosity: float = 0.0, timestep: float = 0.002,
-                        armature: float = 1e-3, joint_range: float = 2 * np.pi / 3, actuator: str = "motor",
-                        ctrl_limit: float = 2.0, position_gain: float = 5.0) -> str:
-    r"""MJCF of an N-link Purcell-like swimmer in a dense fluid (the models shipped as ``geogait:purcellN``).
+                        armature: float = 1e-4, joint_range: float = 2 * np.pi / 3, actuator: str = "motor",
+                        ctrl_limit: float | None = None, position_gain: float | None = None) -> str:
+    r"""MJCF of an N-link Purcell swimmer (the models shipped as ``geogait:purcell3`` / ``geogait:purcell5``).
 
     Equal capsule links along x, joined by hinge joints about z; ``joint{j}`` is the angle of link
-    j+1 relative to link j (geogait's :class:`~geogait.systems.PurcellSwimmer` convention). The middle
-    link (index ``(n_links - 1) // 2``) is the root body with a planar base (slide x, slide y, hinge
-    z), its frame at the link's centre, so ``body`` defaults to it as in ``PurcellSwimmer``.
+    j+1 relative to link j, link 0 the tail at −x (geogait's :class:`~geogait.systems.PurcellSwimmer`
+    conventions). The middle link (index ``(n_links - 1) // 2``) is the root body with a planar base
+    (slide x, slide y, hinge z) and its frame at the link's centre, so ``body`` defaults to it, as
+    ``body_frame="middle"`` of ``PurcellSwimmer`` for odd N. Gravity is off.
 
-    The fluid is MuJoCo's inertia-box model (``density`` and ``viscosity`` options, no gravity).
-    MuJoCo's viscous (Stokes) term is isotropic, which alone cannot propel a Purcell swimmer (the
-    drag ratio 1 of :class:`~geogait.systems.PurcellSwimmer` keeps the centroid fixed), so it is off
-    by default; the anisotropy comes from the per-axis quadratic drag ½ ρ s_j s_k |v_i| v_i of each
-    link's inertia box (lateral face ``length / n_links`` by ``2 radius``, longitudinal face
-    ``(2 radius)²``). With links much lighter than the fluid (``body_density`` ≪ ``fluid_density``)
-    drag dominates inertia and the motion is rate-independent — a principally kinematic locomotor,
-    though not the linear low-Reynolds-number one: ξ is homogeneous of degree 1 in ṙ but not linear
-    in it. The tests check that the net motion per cycle does not depend on the period. A positive
-    ``viscosity`` mixes in the linear drag and makes the motion rate-dependent.
+    ``drag="rft"`` (default): low Reynolds number. Each link carries resistive-force-theory drag at
+    its centre, exactly the wrench of ``PurcellSwimmer``,
+
+    .. math:: F = -c\,\mathrm{diag}(l,\ k l,\ k l^3/12)\,(u, v, \omega)^T
+
+    in the link's own frame, built from three passive ``general`` actuators per link with a site
+    transmission along the link's x, y and z-rotation axes and velocity bias ``-c l``, ``-c k l``,
+    ``-c k l³/12`` (their ``ctrl`` does nothing). The links are light (density 1 kg/m³) so drag
+    dominates inertia by orders of magnitude: the robot is principally kinematic, ξ = −A(r) ṙ with
+    geogait's RFT connection in the limit, which the tests check against ``PurcellSwimmer``.
+
+    ``drag="fluid"``: MuJoCo's own inertia-box fluid model (``density``/``viscosity`` options). Its
+    viscous term is isotropic and cannot propel a Purcell swimmer; the propulsion comes from the
+    per-axis quadratic drag ½ ρ s_j s_k |v_i| v_i of each link's inertia box. With light links the
+    motion is rate-independent but **not linear in ṙ** (a quadratic-drag swimmer, like Gymnasium's).
 
     Parameters
     ----------
     n_links : int >= 2
+    drag : {"rft", "fluid"}
     length : float > 0
         Total length (m).
     radius : float > 0
         Capsule radius (m).
-    body_density, fluid_density : float > 0
-        kg/m³.
-    viscosity : float >= 0
-        Fluid viscosity (Pa·s); 0 by default (see above).
+    drag_coefficient, drag_ratio : float > 0
+        ``drag="rft"``: longitudinal drag c per unit length (N·s/m²) and lateral/longitudinal k.
+    body_density : float > 0, optional
+        kg/m³; default 1 for ``"rft"`` and 100 for ``"fluid"``.
+    fluid_density, viscosity : float
+        ``drag="fluid"``: MuJoCo's ``density`` (kg/m³, > 0) and ``viscosity`` (Pa·s, >= 0).
     timestep : float > 0
-        Physics step (s); the integrator is ``implicitfast`` (recommended with fluid forces).
+        Physics step (s); the integrator is ``implicitfast``, which treats the velocity-dependent
+        drag implicitly.
     armature : float >= 0
         Rotor inertia added to each shape joint (kg m²).
     joint_range : float > 0
         Joint limit ±``joint_range`` (rad); 2π/3 by default, the design's r_max.
     actuator : {"motor", "position"}
         ``motor`` (gear 1, ctrlrange ±``ctrl_limit`` N·m) for PD control, or ``position`` servos
-        (``kp = position_gain``, critically damped by ``kv``, force limited to ±``ctrl_limit``).
-    ctrl_limit : float > 0
-        Torque limit of each joint (N·m).
-    position_gain : float > 0
-        Stiffness of the position servo (N·m/rad).
+        (stiffness ``position_gain``, critically damped, force limited to ±``ctrl_limit``).
+    ctrl_limit : float > 0, optional
+        Torque limit of each joint (N·m); default 0.2 (``"rft"``) or 2 (``"fluid"``), several times
+        what the seed gait needs at a 1 s period.
+    position_gain : float > 0, optional
+        Stiffness of the position servos (N·m/rad); default 10 × ``ctrl_limit``.
 
     Returns
     -------
@@ -571,9 +595,15 @@ def purcell_swimmer_xml(n_links: int = 3, *, length: float = 1.0, radius: float 
     """
     owner = "purcell_swimmer_xml"
     n = check_int(n_links, "n_links", owner, minimum=2)
-    for value, name in ((length, "length"), (radius, "radius"), (body_density, "body_density"),
-                        (fluid_density, "fluid_density"), (timestep, "timestep"), (joint_range, "joint_range"),
-                        (ctrl_limit, "ctrl_limit"), (position_gain, "position_gain")):
+    check_choice(drag, "drag", owner, ("rft", "fluid"))
+    rft = drag == "rft"
+    body_density = (1.0 if rft else 100.0) if body_density is None else body_density
+    ctrl_limit = (0.2 if rft else 2.0) if ctrl_limit is None else ctrl_limit
+    position_gain = 10 * ctrl_limit if position_gain is None else position_gain
+    for value, name in ((length, "length"), (radius, "radius"), (drag_coefficient, "drag_coefficient"),
+                        (drag_ratio, "drag_ratio"), (body_density, "body_density"), (fluid_density, "fluid_density"),
+                        (timestep, "timestep"), (joint_range, "joint_range"), (ctrl_limit, "ctrl_limit"),
+                        (position_gain, "position_gain")):
         check_float(value, name, owner, low=0, low_open=True)
     check_float(viscosity, "viscosity", owner, low=0)
     check_float(armature, "armature", owner, low=0)
@@ -581,13 +611,17 @@ def purcell_swimmer_xml(n_links: int = 3, *, length: float = 1.0, radius: float 
     link = length / n
     middle = (n - 1) // 2
 
+    def g(value):
+        return f"{value:.12g}"
+
     def capsule(start, stop):
-        return (f'<geom type="capsule" fromto="{start:.12g} 0 0 {stop:.12g} 0 0" size="{radius:.12g}" '
-                f'density="{body_density:.12g}"/>')
+        centre = (start + stop) / 2
+        return (f'<geom type="capsule" fromto="{g(start)} 0 0 {g(stop)} 0 0" size="{g(radius)}" '
+                f'density="{g(body_density)}"/>' + (f'<site name="centre{{i}}" pos="{g(centre)} 0 0"/>' if rft else ""))
 
     def joint(j, axis):
-        return (f'<joint name="joint{j}" type="hinge" axis="0 0 {axis}" range="{-joint_range:.12g} '
-                f'{joint_range:.12g}" limited="true" armature="{armature:.12g}"/>')
+        return (f'<joint name="joint{j}" type="hinge" axis="0 0 {axis}" range="{g(-joint_range)} '
+                f'{g(joint_range)}" limited="true" armature="{g(armature)}"/>')
 
     def chain(i, step, indent):
         """Links i, i + step, ... away from the middle link (step -1: towards link 0, the tail, at -x)."""
@@ -595,30 +629,42 @@ def purcell_swimmer_xml(n_links: int = 3, *, length: float = 1.0, radius: float 
             return ""
         offset = (link / 2 if abs(i - middle) == 1 else link) * step
         j, axis = (i, -1) if step < 0 else (i - 1, 1)  # the hinge between links j and j + 1
-        far = link * step
         pad = "  " * indent
-        return (f'{pad}<body name="link{i}" pos="{offset:.12g} 0 0">\n{pad}  {joint(j, axis)}\n'
-                f'{pad}  {capsule(0, far)}\n{chain(i + step, step, indent + 1)}{pad}</body>\n')
+        return (f'{pad}<body name="link{i}" pos="{g(offset)} 0 0">\n{pad}  {joint(j, axis)}\n'
+                f'{pad}  {capsule(0, link * step).format(i=i)}\n{chain(i + step, step, indent + 1)}{pad}</body>\n')
 
     if actuator == "motor":
-        actuators = "".join(f'    <motor name="motor{j}" joint="joint{j}" gear="1" ctrlrange="{-ctrl_limit:.12g} '
-                            f'{ctrl_limit:.12g}"/>\n' for j in range(n - 1))
+        actuators = "".join(f'    <motor name="motor{j}" joint="joint{j}" gear="1" ctrlrange="{g(-ctrl_limit)} '
+                            f'{g(ctrl_limit)}"/>\n' for j in range(n - 1))
     else:
         actuators = "".join(
-            f'    <position name="servo{j}" joint="joint{j}" kp="{position_gain:.12g}" dampratio="1" '
-            f'ctrlrange="{-joint_range:.12g} {joint_range:.12g}" forcerange="{-ctrl_limit:.12g} {ctrl_limit:.12g}"/>\n'
+            f'    <position name="servo{j}" joint="joint{j}" kp="{g(position_gain)}" dampratio="1" '
+            f'ctrlrange="{g(-joint_range)} {g(joint_range)}" forcerange="{g(-ctrl_limit)} {g(ctrl_limit)}"/>\n'
             for j in range(n - 1))
+    if rft:
+        resistance = {"x": (drag_coefficient * link, "1 0 0 0 0 0"),
+                      "y": (drag_coefficient * drag_ratio * link, "0 1 0 0 0 0"),
+                      "rz": (drag_coefficient * drag_ratio * link**3 / 12, "0 0 0 0 0 1")}
+        actuators += "".join(
+            f'    <general name="drag{i}_{axis}" site="centre{i}" gear="{gear}" gainprm="0" biastype="affine" '
+            f'biasprm="0 0 {g(-value)}"/>\n' for i in range(n) for axis, (value, gear) in resistance.items())
+        option = f'timestep="{g(timestep)}" integrator="implicitfast"'
+        comment = f"low Reynolds number: RFT drag c = {g(drag_coefficient)}, k = {g(drag_ratio)} on every link"
+    else:
+        option = (f'timestep="{g(timestep)}" density="{g(fluid_density)}" viscosity="{g(viscosity)}" '
+                  f'integrator="implicitfast"')
+        comment = "MuJoCo inertia-box fluid: quadratic drag"
+    root = capsule(-link / 2, link / 2).format(i=middle)
     return (f'<mujoco model="purcell{n}">\n'
-            f'  <!-- generated by geogait.robots.purcell_swimmer_xml({n}) -->\n'
+            f'  <!-- generated by geogait.robots.purcell_swimmer_xml({n}, drag={drag!r}); {comment} -->\n'
             f'  <compiler angle="radian"/>\n'
-            f'  <option timestep="{timestep:.12g}" density="{fluid_density:.12g}" viscosity="{viscosity:.12g}" '
-            f'integrator="implicitfast">\n    <flag gravity="disable"/>\n  </option>\n'
+            f'  <option {option}>\n    <flag gravity="disable"/>\n  </option>\n'
             f'  <default>\n    <geom contype="0" conaffinity="0" rgba="0.8 0.6 0.4 1"/>\n  </default>\n'
             f'  <worldbody>\n    <body name="link{middle}">\n'
             f'      <joint name="x" type="slide" axis="1 0 0"/>\n'
             f'      <joint name="y" type="slide" axis="0 1 0"/>\n'
             f'      <joint name="heading" type="hinge" axis="0 0 1"/>\n'
-            f'      {capsule(-link / 2, link / 2)}\n'
+            f'      {root}\n'
             f'{chain(middle - 1, -1, 3)}{chain(middle + 1, 1, 3)}'
             f'    </body>\n  </worldbody>\n  <actuator>\n{actuators}  </actuator>\n</mujoco>\n')
 
