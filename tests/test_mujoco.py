@@ -379,3 +379,15 @@ def test_example_runs_quick(tmp_path, capsys):
     assert row["physics_steps"] == 17 * 500  # 2 warm-up + 15 cycles of 500 steps
     assert json.loads((tmp_path / "summary.json").read_text())["purcell3"]["gait_steps"] == row["gait_steps"]
     assert "purcell3   Γ 0.9" in capsys.readouterr().out
+
+
+def test_readme_mujoco_section_runs():
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = re.search(r"## A MuJoCo robot.*?```python\n(.*?)```", readme, re.S).group(1)
+    assert ".run(robot, 100)" in block
+    namespace = {}
+    exec(compile(block.replace(".run(robot, 100)", ".run(robot, 3)"), "README MuJoCo section", "exec"), namespace)
+    assert len(namespace["result"].log) == 3 and namespace["robot"].cycle == 5
