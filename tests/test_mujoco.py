@@ -15,7 +15,7 @@ from geogait.robots import (
     Robot,
     check_robot,
     gymnasium_swimmer,
-    load_model,
+    load_mujoco_model,
     mujoco_swimmer,
     purcell_swimmer_xml,
 )
@@ -76,10 +76,10 @@ def test_default_joints_body_and_gait_come_from_the_model():
 def test_shipped_models_are_the_generator_output():
     for n in (3, 5):
         assert (MODELS_DIRECTORY / f"purcell{n}.xml").read_text() == purcell_swimmer_xml(n)
-    assert load_model("geogait:purcell5").nu == 4 + 3 * 5  # 4 motors, 3 passive drag actuators per link
-    assert load_model("gymnasium:swimmer").nu == 2
-    model = load_model(purcell_swimmer_xml(4))
-    assert load_model(model) is model
+    assert load_mujoco_model("geogait:purcell5").nu == 4 + 3 * 5  # 4 motors, 3 passive drag actuators per link
+    assert load_mujoco_model("gymnasium:swimmer").nu == 2
+    model = load_mujoco_model(purcell_swimmer_xml(4))
+    assert load_mujoco_model(model) is model
 
 
 # -- physics against independent facts ------------------------------------------------------------
@@ -249,6 +249,8 @@ def test_bad_arguments_give_clear_errors():
     with pytest.raises(ValueError, match=r"'joints' parameter of MujocoRobot must be names of joints of the model "
                                          r"\(x, y, heading, joint0, joint1\)\. Got 'elbow'"):
         MujocoRobot(model, joints=["joint0", "elbow"])
+    with pytest.raises(ValueError, match="'joints' parameter of MujocoRobot must be a sequence of joint names"):
+        MujocoRobot(model, joints="joint0")
     with pytest.raises(ValueError, match="'joints' parameter of MujocoRobot must be names of hinge joints. Got "
                                          "\"'x', a slide joint\""):
         MujocoRobot(model, joints=["x"])
@@ -275,13 +277,13 @@ def test_bad_arguments_give_clear_errors():
         MujocoRobot(model, samples_per_cycle=2)
     with pytest.raises(ValueError, match="'perturbation' parameter of MujocoRobot must be a geogait.gaits"):
         MujocoRobot(model, perturbation=0.1)
-    with pytest.raises(ValueError, match="'source' parameter of load_model must be one of geogait:purcell3, "
+    with pytest.raises(ValueError, match="'source' parameter of load_mujoco_model must be one of geogait:purcell3, "
                                          "geogait:purcell5"):
-        load_model("geogait:purcell7")
-    with pytest.raises(ValueError, match="'source' parameter of load_model must be one of gymnasium:"):
-        load_model("gymnasium:no_such_env")
-    with pytest.raises(ValueError, match="'source' parameter of load_model must be an existing MJCF file"):
-        load_model("no/such/file.xml")
+        load_mujoco_model("geogait:purcell7")
+    with pytest.raises(ValueError, match="'source' parameter of load_mujoco_model must be one of gymnasium:"):
+        load_mujoco_model("gymnasium:no_such_env")
+    with pytest.raises(ValueError, match="'source' parameter of load_mujoco_model must be an existing MJCF file"):
+        load_mujoco_model("no/such/file.xml")
     robot = MujocoRobot(model)
     with pytest.raises(ValueError, match="'gait' parameter of MujocoRobot.set_gait must be a FourierGait with 2"):
         robot.set_gait(seed_gait(4))

@@ -8,11 +8,11 @@ from ._mujoco import (
     MODELS_DIRECTORY,
     MujocoRobot,
     gymnasium_swimmer,
-    load_model,
+    load_mujoco_model,
     mujoco_swimmer,
     purcell_swimmer_xml,
 )
 from ._protocol import ROBOT_EXTRAS, Robot, check_robot
 
 __all__ = ["MODELS_DIRECTORY", "ROBOT_EXTRAS", "MujocoRobot", "Robot", "check_robot", "gymnasium_swimmer",
-           "load_model", "mujoco_swimmer", "purcell_swimmer_xml"]
+           "load_mujoco_model", "mujoco_swimmer", "purcell_swimmer_xml"]

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ from .._validation import GeogaitError, check_choice, check_float, check_int, fa
 from ..gaits import FourierGait, Perturbation, seed_gait
 from ..simulate import Trajectory
 
-__all__ = ["MujocoRobot", "gymnasium_swimmer", "load_model", "mujoco_swimmer", "purcell_swimmer_xml",
+__all__ = ["MujocoRobot", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer", "purcell_swimmer_xml",
            "MODELS_DIRECTORY"]
 
 #: Folder of the MuJoCo models shipped with geogait (``purcell3.xml``, ``purcell5.xml``).
@@ -60,12 +61,12 @@ def _mujoco():
     """The ``mujoco`` module, or an ImportError that says what to install."""
     try:
         import mujoco
-    except ImportError as error:  # pragma: no cover - exercised only without the extra
+    except ImportError as error:
         raise ImportError(f"geogait's MuJoCo robots need the optional dependency 'mujoco': {_INSTALL}") from error
     return mujoco
 
 
-def load_model(source):
+def load_mujoco_model(source):
     """A ``mujoco.MjModel`` from a path, an XML string, a named model or a model.
 
     Parameters
@@ -81,7 +82,7 @@ def load_model(source):
     mujoco.MjModel
     """
     mujoco = _mujoco()
-    owner = "load_model"
+    owner = "load_mujoco_model"
     if isinstance(source, mujoco.MjModel):
         return source
     if not isinstance(source, str | Path):
@@ -122,7 +123,7 @@ class MujocoRobot:
     Parameters
     ----------
     model : str, pathlib.Path or mujoco.MjModel
-        Anything :func:`load_model` accepts. The robot owns a copy of an ``MjModel`` passed in.
+        Anything :func:`load_mujoco_model` accepts. The robot owns a copy of an ``MjModel`` passed in.
     joints : sequence of str, optional
         Names of the hinge joints that form the shape r (in this order). Default: every hinge joint
         driven by an actuator, in the order of the actuators.
@@ -183,7 +184,7 @@ class MujocoRobot:
                  control: str = "pd", kp=None, kd=None, seed=None):
         mujoco = _mujoco()
         owner = "MujocoRobot"
-        source = load_model(model)
+        source = load_mujoco_model(model)
         self.model = copy.deepcopy(source) if source is model else source
         self.data = mujoco.MjData(self.model)
         self.control = check_choice(control, "control", owner, _CONTROLS)
@@ -228,7 +229,7 @@ class MujocoRobot:
                 raise fail("joints", owner, "given: the model has no hinge joint driven by an actuator "
                            f"(joints: {', '.join(names) or 'none'})", None)
             return ids
-        if isinstance(joints, str) or not all(isinstance(j, str) for j in joints):
+        if isinstance(joints, str) or not isinstance(joints, Sequence) or not all(isinstance(j, str) for j in joints):
             raise fail("joints", owner, "a sequence of joint names", joints)
         ids = []
         for name in joints:
@@ -591,7 +592,7 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
     Returns
     -------
     str
-        MJCF text for :func:`load_model` or ``mujoco.MjModel.from_xml_string``.
+        MJCF text for :func:`load_mujoco_model` or ``mujoco.MjModel.from_xml_string``.
     """
     owner = "purcell_swimmer_xml"
     n = check_int(n_links, "n_links", owner, minimum=2)
