@@ -83,8 +83,9 @@ class OptimizationResult:
         ``tracking_error`` (RMS realised − commanded shape, rad), ``world_x``, ``world_y``,
         ``world_heading`` (pose at the start of the cycle); with a simulator's truth ``true_x``,
         ``true_y``, ``true_heading``, ``true_progress``, ``true_objective``; ``improvement``
-        (relative to the seed, true values where there is a truth, else measured ones over the
-        seed's mean), ``ceiling_fraction`` (when a ceiling is given), and ``param_*``.
+        (relative to the seed: true values where there is a truth, else the measured objective over
+        the mean measured objective of the seed's cycles so far), ``ceiling_fraction`` (when a
+        ceiling is given), and ``param_*``.
     initial_gait, final_gait : FourierGait
     gaits : list of FourierGait
         Every nominal gait commanded, in order (rejected ones included).
