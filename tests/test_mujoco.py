@@ -80,6 +80,21 @@ def test_shipped_models_are_the_generator_output():
     assert load_mujoco_model("gymnasium:swimmer").nu == 2
     model = load_mujoco_model(purcell_swimmer_xml(4))
     assert load_mujoco_model(model) is model
+    four = mujoco_swimmer(4, seed=0)  # generated, not shipped
+    assert four.n_joints == 3 and four.body_name == "link1" and four.next_cycle().shape.shape == (100, 3)
+
+
+def test_public_names_are_documented():
+    import inspect
+
+    import geogait.robots
+
+    missing = [name for name in geogait.robots.__all__
+               if (inspect.isclass(getattr(geogait.robots, name)) or inspect.isfunction(getattr(geogait.robots, name)))
+               and not inspect.getdoc(getattr(geogait.robots, name))]
+    missing += [f"MujocoRobot.{name}" for name, member in vars(MujocoRobot).items()
+                if not name.startswith("_") and callable(member) and not inspect.getdoc(member)]
+    assert not missing
 
 
 # -- physics against independent facts ------------------------------------------------------------
