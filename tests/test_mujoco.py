@@ -182,6 +182,24 @@ def test_time_reversed_gait_undoes_the_motion_and_the_period_does_not_matter(dra
     assert np.linalg.norm(_net_per_cycle(make, gait, period=2.0)[:2] - forward[:2]) < tolerance * size
 
 
+def test_a_free_floating_base_moves_as_the_planar_base():
+    """Any base works: with a 6-DoF free joint instead of slide-slide-hinge the (planar) forces give
+    the same planar motion, and the body stays in the plane."""
+    planar = purcell_swimmer_xml(3)
+    base = ('<joint name="x" type="slide" axis="1 0 0"/>\n      <joint name="y" type="slide" axis="0 1 0"/>\n'
+            '      <joint name="heading" type="hinge" axis="0 0 1"/>')
+    assert base in planar
+    free = planar.replace(base, '<freejoint name="base"/>')
+    runs = []
+    for source in (planar, free):
+        robot = MujocoRobot(source, seed=4)
+        assert robot.body_name == "link1" and robot.joint_names == ("joint0", "joint1")
+        runs.append(robot.next_cycles(2))
+    np.testing.assert_allclose(runs[1].pose, runs[0].pose, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(runs[1].body_velocity, runs[0].body_velocity, rtol=0, atol=1e-8)
+    assert abs(robot.data.qpos[2]) < 1e-12  # z of the free base
+
+
 def test_no_shape_motion_leaves_the_body_at_rest():
     coefficients = np.zeros((2, 3))
     coefficients[:, 0] = (0.4, -0.3)  # a bent but constant shape
