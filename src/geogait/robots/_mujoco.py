@@ -456,7 +456,7 @@ class MujocoRobot:
                 shape_velocity[sample] = data.qvel[dof]
             if pd:
                 u = self.kp * (command[step] - data.qpos[qpos]) + self.kd * (command_rate[step] - data.qvel[dof])
-                data.ctrl[actuators] = np.clip(u, low, high)
+                data.ctrl[actuators] = np.minimum(np.maximum(u, low), high)  # np.clip costs 4x more here
             else:
                 data.ctrl[actuators] = command[step]
             mujoco.mj_step(model, data)
