@@ -1,15 +1,17 @@
 """In-situ gait optimisation of MuJoCo swimmers that geogait did not simulate.
 
-For each model (geogait's 3- and 5-link Purcell-like swimmers ``geogait:purcell3`` /
-``geogait:purcell5`` and Gymnasium's ``swimmer.xml``), driven by PD joint control through
-:class:`geogait.robots.MujocoRobot`:
+For each model (geogait's low-Reynolds-number 3- and 5-link Purcell swimmers ``geogait:purcell3`` /
+``geogait:purcell5`` and Gymnasium's quadratic-drag ``swimmer.xml``), driven by PD joint control
+through :class:`geogait.robots.MujocoRobot`:
 
 1. **model quality**: an :class:`~geogait.models.AdaptiveGaitModel` (phase rate 2π / period) learns
    20 perturbed cycles of the seed gait; its Γ on 10 held-out cycles of another seed;
 2. **optimisation**: :class:`~geogait.optimize.InSituOptimizer` with the ``"forward"`` objective
-   (signed progress along the direction the seed first moved) for ``--cycles`` cycles;
-3. **measured result**: the seed and the final gait run again without exploration (one settling
-   cycle, then one measured cycle); displacement per cycle from MuJoCo's own poses, no oracle;
+   (signed progress along the body-fixed direction the seed first moved) for ``--cycles`` cycles,
+   after two warm-up cycles;
+3. **measured result**: the seed, the final gait and the gaits after 25 and 50 cycles run again
+   without exploration (one settling cycle, then one measured cycle); displacement per cycle from
+   MuJoCo's own poses, no oracle;
 4. **checks**: physics (environment) steps used (warm-up included), whether any cycle moved
    backwards along the direction, tracking rejections.
 
