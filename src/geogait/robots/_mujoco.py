@@ -1,0 +1,712 @@
+r"""Any MuJoCo model with hinge joints as a :class:`~geogait.robots.Robot`.
+
+geogait commands a nominal gait θ(φ); :class:`MujocoRobot` turns it into joint commands, runs the
+model's own physics (fluid, contact, inertia: whatever the model defines) at the model's timestep,
+and returns one cycle of measured samples. At every physics step of a cycle of period ``T``
+
+.. math::
+    \phi = 2\pi t / T,\qquad r_{cmd} = \theta(\phi) + \delta,\qquad
+    \dot r_{cmd} = \theta'(\phi)\,\frac{2\pi}{T} + \dot\delta
+
+with (δ, δ̇) the exploration perturbation of eq. 8 (:class:`~geogait.gaits.Perturbation`, its time
+in seconds as in :class:`~geogait.simulate.SwimmerStream`), integrated exactly at the physics step.
+The default, ``Perturbation.from_std(0.15, frequency=2 / cycle_period)``, explores like the paper's
+at any period: δ std 0.15 rad, two oscillations per cycle. The joints track ``r_cmd`` with
+
+* ``control="pd"``: a PD law on ``motor`` actuators,
+  :math:`u = k_p (r_{cmd} - r) + k_d (\dot r_{cmd} - \dot r)`, clipped to the actuator's
+  ``ctrlrange`` (that clip is how saturation shows: the realised gait falls short of the commanded
+  one and ``shape`` departs from ``commanded_shape``);
+* ``control="position"``: ``ctrl = r_cmd`` on ``position`` actuators (the model's own servo).
+
+**Planar motion.** The robot moves in the model's x-y plane: the pose of the chosen body is
+``(x, y, heading)`` from its ``xpos`` and ``xmat`` (heading = atan2 of the body x-axis, unwrapped
+so that it is continuous), and its body velocity ξ = (v_x, v_y, ω) is
+``mujoco.mj_objectVelocity(..., flg_local=1)`` at the body frame's origin, in the body frame. The
+body's z-axis must point along the world z-axis (checked at construction).
+
+mujoco is an optional dependency (``pip install 'geogait[mujoco]'``), imported only when a model is
+loaded, so ``import geogait.robots`` works without it.
+"""
+
+from __future__ import annotations
+
+import copy
+import importlib.util
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .._validation import GeogaitError, check_choice, check_float, check_int, fail
+from ..gaits import FourierGait, Perturbation, seed_gait
+from ..simulate import Trajectory
+
+__all__ = ["MujocoRobot", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer", "purcell_swimmer_xml",
+           "MODELS_DIRECTORY"]
+
+#: Folder of the MuJoCo models shipped with geogait (``purcell3.xml``, ``purcell5.xml``).
+MODELS_DIRECTORY = Path(__file__).parent / "models"
+
+_INSTALL = "pip install 'geogait[mujoco]'"
+_CONTROLS = ("pd", "position")
+#: Tracking error (rad) at which the default PD gains reach the actuator's ctrl limit.
+_DEFAULT_SATURATION_ERROR = 0.05
+#: Largest natural frequency × timestep of a joint's inertia under the default PD gains (the PD law is
+#: explicit: it sees the state at the start of each step).
+_MAX_GAIN_FREQUENCY = 0.4
+
+
+def _mujoco():
+    """The ``mujoco`` module, or an ImportError that says what to install."""
+    try:
+        import mujoco
+    except ImportError as error:
+        raise ImportError(f"geogait's MuJoCo robots need the optional dependency 'mujoco': {_INSTALL}") from error
+    return mujoco
+
+
+def load_mujoco_model(source):
+    """A ``mujoco.MjModel`` from a path, an XML string, a named model or a model.
+
+    Parameters
+    ----------
+    source : str, pathlib.Path or mujoco.MjModel
+        ``"geogait:purcell3"`` / ``"geogait:purcell5"`` (shipped with geogait),
+        ``"gymnasium:swimmer"`` (any ``NAME.xml`` of the installed Gymnasium's
+        ``envs/mujoco/assets``), a path to an MJCF file, an MJCF string (starts with ``<``) or an
+        ``MjModel`` (returned as is).
+
+    Returns
+    -------
+    mujoco.MjModel
+    """
+    mujoco = _mujoco()
+    owner = "load_mujoco_model"
+    if isinstance(source, mujoco.MjModel):
+        return source
+    if not isinstance(source, str | Path):
+        raise fail("source", owner, "a path, an MJCF string, 'geogait:NAME', 'gymnasium:NAME' or a mujoco.MjModel",
+                   type(source).__name__)
+    text = str(source)
+    if isinstance(source, str) and text.lstrip().startswith("<"):
+        return mujoco.MjModel.from_xml_string(text)
+    if isinstance(source, str) and text.startswith("geogait:"):
+        path = MODELS_DIRECTORY / f"{text.split(':', 1)[1]}.xml"
+        if not path.is_file():
+            names = sorted(f"geogait:{p.stem}" for p in MODELS_DIRECTORY.glob("*.xml"))
+            raise fail("source", owner, "one of " + ", ".join(names), text)
+        return mujoco.MjModel.from_xml_path(str(path))
+    if isinstance(source, str) and text.startswith("gymnasium:"):
+        spec = importlib.util.find_spec("gymnasium")
+        if spec is None or spec.origin is None:
+            raise ImportError(f"'{text}' needs the optional dependency 'gymnasium': {_INSTALL}")
+        assets = Path(spec.origin).parent / "envs" / "mujoco" / "assets"
+        path = assets / f"{text.split(':', 1)[1]}.xml"
+        if not path.is_file():
+            names = sorted(f"gymnasium:{p.stem}" for p in assets.glob("*.xml"))
+            raise fail("source", owner, "one of " + ", ".join(names), text)
+        return mujoco.MjModel.from_xml_path(str(path))
+    path = Path(text)
+    if not path.is_file():
+        raise fail("source", owner, "an existing MJCF file, an MJCF string or a named model", text)
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def _name(model, kind, index) -> str:
+    return _mujoco().mj_id2name(model, kind, index) or f"#{index}"
+
+
+class MujocoRobot:
+    """A MuJoCo model with hinge joints, driven cycle by cycle (implements :class:`~geogait.robots.Robot`).
+
+    Parameters
+    ----------
+    model : str, pathlib.Path or mujoco.MjModel
+        Anything :func:`load_mujoco_model` accepts. The robot owns a copy of an ``MjModel`` passed in.
+    joints : sequence of str, optional
+        Names of the hinge joints that form the shape r (in this order). Default: every hinge joint
+        driven by an actuator, in the order of the actuators.
+    body : str, optional
+        Body whose frame gives the pose and body velocity. Default: the root body of the tree that
+        holds the shape joints (the body carrying the free or planar base).
+    gait : FourierGait, optional
+        Initial nominal gait; default ``seed_gait(d, amplitude)`` with amplitude 1 rad or 80 % of
+        the tightest joint range if that is smaller.
+    cycle_period : float > 0
+        Seconds per gait cycle T. Must be ``samples_per_cycle`` × an integer × the model's timestep.
+    samples_per_cycle : int >= 4
+        Samples recorded per cycle (the physics runs ``T / (samples_per_cycle · timestep)`` steps
+        between samples).
+    perturbation : Perturbation, optional
+        Exploration δ of eq. 8, time in seconds; default ``Perturbation.from_std(0.15, frequency=2 /
+        cycle_period)`` (δ std 0.15 rad, two oscillations per cycle). ``Perturbation(eta=0)`` for none.
+    control : {"pd", "position"}
+        Joint tracking (module docstring): PD torque on ``motor`` actuators, or the commanded shape as
+        the ``ctrl`` of ``position`` actuators.
+    kp, kd : float or array-like of shape (d,), optional
+        PD gains in ctrl units per rad and per rad/s (``control="pd"`` only). Default from the
+        model: ``kp`` reaches the ctrl limit at a 0.05 rad error, capped so that the natural
+        frequency of the joint's effective inertia 1 / (M⁻¹)_jj (every other degree of freedom
+        free, at the initial pose) stays below ``0.4 / timestep``; ``kd`` damps that critically.
+    seed : int or numpy.random.SeedSequence, optional
+        Seed of the perturbation.
+
+    Attributes
+    ----------
+    model : mujoco.MjModel
+    data : mujoco.MjData
+    joint_names : tuple of str
+    body_name : str
+    steps_per_sample : int
+        Physics steps between two samples.
+    kp, kd : ndarray of shape (d,) or None
+        PD gains in use (None for position control).
+    cycle : int
+        Index of the cycle :meth:`next_cycle` runs next.
+
+    Notes
+    -----
+    The joints start on the commanded shape and velocity of phase 0 and the base at rest at the
+    model's reference pose. Samples are taken at the start of each sample interval, before the
+    physics steps of that interval; ``time`` is ``cycle · T + n · T / samples_per_cycle``.
+
+    Examples
+    --------
+    >>> robot = mujoco_swimmer(3, seed=0)
+    >>> cycle = robot.next_cycle()
+    >>> cycle.shape.shape, cycle.body_velocity.shape, float(cycle.time[1])
+    ((100, 2), (100, 3), 0.01)
+    """
+
+    def __init__(self, model, *, joints=None, body: str | None = None, gait: FourierGait | None = None,
+                 cycle_period: float = 1.0, samples_per_cycle: int = 100, perturbation: Perturbation | None = None,
+                 control: str = "pd", kp=None, kd=None, seed=None):
+        mujoco = _mujoco()
+        owner = "MujocoRobot"
+        source = load_mujoco_model(model)
+        self.model = copy.deepcopy(source) if source is model else source
+        self.data = mujoco.MjData(self.model)
+        self.control = check_choice(control, "control", owner, _CONTROLS)
+        self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
+        self.samples_per_cycle = check_int(samples_per_cycle, "samples_per_cycle", owner, minimum=4)
+        self._joint_ids = self._resolve_joints(joints)
+        d = len(self._joint_ids)
+        self.joint_names = tuple(_name(self.model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self._joint_ids)
+        self._qpos = np.array([self.model.jnt_qposadr[j] for j in self._joint_ids])
+        self._dof = np.array([self.model.jnt_dofadr[j] for j in self._joint_ids])
+        self._actuators = self._resolve_actuators()
+        self._body = self._resolve_body(body)
+        self.body_name = _name(self.model, mujoco.mjtObj.mjOBJ_BODY, self._body)
+        self.steps_per_sample = self._resolve_steps()
+        if perturbation is not None and not isinstance(perturbation, Perturbation):
+            raise fail("perturbation", owner, "a geogait.gaits.Perturbation", type(perturbation).__name__)
+        self.perturbation = (Perturbation.from_std(0.15, frequency=2 / self.cycle_period) if perturbation is None
+                             else perturbation)
+        gait = self._default_gait(d) if gait is None else gait
+        self._check_gait(gait, owner)
+        self._gait = gait
+        if seed is not None and not isinstance(seed, int | np.integer | np.random.SeedSequence):
+            raise fail("seed", owner, "an int, a numpy.random.SeedSequence or None", seed)
+        self._rng = np.random.default_rng(seed)
+        steps_per_cycle = self.steps_per_sample * self.samples_per_cycle
+        self._perturbation = self.perturbation.stream(self.cycle_period / steps_per_cycle, d, self._rng)
+        self.kp, self.kd = self._resolve_gains(kp, kd)
+        self.cycle = 0
+        self._start(mujoco)
+
+    # -- set-up -------------------------------------------------------------------------------
+    def _resolve_joints(self, joints) -> list[int]:
+        mujoco = _mujoco()
+        model, owner = self.model, "MujocoRobot"
+        hinge = mujoco.mjtJoint.mjJNT_HINGE
+        names = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
+        if joints is None:
+            driven = [int(model.actuator_trnid[a, 0]) for a in range(model.nu)
+                      if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT]
+            ids = list(dict.fromkeys(j for j in driven if model.jnt_type[j] == hinge))
+            if not ids:
+                raise fail("joints", owner, "given: the model has no hinge joint driven by an actuator "
+                           f"(joints: {', '.join(names) or 'none'})", None)
+            return ids
+        if isinstance(joints, str) or not isinstance(joints, Sequence) or not all(isinstance(j, str) for j in joints):
+            raise fail("joints", owner, "a sequence of joint names", joints)
+        ids = []
+        for name in joints:
+            index = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if index < 0:
+                raise fail("joints", owner, "names of joints of the model (" + ", ".join(names) + ")", name)
+            if model.jnt_type[index] != hinge:
+                kind = mujoco.mjtJoint(model.jnt_type[index]).name.removeprefix("mjJNT_").lower()
+                raise fail("joints", owner, "names of hinge joints", f"{name!r}, a {kind} joint")
+            ids.append(index)
+        if not ids:
+            raise fail("joints", owner, "a non-empty sequence of hinge joint names", joints)
+        if len(set(ids)) != len(ids):
+            raise fail("joints", owner, "distinct joint names", list(joints))
+        return ids
+
+    def _resolve_actuators(self) -> np.ndarray:
+        """Per shape joint, the one actuator of the kind ``control`` needs."""
+        mujoco = _mujoco()
+        model, owner = self.model, "MujocoRobot"
+        kinds = []
+        for a in range(model.nu):
+            if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+                kinds.append(None)
+                continue
+            gain, bias = model.actuator_gaintype[a], model.actuator_biastype[a]
+            prm_gain, prm_bias = model.actuator_gainprm[a], model.actuator_biasprm[a]
+            if (gain == mujoco.mjtGain.mjGAIN_FIXED and bias == mujoco.mjtBias.mjBIAS_NONE
+                    and model.actuator_dyntype[a] == mujoco.mjtDyn.mjDYN_NONE):
+                kinds.append("motor")
+            elif (gain == mujoco.mjtGain.mjGAIN_FIXED and bias == mujoco.mjtBias.mjBIAS_AFFINE
+                  and prm_bias[0] == 0 and prm_gain[0] > 0 and prm_bias[1] == -prm_gain[0]):
+                kinds.append("position")
+            else:
+                kinds.append("other")
+        wanted = "motor" if self.control == "pd" else "position"
+        chosen = []
+        for joint, name in zip(self._joint_ids, self.joint_names, strict=True):
+            mine = [a for a in range(model.nu)
+                    if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and model.actuator_trnid[a, 0] == joint]
+            usable = [a for a in mine if kinds[a] == wanted]
+            if len(usable) != 1:
+                found = ", ".join(f"{_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a)} ({kinds[a]})" for a in mine)
+                raise GeogaitError(
+                    f"The 'joints' parameter of {owner} must name joints that each have exactly one {wanted} "
+                    f"actuator (control={self.control!r}). Joint {name!r} has "
+                    f"{len(usable)}{f'; its actuators: {found}' if found else ''}.")
+            chosen.append(usable[0])
+        return np.array(chosen)
+
+    def _resolve_body(self, body) -> int:
+        mujoco = _mujoco()
+        model = self.model
+        if body is None:
+            return int(model.body_rootid[model.jnt_bodyid[self._joint_ids[0]]])
+        if not isinstance(body, str):
+            raise fail("body", "MujocoRobot", "a body name", body)
+        index = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
+        if index < 0:
+            names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody)]
+            raise fail("body", "MujocoRobot", "the name of a body of the model (" + ", ".join(names) + ")", body)
+        if index == 0:
+            raise fail("body", "MujocoRobot", "a moving body, not the world", body)
+        return index
+
+    def _resolve_steps(self) -> int:
+        timestep = float(self.model.opt.timestep)
+        ratio = self.cycle_period / (self.samples_per_cycle * timestep)
+        steps = int(round(ratio))
+        if steps < 1 or abs(ratio - steps) > 1e-9 * max(ratio, 1.0):
+            unit = self.samples_per_cycle * timestep
+            raise fail("cycle_period", "MujocoRobot",
+                       f"a positive multiple of samples_per_cycle × the model's timestep "
+                       f"({self.samples_per_cycle} × {timestep:g} s = {unit:g} s), e.g. {max(steps, 1) * unit:g}",
+                       self.cycle_period)
+        return steps
+
+    def _joint_ranges(self) -> np.ndarray:
+        """(d, 2) joint ranges; ±inf for unlimited joints."""
+        ranges = np.array([self.model.jnt_range[j] for j in self._joint_ids], dtype=float)
+        limited = np.array([bool(self.model.jnt_limited[j]) for j in self._joint_ids])
+        ranges[~limited] = (-np.inf, np.inf)
+        return ranges
+
+    def _default_gait(self, d: int) -> FourierGait:
+        tightest = float(np.min(np.abs(self._joint_ranges())))
+        return seed_gait(d, amplitude=min(1.0, 0.8 * tightest))
+
+    def _check_gait(self, gait, owner: str) -> None:
+        if not isinstance(gait, FourierGait) or gait.n_joints != len(self._joint_ids):
+            raise fail("gait", owner, f"a FourierGait with {len(self._joint_ids)} joints "
+                       f"({', '.join(self.joint_names)})", gait)
+
+    def _resolve_gains(self, kp, kd):
+        owner = "MujocoRobot"
+        if self.control == "position":
+            for value, name in ((kp, "kp"), (kd, "kd")):
+                if value is not None:
+                    raise fail(name, owner, "None with control='position' (the actuator holds its own gains)", value)
+            return None, None
+        mujoco = _mujoco()
+        d = len(self._joint_ids)
+        limits = np.array([np.max(np.abs(self.model.actuator_ctrlrange[a])) if self.model.actuator_ctrllimited[a]
+                           else np.inf for a in self._actuators])
+        gear = self.model.actuator_gear[self._actuators, 0].copy()
+        data = mujoco.MjData(self.model)
+        mujoco.mj_forward(self.model, data)
+        # Effective inertia of each joint with every other degree of freedom free: 1 / (M⁻¹)_jj.
+        inertia = np.empty(d)
+        unit, column = np.zeros((1, self.model.nv)), np.zeros((1, self.model.nv))
+        for j, dof in enumerate(self._dof):
+            unit[:] = 0
+            unit[0, dof] = 1
+            mujoco.mj_solveM(self.model, data, column, unit)
+            inertia[j] = 1 / column[0, dof]
+        omega = _MAX_GAIN_FREQUENCY / float(self.model.opt.timestep)
+        stable = inertia * omega**2 / np.abs(gear)
+        default_kp = np.minimum(limits / _DEFAULT_SATURATION_ERROR, stable)
+        kp = default_kp if kp is None else self._gain(kp, "kp", d)
+        if kd is None:
+            kd = 2 * np.sqrt(kp * np.abs(gear) * inertia) / np.abs(gear)
+        else:
+            kd = self._gain(kd, "kd", d)
+        return kp, kd
+
+    @staticmethod
+    def _gain(value, name: str, d: int) -> np.ndarray:
+        try:
+            array = np.broadcast_to(np.asarray(value, dtype=float), (d,)).copy()
+        except (TypeError, ValueError):
+            raise fail(name, "MujocoRobot", f"a float or an array of shape ({d},), finite and >= 0", value) from None
+        if not np.all(np.isfinite(array)) or np.any(array < 0):
+            raise fail(name, "MujocoRobot", f"a float or an array of shape ({d},), finite and >= 0", value)
+        return array
+
+    def _start(self, mujoco) -> None:
+        """Joints on the commanded shape of phase 0, base at rest; check the body moves in the x-y plane."""
+        shape, rate = self._commands(np.zeros(1), self._perturbation.state[None])
+        self.data.qpos[self._qpos] = shape[0]
+        self.data.qvel[self._dof] = rate[0]
+        mujoco.mj_forward(self.model, self.data)
+        z_axis = self.data.xmat[self._body].reshape(3, 3)[:, 2]
+        if z_axis[2] < 1 - 1e-9:
+            raise fail("body", "MujocoRobot", "a body whose z-axis is the world z-axis (MujocoRobot models planar "
+                       "motion in the x-y plane)", f"{self.body_name!r} with z-axis {z_axis.round(6).tolist()}")
+        self._heading = float(np.arctan2(self.data.xmat[self._body, 3], self.data.xmat[self._body, 0]))
+
+    # -- the Robot protocol -------------------------------------------------------------------
+    @property
+    def n_joints(self) -> int:
+        """Shape dimension d."""
+        return len(self._joint_ids)
+
+    @property
+    def gait(self) -> FourierGait:
+        """Nominal gait of the next cycle."""
+        return self._gait
+
+    @property
+    def timestep(self) -> float:
+        """The model's physics timestep (s)."""
+        return float(self.model.opt.timestep)
+
+    @property
+    def n_physics_steps(self) -> int:
+        """Physics (environment) steps run so far: ``cycle · samples_per_cycle · steps_per_sample``."""
+        return self.cycle * self.samples_per_cycle * self.steps_per_sample
+
+    def set_gait(self, gait: FourierGait) -> None:
+        """Command ``gait`` from the next cycle on (:meth:`next_cycle` always runs whole cycles)."""
+        self._check_gait(gait, "MujocoRobot.set_gait")
+        self._gait = gait
+
+    def _commands(self, phase: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Commanded shape and rate (rad, rad/s) at ``phase`` (n,) with perturbation ``state`` (n, d, 2)."""
+        phase_rate = 2 * np.pi / self.cycle_period
+        shape = self._gait.shape(phase) + state[..., 0]
+        rate = self._gait.velocity(phase) * phase_rate + state[..., 1]
+        return shape, rate
+
+    def next_cycle(self) -> Trajectory:
+        """Run one gait cycle of the physics and return its ``samples_per_cycle`` samples.
+
+        Returns
+        -------
+        Trajectory
+            ``time`` (s), ``phase``, ``cycle``, measured ``shape`` / ``shape_velocity`` (rad, rad/s),
+            ``body_velocity`` (v_x, v_y, ω) in the body frame, world ``pose`` (x, y, heading) of the
+            body, and ``commanded_shape`` (nominal gait + perturbation), each with n = samples_per_cycle.
+        """
+        mujoco = _mujoco()
+        if self.data is None:
+            raise GeogaitError("This MujocoRobot was closed; build a new one to run more cycles.")
+        model, data = self.model, self.data
+        k, n = self.steps_per_sample, self.samples_per_cycle
+        steps = k * n
+        d = self.n_joints
+        phase = 2 * np.pi * np.arange(steps) / steps
+        state = self._perturbation.run(self._rng.standard_normal((steps, d, 2)))
+        command, command_rate = self._commands(phase, state)
+        shape = np.empty((n, d))
+        shape_velocity = np.empty((n, d))
+        body_velocity = np.empty((n, 3))
+        pose = np.empty((n, 3))
+        twist = np.empty(6)
+        qpos, dof, actuators, body = self._qpos, self._dof, self._actuators, self._body
+        pd = self.control == "pd"
+        if pd:
+            low = np.where(model.actuator_ctrllimited[actuators], model.actuator_ctrlrange[actuators, 0], -np.inf)
+            high = np.where(model.actuator_ctrllimited[actuators], model.actuator_ctrlrange[actuators, 1], np.inf)
+        for step in range(steps):
+            if step % k == 0:
+                sample = step // k
+                mujoco.mj_kinematics(model, data)
+                mujoco.mj_comPos(model, data)
+                mujoco.mj_comVel(model, data)
+                mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, body, twist, 1)
+                body_velocity[sample] = (twist[3], twist[4], twist[2])
+                rotation = data.xmat[body]
+                wrapped = np.arctan2(rotation[3], rotation[0])
+                self._heading += (wrapped - self._heading + np.pi) % (2 * np.pi) - np.pi
+                pose[sample] = (data.xpos[body, 0], data.xpos[body, 1], self._heading)
+                shape[sample] = data.qpos[qpos]
+                shape_velocity[sample] = data.qvel[dof]
+            if pd:
+                u = self.kp * (command[step] - data.qpos[qpos]) + self.kd * (command_rate[step] - data.qvel[dof])
+                data.ctrl[actuators] = np.minimum(np.maximum(u, low), high)  # np.clip costs 4x more here
+            else:
+                data.ctrl[actuators] = command[step]
+            mujoco.mj_step(model, data)
+        index = np.arange(n)
+        trajectory = Trajectory(
+            time=(self.cycle * n + index) * (self.cycle_period / n), phase=2 * np.pi * index / n,
+            cycle=np.full(n, self.cycle), shape=shape, shape_velocity=shape_velocity,
+            body_velocity=body_velocity, pose=pose, commanded_shape=command[::k].copy())
+        self.cycle += 1
+        return trajectory
+
+    def next_cycles(self, n_cycles: int) -> Trajectory:
+        """``n_cycles`` whole cycles, joined along time."""
+        n_cycles = check_int(n_cycles, "n_cycles", "MujocoRobot.next_cycles", minimum=1)
+        return Trajectory.concatenate([self.next_cycle() for _ in range(n_cycles)])
+
+    # -- extras -------------------------------------------------------------------------------
+    def robot_state(self) -> dict:
+        """Everything that determines the following cycles, for a bit-identical restart.
+
+        Returns
+        -------
+        dict
+            ``physics`` (``mj_getState`` with ``mjSTATE_INTEGRATION``: time, qpos, qvel, act,
+            warm start, ctrl, applied forces, mocap, ...), ``perturbation`` (δ, δ̇ per joint),
+            ``gait`` (coefficients), ``rng`` (the generator's state, JSON values), ``cycle`` and
+            ``heading`` (the unwrapped heading of the last sample).
+        """
+        mujoco = _mujoco()
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        physics = np.empty(mujoco.mj_stateSize(self.model, spec))
+        mujoco.mj_getState(self.model, self.data, physics, spec)
+        return {"physics": physics, "perturbation": self._perturbation.state.copy(),
+                "gait": np.array(self._gait.coefficients), "rng": copy.deepcopy(self._rng.bit_generator.state),
+                "cycle": int(self.cycle), "heading": float(self._heading)}
+
+    def restore_robot_state(self, state: dict) -> None:
+        """Continue exactly where the robot that wrote ``state`` (:meth:`robot_state`) was."""
+        mujoco = _mujoco()
+        owner = "MujocoRobot.restore_robot_state"
+        keys = {"physics", "perturbation", "gait", "rng", "cycle", "heading"}
+        if not isinstance(state, dict) or not keys <= set(state):
+            raise fail("state", owner, "a dict from MujocoRobot.robot_state() with keys " + ", ".join(sorted(keys)),
+                       sorted(state) if isinstance(state, dict) else type(state).__name__)
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        physics = np.asarray(state["physics"], dtype=float)
+        size = mujoco.mj_stateSize(self.model, spec)
+        if physics.shape != (size,):
+            raise fail("state", owner, f"a physics state of {size} values (this model)", f"{physics.size} values")
+        perturbation = np.asarray(state["perturbation"], dtype=float)
+        if perturbation.shape != self._perturbation.state.shape:
+            raise fail("state", owner, f"a perturbation state of shape {self._perturbation.state.shape}",
+                       f"shape {perturbation.shape}")
+        gait = FourierGait(np.asarray(state["gait"], dtype=float))
+        self._check_gait(gait, owner)
+        mujoco.mj_setState(self.model, self.data, physics, spec)
+        self._perturbation.state = perturbation.copy()
+        self._gait = gait
+        self._rng.bit_generator.state = copy.deepcopy(state["rng"])
+        self.cycle = int(state["cycle"])
+        self._heading = float(state["heading"])
+
+    def close(self) -> None:
+        """Drop the simulation data (MuJoCo frees its buffers with it); later cycles raise an error."""
+        self.data = None
+
+    def __repr__(self):
+        return (f"MujocoRobot(joints={list(self.joint_names)}, body={self.body_name!r}, control={self.control!r}, "
+                f"cycle_period={self.cycle_period:g}, samples_per_cycle={self.samples_per_cycle}, "
+                f"steps_per_sample={self.steps_per_sample})")
+
+
+# -- shipped models -----------------------------------------------------------------------------
+def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, radius: float = 0.025,
+                        drag_coefficient: float = 1.0, drag_ratio: float = 2.0, body_density: float | None = None,
+                        fluid_density: float = 4000.0, viscosity: float = 0.0, timestep: float = 0.002,
+                        armature: float = 1e-4, joint_range: float = 2 * np.pi / 3, actuator: str = "motor",
+                        ctrl_limit: float | None = None, position_gain: float | None = None) -> str:
+    r"""MJCF of an N-link Purcell swimmer (the models shipped as ``geogait:purcell3`` / ``geogait:purcell5``).
+
+    Equal capsule links along x, joined by hinge joints about z; ``joint{j}`` is the angle of link
+    j+1 relative to link j, link 0 the tail at −x (geogait's :class:`~geogait.systems.PurcellSwimmer`
+    conventions). The middle link (index ``(n_links - 1) // 2``) is the root body with a planar base
+    (slide x, slide y, hinge z) and its frame at the link's centre, so ``body`` defaults to it, as
+    ``body_frame="middle"`` of ``PurcellSwimmer`` for odd N. Gravity is off.
+
+    ``drag="rft"`` (default): low Reynolds number. Each link carries resistive-force-theory drag at
+    its centre, exactly the wrench of ``PurcellSwimmer``,
+
+    .. math:: F = -c\,\mathrm{diag}(l,\ k l,\ k l^3/12)\,(u, v, \omega)^T
+
+    in the link's own frame, built from three passive ``general`` actuators per link with a site
+    transmission along the link's x, y and z-rotation axes and velocity bias ``-c l``, ``-c k l``,
+    ``-c k l³/12`` (their ``ctrl`` does nothing). The links are light (density 1 kg/m³) so drag
+    dominates inertia by orders of magnitude: the robot is principally kinematic, ξ = −A(r) ṙ with
+    geogait's RFT connection in the limit, which the tests check against ``PurcellSwimmer``.
+
+    ``drag="fluid"``: MuJoCo's own inertia-box fluid model (``density``/``viscosity`` options). Its
+    viscous term is isotropic and cannot propel a Purcell swimmer; the propulsion comes from the
+    per-axis quadratic drag ½ ρ s_j s_k |v_i| v_i of each link's inertia box. With light links the
+    motion is rate-independent but **not linear in ṙ** (a quadratic-drag swimmer, like Gymnasium's).
+
+    Parameters
+    ----------
+    n_links : int >= 2
+    drag : {"rft", "fluid"}
+    length : float > 0
+        Total length (m).
+    radius : float > 0
+        Capsule radius (m).
+    drag_coefficient, drag_ratio : float > 0
+        ``drag="rft"``: longitudinal drag c per unit length (N·s/m²) and lateral/longitudinal k.
+    body_density : float > 0, optional
+        kg/m³; default 1 for ``"rft"`` and 100 for ``"fluid"``.
+    fluid_density, viscosity : float
+        ``drag="fluid"``: MuJoCo's ``density`` (kg/m³, > 0) and ``viscosity`` (Pa·s, >= 0).
+    timestep : float > 0
+        Physics step (s); the integrator is ``implicitfast``, which treats the velocity-dependent
+        drag implicitly.
+    armature : float >= 0
+        Rotor inertia added to each shape joint (kg m²).
+    joint_range : float > 0
+        Joint limit ±``joint_range`` (rad); 2π/3 by default, the design's r_max.
+    actuator : {"motor", "position"}
+        ``motor`` (gear 1, ctrlrange ±``ctrl_limit`` N·m) for PD control, or ``position`` servos
+        (stiffness ``position_gain``, critically damped, force limited to ±``ctrl_limit``).
+    ctrl_limit : float > 0, optional
+        Torque limit of each joint (N·m); default 0.2 (``"rft"``) or 2 (``"fluid"``), several times
+        what the seed gait needs at a 1 s period.
+    position_gain : float > 0, optional
+        Stiffness of the position servos (N·m/rad); default 10 × ``ctrl_limit``.
+
+    Returns
+    -------
+    str
+        MJCF text for :func:`load_mujoco_model` or ``mujoco.MjModel.from_xml_string``.
+    """
+    owner = "purcell_swimmer_xml"
+    n = check_int(n_links, "n_links", owner, minimum=2)
+    check_choice(drag, "drag", owner, ("rft", "fluid"))
+    rft = drag == "rft"
+    body_density = (1.0 if rft else 100.0) if body_density is None else body_density
+    ctrl_limit = (0.2 if rft else 2.0) if ctrl_limit is None else ctrl_limit
+    position_gain = 10 * ctrl_limit if position_gain is None else position_gain
+    for value, name in ((length, "length"), (radius, "radius"), (drag_coefficient, "drag_coefficient"),
+                        (drag_ratio, "drag_ratio"), (body_density, "body_density"), (fluid_density, "fluid_density"),
+                        (timestep, "timestep"), (joint_range, "joint_range"), (ctrl_limit, "ctrl_limit"),
+                        (position_gain, "position_gain")):
+        check_float(value, name, owner, low=0, low_open=True)
+    check_float(viscosity, "viscosity", owner, low=0)
+    check_float(armature, "armature", owner, low=0)
+    check_choice(actuator, "actuator", owner, ("motor", "position"))
+    link = length / n
+    middle = (n - 1) // 2
+
+    def g(value):
+        return f"{value:.12g}"
+
+    def capsule(start, stop):
+        centre = (start + stop) / 2
+        return (f'<geom type="capsule" fromto="{g(start)} 0 0 {g(stop)} 0 0" size="{g(radius)}" '
+                f'density="{g(body_density)}"/>' + (f'<site name="centre{{i}}" pos="{g(centre)} 0 0"/>' if rft else ""))
+
+    def joint(j, axis):
+        return (f'<joint name="joint{j}" type="hinge" axis="0 0 {axis}" range="{g(-joint_range)} '
+                f'{g(joint_range)}" limited="true" armature="{g(armature)}"/>')
+
+    def chain(i, step, indent):
+        """Links i, i + step, ... away from the middle link (step -1: towards link 0, the tail, at -x)."""
+        if i < 0 or i >= n:
+            return ""
+        offset = (link / 2 if abs(i - middle) == 1 else link) * step
+        j, axis = (i, -1) if step < 0 else (i - 1, 1)  # the hinge between links j and j + 1
+        pad = "  " * indent
+        return (f'{pad}<body name="link{i}" pos="{g(offset)} 0 0">\n{pad}  {joint(j, axis)}\n'
+                f'{pad}  {capsule(0, link * step).format(i=i)}\n{chain(i + step, step, indent + 1)}{pad}</body>\n')
+
+    if actuator == "motor":
+        actuators = "".join(f'    <motor name="motor{j}" joint="joint{j}" gear="1" ctrlrange="{g(-ctrl_limit)} '
+                            f'{g(ctrl_limit)}"/>\n' for j in range(n - 1))
+    else:
+        actuators = "".join(
+            f'    <position name="servo{j}" joint="joint{j}" kp="{g(position_gain)}" dampratio="1" '
+            f'ctrlrange="{g(-joint_range)} {g(joint_range)}" forcerange="{g(-ctrl_limit)} {g(ctrl_limit)}"/>\n'
+            for j in range(n - 1))
+    if rft:
+        resistance = {"x": (drag_coefficient * link, "1 0 0 0 0 0"),
+                      "y": (drag_coefficient * drag_ratio * link, "0 1 0 0 0 0"),
+                      "rz": (drag_coefficient * drag_ratio * link**3 / 12, "0 0 0 0 0 1")}
+        actuators += "".join(
+            f'    <general name="drag{i}_{axis}" site="centre{i}" gear="{gear}" gainprm="0" biastype="affine" '
+            f'biasprm="0 0 {g(-value)}"/>\n' for i in range(n) for axis, (value, gear) in resistance.items())
+        option = f'timestep="{g(timestep)}" integrator="implicitfast"'
+        comment = f"low Reynolds number: RFT drag c = {g(drag_coefficient)}, k = {g(drag_ratio)} on every link"
+    else:
+        option = (f'timestep="{g(timestep)}" density="{g(fluid_density)}" viscosity="{g(viscosity)}" '
+                  f'integrator="implicitfast"')
+        comment = "MuJoCo inertia-box fluid: quadratic drag"
+    root = capsule(-link / 2, link / 2).format(i=middle)
+    return (f'<mujoco model="purcell{n}">\n'
+            f'  <!-- generated by geogait.robots.purcell_swimmer_xml({n}, drag={drag!r}); {comment} -->\n'
+            f'  <compiler angle="radian"/>\n'
+            f'  <option {option}>\n    <flag gravity="disable"/>\n  </option>\n'
+            f'  <default>\n    <geom contype="0" conaffinity="0" rgba="0.8 0.6 0.4 1"/>\n  </default>\n'
+            f'  <worldbody>\n    <body name="link{middle}">\n'
+            f'      <joint name="x" type="slide" axis="1 0 0"/>\n'
+            f'      <joint name="y" type="slide" axis="0 1 0"/>\n'
+            f'      <joint name="heading" type="hinge" axis="0 0 1"/>\n'
+            f'      {root}\n'
+            f'{chain(middle - 1, -1, 3)}{chain(middle + 1, 1, 3)}'
+            f'    </body>\n  </worldbody>\n  <actuator>\n{actuators}  </actuator>\n</mujoco>\n')
+
+
+def mujoco_swimmer(n_links: int = 3, **options) -> MujocoRobot:
+    """A ready :class:`MujocoRobot` on geogait's Purcell-like swimmer (:func:`purcell_swimmer_xml`).
+
+    Parameters
+    ----------
+    n_links : int >= 2
+        3 and 5 load the shipped ``geogait:purcell3`` / ``geogait:purcell5``; other counts are
+        generated with the same defaults.
+    **options
+        Keywords of :class:`MujocoRobot` (``cycle_period`` 1 s, ``samples_per_cycle`` 100 and PD
+        control unless given).
+
+    Returns
+    -------
+    MujocoRobot
+    """
+    n_links = check_int(n_links, "n_links", "mujoco_swimmer", minimum=2)
+    source = f"geogait:purcell{n_links}" if n_links in (3, 5) else purcell_swimmer_xml(n_links)
+    return MujocoRobot(source, **options)
+
+
+def gymnasium_swimmer(**options) -> MujocoRobot:
+    """A ready :class:`MujocoRobot` on Gymnasium's ``swimmer.xml`` (needs ``gymnasium`` installed).
+
+    The 3-link swimmer of Gymnasium's ``Swimmer-v5`` (viscous-and-dense fluid, 1 m capsule links,
+    ``motor`` actuators with gear 150 and ctrlrange ±1, timestep 0.01 s), with the shape joints
+    ``motor1_rot``, ``motor2_rot`` and the pose of the head link ``torso``.
+
+    Parameters
+    ----------
+    **options
+        Keywords of :class:`MujocoRobot`; ``cycle_period`` defaults to 2 s here (at 1 s the
+        actuators saturate on the seed gait).
+
+    Returns
+    -------
+    MujocoRobot
+    """
+    options.setdefault("cycle_period", 2.0)
+    return MujocoRobot("gymnasium:swimmer", **options)
