@@ -156,8 +156,8 @@ class PathTracker:
         gaits with the current model every cycle.
     """
 
-    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float = 0.3,
-                 n_turns: int = 9, n_first_turns: int = 21, heading_weight: float = 2.0,
+    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float = 0.5,
+                 n_turns: int = 11, n_first_turns: int = 21, heading_weight: float = 2.0,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10,
                  max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
                  family_every: int = 5):
