@@ -234,3 +234,21 @@ def test_tracker_rejects_bad_settings(three_link):
     with pytest.raises(GeogaitError, match="'robot' parameter"):
         PathTracker().run(object(), ReferencePath.line(), 2)
     assert isinstance(FourierGait, type)
+
+
+def test_every_public_name_is_documented():
+    """The rule of tests/test_public_api.py, applied to geogait.control."""
+    import inspect
+
+    import geogait.control as control
+
+    assert control.__doc__
+    missing = []
+    for name in control.__all__:
+        value = getattr(control, name)
+        if (inspect.isclass(value) or inspect.isfunction(value)) and not inspect.getdoc(value):
+            missing.append(name)
+        if inspect.isclass(value):
+            missing += [f"{name}.{m}" for m, f in vars(value).items()
+                        if not m.startswith("_") and inspect.isfunction(f) and not inspect.getdoc(f)]
+    assert not missing

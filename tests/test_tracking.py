@@ -119,3 +119,16 @@ def test_figure_tracking_redraws_from_csv(tmp_path):
     manifest = _strict_json(out / "tracking.json")
     assert "3-link circle constant" in manifest["results"]
     assert (out / "tracking.png").stat().st_size > 10_000 and (out / "steering-family.png").stat().st_size > 10_000
+
+
+def test_readme_steering_example_runs(monkeypatch, tmp_path):
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = re.search(r"## Steering and path following.*?```python\n(.*?)```", text, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(block, "README steering example", "exec"), namespace)
+    assert namespace["result"].summary()["cross_track_mean"] < 0.2
+    assert namespace["family"].feasible.all()
