@@ -45,6 +45,14 @@ def _names(text: str, option: str, choices) -> tuple[str, ...]:
     return names
 
 
+def _links(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(v) for v in text.split(","))
+    except ValueError:
+        message = f"The '--links' option must be comma-separated integers such as 3,5. Got {text!r} instead."
+        raise GeogaitError(message) from None
+
+
 def _ratios(text: str) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in text.split(","))
@@ -202,7 +210,7 @@ def figure_tracking(
         else:
             base = TrackingConfig.quick() if quick else TrackingConfig()
             changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
-                           links=None if links is None else tuple(int(v) for v in links.split(",")))
+                           links=None if links is None else _links(links))
             config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
             if cycles is not None:
                 config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
