@@ -1,0 +1,231 @@
+"""``geogait track``: follow a path with steering gaits (adaptive, frozen and true-connection
+controllers), and ``geogait figure tracking``: the seeded multi-trial experiment."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import pandas as pd
+import typer
+
+from .._validation import GeogaitError
+from ..control import CONTROLLERS, PATH_KINDS, PathTracker, ReferencePath
+from ..experiments.tracking import (
+    TrackingConfig,
+    TrackingResult,
+    drag_change_metrics,
+    plot_reference,
+    plot_steering_family,
+    run_tracking,
+    steering_families,
+    straight_gait,
+    tracking_path,
+)
+from ..gaits import Perturbation
+from ..plotting import plt, save_figure
+from ..simulate import DragRatioSchedule, SwimmerStream
+from ._app import app, figure_app
+from ._common import console, output_folder, progress_bar, write_manifest
+from ._fit import _user_errors
+
+QUICK = {"cycles": 12, "warmup": 5}
+
+
+def _names(text: str, option: str, choices) -> tuple[str, ...]:
+    names = tuple(v.strip() for v in text.split(",") if v.strip())
+    bad = [n for n in names if n not in choices]
+    if bad or not names:
+        raise GeogaitError(f"The '{option}' option must be a comma-separated list of {', '.join(choices)}. "
+                           f"Got {text!r} instead.")
+    return names
+
+
+def _links(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(v) for v in text.split(","))
+    except ValueError:
+        message = f"The '--links' option must be comma-separated integers such as 3,5. Got {text!r} instead."
+        raise GeogaitError(message) from None
+
+
+def _ratios(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or len(values) > 2 or not all(np.isfinite(v) and v > 0 for v in values):
+        raise GeogaitError("The '--drag-ratio' option must be one positive number or two, comma-separated "
+                           f"(before and after the change, e.g. 2,4). Got {text!r} instead.")
+    return values
+
+
+def _path(text: str, step: float, scale: float) -> ReferencePath:
+    if text in PATH_KINDS:
+        return tracking_path(text, step, scale)
+    if text.endswith(".csv") or Path(text).exists():
+        return ReferencePath.from_csv(text)
+    raise GeogaitError(f"The '--path' option must be one of {', '.join(PATH_KINDS)} or a waypoints CSV file "
+                       f"(columns x, y). Got {text!r} instead.")
+
+
+def _finite(value):
+    """JSON-safe: NaN and inf become null."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if np.isfinite(value) else None
+    return value
+
+
+@app.command()
+def track(
+    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.")] = 3,
+    path: Annotated[str, typer.Option(help="line, circle, figure8, or a waypoints CSV (columns x, y; body "
+                                           "lengths).")] = "circle",
+    drag_ratio: Annotated[str, typer.Option(
+        help="Drag ratio k, or two (e.g. 2,4): changed unannounced at --change-cycle.")] = "2",
+    cycles: Annotated[int | None, typer.Option(help="Tracking cycles [default: 60; 12 with --quick].")] = None,
+    change_cycle: Annotated[int | None, typer.Option(
+        help="Tracking cycle of the drag-ratio change [default: half of --cycles].")] = None,
+    controllers: Annotated[str, typer.Option(help="Comma-separated controllers to run: adaptive, frozen, "
+                                                  "true.")] = ",".join(CONTROLLERS),
+    warmup: Annotated[int | None, typer.Option(
+        help="Straight-gait cycles before tracking [default: 10; 5 with --quick].")] = None,
+    scale: Annotated[float, typer.Option(help="Built-in paths' size in steps of the straight gait.")] = 10.0,
+    offset: Annotated[float | None, typer.Option(
+        help="Initial offset to the left of the path (body lengths) [default: 3 steps on the line, else 0].")] = None,
+    seed: Annotated[int, typer.Option(help="Random seed of perturbations and sensor noise.")] = 0,
+    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
+    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
+    horizon: Annotated[int, typer.Option(help="Cycles predicted per decision.")] = 4,
+    quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
+) -> None:
+    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json.
+
+    Each controller runs on its own copy of the simulated swimmer with the same seed (same perturbations
+    and noise): the adaptive model keeps learning, the frozen one stops after the warm-up, and the true
+    controller uses the true connection of the environment in force.
+    """
+    started = time.perf_counter()
+    with _user_errors():
+        ratios = _ratios(drag_ratio)
+        names = _names(controllers, "--controllers", CONTROLLERS)
+        system, gait, step = straight_gait(links)
+        reference = _path(path, step, scale)
+        n_cycles = cycles if cycles is not None else (QUICK["cycles"] if quick else 60)
+        warmup_cycles = warmup if warmup is not None else (QUICK["warmup"] if quick else 10)
+        change = change_cycle if change_cycle is not None else n_cycles // 2
+        start_offset = offset if offset is not None else (3 * step if path == "line" else 0.0)
+        if len(ratios) == 2 and not 1 <= change < n_cycles:
+            raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
+        results = {}
+        with progress_bar() as progress:
+            for name in names:
+                system_k = system.with_drag_ratio(ratios[0])
+                schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
+                robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
+                                      sensor_noise=noise, environment=schedule, seed=seed)
+                tracker = PathTracker(controller=name, warmup_cycles=warmup_cycles, horizon=horizon)
+                task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
+
+                def show(row, task=task):
+                    gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
+                    drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
+                    progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
+                                    f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
+
+                results[name] = tracker.run(robot, reference, n_cycles, start_offset=start_offset, callback=show,
+                                            record=True)
+    folder = output_folder(out)
+    log = pd.concat([r.log for r in results.values()], ignore_index=True)
+    log.to_csv(folder / "cycles.csv", index=False)
+    _plot_paths(folder / "path.png", reference, results)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    plot_steering_family(ax, {{"adaptive": "model", "frozen": "frozen model", "true": "true"}[n]: r.family
+                              for n, r in results.items()}, links)
+    save_figure(fig, folder / "family.png")
+    summary = {name: result.summary() | {"final_gamma": float(result.log["gamma"].iloc[-1])}
+               for name, result in results.items()}
+    if len(ratios) == 2:
+        summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
+    summary["step_per_cycle"] = step
+    summary["path_length"] = reference.length
+    config = dict(links=links, path=path, drag_ratios=ratios, cycles=n_cycles, change_cycle=change,
+                  controllers=names, warmup=warmup_cycles, scale=scale, offset=start_offset, seed=seed, noise=noise,
+                  perturbation=perturbation, horizon=horizon, quick=quick)
+    write_manifest(folder / "summary.json", command="track", config=config, results=_finite(summary),
+                   started=started)
+    console.print(json.dumps(_finite(summary), indent=1))
+    console.print(f"wrote {folder}/ (cycles.csv, summary.json, path.png, family.png)")
+
+
+def _plot_paths(file, reference: ReferencePath, results: dict) -> None:
+    """Reference path, each controller's sampled path and its cycle-boundary markers."""
+    styles = {"adaptive": "tab:red", "frozen": "tab:blue", "true": "k"}
+    fig, ax = plt.subplots(figsize=(6.4, 5.6))
+    plot_reference(ax, reference, np.concatenate([r.log[["x", "y"]].to_numpy() for r in results.values()]))
+    for name, result in results.items():
+        color = styles.get(name, "C2")
+        if result.trajectory is not None:
+            pose = result.trajectory.pose
+            ax.plot(pose[:, 0], pose[:, 1], color=color, lw=0.6, alpha=0.7)
+        ax.plot(result.log["x"], result.log["y"], "o", color=color, ms=2.5, label=f"{name} (cycle ends)")
+        ax.plot(*result.start[:2], "^", color=color, ms=6)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (body lengths)")
+    ax.set_ylabel("y (body lengths)")
+    ax.set_title("Path following: body-frame path and cycle boundaries")
+    ax.legend(fontsize=8)
+    save_figure(fig, file)
+
+
+@figure_app.command("tracking")
+def figure_tracking(
+    trials: Annotated[int | None, typer.Option(help="Paired trials per swimmer [default: 20].")] = None,
+    links: Annotated[str | None, typer.Option(help="Swimmers, comma-separated [default: 3,5].")] = None,
+    cycles: Annotated[int | None, typer.Option(help="Tracking cycles per run [default: 60].")] = None,
+    noise: Annotated[float | None, typer.Option(help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
+    perturbation: Annotated[float | None, typer.Option(help="Perturbation std (rad) [default: 0.15].")] = None,
+    seed: Annotated[int | None, typer.Option(help="Root random seed [default: 0].")] = None,
+    jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
+    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
+    quick: Annotated[bool, typer.Option(help="3-link, 2 trials, 2 paths, 16 cycles: seconds.")] = False,
+    from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
+    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-tracking"),
+) -> None:
+    """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4."""
+    started = time.perf_counter()
+    folder = output_folder(out)
+    with _user_errors():
+        if from_csv is not None:
+            result = TrackingResult.from_csv(from_csv)
+        else:
+            base = TrackingConfig.quick() if quick else TrackingConfig()
+            changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
+                           links=None if links is None else _links(links))
+            config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
+            if cycles is not None:
+                config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
+            result = run_tracking(config, jobs=jobs, scheduler=scheduler)
+            result.to_csv(folder / "tracking.csv")
+    result.plot(folder / "tracking.png")
+    families = sorted(result.frame["links"].unique())
+    fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.5), squeeze=False)
+    for ax, n_links in zip(axes[0], families, strict=True):
+        plot_steering_family(ax, steering_families(int(n_links)), int(n_links))
+    save_figure(fig, folder / "steering-family.png")
+    summary = result.summary()
+    write_manifest(folder / "tracking.json", command="figure tracking",
+                   config=result.config_dict() or {"from_csv": str(from_csv)},
+                   results=_finite({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
+                                    **summary}), started=started)
+    console.print(json.dumps(_finite(summary), indent=1))
+    console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking.json)")

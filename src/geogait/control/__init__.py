@@ -1,0 +1,41 @@
+"""Steering and path following with the adaptive gait model (motion tracking to precision).
+
+* :class:`ReferencePath`: lines, circles, figure-eights and waypoint polylines; cross-track and
+  heading errors.
+* Steering gaits (:func:`solve_steering_gait`, :func:`steering_family`, :func:`max_step_family`):
+  the gait nearest the straight optimum whose predicted net motion per cycle matches a commanded
+  step and turn, from a gait model (:class:`ModelMotion`) or the true connection
+  (:class:`TrueMotion`).
+* :class:`PathTracker`: a receding-horizon controller that follows a path cycle by cycle on any
+  :class:`geogait.robots.Robot` while the adaptive model keeps learning.
+"""
+
+from ._paths import PATH_KINDS, ReferencePath
+from ._steering import (
+    ModelMotion,
+    SteeringFamily,
+    SteeringSolution,
+    TrueMotion,
+    max_step_family,
+    solve_steering_gait,
+    steering_family,
+    travel_rows,
+)
+from ._tracker import CONTROLLERS, PathTracker, TrackingResult, end_pose
+
+__all__ = [
+    "CONTROLLERS",
+    "PATH_KINDS",
+    "ModelMotion",
+    "PathTracker",
+    "ReferencePath",
+    "SteeringFamily",
+    "SteeringSolution",
+    "TrackingResult",
+    "TrueMotion",
+    "end_pose",
+    "max_step_family",
+    "solve_steering_gait",
+    "steering_family",
+    "travel_rows",
+]

@@ -1,0 +1,375 @@
+r"""Path following with a receding-horizon controller on the per-cycle SE(2) motion of steering gaits.
+
+Every cycle boundary :math:`k` the controller knows the robot's pose :math:`g_k` (from the robot's
+own poses) and a steering family — for turning rates :math:`\omega_j`, the gait nearest the straight
+optimum that turns by :math:`\omega_j` per cycle and its predicted net motion
+:math:`m(\omega_j) \in SE(2)` (:mod:`geogait.control._steering`). It predicts the poses of the next
+:math:`H` cycles for candidate turn sequences (first turn on a fine grid, then one held turn from
+the family, "move blocking"),
+
+.. math:: g_{k+i} = g_{k+i-1}\, m(\omega_i), \qquad m(\omega)\ \text{interpolated between members},
+
+and picks the sequence minimising
+
+.. math:: J = \sum_{i=1}^{H} e(g_{k+i})^2 + \bigl(w_\chi\, \ell\, \mathrm{wrap}(\chi_i - \psi_i)\bigr)^2,
+
+with :math:`e` the cross-track error of the predicted position, :math:`\chi_i` the course of the
+chord :math:`g_{k+i-1} \to g_{k+i}`, :math:`\psi_i` the path tangent at the chord's midpoint,
+:math:`\ell` the straight gait's step per cycle and :math:`w_\chi` the heading weight. Only the first
+turn is used: its steering gait is solved exactly (warm-started from the family) and commanded for
+one cycle; then the loop repeats with the newly measured pose.
+
+Three sources of the motion :math:`m`:
+
+* ``"adaptive"``: the adaptive gait model (:class:`~geogait.models.AdaptiveGaitModel`, centred on the
+  straight gait) learns every sample of every cycle, warm-up and tracking, perturbations included;
+  the family is re-solved from the updated model every cycle (continuation);
+* ``"frozen"``: the same model after the warm-up, never updated again;
+* ``"true"``: the true connection of the system in force (:meth:`current_system`, simulators only).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .. import se2
+from .._validation import GeogaitError, check_choice, check_float, check_int, fail
+from ..gaits import FourierGait
+from ..models import AdaptiveGaitModel
+from ..robots import check_robot
+from ..simulate import Trajectory, cycle_displacement
+from ._paths import ReferencePath
+from ._steering import (
+    DEFAULT_MAX_JOINT_ANGLE,
+    ModelMotion,
+    SteeringFamily,
+    TrueMotion,
+    solve_steering_gait,
+    steering_family,
+)
+
+__all__ = ["CONTROLLERS", "PathTracker", "TrackingResult", "end_pose"]
+
+CONTROLLERS = ("adaptive", "frozen", "true")
+
+
+def end_pose(chunk: Trajectory) -> np.ndarray:
+    r"""Pose ``(3,)`` at the end of a cycle: the last sampled pose moved by the last measured step.
+
+    The samples hold the pose *before* each step, so the boundary pose after the last step is
+    :math:`g_{end} = g_{n-1}\exp(\Delta t\,\hat\xi_{n-1})`, with the measured body velocity
+    :math:`\xi_{n-1}` and the sample interval :math:`\Delta t` — exact for a zero-order-hold
+    simulation without sensor noise, and off by (sensor noise × Δt) otherwise.
+    """
+    pose = np.asarray(chunk.pose, dtype=float)
+    time = np.asarray(chunk.time, dtype=float)
+    if pose.ndim != 2 or pose.shape[0] < 2:
+        raise fail("robot", "end_pose", "cycles of at least 2 unbatched samples with poses", f"pose {pose.shape}")
+    step = (time[-1] - time[-2]) * np.asarray(chunk.body_velocity, dtype=float)[-1]
+    return se2.compose(pose[-1], se2.exp(step))
+
+
+@dataclass
+class TrackingResult:
+    """Outcome of :meth:`PathTracker.run`.
+
+    Attributes
+    ----------
+    log : pandas.DataFrame
+        One row per tracking cycle: ``cycle``, ``controller``, ``x``, ``y``, ``heading`` (pose at the
+        end of the cycle in the path frame), ``s`` (arc length), ``cross_track`` (body lengths, left
+        positive), ``heading_error`` (course of the cycle's chord minus the path tangent at its
+        midpoint, rad), ``turn_command``, ``predicted_x/y/turn`` (the controller's prediction of the
+        cycle's net motion), ``measured_x/y/turn`` (from the robot's poses), ``true_x/y/turn`` (oracle
+        motion of the commanded nominal gait, simulators only, else NaN), ``gamma`` (online Γ of the
+        adaptive model, NaN otherwise), ``drag_ratio`` (simulators with a drag ratio, else NaN),
+        ``solved`` (the steering gait met its command) and ``param_*``.
+    path : ReferencePath
+    start : ndarray of shape (3,)
+        Pose at the start of tracking, path frame.
+    direction : float
+        Travel direction α of the straight gait in the body frame (rad), from the warm-up poses.
+    reference : FourierGait
+        The straight gait the steering gaits stay near.
+    family : SteeringFamily
+        The steering family in use at the end.
+    trajectory : Trajectory or None
+        Tracking samples with poses in the path frame (``record=True``).
+    """
+
+    log: pd.DataFrame
+    path: ReferencePath
+    start: np.ndarray
+    direction: float
+    reference: FourierGait
+    family: SteeringFamily
+    trajectory: Trajectory | None = None
+
+    def summary(self, skip: int = 0) -> dict:
+        """Mean and 95th percentile of |cross-track| (body lengths) and |heading error| (rad) over
+        the cycles from ``skip`` on."""
+        part = self.log[self.log["cycle"] >= skip]
+        cross, heading = np.abs(part["cross_track"].to_numpy()), np.abs(part["heading_error"].to_numpy())
+        return {"cycles": int(len(part)),
+                "cross_track_mean": float(cross.mean()) if len(part) else None,
+                "cross_track_p95": float(np.percentile(cross, 95)) if len(part) else None,
+                "heading_error_mean": float(heading.mean()) if len(part) else None,
+                "heading_error_p95": float(np.percentile(heading, 95)) if len(part) else None}
+
+
+class PathTracker:
+    """Receding-horizon path following with steering gaits (module docstring).
+
+    Parameters
+    ----------
+    controller : {"adaptive", "frozen", "true"}
+        Source of the predicted motion per cycle.
+    horizon : int
+        Cycles H predicted per decision.
+    turn_limit : float
+        Largest |turn| per cycle (rad) in the steering family; members the joint limits make
+        infeasible are dropped.
+    n_turns : int
+        Members of the steering family (odd, so that zero turn is one of them).
+    n_first_turns : int
+        Candidate first turns (fine grid between the family's extreme feasible turns).
+    heading_weight : float
+        :math:`w_\\chi`, weight of the course error against the cross-track error.
+    forgetting_factor : float
+        λ_RLS of the gait model (adaptive and frozen).
+    warmup_cycles : int
+        Cycles of the straight gait before tracking: the model learns them (frozen: only them) and
+        their measured motion gives the travel direction α. At least 1.
+    max_joint_angle : float
+        r_max (rad) of every commanded gait.
+    n_windows : int
+        Phase windows of the gait model.
+    resolution : int
+        Magnus steps of the motion predictions.
+    family_every : int
+        The adaptive controller re-solves its steering family from the learning model every this many
+        cycles (warm-started from the last one); in between it re-predicts the motion of the family's
+        gaits with the current model every cycle.
+    """
+
+    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float = 0.5,
+                 n_turns: int = 11, n_first_turns: int = 21, heading_weight: float = 2.0,
+                 forgetting_factor: float = 0.99, warmup_cycles: int = 10,
+                 max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
+                 family_every: int = 5):
+        self.controller = controller
+        self.horizon = horizon
+        self.turn_limit = turn_limit
+        self.n_turns = n_turns
+        self.n_first_turns = n_first_turns
+        self.heading_weight = heading_weight
+        self.forgetting_factor = forgetting_factor
+        self.warmup_cycles = warmup_cycles
+        self.max_joint_angle = max_joint_angle
+        self.n_windows = n_windows
+        self.resolution = resolution
+        self.family_every = family_every
+
+    def _validate(self):
+        owner = "PathTracker"
+        check_choice(self.controller, "controller", owner, CONTROLLERS)
+        check_int(self.horizon, "horizon", owner, minimum=1)
+        check_float(self.turn_limit, "turn_limit", owner, low=0, high=np.pi, low_open=True)
+        n_turns = check_int(self.n_turns, "n_turns", owner, minimum=3)
+        if n_turns % 2 == 0:
+            raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member)", n_turns)
+        check_int(self.n_first_turns, "n_first_turns", owner, minimum=3)
+        check_float(self.heading_weight, "heading_weight", owner, low=0)
+        check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
+        check_int(self.warmup_cycles, "warmup_cycles", owner, minimum=1)
+        check_float(self.max_joint_angle, "max_joint_angle", owner, low=0, high=np.pi, low_open=True)
+        check_int(self.n_windows, "n_windows", owner, minimum=3)
+        check_int(self.resolution, "resolution", owner, minimum=8)
+        check_int(self.family_every, "family_every", owner, minimum=1)
+
+    @property
+    def turns(self) -> np.ndarray:
+        """Turning rates of the steering family's members (rad per cycle)."""
+        return np.linspace(-self.turn_limit, self.turn_limit, self.n_turns)
+
+    # -- the loop -----------------------------------------------------------------------------
+    def run(self, robot, path: ReferencePath, n_cycles: int, *, gait: FourierGait | None = None,
+            start_offset: float = 0.0, callback: Callable[[dict], None] | None = None,
+            record: bool = False) -> TrackingResult:
+        """Warm up on the straight gait, then follow ``path`` for up to ``n_cycles`` cycles.
+
+        Parameters
+        ----------
+        robot : geogait.robots.Robot
+            Any robot (``n_joints``, ``cycle_period``, ``gait``, ``set_gait``, ``next_cycle``); the
+            ``"true"`` controller also needs ``current_system()`` (simulators).
+        path : ReferencePath
+            In its own frame; it is placed so that the robot starts at its start point, moved
+            ``start_offset`` body lengths to the left, travelling along its start tangent.
+        n_cycles : int
+            Tracking cycles (fewer when an open path's end is reached).
+        gait : FourierGait, optional
+            The straight gait (current optimum) the steering gaits stay near; ``robot.gait`` by default.
+        start_offset : float
+            Initial cross-track offset (body lengths, left positive).
+        callback : callable, optional
+            Called with each log row (a dict) as it is produced.
+        record : bool
+            Keep the tracking samples (``result.trajectory``, poses in the path frame).
+
+        Returns
+        -------
+        TrackingResult
+        """
+        self._validate()
+        owner = "PathTracker.run"
+        check_robot(robot, owner)
+        if not isinstance(path, ReferencePath):
+            raise fail("path", owner, "a ReferencePath", type(path).__name__)
+        n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)
+        start_offset = check_float(start_offset, "start_offset", owner)
+        reference = robot.gait if gait is None else gait
+        if not isinstance(reference, FourierGait) or reference.n_joints != robot.n_joints:
+            raise fail("gait", owner, f"a FourierGait with {robot.n_joints} joints", reference)
+        if reference.joint_limit().max() > self.max_joint_angle + 1e-9:
+            raise fail("gait", owner, f"a gait within max_joint_angle = {self.max_joint_angle:.4g}",
+                       f"a gait reaching {reference.joint_limit().max():.4g} rad")
+        oracle = getattr(robot, "current_system", None)
+        if self.controller == "true" and not callable(oracle):
+            raise GeogaitError(f"The 'true' controller of {owner} needs a simulated robot with current_system(); "
+                               f"{type(robot).__name__} has none. Use controller='adaptive' or 'frozen'.")
+        model = AdaptiveGaitModel(gait=reference, forgetting_factor=self.forgetting_factor, n_windows=self.n_windows,
+                                  phase_rate=2 * np.pi / float(robot.cycle_period))
+        robot.set_gait(reference)
+        chords = []
+        for _ in range(self.warmup_cycles):
+            chunk = robot.next_cycle()
+            model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
+            world = end_pose(chunk)
+            chords.append(se2.between(chunk.pose[0], world))
+        direction = float(np.arctan2(*np.mean(chords, axis=0)[1::-1]))
+        travel = se2.compose(world, [0.0, 0.0, direction])  # the travel frame of the robot, world
+        normal = path.start_heading + np.pi / 2
+        wanted = np.array([path.points[0, 0] + start_offset * np.cos(normal),
+                           path.points[0, 1] + start_offset * np.sin(normal), path.start_heading])
+        anchor = se2.compose(wanted, se2.inverse(travel))  # path frame <- world
+        pose = se2.compose(anchor, world)
+        start = pose.copy()
+        s, _, _ = path.project(pose[:2])
+        s = float(s) if path.closed else 0.0
+        motion, family, family_system = self._motion(model, oracle), None, None
+        step_length = None
+        rows, chunks = [], []
+        for cycle in range(n_cycles):
+            system = oracle() if callable(oracle) else None
+            if self.controller == "true" and system is not family_system:
+                motion, family_system = TrueMotion(system, self.resolution), system
+                family = self._family(motion, reference, direction, family, iterations=20)
+            elif family is None or (self.controller == "adaptive" and cycle % self.family_every == 0):
+                motion = self._motion(model, oracle)
+                family = self._family(motion, reference, direction, family, iterations=20)
+            elif self.controller == "adaptive":
+                motion = self._motion(model, oracle)
+                family = family.repredicted(motion)
+            if step_length is None:
+                step_length = float(np.hypot(*family.interpolate(0.0)[:2]))
+            # search the path as far as the horizon can reach with the family's longest step
+            window = 0.3 + 1.5 * self.horizon * float(np.hypot(family.poses[:, 0], family.poses[:, 1]).max())
+            turn = self._plan(pose, s, family, path, step_length, window)
+            solution = solve_steering_gait(motion, reference, [np.nan, np.nan, turn], direction=direction,
+                                           start=family.start_for(turn), max_joint_angle=self.max_joint_angle)
+            command = solution.gait if solution.converged else family.start_for(turn)
+            predicted = solution.pose if solution.converged else family.interpolate(turn)
+            truth = (cycle_displacement(system, command, resolution=self.resolution)
+                     if system is not None else np.full(3, np.nan))
+            robot.set_gait(command)
+            chunk = robot.next_cycle()
+            if self.controller == "adaptive":
+                model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
+            world_start, world = chunk.pose[0], end_pose(chunk)
+            measured = se2.between(world_start, world)
+            begin, pose = se2.compose(anchor, world_start), se2.compose(anchor, world)
+            s_new, cross_track, _ = path.project(pose[:2], near=s, window=window)
+            _, _, tangent = path.project((begin[:2] + pose[:2]) / 2, near=s, window=window)
+            course = np.arctan2(pose[1] - begin[1], pose[0] - begin[0])
+            s = float(s_new)
+            row = {"cycle": cycle, "controller": self.controller, "x": pose[0], "y": pose[1], "heading": pose[2],
+                   "s": s, "cross_track": float(cross_track), "heading_error": float(se2.wrap_angle(course - tangent)),
+                   "turn_command": turn, "solved": bool(solution.converged),
+                   **_motion_columns("predicted", predicted), **_motion_columns("measured", measured),
+                   **_motion_columns("true", truth),
+                   "gamma": float(model.gamma_) if self.controller == "adaptive" else np.nan,
+                   "drag_ratio": float(getattr(system, "drag_ratio", np.nan)) if system is not None else np.nan}
+            row.update({f"param_{k}": v for k, v in enumerate(command.params)})
+            rows.append(row)
+            if record:
+                chunks.append(_in_path_frame(chunk, anchor))
+            if callback is not None:
+                callback(row)
+            if path.at_end(s + 0.5 * step_length):
+                break
+        return TrackingResult(log=pd.DataFrame(rows), path=path, start=start, direction=direction,
+                              reference=reference, family=family,
+                              trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
+
+    def _motion(self, model, oracle):
+        if self.controller == "true":
+            return TrueMotion(oracle(), self.resolution)
+        return ModelMotion(model, self.resolution)
+
+    def _family(self, motion, reference, direction, previous, iterations) -> SteeringFamily:
+        family = steering_family(motion, reference, self.turns, direction=direction, previous=previous,
+                                 max_joint_angle=self.max_joint_angle, max_iterations=iterations)
+        if not family.feasible[self.n_turns // 2]:
+            raise GeogaitError("No straight steering gait: the model's zero-turn gait is out of reach within "
+                               "the joint limits (warm up for more cycles or relax max_joint_angle).")
+        return family
+
+    def _plan(self, pose, s, family: SteeringFamily, path: ReferencePath, step_length: float, window: float) -> float:
+        """First turn of the best candidate sequence over the horizon (module docstring): a grid of
+        first turns, then two finer grids around the best one (turns are continuous; a coarse grid
+        alone would leave a small steady drift)."""
+        low, high = family.turn_range
+        held = family.turns[family._usable()]
+        later = family.interpolate(held)  # (C, 3)
+        _, _, here = path.project(pose[:2], near=s, window=window)
+
+        def cost(first_turns):  # (F,) -> (F, C)
+            first = family.interpolate(first_turns)
+            shape = (first_turns.size, held.size)
+            current = np.broadcast_to(se2.compose(pose, first)[:, None, :], shape + (3,))
+            poses = [np.broadcast_to(pose, shape + (3,)), current]
+            for _ in range(self.horizon - 1):
+                current = se2.compose(current, later[None, :, :])
+                poses.append(current)
+            poses = np.stack(poses)  # (H + 1, F, C, 3)
+            ends, begins = poses[1:, ..., :2], poses[:-1, ..., :2]
+            _, cross_track, tangent = path.project(ends, near=s, window=window)
+            previous = np.concatenate([np.broadcast_to(here, (1,) + shape), tangent[:-1]])
+            tangent = previous + 0.5 * se2.wrap_angle(tangent - previous)  # tangent at the chord's midpoint
+            course = np.arctan2(ends[..., 1] - begins[..., 1], ends[..., 0] - begins[..., 0])
+            heading = self.heading_weight * step_length * se2.wrap_angle(course - tangent)
+            return np.sum(cross_track**2 + heading**2, axis=0)
+
+        grid = np.linspace(low, high, self.n_first_turns)
+        turn = float(grid[np.argmin(cost(grid).min(axis=1))])
+        spacing = grid[1] - grid[0]
+        for _ in range(2):
+            local = np.unique(np.clip(turn + np.linspace(-spacing, spacing, 11), low, high))
+            turn = float(local[np.argmin(cost(local).min(axis=1))])
+            spacing /= 5
+        return turn
+
+
+def _motion_columns(prefix: str, pose) -> dict:
+    return {f"{prefix}_x": float(pose[0]), f"{prefix}_y": float(pose[1]), f"{prefix}_turn": float(pose[2])}
+
+
+def _in_path_frame(chunk: Trajectory, anchor) -> Trajectory:
+    arrays = {name: getattr(chunk, name) for name in ("time", "phase", "cycle", "shape", "shape_velocity",
+                                                      "body_velocity", "commanded_shape")}
+    return Trajectory(**arrays, pose=se2.compose(anchor, chunk.pose))

@@ -1,0 +1,432 @@
+r"""Steering and path following with the adaptive model, a frozen model and the true connection.
+
+For each swimmer and scenario (a path, at drag ratio 2 throughout or switched 2 → 4 mid-path without
+telling the controllers), every trial runs the three controllers of
+:class:`~geogait.control.PathTracker` on the same seeded perturbations and sensor noise (paired
+trials): 10 warm-up cycles on the straight gait (the ceiling gait, the optimum of
+:func:`~geogait.optimize.cached_ceiling`), then ``n_cycles`` cycles of path following.
+
+Paths are scaled by the swimmer's own step ℓ (true net translation per cycle of the straight gait at
+drag ratio 2: 0.10 body lengths for the 3-link, 0.20 for the 5-link swimmer), so every swimmer gets
+the same turning demand per cycle: a line started ``3 ℓ`` to its left, a circle of radius ``10 ℓ``
+(0.1 rad per cycle), a figure-eight of size ``10 ℓ`` and a waypoint polyline (a 15 ℓ × 10 ℓ
+rectangle with sharp corners). Errors are in body lengths (every swimmer has length 1).
+
+Reported per swimmer, path, environment and controller: cross-track error |e| per cycle and heading
+error |χ − ψ| per cycle (course of the cycle's chord against the path tangent), mean and 95th
+percentile over cycles and trials; for the drag change, the cycles until the adaptive controller's
+trial-mean error is back within 1.5× its level over the 10 cycles before the change, and the cycles
+until it stays below the frozen model's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .._validation import check_float, check_int, fail
+from ..control import CONTROLLERS, ModelMotion, PathTracker, ReferencePath, TrueMotion, max_step_family, steering_family
+from ..gaits import Perturbation
+from ..models import AdaptiveGaitModel
+from ..optimize import cached_ceiling
+from ..plotting import plt, save_figure
+from ..simulate import DragRatioSchedule, SwimmerStream, cycle_displacement, simulate
+from ..systems import PurcellSwimmer
+from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
+
+__all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
+           "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
+           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR"]
+
+_OWNER = "TrackingConfig"
+PATHS = ("line", "circle", "figure8", "waypoints")
+RECOVERY_FACTOR = 1.5
+"""Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
+PRE_CHANGE_CYCLES = 10
+
+
+@dataclass(frozen=True)
+class TrackingConfig:
+    """Settings of the path-following experiment (the one place its defaults live).
+
+    Parameters
+    ----------
+    links : tuple of int
+        Swimmers (number of links).
+    n_trials : int
+        Paired trials per swimmer (each runs every scenario and controller).
+    paths : tuple of str
+        Paths followed at constant drag ratio (``line``, ``circle``, ``figure8``, ``waypoints``).
+    drag_paths : tuple of str
+        Paths followed through the drag-ratio change.
+    drag_ratios : tuple of float
+        Drag ratio before and after the change.
+    n_cycles : int
+        Tracking cycles per run.
+    change_cycle : int
+        Tracking cycle at which the drag ratio changes.
+    warmup_cycles : int
+        Straight-gait cycles before tracking (the frozen model's whole training).
+    sensor_noise, perturbation : float
+        Measurement noise (fraction of RMS) and perturbation std (rad).
+    path_scale : float
+        Circle radius, figure-eight size and rectangle height in steps ℓ of the straight gait.
+    line_offset : float
+        Initial offset from the line, in steps ℓ.
+    controllers : tuple of str
+    seed : int
+        Root seed; swimmer i uses ``seed + 1000 i``.
+    chunk_size : int
+        Trials per runner chunk.
+    """
+
+    links: tuple[int, ...] = (3, 5)
+    n_trials: int = 20
+    paths: tuple[str, ...] = PATHS
+    drag_paths: tuple[str, ...] = ("line", "circle")
+    drag_ratios: tuple[float, float] = (2.0, 4.0)
+    n_cycles: int = 60
+    change_cycle: int = 30
+    warmup_cycles: int = 10
+    sensor_noise: float = 0.1
+    perturbation: float = 0.15
+    path_scale: float = 10.0
+    line_offset: float = 3.0
+    controllers: tuple[str, ...] = CONTROLLERS
+    seed: int = 0
+    chunk_size: int = 1
+
+    @classmethod
+    def quick(cls, **changes) -> TrackingConfig:
+        """3-link only, 2 trials, line and circle (drag change on the circle), 16 cycles: seconds."""
+        return cls(**({"links": (3,), "n_trials": 2, "paths": ("line", "circle"), "drag_paths": ("circle",),
+                       "n_cycles": 16, "change_cycle": 8, "warmup_cycles": 6} | changes))
+
+    def validate(self) -> TrackingConfig:
+        """Check every field (errors name the field); returns ``self``."""
+        if not self.links:
+            raise fail("links", _OWNER, "a non-empty tuple of link counts", self.links)
+        for n_links in self.links:
+            check_int(n_links, "links", _OWNER, minimum=2)
+        check_int(self.n_trials, "n_trials", _OWNER, minimum=1)
+        for name in ("paths", "drag_paths"):
+            for path in getattr(self, name):
+                if path not in PATHS:
+                    raise fail(name, _OWNER, "paths among " + ", ".join(PATHS), path)
+        if not self.paths and not self.drag_paths:
+            raise fail("paths", _OWNER, "at least one path (in paths or drag_paths)", self.paths)
+        if len(self.drag_ratios) != 2:
+            raise fail("drag_ratios", _OWNER, "two drag ratios (before, after)", self.drag_ratios)
+        for value in self.drag_ratios:
+            check_float(value, "drag_ratios", _OWNER, low=0, low_open=True)
+        n_cycles = check_int(self.n_cycles, "n_cycles", _OWNER, minimum=2)
+        change = check_int(self.change_cycle, "change_cycle", _OWNER, minimum=1)
+        if change >= n_cycles:
+            raise fail("change_cycle", _OWNER, f"below n_cycles = {n_cycles}", change)
+        check_int(self.warmup_cycles, "warmup_cycles", _OWNER, minimum=1)
+        check_fraction(self.sensor_noise, "sensor_noise", _OWNER)
+        check_fraction(self.perturbation, "perturbation", _OWNER)
+        check_float(self.path_scale, "path_scale", _OWNER, low=0, low_open=True)
+        check_float(self.line_offset, "line_offset", _OWNER)
+        if not self.controllers or any(c not in CONTROLLERS for c in self.controllers):
+            raise fail("controllers", _OWNER, "controllers among " + ", ".join(CONTROLLERS), self.controllers)
+        check_int(self.seed, "seed", _OWNER, minimum=0)
+        check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
+        return self
+
+    def scenarios(self) -> list[tuple[str, str]]:
+        """(path, environment) pairs in run order; environment ``"constant"`` or ``"change"``."""
+        return [(p, "constant") for p in self.paths] + [(p, "change") for p in self.drag_paths]
+
+
+def straight_gait(n_links: int):
+    """The swimmer (drag ratio 2), its straight gait (the ceiling gait) and that gait's step ℓ.
+
+    Returns
+    -------
+    system : PurcellSwimmer
+    gait : FourierGait
+    step : float
+        True net translation per cycle (body lengths).
+    """
+    system = PurcellSwimmer(check_int(n_links, "n_links", "straight_gait", minimum=2))
+    gait = cached_ceiling(system).gait
+    return system, gait, float(np.hypot(*cycle_displacement(system, gait)[:2]))
+
+
+def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
+    """A built-in path scaled by the step ℓ: line, circle (radius ``scale ℓ``), figure-eight (size
+    ``scale ℓ``) or waypoints (a ``1.5 scale ℓ × scale ℓ`` rectangle, counter-clockwise)."""
+    size = scale * step
+    if kind == "waypoints":
+        corners = np.array([[0, 0], [1.5, 0], [1.5, 1], [0, 1], [0, 0.02]]) * size
+        return ReferencePath.waypoints(corners, name="waypoints")
+    return ReferencePath.named(kind, size)
+
+
+def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
+                    warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
+                    line_offset: float, controllers) -> pd.DataFrame:
+    """Runner trial function: every scenario and controller for each trial (paired seeds).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per trial × scenario × controller × cycle: ``trial``, ``links``, ``path``,
+        ``environment``, ``controller``, ``cycle``, ``cross_track``, ``heading_error``, ``x``, ``y``,
+        ``turn_command``, ``predicted_turn``, ``true_turn``, ``measured_turn``, ``gamma``,
+        ``drag_ratio``.
+    """
+    system, gait, step = straight_gait(n_links)
+    columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
+               "measured_turn", "gamma", "drag_ratio"]
+    frames = []
+    for index, (kind, environment) in enumerate(scenarios):
+        path = tracking_path(kind, step, path_scale)
+        offset = line_offset * step if kind == "line" else 0.0
+        for trial, seed in zip(trial_indices, child_seeds(seeds, index), strict=True):
+            for controller in controllers:
+                schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
+                            if environment == "change" else None)
+                robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
+                                      sensor_noise=sensor_noise, environment=schedule, seed=seed)
+                tracker = PathTracker(controller=controller, warmup_cycles=warmup_cycles)
+                log = tracker.run(robot, path, n_cycles, start_offset=offset).log
+                frames.append(log[columns].assign(trial=int(trial), links=n_links, path=kind,
+                                                  environment=environment, controller=controller))
+    return pd.concat(frames, ignore_index=True)
+
+
+@dataclass(frozen=True)
+class TrackingResult(ExperimentResult):
+    """Long-format per-cycle logs of every trial (see :func:`tracking_trials`)."""
+
+    COLUMNS = ("trial", "links", "path", "environment", "controller", "cycle", "cross_track", "heading_error", "x",
+               "y", "turn_command", "predicted_turn", "true_turn", "measured_turn", "gamma", "drag_ratio")
+
+    def summary(self) -> dict:
+        """Headline numbers (:func:`tracking_summary`)."""
+        change = None if self.config is None else self.config.change_cycle
+        return tracking_summary(self.frame, change_cycle=change)
+
+    def plot(self, path):
+        """Draw the figure to ``path`` (:func:`plot_tracking`)."""
+        plot_tracking(self.frame, path)
+        return path
+
+
+def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, scheduler=None,
+                 progress: bool = True) -> TrackingResult:
+    """Run the path-following experiment for every swimmer of ``config``; see the module docstring."""
+    config = (config or TrackingConfig()).validate()
+    frames, wall, workers = [], 0.0, 1
+    for index, n_links in enumerate(config.links):
+        options = dict(n_links=n_links, scenarios=config.scenarios(), drag_ratios=config.drag_ratios,
+                       n_cycles=config.n_cycles, change_cycle=config.change_cycle,
+                       warmup_cycles=config.warmup_cycles, sensor_noise=config.sensor_noise,
+                       perturbation=config.perturbation, path_scale=config.path_scale,
+                       line_offset=config.line_offset, controllers=config.controllers)
+        frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
+                                            chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
+                                            progress=progress, description=f"{n_links}-link tracking")
+        frames.append(frame)
+        wall += seconds
+    frame = pd.concat(frames, ignore_index=True)[list(TrackingResult.COLUMNS)]
+    return TrackingResult(frame=frame, config=config, wall_time_s=wall, n_workers=workers)
+
+
+def _stats(group: pd.DataFrame) -> dict:
+    cross, heading = np.abs(group["cross_track"].to_numpy()), np.abs(group["heading_error"].to_numpy())
+    return {"cross_track_mean": float(cross.mean()), "cross_track_p95": float(np.percentile(cross, 95)),
+            "heading_error_mean": float(heading.mean()), "heading_error_p95": float(np.percentile(heading, 95))}
+
+
+def _mean_curve(group: pd.DataFrame) -> pd.Series:
+    return group.assign(error=group["cross_track"].abs()).groupby("cycle")["error"].mean()
+
+
+def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
+    """Recovery of the adaptive controller after the drag change (one swimmer and path).
+
+    Returns
+    -------
+    dict
+        ``pre_change_level`` (adaptive trial-mean |e| over the 10 cycles before the change),
+        ``cycles_to_recover`` (cycles from the change until the 3-cycle running mean of the adaptive
+        trial-mean |e|, once it has left the band of 1.5× that level, is back within it; 0 if it never
+        left, None if it never came back), ``cycles_until_below_frozen``
+        (first c such that the adaptive mean |e| over cycles ``change + c`` to the end is below the
+        frozen model's over the same cycles; None if never), and per controller the mean |e| over
+        the 10 cycles after the change and over the rest.
+    """
+    curves = {c: _mean_curve(g) for c, g in frame.groupby("controller")}
+    out = {}
+    if "adaptive" in curves:
+        adaptive = curves["adaptive"]
+        before = adaptive[(adaptive.index >= change_cycle - PRE_CHANGE_CYCLES) & (adaptive.index < change_cycle)]
+        level = float(before.mean())
+        after = adaptive[adaptive.index >= change_cycle].rolling(3, min_periods=1).mean()
+        high = after.to_numpy() > RECOVERY_FACTOR * level
+        out["pre_change_level"] = level
+        if not high.any():  # the change never took the error out of the band
+            out["cycles_to_recover"] = 0
+        else:
+            first = int(np.argmax(high))
+            back = np.flatnonzero(~high[first:])
+            out["cycles_to_recover"] = int(after.index[first + back[0]] - change_cycle) if back.size else None
+        if "frozen" in curves:
+            frozen = curves["frozen"]
+            below = None
+            last = int(adaptive.index.max())
+            for c in range(0, last - change_cycle + 1):
+                window = (adaptive.index >= change_cycle + c)
+                if adaptive[window].mean() < frozen[frozen.index >= change_cycle + c].mean():
+                    below = c
+                    break
+            out["cycles_until_below_frozen"] = below
+    for controller, curve in curves.items():
+        soon = curve[(curve.index >= change_cycle) & (curve.index < change_cycle + 10)]
+        late = curve[curve.index >= change_cycle + 10]
+        out[f"{controller}_mean_first_10_after"] = float(soon.mean())
+        out[f"{controller}_mean_after_10"] = float(late.mean()) if len(late) else None
+    return out
+
+
+def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> dict:
+    """Headline numbers per swimmer, path and environment: error statistics per controller, the
+    adaptive / true ratio of mean cross-track error and the goals; drag-change recovery."""
+    if change_cycle is None:
+        change_cycle = int(frame["cycle"].max() + 1) // 2
+    summary = {}
+    for (n_links, kind, environment), group in frame.groupby(["links", "path", "environment"], sort=False):
+        entry = {c: _stats(g) for c, g in group.groupby("controller")}
+        if "adaptive" in entry and "true" in entry:
+            ratio = entry["adaptive"]["cross_track_mean"] / entry["true"]["cross_track_mean"]
+            entry["adaptive_over_true_cross_track"] = ratio
+            entry["goal_within_1.5x_true"] = bool(ratio <= 1.5)
+        adaptive = group[group["controller"] == "adaptive"]
+        if len(adaptive):
+            entry["adaptive_gamma_final_median"] = float(
+                adaptive[adaptive["cycle"] == adaptive["cycle"].max()]["gamma"].median())
+        if environment == "change":
+            metrics = drag_change_metrics(group, change_cycle)
+            entry["drag_change"] = metrics
+            if "cycles_until_below_frozen" in metrics:
+                below = metrics["cycles_until_below_frozen"]
+                entry["goal_below_frozen_within_10"] = bool(below is not None and below <= 10)
+        summary[f"{int(n_links)}-link {kind} {environment}"] = entry
+    return summary
+
+
+_STYLE = {"adaptive": ("tab:red", "-"), "frozen": ("tab:blue", "--"), "true": ("k", ":")}
+
+
+def plot_reference(ax, reference: ReferencePath, positions=None):
+    """The reference path as a wide grey band, cut to 1 body length around ``positions`` ``(n, 2)``."""
+    points = reference.resampled(max(600, int(reference.length / 0.01)))
+    if positions is not None and len(positions):
+        low, high = np.min(positions, axis=0) - 1.0, np.max(positions, axis=0) + 1.0
+        points = np.where(np.all((points >= low) & (points <= high), axis=1)[:, None], points, np.nan)
+    ax.plot(points[:, 0], points[:, 1], color="0.6", lw=4, alpha=0.5, label="reference")
+    return ax
+
+
+def plot_paths(ax, frame: pd.DataFrame, n_links: int, kind: str, environment: str, trial: int):
+    """One trial's boundary positions (cycle markers) of each controller over the reference path."""
+    _, _, step = straight_gait(n_links)
+    group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == environment)
+                  & (frame["trial"] == trial)]
+    plot_reference(ax, tracking_path(kind, step), group[["x", "y"]].to_numpy())
+    for controller, part in group.groupby("controller"):
+        color, style = _STYLE.get(controller, ("C2", "-"))
+        ax.plot(part["x"], part["y"], style, color=color, lw=1, marker=".", ms=3, label=controller)
+    ax.set_aspect("equal", adjustable="datalim")
+    title = f"{n_links}-link {kind}" + (" (k 2→4)" if environment == "change" else "")
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("x (body lengths)", fontsize=8)
+    ax.legend(fontsize=6, loc="best")
+    return ax
+
+
+def plot_error_curves(ax, frame: pd.DataFrame, n_links: int, kind: str, change_cycle: int | None):
+    """Trial-mean |cross-track error| per cycle of each controller through the drag change."""
+    group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == "change")]
+    for controller, part in group.groupby("controller"):
+        color, style = _STYLE.get(controller, ("C2", "-"))
+        curve = _mean_curve(part)
+        ax.plot(curve.index, curve.to_numpy(), style, color=color, lw=1.4, label=controller)
+    if change_cycle is not None:
+        ax.axvline(change_cycle, color="0.4", lw=0.8)
+        ax.text(change_cycle, ax.get_ylim()[1] * 0.95, " k 2→4", fontsize=7, va="top")
+    ax.set_xlabel("tracking cycle", fontsize=8)
+    ax.set_ylabel("mean |cross-track| (body lengths)", fontsize=8)
+    ax.set_title(f"{n_links}-link {kind}, drag change ({group['trial'].nunique()} trials)", fontsize=9)
+    ax.legend(fontsize=6)
+    return ax
+
+
+def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
+    """The whole figure: per swimmer a row of path panels (trial 0) and drag-change error curves."""
+    links = sorted(frame["links"].unique())
+    scenarios = frame[["path", "environment"]].drop_duplicates().itertuples(index=False)
+    constant = [p for p, e in scenarios if e == "constant"]
+    changed = list(dict.fromkeys(frame[frame["environment"] == "change"]["path"]))
+    columns = len(constant) + len(changed)
+    if change_cycle is None:
+        change_cycle = int(frame["cycle"].max() + 1) // 2
+    fig, axes = plt.subplots(len(links), columns, figsize=(3.3 * columns, 3.2 * len(links)), squeeze=False)
+    trial = int(frame["trial"].min())
+    for row, n_links in zip(axes, links, strict=True):
+        for ax, kind in zip(row, constant, strict=False):
+            plot_paths(ax, frame, int(n_links), kind, "constant", trial)
+        for ax, kind in zip(row[len(constant):], changed, strict=True):
+            plot_error_curves(ax, frame, int(n_links), kind, change_cycle)
+    save_figure(fig, path)
+    return path
+
+
+def steering_families(n_links: int, *, turns=None, warmup_cycles: int = 10, sensor_noise: float = 0.1,
+                      perturbation: float = 0.15, seed: int = 0) -> dict:
+    """Steering families of one swimmer for the family plot.
+
+    Returns
+    -------
+    dict
+        ``"true"`` (nearest-gait family, true connection, k = 2), ``"model"`` (the same from an adaptive
+        model fitted on ``warmup_cycles`` perturbed, noisy cycles of the straight gait), ``"true k=4"``
+        and ``"max step"`` (optimal steering gaits, true connection): each a
+        :class:`~geogait.control.SteeringFamily`.
+    """
+    system, gait, _ = straight_gait(n_links)
+    turns = np.linspace(-0.4, 0.4, 17) if turns is None else np.asarray(turns, dtype=float)
+    pose = cycle_displacement(system, gait)
+    direction = float(np.arctan2(pose[1], pose[0]))
+    run = simulate(system, gait, warmup_cycles, perturbation=Perturbation.from_std(perturbation),
+                   sensor_noise=sensor_noise, seed=seed)
+    model = AdaptiveGaitModel(gait=gait, forgetting_factor=0.99).fit(run.phase, run.shape, run.shape_velocity,
+                                                                      run.body_velocity)
+    return {"true": steering_family(TrueMotion(system), gait, turns, direction=direction),
+            "model": steering_family(ModelMotion(model), gait, turns, direction=direction),
+            "true k=4": steering_family(TrueMotion(system.with_drag_ratio(4.0)), gait, turns, direction=direction),
+            "max step": max_step_family(TrueMotion(system), gait, turns, direction=direction)}
+
+
+def plot_steering_family(ax, families: dict, n_links: int):
+    """Turning rate against step per cycle of each family (feasible members)."""
+    styles = {"true": ("k", "-", "o"), "model": ("tab:red", "--", "s"), "true k=4": ("0.5", ":", "^"),
+              "max step": ("tab:green", "-", "d")}
+    for name, family in families.items():
+        color, line, marker = styles.get(name, ("C4", "-", "."))
+        ok = family.feasible
+        ax.plot(family.steps[ok], family.poses[ok, 2], line, color=color, marker=marker, ms=3, lw=1.2,
+                label={"true": "nearest gait, true connection", "model": "nearest gait, adaptive model",
+                       "true k=4": "nearest gait, true, drag ratio 4",
+                       "max step": "largest step (optimal steering)"}.get(name, name))
+    ax.axhline(0, color="0.8", lw=0.6)
+    ax.set_xlabel("step along travel per cycle (body lengths)")
+    ax.set_ylabel("turn per cycle (rad)")
+    ax.set_title(f"{n_links}-link steering families", fontsize=9)
+    ax.legend(fontsize=7)
+    return ax

@@ -1,0 +1,254 @@
+"""Steering gaits, reference paths and the path-following controller against independent facts."""
+
+import numpy as np
+import pytest
+
+from geogait import se2
+from geogait._validation import GeogaitError
+from geogait.control import (
+    ModelMotion,
+    PathTracker,
+    ReferencePath,
+    TrueMotion,
+    end_pose,
+    max_step_family,
+    solve_steering_gait,
+    steering_family,
+)
+from geogait.gaits import FourierGait, Perturbation, seed_gait
+from geogait.models import AdaptiveGaitModel
+from geogait.optimize import cached_ceiling
+from geogait.simulate import SwimmerStream, cycle_displacement, simulate
+from geogait.systems import PurcellSwimmer
+
+FREE = np.nan
+
+
+@pytest.fixture(scope="module")
+def three_link():
+    system = PurcellSwimmer(3)
+    return system, cached_ceiling(system).gait
+
+
+# -- paths ------------------------------------------------------------------------------------
+def test_line_cross_track_is_the_signed_distance(rng):
+    path = ReferencePath.line(50.0)
+    points = rng.uniform([1, -2], [40, 2], size=(200, 2))
+    s, error, heading = path.project(points)
+    np.testing.assert_allclose(error, points[:, 1], atol=1e-12)  # left of travel (+x) is +y
+    np.testing.assert_allclose(s, points[:, 0], atol=1e-12)
+    np.testing.assert_allclose(heading, 0.0, atol=1e-12)
+    s_near, error_near, _ = path.project(points, near=points[:, 0] + 0.3, window=1.0)
+    np.testing.assert_allclose(error_near, points[:, 1], atol=1e-12)
+
+
+def test_circle_cross_track_and_tangent_match_the_closed_form(rng):
+    radius = 1.7
+    path = ReferencePath.circle(radius)
+    centre = np.array([0.0, radius])
+    angle, distance = rng.uniform(0, 2 * np.pi, 300), rng.uniform(0.3, 3.0, 300)
+    points = centre + distance[:, None] * np.column_stack([np.sin(angle), -np.cos(angle)])
+    s, error, heading = path.project(points)
+    sagitta = (2 * np.pi * radius / len(path.points)) ** 2 / (8 * radius) * 3.0 / radius * 2
+    np.testing.assert_allclose(error, radius - distance, atol=sagitta + 1e-12)  # inside the CCW circle: left
+    np.testing.assert_allclose(np.mod(s / radius, 2 * np.pi), np.mod(angle, 2 * np.pi), atol=0.02 / radius)
+    np.testing.assert_allclose(se2.wrap_angle(heading - angle), 0.0, atol=0.02 / radius)
+
+
+def test_closed_path_arc_length_keeps_growing_lap_after_lap():
+    path = ReferencePath.circle(1.0)
+    s = 0.0
+    for angle in np.linspace(0.1, 4 * np.pi, 80):  # two laps in small steps
+        s, _, _ = path.project(np.array([np.sin(angle), 1 - np.cos(angle)]), near=s, window=0.5)
+    assert s == pytest.approx(4 * np.pi, abs=0.02)
+
+
+def test_figure_eight_is_followed_branch_by_branch():
+    path = ReferencePath.figure8(1.0)
+    assert path.start_heading == pytest.approx(0.0, abs=1e-12)
+    # At the crossing both branches pass the origin; the search near each branch's arc length
+    # returns that branch's tangent (they cross at right angles).
+    _, _, first = path.project(np.zeros(2), near=0.0, window=0.3)
+    _, _, second = path.project(np.zeros(2), near=path.length / 2, window=0.3)
+    assert abs(se2.wrap_angle(first - second)) == pytest.approx(np.pi / 2, abs=0.02)
+
+
+def test_waypoints_csv_round_trip_and_errors(tmp_path):
+    good = tmp_path / "w.csv"
+    good.write_text("x,y\n0,0\n1,0\n1,1\n")
+    path = ReferencePath.from_csv(good)
+    assert path.length == pytest.approx(2.0) and not path.closed and path.name == "w"
+    assert path.at_end(2.0) and not path.at_end(1.9)
+    _, error, _ = path.project(np.array([0.5, -0.2]))
+    assert error == pytest.approx(-0.2)
+    cases = {"x,z\n0,0\n1,0\n": "columns 'x' and 'y'", "x,y\n0,0\n1,a\n": "data row 2",
+             "x,y\n0,0\n": "at least 2", "x,y\n0,0\n0,0\n1,1\n": "zero-length"}
+    for text, message in cases.items():
+        bad = tmp_path / "bad.csv"
+        bad.write_text(text)
+        with pytest.raises(GeogaitError, match=message):
+            ReferencePath.from_csv(bad)
+    with pytest.raises(GeogaitError, match="does not exist"):
+        ReferencePath.from_csv(tmp_path / "missing.csv")
+
+
+# -- steering gaits ---------------------------------------------------------------------------
+def test_zero_turn_gait_has_zero_predicted_and_true_rotation(three_link):
+    system, straight = three_link
+    turning = straight.with_params(straight.params + np.r_[0.1, 0, 0, 0.05, 0, 0])  # offsets turn the swimmer
+    before = abs(cycle_displacement(system, turning)[2])
+    assert before > 0.05
+    truth = TrueMotion(system)
+    solution = solve_steering_gait(truth, turning, [FREE, FREE, 0.0])
+    assert solution.converged and abs(cycle_displacement(system, solution.gait)[2]) < 1e-7
+    # The same with a model learned from noise-free perturbed cycles of the straight gait.
+    run = simulate(system, straight, 10, perturbation=Perturbation.from_std(0.15), seed=1)
+    model = AdaptiveGaitModel(gait=straight).fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    solution = solve_steering_gait(ModelMotion(model), turning, [FREE, FREE, 0.0])
+    assert solution.converged and abs(solution.pose[2]) < 1e-7
+    assert abs(cycle_displacement(system, solution.gait)[2]) < 0.1 * before  # within the model's accuracy
+
+
+def test_steering_gait_is_the_nearest_one(three_link):
+    """KKT: p − p* is normal to the turn constraint surface, and nearby feasible gaits are farther."""
+    system, straight = three_link
+    truth = TrueMotion(system)
+    solution = solve_steering_gait(truth, straight, [FREE, FREE, 0.12])
+    assert solution.converged and solution.pose[2] == pytest.approx(0.12, abs=1e-7)
+    _, jacobian = truth(solution.gait, jacobian=True)
+    difference = solution.gait.params - straight.params
+    row = jacobian[2] / np.linalg.norm(jacobian[2])
+    np.testing.assert_allclose(difference, (difference @ row) * row, atol=1e-6)
+
+
+def test_mirror_symmetry_of_steering(three_link):
+    """Negating every joint angle mirrors the motion: −ω from −p* is the mirror of +ω from p*."""
+    system, straight = three_link
+    truth = TrueMotion(system)
+    left = solve_steering_gait(truth, straight, [FREE, FREE, 0.1])
+    mirror = straight.with_params(-straight.params)
+    right = solve_steering_gait(truth, mirror, [FREE, FREE, -0.1])
+    np.testing.assert_allclose(right.gait.params, -left.gait.params, atol=1e-7)
+    np.testing.assert_allclose(cycle_displacement(system, right.gait),
+                               cycle_displacement(system, left.gait) * [1, -1, -1], atol=1e-9)
+
+
+def test_full_command_and_joint_limits():
+    system = PurcellSwimmer(5)
+    straight = cached_ceiling(system).gait  # one joint sits on the limit 2π/3
+    truth = TrueMotion(system)
+    pose = truth(straight)
+    direction = np.arctan2(pose[1], pose[0])
+    solution = solve_steering_gait(truth, straight, [0.9 * np.hypot(*pose[:2]), 0.0, 0.15], direction=direction)
+    assert solution.converged
+    assert solution.gait.joint_limit().max() <= 2 * np.pi / 3 + 1e-9
+    motion = cycle_displacement(system, solution.gait)
+    rotation = np.array([[np.cos(direction), np.sin(direction)], [-np.sin(direction), np.cos(direction)]])
+    np.testing.assert_allclose(rotation @ motion[:2], [0.9 * np.hypot(*pose[:2]), 0.0], atol=1e-6)
+    assert motion[2] == pytest.approx(0.15, abs=1e-6)
+    impossible = solve_steering_gait(truth, straight, [FREE, FREE, 3.0], max_iterations=5)
+    assert not impossible.converged
+    with pytest.raises(GeogaitError, match="'target' parameter"):
+        solve_steering_gait(truth, straight, [FREE, FREE, FREE])
+
+
+def test_steering_family_and_its_ceiling(three_link):
+    system, straight = three_link
+    truth = TrueMotion(system)
+    turns = np.linspace(-0.2, 0.2, 3)
+    pose = truth(straight)
+    family = steering_family(truth, straight, turns, direction=np.arctan2(pose[1], pose[0]))
+    assert family.feasible.all()
+    np.testing.assert_allclose(family.poses[:, 2], turns, atol=1e-7)
+    np.testing.assert_allclose(family.interpolate(turns)[:, :2], family.poses[:, :2], atol=1e-12)
+    front = max_step_family(truth, straight, turns, direction=family.direction)
+    # The zero-turn member of the optimal steering family is the ceiling (largest straight step).
+    assert front.steps[1] == pytest.approx(cached_ceiling(system).value, rel=1e-4)
+    assert np.all(front.steps >= family.steps - 1e-6)  # nothing turns as much with a larger step
+
+
+# -- the controller ---------------------------------------------------------------------------
+def test_end_pose_matches_the_simulated_boundary(three_link):
+    system, straight = three_link
+    stream = SwimmerStream(system, straight, seed=0)  # perturbations on, no sensor noise: exact
+    np.testing.assert_allclose(end_pose(stream.next_cycle()), stream.pose[0], atol=1e-12)
+    noisy = SwimmerStream(system, straight, sensor_noise=0.1, seed=0)  # off by noise × Δt: ω noise ≈ 0.27 rad/s
+    np.testing.assert_allclose(end_pose(noisy.next_cycle()), noisy.pose[0], atol=0.012)
+
+
+def test_true_controller_converges_to_a_line_without_noise(three_link):
+    """From 0.3 body lengths off, onto the line. The simulator holds ξ constant over each sample (zero-order
+    hold), so its motion per cycle differs from the exact one the controller predicts by O(1/samples) —
+    0.01 rad of course at 100 samples per cycle, which leaves a 0.005 offset; 1000 samples leave 0.0003."""
+    system, straight = three_link
+    robot = SwimmerStream(system, straight, perturbation=Perturbation(eta=0.0), samples_per_cycle=1000, seed=0)
+    result = PathTracker(controller="true", warmup_cycles=1).run(robot, ReferencePath.line(), 40, start_offset=0.3)
+    log = result.log
+    assert abs(log["cross_track"].iloc[0]) > 0.15
+    assert np.abs(log["cross_track"].iloc[-5:]).max() < 1e-3
+    assert np.abs(log["heading_error"].iloc[-5:]).max() < 1e-3
+    assert log["solved"].all()
+    np.testing.assert_allclose(log["predicted_turn"], log["true_turn"], atol=1e-7)
+
+
+class _Unsimulated:
+    """A robot known only through the protocol (no current_system): a swimmer behind a wall."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.n_joints, self.cycle_period = stream.n_joints, stream.cycle_period
+
+    @property
+    def gait(self):
+        return self._stream.gait
+
+    def set_gait(self, gait):
+        self._stream.set_gait(gait)
+
+    def next_cycle(self):
+        return self._stream.next_cycle()
+
+
+def test_adaptive_controller_runs_on_a_robot_that_is_not_simulated(three_link):
+    system, straight = three_link
+    robot = _Unsimulated(SwimmerStream(system, straight, sensor_noise=0.1, seed=2))
+    result = PathTracker(controller="adaptive", warmup_cycles=5).run(robot, ReferencePath.circle(1.0), 8)
+    log = result.log
+    assert len(log) == 8 and log["true_turn"].isna().all() and log["gamma"].between(0, 1).all()
+    assert np.abs(log["cross_track"]).max() < 0.2
+    with pytest.raises(GeogaitError, match="current_system"):
+        PathTracker(controller="true").run(robot, ReferencePath.circle(1.0), 2)
+
+
+def test_tracker_rejects_bad_settings(three_link):
+    system, straight = three_link
+    robot = SwimmerStream(system, straight, seed=0)
+    with pytest.raises(GeogaitError, match="'controller' parameter of PathTracker"):
+        PathTracker(controller="magic").run(robot, ReferencePath.line(), 2)
+    with pytest.raises(GeogaitError, match="'n_turns' parameter"):
+        PathTracker(n_turns=4).run(robot, ReferencePath.line(), 2)
+    with pytest.raises(GeogaitError, match="'gait' parameter"):
+        PathTracker().run(robot, ReferencePath.line(), 2, gait=seed_gait(2, amplitude=2.5))
+    with pytest.raises(GeogaitError, match="'path' parameter"):
+        PathTracker().run(robot, "circle", 2)
+    with pytest.raises(GeogaitError, match="'robot' parameter"):
+        PathTracker().run(object(), ReferencePath.line(), 2)
+    assert isinstance(FourierGait, type)
+
+
+def test_every_public_name_is_documented():
+    """The rule of tests/test_public_api.py, applied to geogait.control."""
+    import inspect
+
+    import geogait.control as control
+
+    assert control.__doc__
+    missing = []
+    for name in control.__all__:
+        value = getattr(control, name)
+        if (inspect.isclass(value) or inspect.isfunction(value)) and not inspect.getdoc(value):
+            missing.append(name)
+        if inspect.isclass(value):
+            missing += [f"{name}.{m}" for m, f in vars(value).items()
+                        if not m.startswith("_") and inspect.isfunction(f) and not inspect.getdoc(f)]
+    assert not missing

@@ -1,0 +1,134 @@
+"""The path-following experiment and the ``geogait track`` / ``geogait figure tracking`` commands."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from geogait.cli import app
+from geogait.experiments.tracking import (
+    TrackingConfig,
+    TrackingResult,
+    drag_change_metrics,
+    run_tracking,
+    tracking_path,
+)
+
+
+def _strict_json(path):
+    def refuse(constant):
+        raise ValueError(f"{constant} in {path}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+def test_quick_experiment_pairs_controllers_and_round_trips(tmp_path):
+    config = TrackingConfig.quick(n_trials=1, paths=("line",), n_cycles=8, change_cycle=4, warmup_cycles=4)
+    result = run_tracking(config, progress=False)
+    frame = result.frame
+    assert set(frame["controller"]) == {"adaptive", "frozen", "true"}
+    assert set(zip(frame["path"], frame["environment"], strict=True)) == {("line", "constant"), ("circle", "change")}
+    assert frame.groupby(["path", "controller"]).size().eq(8).all()
+    change = frame[frame["environment"] == "change"]
+    assert change[change["cycle"] < 4]["drag_ratio"].eq(2.0).all()
+    assert change[change["cycle"] >= 4]["drag_ratio"].eq(4.0).all()
+    adaptive = frame[frame["controller"] == "adaptive"]
+    assert adaptive["gamma"].between(0, 1).all() and frame[frame["controller"] != "adaptive"]["gamma"].isna().all()
+    true = frame[frame["controller"] == "true"]
+    np.testing.assert_allclose(true["predicted_turn"], true["true_turn"], atol=1e-6)  # the oracle predicts itself
+    summary = result.summary()
+    line = summary["3-link line constant"]
+    assert line["adaptive"]["cross_track_p95"] >= line["adaptive"]["cross_track_mean"] > 0
+    assert line["adaptive_over_true_cross_track"] == pytest.approx(
+        line["adaptive"]["cross_track_mean"] / line["true"]["cross_track_mean"])
+    assert "drag_change" in summary["3-link circle change"]
+    result.to_csv(tmp_path / "t.csv")
+    again = TrackingResult.from_csv(tmp_path / "t.csv")
+    pd.testing.assert_frame_equal(again.frame, frame, check_dtype=False)
+    assert again.plot(tmp_path / "t.png").stat().st_size > 10_000
+
+
+def test_drag_change_metrics_on_known_curves():
+    cycles = np.arange(30)
+    level = np.where(cycles < 10, 0.1, np.where(cycles < 15, 0.5, 0.12))  # error jumps at 10, back at 15
+    frozen = np.where(cycles < 10, 0.1, 0.3)
+    frame = pd.concat([pd.DataFrame({"cycle": cycles, "cross_track": level, "controller": "adaptive", "trial": 0}),
+                       pd.DataFrame({"cycle": cycles, "cross_track": -frozen, "controller": "frozen", "trial": 0})])
+    metrics = drag_change_metrics(frame, change_cycle=10)
+    assert metrics["pre_change_level"] == pytest.approx(0.1)
+    # 3-cycle running mean from the change: 0.5 0.5 0.5 0.5 0.5 (0.5+0.5+0.12)/3 ... ≤ 0.15 first at cycle 17
+    assert metrics["cycles_to_recover"] == 7
+    assert metrics["cycles_until_below_frozen"] == 0  # the adaptive mean from the change on is already lower
+    assert metrics["frozen_mean_first_10_after"] == pytest.approx(0.3)
+
+
+def test_built_in_paths_scale_with_the_step():
+    circle = tracking_path("circle", 0.2)
+    assert circle.length == pytest.approx(2 * np.pi * 2.0, rel=1e-3)
+    rectangle = tracking_path("waypoints", 0.1)
+    assert rectangle.points.max(axis=0) == pytest.approx([1.5, 1.0])
+    assert TrackingConfig(paths=("line",), drag_paths=()).validate().scenarios() == [("line", "constant")]
+    with pytest.raises(ValueError, match="'paths' parameter of TrackingConfig"):
+        TrackingConfig(paths=("spiral",)).validate()
+    with pytest.raises(ValueError, match="'change_cycle' parameter"):
+        TrackingConfig(n_cycles=10, change_cycle=10).validate()
+
+
+def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
+    waypoints = tmp_path / "zigzag.csv"
+    waypoints.write_text("x,y\n0,0\n0.5,0.1\n1.0,-0.1\n1.5,0.1\n")
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["track", "--links", "3", "--path", str(waypoints), "--drag-ratio", "2,4",
+                                      "--quick", "--cycles", "6", "--change-cycle", "3", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(out / "cycles.csv")
+    assert set(log["controller"]) == {"adaptive", "frozen", "true"} and log.groupby("controller").size().max() <= 6
+    summary = _strict_json(out / "summary.json")
+    assert summary["config"]["drag_ratios"] == [2.0, 4.0]
+    assert summary["results"]["frozen"]["final_gamma"] is None  # NaN is written as null
+    assert set(summary["results"]["drag_change"]) >= {"pre_change_level", "cycles_to_recover"}
+    for name in ("path.png", "family.png"):
+        assert (out / name).stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--path", "spiral"], "The '--path' option"),
+    (["--path", "missing.csv"], "does not exist"),
+    (["--drag-ratio", "2,x"], "The '--drag-ratio' option"),
+    (["--drag-ratio", "2,3,4"], "The '--drag-ratio' option"),
+    (["--controllers", "adaptive,psychic"], "The '--controllers' option"),
+    (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "The '--change-cycle' option"),
+    (["--links", "1"], "n_links"),
+])
+def test_track_command_user_errors(tmp_path, options, message):
+    result = CliRunner().invoke(app, ["track", "--quick", "--out", str(tmp_path / "x"), *options])
+    assert result.exit_code == 1
+    assert result.stderr.startswith("error: ") and message in result.stderr and len(result.stderr.splitlines()) == 1
+
+
+def test_figure_tracking_redraws_from_csv(tmp_path):
+    config = TrackingConfig.quick(n_trials=1, paths=("circle",), drag_paths=(), n_cycles=4, change_cycle=2,
+                                  warmup_cycles=3)
+    run_tracking(config, progress=False).to_csv(tmp_path / "tracking.csv")
+    out = tmp_path / "fig"
+    result = CliRunner().invoke(app, ["figure", "tracking", "--from-csv", str(tmp_path / "tracking.csv"),
+                                      "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    manifest = _strict_json(out / "tracking.json")
+    assert "3-link circle constant" in manifest["results"]
+    assert (out / "tracking.png").stat().st_size > 10_000 and (out / "steering-family.png").stat().st_size > 10_000
+
+
+def test_readme_steering_example_runs(monkeypatch, tmp_path):
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = re.search(r"## Steering and path following.*?```python\n(.*?)```", text, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(block, "README steering example", "exec"), namespace)
+    assert namespace["result"].summary()["cross_track_mean"] < 0.2
+    assert namespace["family"].feasible.all()
