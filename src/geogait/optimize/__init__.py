@@ -3,7 +3,7 @@ prior-work batch baseline."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._insitu import InSituOptimizer, OptimizationResult
-from ._objective import OBJECTIVES, joint_limit_constraints, objective, path_length
+from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, path_length, rms_speed
 
 __all__ = [
     "OBJECTIVES",
@@ -11,8 +11,10 @@ __all__ = [
     "InSituOptimizer",
     "OptimizationResult",
     "cached_ceiling",
+    "default_objective",
     "joint_limit_constraints",
     "objective",
     "optimize_ceiling",
     "path_length",
+    "rms_speed",
 ]
