@@ -5,6 +5,7 @@ import pytest
 
 from geogait import se2
 from geogait.gaits import FourierGait, Perturbation, fourier_basis, seed_gait
+from geogait.models import BatchGaitModel
 from geogait.optimize import (
     InSituOptimizer,
     default_objective,
@@ -114,7 +115,7 @@ def test_joint_limits_are_never_violated(r_max):
 
 def test_batch_baseline_steps_every_cycles_per_iteration():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=1)
-    result = InSituOptimizer(method="batch", cycles_per_iteration=5).run(stream, 20)
+    result = InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=5).run(stream, 20)
     steps = result.log.loc[result.log["step"], "cycle"].to_numpy()
     assert len(steps) >= 2 and np.all(np.diff(steps) % 5 == 0) and steps[0] == 4
     assert result.log["true_objective"].iloc[-1] > result.log["true_objective"].iloc[0]
@@ -131,9 +132,13 @@ def test_a_higher_order_family_starts_from_the_embedded_seed():
 @pytest.mark.parametrize(
     ("params", "match"),
     [
-        (dict(method="newton"), "'method'"),
+        (dict(gate="newton"), "'gate'"),
+        (dict(model="adaptive"), "'model'"),
+        (dict(direction=[0, 0]), "'direction'"),
+        (dict(max_tracking_error=-1.0), "'max_tracking_error'"),
+        (dict(settle_cycles=-1), "'settle_cycles'"),
         (dict(gamma_threshold=1.5), "'gamma_threshold'"),
-        (dict(objective="sideways"), "'objective'"),
+        (dict(objective="speedy"), "'objective'"),
         (dict(order=0), "'order'"),
         (dict(trust_radius=5.0), "'trust_radius'"),
         (dict(rebase="first"), "'rebase'"),

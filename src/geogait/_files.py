@@ -43,8 +43,10 @@ def write_state(path, metadata: dict, state: dict[str, np.ndarray]) -> Path:
     return atomic_savez(path, arrays)
 
 
-def read_state(path, kind: str, file_format: str, version: int) -> tuple[dict, dict]:
+def read_state(path, kind: str, file_format: str, version: int | tuple[int, ...]) -> tuple[dict, dict]:
     """Read a file written by :func:`write_state`, checking its format name and version.
+
+    ``version`` is the version this geogait writes, or a tuple of every version it reads.
 
     ``kind`` names the artefact in error messages ("model", "phaser").
     """
@@ -60,7 +62,8 @@ def read_state(path, kind: str, file_format: str, version: int) -> tuple[dict, d
     found = metadata.get("format") if isinstance(metadata, dict) else None
     if found != file_format:
         raise GeogaitError(f"{path} is not a geogait {kind} file (format {found!r}).")
-    if metadata.get("format_version") != version:
+    versions = version if isinstance(version, tuple) else (version,)
+    if metadata.get("format_version") not in versions:
         raise GeogaitError(f"{path} has {kind} format version {metadata.get('format_version')}; this geogait "
-                           f"reads version {version}.")
+                           f"reads version {' or '.join(map(str, versions))}.")
     return metadata, {k.removeprefix("state/"): v for k, v in arrays.items()}

@@ -13,6 +13,7 @@ import typer
 
 from ..experiments.optimization import OptimizationConfig, OptimizationResult, run_optimization
 from ..gaits import Perturbation, seed_gait
+from ..models import AdaptiveGaitModel, BatchGaitModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
 from ..plotting import (
     plot_height_function,
@@ -51,9 +52,12 @@ def optimize(
     started = time.perf_counter()
     system = PurcellSwimmer(links)
     cycles = cycles if cycles is not None else DEFAULT_CYCLES.get(links, 60)
-    optimizer = InSituOptimizer(method=method, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
-                                order=order, objective=objective, max_joint_angle=max_joint_angle)
-    optimizer._validate()
+    if method not in ("adaptive", "batch"):
+        raise typer.BadParameter(f"expected 'adaptive' or 'batch', got {method!r}", param_hint="--method")
+    model = BatchGaitModel() if method == "batch" else (
+        None if forgetting_factor is None else AdaptiveGaitModel(forgetting_factor=forgetting_factor))
+    optimizer = InSituOptimizer(model=model, gamma_threshold=gamma_threshold, order=order, objective=objective,
+                                max_joint_angle=max_joint_angle).validate()
     with console.status("computing the ceiling with the true connection (cached after the first run)"):
         ceiling = cached_ceiling(system, order=order, objective_kind=objective, max_joint_angle=max_joint_angle)
     stream = SwimmerStream(system, seed_gait(system.n_joints), perturbation=Perturbation.from_std(perturbation),
@@ -73,7 +77,7 @@ def optimize(
     _figures(folder, system, result, ceiling)
     summary = _summary(result, ceiling)
     config = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
-                  optimizer=optimizer.__dict__)
+                  method=method, optimizer=optimizer.describe())
     write_manifest(folder / "summary.json", command="optimize", config=config, results=summary, started=started)
     console.print(json.dumps(summary, indent=1))
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png)")

@@ -25,6 +25,7 @@ import pandas as pd
 
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
+from ..models import BatchGaitModel
 from ..optimize import InSituOptimizer, cached_ceiling
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
 from ..simulate import SwimmerStream
@@ -116,7 +117,8 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
     for trial, seed in zip(trial_indices, seeds, strict=True):
         stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                sensor_noise=sensor_noise, seed=seed)
-        optimizer = InSituOptimizer(method=method, gamma_threshold=gamma_threshold)
+        optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else None,
+                                    gamma_threshold=gamma_threshold)
         log = optimizer.run(stream, n_cycles, ceiling=ceiling).log
         params = log[[c for c in log.columns if c.startswith("param_")]].to_numpy()
         log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction"]]

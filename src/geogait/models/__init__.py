@@ -2,7 +2,7 @@
 the batch baseline, the phase model and the Γ metric."""
 
 from ._adaptive import AdaptiveGaitModel
-from ._base import gamma, load_model
+from ._base import gamma, load_model, model_from_state
 from ._batch import BatchGaitModel
 from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
@@ -23,6 +23,7 @@ __all__ = [
     "load_model",
     "monomial_exponents",
     "monomials",
+    "model_from_state",
     "n_regressors",
     "predicted_displacement",
     "regressors",

@@ -141,27 +141,32 @@ class AdaptiveGaitModel(GaitModelBase):
             owner="AdaptiveGaitModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
+        scale = self._time_scale()  # the filters work in cycle time (see geogait.models._base)
         if phase.shape == (1,):  # the real-time case: one sample, one model
-            prior, baseline = self._learn_one(phase[0], shape[0], shape_velocity[0], body_velocity[0])
+            prior, baseline = self._learn_one(phase[0], shape[0], shape_velocity[0] / scale, body_velocity[0], scale)
         else:
-            prior, baseline = self._learn(phase, shape, shape_velocity, body_velocity)
+            prior, baseline = self._learn(phase, shape, shape_velocity / scale, body_velocity, scale)
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
         return self
 
-    def _learn_one(self, phase, shape, shape_velocity, body_velocity):
-        """One sample straight into its covering windows (same arithmetic as :meth:`_learn`)."""
+    def _learn_one(self, phase, shape, shape_velocity, body_velocity, scale):
+        """One sample straight into its covering windows (same arithmetic as :meth:`_learn`).
+
+        ``shape_velocity`` is in cycle time, ``body_velocity`` in the data's time; the a-priori
+        prediction comes back in the data's time (``scale`` s = φ̇ / 2π)."""
         valid = self.windows_.cover(phase)
         nominal, nominal_rate = self._centre_nominal
         x = regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)  # (M, n)
-        targets = np.broadcast_to(body_velocity, (valid.size, 3))
-        prior = self.bank_.update(x, targets, valid)[valid].mean(axis=0)
+        targets = np.broadcast_to(body_velocity / scale, (valid.size, 3))
+        prior = self.bank_.update(x, targets, valid)[valid].mean(axis=0) * scale
         baseline = self.phase_model_.learn_one(valid, body_velocity)
         return prior[None], baseline[None]
 
-    def _learn(self, phase, shape, shape_velocity, body_velocity):
-        """Time-ordered samples (any batch shape) through the window rounds; a-priori predictions."""
+    def _learn(self, phase, shape, shape_velocity, body_velocity, scale):
+        """Time-ordered samples (any batch shape) through the window rounds; a-priori predictions
+        (units as in :meth:`_learn_one`)."""
         nominal, nominal_rate = self._centre_nominal
         flat_shape = shape.reshape((-1,) + shape.shape[-2:])
         flat_rate = shape_velocity.reshape(flat_shape.shape)
@@ -171,7 +176,7 @@ class AdaptiveGaitModel(GaitModelBase):
             r_dot = np.take_along_axis(flat_rate[rows], sample[..., None], axis=-2)
             return regressors(r - nominal, r_dot - nominal_rate, self.interaction)
 
-        prior = self._run_rounds(self.bank_, phase, body_velocity, window_regressors)
+        prior = self._run_rounds(self.bank_, phase, body_velocity / scale, window_regressors) * scale
         return prior, self.phase_model_.partial_fit_predict(phase, body_velocity)
 
     def _update_gamma(self, prior, baseline, body_velocity):

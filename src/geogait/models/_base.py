@@ -1,5 +1,12 @@
 """What the three gait models share: phase windows, nominal gait, Fourier smoothing of window
-coefficients along φ, prediction, the Γ score, and ``.npz`` persistence."""
+coefficients along φ, prediction, the Γ score, and ``.npz`` persistence.
+
+Time units. Data reach a model in the robot's units (seconds, say) with its ``phase_rate`` φ̇. The
+regression itself runs in *cycle time* τ = t φ̇ / 2π: shape and body velocities are divided by
+s = φ̇ / 2π on the way in and predictions multiplied by s on the way out. The local model is then
+the same function of the data whatever the time unit (ξ = −A(r)ṙ is rate-independent), so a run
+in seconds at any cycle period gives the same gaits as one in cycles; at φ̇ = 2π nothing changes.
+"""
 
 from __future__ import annotations
 
@@ -12,14 +19,15 @@ import numpy as np
 from .._files import read_state, write_state
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
-from ._features import PhaseWindows, regressors, split_coefficients
+from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
-__all__ = ["GaitModelBase", "gamma", "load_model"]
+__all__ = ["GaitModelBase", "gamma", "load_model", "model_from_state"]
 
 FORMAT = "geogait-model"
 _GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: weights in cycle time (module docstring); version-1 files are converted on load
+_CYCLE_RATE = 2 * np.pi  # φ̇ in cycle time
 
 
 def gamma(error_model, error_baseline) -> np.ndarray:
@@ -115,12 +123,16 @@ class GaitModelBase:
         return FourierGait.from_shapes(flat_phase, flat_shape, self._estimated_gait_order)
 
     def _nominal(self, phase, gait=None):
-        """θ(φ) and θ̇(φ) = θ'(φ) φ̇ of the model's nominal gait."""
+        """θ(φ) and θ̇(φ) = θ'(φ) · 2π (in cycle time) of the model's nominal gait."""
         gait = self.gait_ if gait is None else gait
-        return gait.shape(phase), gait.velocity(phase) * self._phase_rate()
+        return gait.shape(phase), gait.velocity(phase) * _CYCLE_RATE
 
     def _phase_rate(self) -> float:
         return check_float(self.phase_rate, "phase_rate", type(self).__name__, low=0, low_open=True)
+
+    def _time_scale(self) -> float:
+        """s = φ̇ / 2π: velocities per unit of the data's time = s × velocities per cycle."""
+        return self._phase_rate() / _CYCLE_RATE
 
     def _sample_regressors(self, phase, shape, shape_velocity, gait=None):
         """Regressors about the nominal gait at each sample's own phase, ``(..., n, 1+2d+d²)``."""
@@ -191,9 +203,10 @@ class GaitModelBase:
         self._check_is_fitted()
         phase, shape, shape_velocity = self._check_samples(
             phase, shape, shape_velocity, names=("shape", "shape_velocity"), owner=f"{type(self).__name__}.predict")
-        x = self._sample_regressors(phase, shape, shape_velocity)
+        scale = self._time_scale()
+        x = self._sample_regressors(phase, shape, shape_velocity / scale)
         single = self._single
-        prediction = np.einsum("...ni,...nij->...nj", x, self._weights_at(phase))
+        prediction = np.einsum("...ni,...nij->...nj", x, self._weights_at(phase)) * scale
         return prediction[..., 0, :] if single else prediction
 
     def coefficients(self, phase) -> dict[str, np.ndarray]:
@@ -208,7 +221,9 @@ class GaitModelBase:
         phase = check_array(phase, "phase", f"{type(self).__name__}.coefficients")
         phase = np.broadcast_to(phase, self.batch_shape_ + phase.shape[len(self.batch_shape_):]) \
             if phase.ndim >= len(self.batch_shape_) else phase
-        return split_coefficients(self._weights_at(phase), self.n_joints_)
+        parts = split_coefficients(self._weights_at(phase), self.n_joints_)
+        scale = self._time_scale()  # C and B are velocities (cycle time inside); A and ∂A are rate-free
+        return {**parts, "C": parts["C"] * scale, "B": parts["B"] * scale}
 
     def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
         """Γ on held-out samples (eq. 5) against the phase model of the training data.
@@ -264,6 +279,23 @@ class GaitModelBase:
         own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
         self.phase_model_._set_state(own, {"batch_shape": list(self.batch_shape_)})
 
+    def predict_displacement(self, gait: FourierGait | None = None, *, jacobian: bool = False):
+        """Net ``(x, y, heading)`` per cycle of ``gait`` predicted by the model (and its Jacobian).
+
+        The interface the in-situ optimiser uses; see :func:`geogait.models.predicted_displacement`.
+        """
+        from ._displacement import predicted_displacement
+
+        return predicted_displacement(self, gait, jacobian=jacobian)
+
+    def get_state(self) -> tuple[dict, dict]:
+        """Learned state as ``(metadata, arrays)``: JSON-ready metadata and NumPy arrays.
+
+        What :meth:`save` writes; :func:`model_from_state` is the inverse (checkpoints embed it).
+        """
+        self._check_is_fitted()
+        return self._metadata(), dict(self._state())
+
     def save(self, path) -> Path:
         """Write the model to ``path`` (``.npz``: arrays + JSON metadata; no pickle), atomically.
 
@@ -301,21 +333,54 @@ def load_model(path, n_joints: int | None = None):
     n_joints : int, optional
         If given, the shape dimension the caller expects; a mismatch raises a clear error.
     """
+    metadata, state = read_state(path, "model", FORMAT, (1, FORMAT_VERSION))
+    if n_joints is not None and metadata.get("n_joints") != n_joints:
+        raise GeogaitError(f"{path} holds a model of shape dimension {metadata.get('n_joints')}, "
+                           f"but data of shape dimension {n_joints} was given.")
+    try:
+        return model_from_state(metadata, state)
+    except GeogaitError as error:
+        raise GeogaitError(f"{path}: {error}") from None
+
+
+def model_from_state(metadata: dict, state: dict):
+    """Rebuild a gait model from :meth:`GaitModelBase.get_state` output (checks class and arrays)."""
     from ._adaptive import AdaptiveGaitModel
     from ._batch import BatchGaitModel
     from ._phase import PhaseModel
 
-    metadata, state = read_state(path, "model", FORMAT, FORMAT_VERSION)
     classes = {c.__name__: c for c in (AdaptiveGaitModel, BatchGaitModel, PhaseModel)}
     if metadata.get("class") not in classes:
-        raise GeogaitError(f"{path} holds an unknown model class {metadata.get('class')!r}.")
-    if n_joints is not None and metadata["n_joints"] != n_joints:
-        raise GeogaitError(f"{path} holds a model of shape dimension {metadata['n_joints']}, "
-                           f"but data of shape dimension {n_joints} was given.")
+        raise GeogaitError(f"unknown model class {metadata.get('class')!r}.")
     model = classes[metadata["class"]](**metadata["params"])
     try:
+        if metadata.get("format_version", FORMAT_VERSION) == 1:
+            state = _from_version_1(state, metadata, model)
         model._set_state(state, metadata)
     except (KeyError, ValueError, IndexError) as error:
-        raise GeogaitError(f"{path} is inconsistent (corrupt model file): {error}") from None
+        raise GeogaitError(f"inconsistent model state (corrupt model file): {error}") from None
     return model
 
+
+
+def _from_version_1(state: dict, metadata: dict, model) -> dict:
+    """Convert a version-1 model (regression in the data's own time unit) to cycle time.
+
+    With s = φ̇ / 2π the cycle-time regressors are x' = S x, S = diag(1, 1_d, 1/s, 1/s) on the
+    blocks [1, δ, δ̇, δ⊗δ̇], and the targets ξ / s; so weights w' = S⁻¹ w / s, covariances
+    P' = S⁻¹ P S⁻¹, Gram matrices G' = S G S and moments m' = S m / s.
+    """
+    scale = float(metadata["params"].get("phase_rate", _CYCLE_RATE)) / _CYCLE_RATE
+    if metadata["class"] == "PhaseModel" or scale == 1.0:
+        return state
+    d = int(metadata["n_joints"])
+    inverse = np.ones(n_regressors(d, metadata["params"].get("interaction", True)))
+    inverse[1 + d:] = scale  # S⁻¹
+    state = dict(state)
+    if "weights" in state:
+        state["weights"] = state["weights"] * inverse[:, None] / scale
+        state["covariance"] = state["covariance"] * np.multiply.outer(inverse, inverse)
+    if "gram" in state:
+        state["gram"] = state["gram"] / np.multiply.outer(inverse, inverse)
+        state["moment"] = state["moment"] / inverse[:, None] / scale
+    return state

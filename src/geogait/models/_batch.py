@@ -83,14 +83,15 @@ class BatchGaitModel(GaitModelBase):
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
         nominal, nominal_rate = self._nominal(self.windows_.centres)  # (M, d)
+        scale = self._time_scale()  # least squares in cycle time (see geogait.models._base)
         for start in range(0, phase.shape[-1], _CHUNK):
             part = slice(start, start + _CHUNK)
             cover = self.windows_.cover(phase[..., part]).astype(float)  # batch + (c, M)
-            x = regressors(shape[..., part, None, :] - nominal, shape_velocity[..., part, None, :] - nominal_rate,
-                           self.interaction)
+            rate = shape_velocity[..., part, None, :] / scale
+            x = regressors(shape[..., part, None, :] - nominal, rate - nominal_rate, self.interaction)
             x = np.moveaxis(x * cover[..., None], -3, -2)  # batch + (M, c, n), zero outside a window
             self.gram_ += np.swapaxes(x, -1, -2) @ x
-            self.moment_ += np.swapaxes(x, -1, -2) @ body_velocity[..., None, part, :]
+            self.moment_ += np.swapaxes(x, -1, -2) @ body_velocity[..., None, part, :] / scale
         self.window_weights_ = np.linalg.pinv(self.gram_, rcond=self.rcond, hermitian=True) @ self.moment_
         self.phase_model_.partial_fit(phase, body_velocity)
         self.n_samples_seen_ += phase.shape[-1]

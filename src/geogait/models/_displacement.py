@@ -53,7 +53,7 @@ def predicted_displacement(model, gait: FourierGait | None = None, *, resolution
     resolution = check_int(resolution, "resolution", "predicted_displacement", minimum=4)
     nodes, step = gauss_phases(resolution)
     phase = nodes.reshape(-1)
-    rate = model._phase_rate()
+    rate = 2 * np.pi  # the models regress in cycle time (see geogait.models._base)
     delta = gait.shape(phase) - model.gait_.shape(phase)
     delta_rate = (gait.velocity(phase) - model.gait_.velocity(phase)) * rate
     weights = model._weights_at(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)

@@ -37,6 +37,8 @@ class PerfectInformationModel(_Parameters):
     batch_shape_ : tuple
     gamma_ : float
         Always 1.0.
+    prior_prediction_ : ndarray of shape (..., 3)
+        −A(r)ṙ of the samples of the last ``partial_fit`` call.
 
     Examples
     --------
@@ -77,6 +79,7 @@ class PerfectInformationModel(_Parameters):
                            f"shape {value.shape}")
         self.n_joints_ = system.n_joints
         self.batch_shape_ = ()
+        self.prior_prediction_ = self.predict(phase, shape, shape_velocity)
         return self
 
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:

@@ -293,6 +293,21 @@ class ShapeSpaceModel(_Parameters):
             self.phase_model_._reset(self.batch_shape_)
         return self
 
+    def rotation_std(self, gait: FourierGait, residual_variance) -> np.ndarray:
+        r"""Standard error of the predicted net rotation per cycle of ``gait``.
+
+        The heading of the Magnus integration is exactly linear in the weights (the ω-component
+        of an se(2) bracket vanishes): :math:`\hat\theta_{net} = g^T W_{\cdot\omega}` with
+        :math:`g = \frac h2 \sum_{n,\pm} f(\theta/s) \otimes \theta'` over the Gauss nodes. With the
+        RLS covariance P and the residual variance σ²_ω of ω the standard error is
+        :math:`\sigma_\omega \sqrt{g^T P g}`.
+        """
+        self._check_is_fitted()
+        nodes, step = gauss_phases(self.resolution)
+        g = self._features(gait.shape(nodes), gait.velocity(nodes)).sum(axis=(0, 1)) * step / 2
+        spread = np.einsum("i,...ij,j->...", g, self.covariance_, g)
+        return np.sqrt(residual_variance * spread)
+
     @property
     def weights_(self) -> np.ndarray:
         self._check_is_fitted()

@@ -1,39 +1,74 @@
-r"""In-situ gait optimisation (paper Fig. 4): perturbed cycles → adaptive model → confidence-gated
-trust-region step → Taylor rebase (eq. 7) → repeat.
+r"""In-situ gait optimisation (paper Fig. 4) of any :class:`~geogait.robots.Robot`: perturbed cycles →
+model → confidence-gated trust-region step → Taylor rebase (eq. 7) → repeat.
 
-Step rule (documented choice for the zero-rotation constraint: a *constrained step*). With the
+The optimiser is composed from a model (default :class:`~geogait.models.AdaptiveGaitModel`; the
+prior-work baseline is a :class:`~geogait.models.BatchGaitModel` with the ``"cycles"`` gate). Time
+is in seconds at the robot: the model's phase rate is 2π / ``robot.cycle_period``.
+
+What a gait is judged by is **measured**: the net SE(2) motion of every cycle from the robot's own
+poses (the last pose advanced by the last measured body velocity over one sample interval), in the
+body frame at the start of the cycle. A simulator's truth (``current_system()``) only adds
+``true_*`` columns to the log.
+
+Gait family (``family``): the free Fourier family of ``order``, or, on chains with front–back
+symmetry, the rotation-free :class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's φ₀
+(half the parameters; every commanded gait has exactly zero net rotation, so the rotation
+constraint below is dropped). Step rule (``step_rule``): ``"linear"`` as below, or ``"sqp"`` — the
+model's own nonlinear predicted objective maximised inside the trust region by SQP
+(:func:`~geogait.optimize.sqp_step`). Both are the standalone functions of
+:mod:`geogait.optimize._steps`.
+
+Linear step rule (documented choice for the zero-rotation constraint: a *constrained step*). With the
 model's predicted net motion :math:`g(p)` at the current gait parameters :math:`p_0`, its objective
 gradient :math:`\nabla f` and rotation row :math:`J_\omega`, the step solves the linearised problem
 
 .. math:: \max_{\Delta} \nabla f^T\Delta \ \text{ s.t. }\ \omega_0 + J_\omega\Delta = 0,\
-   \|\Delta\| \le R,\ G(p_0+\Delta) \le h \ \text{(joint limits)},
+   \|\Delta\| \le R,\ G(p_0+\Delta) \le h \ \text{(joint angle and speed limits)},
 
 then corrects the predicted rotation with a few Newton steps on the model's own (nonlinear)
 prediction, backtracks while the model does not predict an improvement, and is accepted only if
-the predicted rotation is below ``rotation_tolerance`` and the joint limits hold exactly (a gait
-the model sees rotating is first restored to zero rotation, even at a loss of progress). The trust
-radius R follows the usual ratio test: when the next iteration's model (trained on the new gait)
-confirms less than a quarter of the predicted gain, R halves; when it confirms more than three
-quarters of a step that reached the boundary, R grows by half, within [``min_trust_radius``,
-``max_trust_radius``].
+the predicted rotation is below ``rotation_tolerance`` and the limits hold exactly. The trust
+radius R follows the ratio test: when the next iteration's model confirms less than a quarter of
+the predicted gain, R halves; when it confirms more than three quarters of a step that reached the
+boundary, R grows by half, within [``min_trust_radius``, ``max_trust_radius``].
+
+Safety (the robot is not the model):
+
+* **settling** — the ``settle_cycles`` cycles after every gait change are run and logged but not
+  learned from or measured (a body with momentum needs them to forget the old gait);
+* **tracking** — every cycle's RMS difference between realised and commanded shapes is logged; a
+  new gait whose tracking error exceeds ``max_tracking_error`` is rejected: the previous gait is
+  commanded again and the trust radius halves;
+* **prediction check** — the gate stays closed while the model's predicted objective of the
+  current gait differs from the mean measured objective of its cycles by more than
+  ``prediction_tolerance`` (relative), however high Γ is.
 """
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize
 
-from .._validation import check_choice, check_float, check_int, fail
-from ..gaits import FourierGait
-from ..models import AdaptiveGaitModel, BatchGaitModel, predicted_displacement
+from .. import __version__, se2
+from .._files import read_state, write_state
+from .._validation import GeogaitError, check_choice, check_float, check_int, fail
+from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
+from ..models import AdaptiveGaitModel, model_from_state
+from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ._objective import OBJECTIVES, joint_limit_constraints, objective
+from ._steps import STEP_RULES, StepProblem, take_step
 
 __all__ = ["InSituOptimizer", "OptimizationResult"]
+
+CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
+CHECKPOINT_VERSION = 1
+_TRACKING_FLOOR = 0.05  # rad: the automatic tracking limit never falls below this
 
 
 @dataclass
@@ -43,17 +78,27 @@ class OptimizationResult:
     Attributes
     ----------
     log : pandas.DataFrame
-        One row per cycle: ``cycle``, ``iteration``, ``gamma`` (online Γ over the iteration so far;
-        NaN on the burn-in cycle after a step, which only trains the reset baseline), ``step`` (a step was taken after
-        this cycle), ``trust_radius``, ``predicted_objective`` (the model's estimate for the gait of
-        this cycle), ``true_x``, ``true_y``, ``true_heading``, ``true_progress`` and
-        ``true_objective`` (oracle, when the stream exposes its system), ``improvement`` (relative
-        to the seed), ``ceiling_fraction`` (when a ceiling value is given), and ``param_*``.
+        One row per cycle: ``cycle``, ``iteration``, ``settling`` (a settle cycle after a gait
+        change, not learned from), ``gamma`` (online Γ over the iteration so far; NaN on settle
+        cycles and on the burn-in cycle after a step, which only trains the reset baseline),
+        ``step`` (a step was taken after this cycle), ``rejected`` (this cycle's gait was rejected
+        for poor tracking and the previous one commanded again), ``prediction_ok`` (the prediction
+        check at a gate decision; NaN when none was made), ``trust_radius``,
+        ``predicted_objective`` (the model's estimate for the gait of this cycle at the last step
+        decision); measured from the robot: ``measured_x``, ``measured_y``, ``measured_heading``
+        (net motion of the cycle in the body frame at its start), ``measured_progress`` (its
+        length), ``measured_objective``, ``measured_speed`` (progress per second),
+        ``tracking_error`` (RMS realised − commanded shape, rad), ``world_x``, ``world_y``,
+        ``world_heading`` (pose at the start of the cycle); with a simulator's truth ``true_x``,
+        ``true_y``, ``true_heading``, ``true_progress``, ``true_objective``; ``improvement``
+        (relative to the seed: true values where there is a truth, else the measured objective over
+        the mean measured objective of the seed's cycles so far), ``ceiling_fraction`` (when a
+        ceiling is given), and ``param_*``.
     initial_gait, final_gait : FourierGait
     gaits : list of FourierGait
-        Every nominal gait commanded, in order.
+        Every nominal gait commanded, in order (rejected ones included).
     trajectory : Trajectory or None
-        Every sample of the run (when ``record=True``).
+        Every sample of the run (when ``record=True``; after a resume only the resumed part).
     """
 
     log: pd.DataFrame
@@ -66,71 +111,99 @@ class OptimizationResult:
     def n_steps(self) -> int:
         return int(self.log["step"].sum())
 
+    @property
+    def n_rejected(self) -> int:
+        return int(self.log["rejected"].sum())
+
 
 class InSituOptimizer:
-    """The paper's in-situ optimiser, or (``method="batch"``) the prior-work baseline.
+    """The paper's in-situ optimiser for any robot; the prior-work baseline with a batch model.
 
     Parameters
     ----------
-    method : {"adaptive", "batch"}
-        ``"adaptive"``: RLS model updated every sample, a step as soon as the online Γ over the
-        current iteration reaches ``gamma_threshold`` (paper). ``"batch"``: Bittner et al. 2018 —
-        ``cycles_per_iteration`` perturbed cycles, batch least-squares refit, same step rule.
+    model : estimator, optional
+        The model learned in situ; cloned (``type(model)(**model.get_params())``) with the seed gait
+        and the robot's phase rate at every run. It must offer ``partial_fit`` (or ``fit``),
+        ``predict_displacement(gait, jacobian=...)`` and ``rebase``; with ``gamma_`` and
+        ``reset_gamma`` it can use the Γ gate. Default: ``AdaptiveGaitModel`` with λ = 1 − 0.1 / d
+        for shape dimension d (0.95, 0.975 and 0.9875 for the 3-, 5- and 9-link swimmers: the
+        filters must remember more samples when they have more weights).
+    gate : {"gamma", "cycles"}, optional
+        ``"gamma"`` (paper): a step as soon as the online Γ over the current iteration reaches
+        ``gamma_threshold``. ``"cycles"`` (Bittner et al. 2018): ``cycles_per_iteration`` cycles,
+        then ``model.fit`` on them, then a step. Default ``"gamma"`` for models with an online Γ,
+        else ``"cycles"``.
     gamma_threshold : float
         Γ* (default 1/2).
-    forgetting_factor : float, optional
-        λ_RLS of the adaptive model. Default ``1 - 0.1 / d`` for shape dimension d (0.95, 0.975 and
-        0.9875 for the 3-, 5- and 9-link swimmers): the filters must remember more samples when
-        they have more weights (1 + 2d + d² per window); tuned by the study in the issue notes.
-    gamma_forgetting : float
-        λ_Γ of the online Γ.
     order : int
         Fourier order of the gait family optimised (the seed is embedded in it).
-    objective : {"progress", "efficiency"}
-        Straight-line progress per cycle, or progress per shape-space path length; both with zero
-        net rotation.
+    family : {"auto", "free", "symmetric"}
+        Gait family searched. ``"symmetric"``: the front–back symmetric, rotation-free family about
+        the seed's symmetry phase (the seed must be a member). ``"auto"`` (default): symmetric when
+        the robot declares the symmetry (a truthy ``front_back_symmetric`` attribute, or a simulated
+        :class:`~geogait.systems.PurcellSwimmer` whose link lengths read the same from both ends)
+        and the seed gait is a member; free otherwise.
+    step_rule : {"linear", "sqp"}
+        Trust-region step on the model's prediction (module docstring).
+    objective : {"progress", "efficiency", "forward", "budget"}
+        Straight-line progress per cycle, progress per shape-space path length, or signed progress
+        along ``direction``; all with zero net rotation.
+    direction : array-like of 2 floats, optional
+        Direction of ``"forward"``. Default: the direction the seed gait moved in its measured
+        cycles (so the run keeps going the way it started and can never turn round).
+    direction_frame : {"world", "body"}
+        ``direction`` is fixed in the world (a heading to follow; the objective uses the measured
+        heading at the start of the latest cycle) or in the body frame at the start of a cycle.
     max_joint_angle : float
         r_max (rad); every commanded gait satisfies |θ_j(φ)| ≤ r_max.
+    max_joint_velocity : float, optional
+        Largest commanded joint speed |θ̇_j| (rad per second at the robot's cycle period).
     trust_radius, min_trust_radius, max_trust_radius : float
         Initial, smallest and largest step length in parameter space (rad).
     rotation_tolerance : float
         Largest model-predicted |net rotation| per cycle of an accepted gait.
     min_cycles_per_iteration : int
-        Cycles on a gait before Γ may trigger a step. After a step the baseline phase model starts
-        afresh (``AdaptiveGaitModel.rebase(baseline="reset")``) and the first cycle on the new gait
-        only trains it: Γ over the iteration counts from the second cycle on, so it compares the
-        model with the new gait's own phase average and a stale constant term cannot pass the gate.
+        Measured cycles on a gait before Γ may trigger a step. After a step the baseline phase model
+        starts afresh and the first cycle on the new gait only trains it.
     cycles_per_iteration : int
-        Cycles per iteration of the batch method.
+        Cycles per iteration of the ``"cycles"`` gate.
     rebase : {"constant", "all", "none"}
         Taylor rebase terms (eq. 7 is ``"constant"``).
-    covariance_inflation : float
-        Factor on the RLS covariances at each rebase (see ``AdaptiveGaitModel.rebase``).
-    constant_variance : float
-        Variance added to the constant term's covariance at each rebase (``AdaptiveGaitModel.rebase``).
+    covariance_inflation, constant_variance : float
+        Passed to the model's ``rebase`` (see ``AdaptiveGaitModel.rebase``).
     min_gain : float
         Smallest predicted relative gain worth a step (a gait the model sees rotating is restored
-        regardless). Near the optimum this stops the optimiser from re-randomising the gait every
-        iteration for gains below the model's resolution.
-    n_windows, window_width, smoothing_order : model hyper-parameters.
+        regardless).
+    settle_cycles : int
+        Cycles after each gait change that are run but neither learned from nor measured.
+    max_tracking_error : float or "auto" or None
+        Largest RMS realised − commanded shape error (rad) of an accepted gait. ``"auto"``: twice the
+        seed gait's own tracking error, at least 0.05 rad. ``None`` disables the check.
+    prediction_tolerance : float or None
+        Largest relative difference between the model's predicted objective of the current gait and
+        its mean measured objective for the gate to open. ``None`` disables the check.
     """
 
-    def __init__(self, *, method: str = "adaptive", gamma_threshold: float = 0.5,
-                 forgetting_factor: float | None = None,
-                 gamma_forgetting: float = 0.995, order: int = 1, objective: str = "progress",
-                 max_joint_angle: float = 2 * np.pi / 3, trust_radius: float = 0.1, min_trust_radius: float = 0.02,
-                 max_trust_radius: float = 0.15, rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2,
-                 cycles_per_iteration: int = 30, rebase: str = "all", covariance_inflation: float = 1.0,
-                 constant_variance: float = 0.0, min_gain: float = 0.005, interaction: bool = True,
-                 n_windows: int = 20,
-                 window_width: float | None = None, smoothing_order: int = 5):
-        self.method = method
+    def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
+                 objective: str = "progress", direction=None, direction_frame: str = "world",
+                 family: str = "auto", step_rule: str = "linear",
+                 max_joint_angle: float = 2 * np.pi / 3, max_joint_velocity: float | None = None,
+                 trust_radius: float = 0.1, min_trust_radius: float = 0.02, max_trust_radius: float = 0.15,
+                 rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2, cycles_per_iteration: int = 30,
+                 rebase: str = "all", covariance_inflation: float = 1.0, constant_variance: float = 0.0,
+                 min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
+                 prediction_tolerance: float | None = 0.5):
+        self.model = model
+        self.gate = gate
         self.gamma_threshold = gamma_threshold
-        self.forgetting_factor = forgetting_factor
-        self.gamma_forgetting = gamma_forgetting
         self.order = order
         self.objective = objective
+        self.direction = direction
+        self.direction_frame = direction_frame
+        self.family = family
+        self.step_rule = step_rule
         self.max_joint_angle = max_joint_angle
+        self.max_joint_velocity = max_joint_velocity
         self.trust_radius = trust_radius
         self.min_trust_radius = min_trust_radius
         self.max_trust_radius = max_trust_radius
@@ -141,19 +214,58 @@ class InSituOptimizer:
         self.covariance_inflation = covariance_inflation
         self.constant_variance = constant_variance
         self.min_gain = min_gain
-        self.interaction = interaction
-        self.n_windows = n_windows
-        self.window_width = window_width
-        self.smoothing_order = smoothing_order
+        self.settle_cycles = settle_cycles
+        self.max_tracking_error = max_tracking_error
+        self.prediction_tolerance = prediction_tolerance
 
-    # -- validation ---------------------------------------------------------------------------
-    def _validate(self):
+    # -- scikit-learn protocol ----------------------------------------------------------------
+    def get_params(self, deep: bool = True) -> dict:
+        """Hyper-parameters, as given to ``__init__``."""
+        return {name: getattr(self, name) for name in _PARAMS}
+
+    def set_params(self, **params):
+        """Set hyper-parameters; returns ``self``."""
+        for name, value in params.items():
+            if name not in _PARAMS:
+                raise fail(name, "InSituOptimizer", "one of " + ", ".join(_PARAMS), name)
+            setattr(self, name, value)
+        return self
+
+    def __repr__(self):
+        changed = {k: v for k, v in self.get_params().items() if not _same(v, _DEFAULTS[k])}
+        return "InSituOptimizer(" + ", ".join(f"{k}={v!r}" for k, v in changed.items()) + ")"
+
+    def describe(self) -> dict:
+        """Hyper-parameters as JSON values (the model as its class name and parameters)."""
+        return _params_to_json(self)
+
+    def validate(self) -> InSituOptimizer:
+        """Check every hyper-parameter (raises with the field's name); returns ``self``."""
         owner = "InSituOptimizer"
-        check_choice(self.method, "method", owner, ("adaptive", "batch"))
+        if self.gate is not None:
+            check_choice(self.gate, "gate", owner, ("gamma", "cycles"))
+            if self.gate == "gamma" and not _has_online_gamma(self._model_template()):
+                raise fail("gate", owner, "'cycles' for a model without an online Γ (gamma_, reset_gamma)", self.gate)
+        if self.model is not None:
+            needs = ("get_params", "predict_displacement") + (
+                ("partial_fit", "rebase") if self._gate() == "gamma" else ("fit",))
+            for member in needs:
+                if not hasattr(self.model, member):
+                    raise fail("model", owner, f"a gait model with {member}() (e.g. AdaptiveGaitModel)", self.model)
         check_float(self.gamma_threshold, "gamma_threshold", owner, high=1.0, high_open=True)
         check_int(self.order, "order", owner, minimum=1)
         check_choice(self.objective, "objective", owner, OBJECTIVES)
+        if self.direction is not None:
+            direction = np.asarray(self.direction, dtype=float) if _is_numeric(self.direction) else None
+            if direction is None or direction.shape != (2,) or not np.all(np.isfinite(direction)) \
+                    or np.hypot(*direction) == 0:
+                raise fail("direction", owner, "a non-zero finite 2-vector or None", self.direction)
+        check_choice(self.direction_frame, "direction_frame", owner, ("world", "body"))
+        check_choice(self.family, "family", owner, ("auto", "free", "symmetric"))
+        check_choice(self.step_rule, "step_rule", owner, STEP_RULES)
         check_float(self.max_joint_angle, "max_joint_angle", owner, low=0, high=np.pi, low_open=True)
+        if self.max_joint_velocity is not None:
+            check_float(self.max_joint_velocity, "max_joint_velocity", owner, low=0, low_open=True)
         low = check_float(self.min_trust_radius, "min_trust_radius", owner, low=0, low_open=True)
         high = check_float(self.max_trust_radius, "max_trust_radius", owner, low=low)
         check_float(self.trust_radius, "trust_radius", owner, low=low, high=high)
@@ -162,25 +274,27 @@ class InSituOptimizer:
         check_int(self.min_cycles_per_iteration, "min_cycles_per_iteration", owner, minimum=1)
         check_int(self.cycles_per_iteration, "cycles_per_iteration", owner, minimum=1)
         check_choice(self.rebase, "rebase", owner, ("constant", "all", "none"))
+        check_float(self.covariance_inflation, "covariance_inflation", owner, low=1)
+        check_float(self.constant_variance, "constant_variance", owner, low=0)
+        check_int(self.settle_cycles, "settle_cycles", owner, minimum=0)
+        if self.max_tracking_error not in (None, "auto"):
+            check_float(self.max_tracking_error, "max_tracking_error", owner, low=0, low_open=True)
+        if self.prediction_tolerance is not None:
+            check_float(self.prediction_tolerance, "prediction_tolerance", owner, low=0, low_open=True)
+        return self
 
-    def _new_model(self, gait):
-        common = dict(gait=gait, n_windows=self.n_windows, window_width=self.window_width,
-                      smoothing_order=self.smoothing_order, interaction=self.interaction)
-        if self.method == "batch":
-            return BatchGaitModel(**common)
-        lam = 1 - 0.1 / gait.n_joints if self.forgetting_factor is None else self.forgetting_factor
-        return AdaptiveGaitModel(forgetting_factor=lam, gamma_forgetting=self.gamma_forgetting, **common)
-
-    # -- the loop -----------------------------------------------------------------------------
-    def run(self, stream, n_cycles: int, *, ceiling: float | None = None,
-            callback: Callable[[dict], None] | None = None, record: bool = False) -> OptimizationResult:
-        """Optimise in situ for ``n_cycles`` cycles of ``stream``.
+    # -- running ------------------------------------------------------------------------------
+    def run(self, robot, n_cycles: int, *, ceiling: float | None = None,
+            callback: Callable[[dict], None] | None = None, record: bool = False,
+            checkpoint=None, checkpoint_every: int = 1) -> OptimizationResult:
+        """Optimise in situ for ``n_cycles`` cycles of ``robot``.
 
         Parameters
         ----------
-        stream : SwimmerStream or any object with ``gait``, ``set_gait(gait)``, ``next_cycle()``
-            A real robot driver offers the same three members. If it also has
-            ``current_system()`` (simulators do), the log records the true displacement per cycle.
+        robot : Robot
+            Anything implementing :class:`geogait.robots.Robot` (``SwimmerStream``,
+            ``MujocoRobot``, ``ProcessRobot``, your own driver). With ``current_system()`` the log
+            also holds the true displacement per cycle.
         n_cycles : int
         ceiling : float, optional
             Ceiling objective value; adds ``ceiling_fraction`` to the log.
@@ -188,66 +302,128 @@ class InSituOptimizer:
             Called with each log row (a dict) as it is produced (live progress displays).
         record : bool
             Keep every sample (``result.trajectory``).
+        checkpoint : path-like, optional
+            ``.npz`` file rewritten atomically every ``checkpoint_every`` cycles (and after the
+            last) with everything needed by :meth:`resume`: hyper-parameters, model, gait, trust
+            radius, log, and the robot's own state when it offers ``robot_state()``.
+        checkpoint_every : int
         """
-        self._validate()
-        n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.run", minimum=1)
-        if not isinstance(stream.gait, FourierGait):
-            raise fail("stream", "InSituOptimizer.run", "a stream whose 'gait' is a FourierGait", stream.gait)
-        gait = stream.gait.with_order(self.order)
-        limits = joint_limit_constraints(gait.n_joints, self.order, self.max_joint_angle)
-        if gait.joint_limit().max() > self.max_joint_angle + 1e-12:
-            raise fail("stream", "InSituOptimizer.run",
-                       f"a seed gait within max_joint_angle = {self.max_joint_angle:.4g}",
-                       f"a gait reaching {gait.joint_limit().max():.4g} rad")
-        stream.set_gait(gait)
-        state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait),
-                       batch_cycles=self.cycles_per_iteration)
-        truth = _Oracle(stream, self.objective)
-        seed_value = truth(gait)[1]
-        rows, gaits, chunks = [], [gait], []
-        for cycle in range(n_cycles):
-            chunk = stream.next_cycle()
-            if record:
-                chunks.append(chunk)
-            state.learn(chunk, self.method)
-            gamma = state.gamma  # Γ over the iteration so far, the quantity the gate looks at
-            step = self._ready(state) and self._step(state, limits)
-            pose, value = truth(state.history_gait)
-            row = self._row(cycle, state, gamma, step, pose, value, seed_value, ceiling)
-            rows.append(row)
-            if callback is not None:
-                callback(row)
-            if step:
-                stream.set_gait(state.gait)
-                gaits.append(state.gait)
-        return OptimizationResult(log=pd.DataFrame(rows), initial_gait=gaits[0], final_gait=state.gait, gaits=gaits,
-                                  trajectory=Trajectory.concatenate(chunks) if record else None)
-
-    def _ready(self, state) -> bool:
-        if self.method == "batch":
-            return state.cycles_in_iteration >= self.cycles_per_iteration
-        return state.cycles_in_iteration >= self.min_cycles_per_iteration and state.model.gamma_ >= self.gamma_threshold
-
-    def _row(self, cycle, state, gamma, step, pose, value, seed_value, ceiling) -> dict:
-        row = {"cycle": cycle, "iteration": state.iteration - int(step), "gamma": gamma, "step": bool(step),
-               "trust_radius": state.radius, "predicted_objective": state.last_prediction,
-               "true_x": pose[0], "true_y": pose[1], "true_heading": pose[2],
-               "true_progress": float(np.hypot(pose[0], pose[1])), "true_objective": value,
-               "improvement": value / seed_value - 1}
+        self.validate()
+        owner = "InSituOptimizer.run"
+        n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)
+        checkpoint_every = check_int(checkpoint_every, "checkpoint_every", owner, minimum=1)
         if ceiling is not None:
-            row["ceiling_fraction"] = value / ceiling
-        row.update({f"param_{k}": v for k, v in enumerate(state.history_gait.params)})
-        return row
+            ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
+        checkpoint = _checkpoint_path(checkpoint, owner)
+        check_robot(robot, owner)
+        period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
+        gait = robot.gait.with_order(self.order)
+        if gait.joint_limit().max() > self.max_joint_angle + 1e-12:
+            raise fail("robot", owner, f"a seed gait within max_joint_angle = {self.max_joint_angle:.4g}",
+                       f"a gait reaching {gait.joint_limit().max():.4g} rad")
+        if self.max_joint_velocity is not None:
+            speed = np.abs(gait.velocity(np.linspace(0, 2 * np.pi, 256, endpoint=False))).max() * 2 * np.pi / period
+            if speed > self.max_joint_velocity * (1 + 1e-9):
+                raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
+                           f"a gait reaching {speed:.4g} rad/s")
+        family = self._family(robot, gait)
+        robot.set_gait(gait)
+        state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait, period),
+                       n_cycles=n_cycles, ceiling=ceiling, period=period, family=family)
+        return _Loop(self, robot, state, checkpoint, checkpoint_every).run(callback, record)
+
+    @classmethod
+    def resume(cls, checkpoint, robot, *, callback: Callable[[dict], None] | None = None,
+               record: bool = False, n_cycles: int | None = None) -> OptimizationResult:
+        """Continue a run from its checkpoint file (written by :meth:`run`) to its cycle budget.
+
+        A robot offering ``restore_robot_state`` (simulators: ``SwimmerStream``, ``MujocoRobot``) is
+        put back exactly where the checkpoint left it, so the resumed run is bit-identical to an
+        uninterrupted one. Any other robot simply continues from where it physically is, commanded
+        the checkpoint's gait. ``n_cycles`` extends (or shortens) the total budget.
+        """
+        path = Path(checkpoint)
+        metadata, arrays = read_state(path, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
+        try:
+            optimizer = cls(**_params_from_json(metadata["params"])).validate()
+            state = _State.from_checkpoint(metadata, arrays)
+        except (KeyError, TypeError, ValueError, IndexError) as error:
+            raise GeogaitError(f"{path} is an inconsistent optimiser checkpoint: {error}") from None
+        if state.model is None:  # not fitted yet when saved (the "cycles" gate's first iteration)
+            state.model = optimizer._new_model(state.gait, state.period)
+        check_robot(robot, "InSituOptimizer.resume")
+        if robot.gait.n_joints != state.gait.n_joints:
+            raise fail("robot", "InSituOptimizer.resume", f"a robot with {state.gait.n_joints} joints",
+                       robot.gait.n_joints)
+        if n_cycles is not None:
+            state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=1)
+        robot_state = metadata.get("robot_state")
+        if robot_state is not None and hasattr(robot, "restore_robot_state"):
+            robot.restore_robot_state({**robot_state, **_prefixed(arrays, "robot/")})
+        else:
+            robot.set_gait(state.robot_gait)
+        loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"])
+        return loop.run(callback, record)
+
+    # -- gait family --------------------------------------------------------------------------
+    def _family(self, robot, gait: FourierGait):
+        """The family searched (``family`` parameter): SymmetricGaitFamily about the seed or FreeGaitFamily."""
+        if self.family == "free" or gait.n_joints < 2:
+            if self.family == "symmetric":
+                raise fail("family", "InSituOptimizer.run", "'free' for a robot with one joint", self.family)
+            return FreeGaitFamily(gait.n_joints, self.order)
+        symmetric = SymmetricGaitFamily.from_gait(gait, self.order)
+        member = symmetric.residual(gait) <= 1e-9
+        if self.family == "symmetric":
+            if not member:
+                raise fail("robot", "InSituOptimizer.run", "a seed gait with front-back symmetry for family "
+                           "'symmetric'", f"a gait at distance {symmetric.residual(gait):.3g} from the family")
+            return symmetric
+        return symmetric if member and _declares_symmetry(robot) else FreeGaitFamily(gait.n_joints, self.order)
+
+    # -- model --------------------------------------------------------------------------------
+    def _model_template(self):
+        return self.model if self.model is not None else AdaptiveGaitModel()
+
+    def _new_model(self, gait: FourierGait, period: float):
+        if self.model is None:
+            return AdaptiveGaitModel(gait=gait, forgetting_factor=1 - 0.1 / gait.n_joints,
+                                     phase_rate=2 * np.pi / period)
+        params = self.model.get_params()
+        params.update({k: v for k, v in (("gait", gait), ("phase_rate", 2 * np.pi / period)) if k in params})
+        return type(self.model)(**params)
+
+    def _gate(self) -> str:
+        if self.gate is not None:
+            return self.gate
+        return "gamma" if _has_online_gamma(self._model_template()) else "cycles"
 
     # -- one step -----------------------------------------------------------------------------
-    def _predict(self, model, gait, jacobian=False):
-        if not jacobian:
-            pose = predicted_displacement(model, gait)
-            return pose, objective(self.objective, pose, np.zeros((3, gait.params.size)), gait)[0]
-        pose, pose_jacobian = predicted_displacement(model, gait, jacobian=True)
-        return pose, pose_jacobian, *objective(self.objective, pose, pose_jacobian, gait)
+    def _direction(self, state) -> np.ndarray | None:
+        """Unit direction of ``"forward"`` in the body frame at the start of the latest cycle."""
+        if self.objective != "forward":
+            return None
+        u = state.direction
+        if self.direction_frame == "world":
+            c, s = np.cos(state.world_heading), np.sin(state.world_heading)
+            u = np.array([c * u[0] + s * u[1], -s * u[0] + c * u[1]])
+        return u
 
-    def _step(self, state, limits) -> bool:
+    def _evaluate(self, pose, pose_jacobian, gait, state):
+        return objective(self.objective, pose, pose_jacobian, gait, self._direction(state))
+
+    def _predict(self, state, gait, jacobian=False):
+        if not jacobian:
+            pose = state.model.predict_displacement(gait)
+            return pose, self._evaluate(pose, np.zeros((3, gait.params.size)), gait, state)[0]
+        pose, pose_jacobian = state.model.predict_displacement(gait, jacobian=True)
+        return pose, pose_jacobian, *self._evaluate(pose, pose_jacobian, gait, state)
+
+    def _limits(self, state):
+        speed = None if self.max_joint_velocity is None else self.max_joint_velocity * state.period / (2 * np.pi)
+        return joint_limit_constraints(state.gait.n_joints, self.order, self.max_joint_angle, speed)
+
+    def _step(self, state) -> bool:
         """Propose, check and (maybe) take a step; returns whether the gait changed.
 
         A predicted rotation beyond twice its standard error is real: the step brings it to zero.
@@ -255,103 +431,164 @@ class InSituOptimizer:
         is (J_ω Δ = 0) instead of chasing it, and is taken only for a predicted gain of at least
         ``min_gain``.
         """
-        model, gait = state.model, state.gait
-        pose, pose_jacobian, value, gradient = self._predict(model, gait, jacobian=True)
+        gait, family = state.gait, state.family
+        problem = StepProblem(state.model.predict_displacement, family, objective=self.objective,
+                              limits=self._limits(state), rotation_tolerance=self.rotation_tolerance,
+                              direction=self._direction(state))
+        params = family.params_of(gait, tolerance=1e-8)
+        value, _, pose, _ = problem.evaluate(params)
         state.update_radius(value, self.min_trust_radius, self.max_trust_radius)
         state.last_prediction = value
-        resolution = 0.0 if self.method == "batch" else 2 * self._rotation_std(model, state)
-        restores = abs(pose[2]) > max(self.rotation_tolerance, resolution)
-        target = 0.0 if restores else pose[2]
-        direction = _linear_step(gradient, pose[2] - target, pose_jacobian[2], state.radius, limits, gait.params)
-        for _ in range(4):  # backtrack until the model predicts a feasible improvement
-            candidate = self._correct_rotation(model, gait.with_params(gait.params + direction), target)
-            if candidate is not None and np.all(limits[0] @ candidate.params <= limits[1] + 1e-12):
-                new_pose, new_value = self._predict(model, candidate)
-                on_target = abs(new_pose[2] - target) <= self.rotation_tolerance
-                if on_target and (restores or new_value > value * (1 + self.min_gain)):
-                    state.move(candidate, predicted=new_value, boundary=np.linalg.norm(direction) > 0.9 * state.radius,
-                               rebase=self.rebase, inflation=(self.covariance_inflation, self.constant_variance),
-                               method=self.method, new_model=self._new_model)
-                    return True
-            direction = direction / 2
+        restores = False
+        target = 0.0
+        if problem.rotation:
+            resolution = 2 * state.rotation_std()
+            restores = abs(pose[2]) > max(self.rotation_tolerance, resolution)
+            target = 0.0 if restores else pose[2]
+        step = take_step(self.step_rule, problem, params, state.radius, rotation_target=target,
+                         min_gain=self.min_gain, restore=restores)
+        if step.accepted:
+            state.promised = (value, step.predicted_value, step.boundary)
+            self._change_gait(state, step.gait)
+            return True
         if restores:  # the model could not find a feasible restoring step: trust it less far
             state.radius = max(self.min_trust_radius, state.radius / 2)
-        if self.method == "batch":  # prior work: another block of cycles on this gait before trying again
-            state.cycles_in_iteration = 0
         return False
 
-    @staticmethod
-    def _rotation_std(model, state) -> float:
-        """Standard error of the model's predicted net rotation of its own nominal gait.
-
-        At δ = 0 the predicted rotation is ≈ Σ_m C_m,ω · 2π / (M φ̇) (the smoothed constant terms'
-        mean over a cycle), so its variance is ≈ σ_ω² (2π / (M φ̇))² Σ_m P_m[0, 0], with σ_ω² the
-        recent mean squared a-priori error of ω. Only a predicted rotation beyond twice this is
-        treated as real and restored; smaller ones are within what the data can resolve.
-        """
-        if not np.isfinite(state.residual_variance):
-            return np.inf
-        p00 = model.covariance_[..., 0, 0]
-        scale = 2 * np.pi / (p00.shape[-1] * model._phase_rate())
-        return float(np.sqrt(state.residual_variance * p00.sum()) * scale)
-
-    def _correct_rotation(self, model, gait, target: float):
-        """Newton steps (minimum-norm) bringing the model's predicted net rotation to ``target``."""
-        for _ in range(3):
-            pose, pose_jacobian = predicted_displacement(model, gait, jacobian=True)
-            miss = pose[2] - target
-            if abs(miss) <= self.rotation_tolerance / 10:
-                return gait
-            row = pose_jacobian[2]
-            if row @ row == 0:
-                return None
-            gait = gait.with_params(gait.params - miss * row / (row @ row))
-        return gait
+    def _change_gait(self, state, gait) -> None:
+        """Re-centre the model on ``gait`` and start a new iteration on it."""
+        if self._gate() == "cycles":
+            state.model = self._new_model(gait, state.period)
+        else:
+            state.model.rebase(gait, terms=self.rebase, covariance_inflation=self.covariance_inflation,
+                               constant_variance=self.constant_variance)
+            state.model.reset_gamma()
+        state.previous_gait, state.gait = state.gait, gait
+        state.iteration += 1
+        state.restart_iteration()
+        state.settle_left = self.settle_cycles
 
 
-def _linear_step(gradient, rotation, rotation_row, radius, limits, params):
-    """Solve the linearised trust-region subproblem (module docstring) with SLSQP."""
-    matrix, bound = limits
-    slack = bound - matrix @ params
-    constraints = [
-        {"type": "eq", "fun": lambda d: rotation + rotation_row @ d, "jac": lambda d: rotation_row},
-        {"type": "ineq", "fun": lambda d: radius**2 - d @ d, "jac": lambda d: -2 * d},
-        {"type": "ineq", "fun": lambda d: slack - matrix @ d, "jac": lambda d: -matrix},
-    ]
-    scale = max(np.linalg.norm(gradient), 1e-12)
-    result = minimize(lambda d: -gradient @ d / scale, np.zeros_like(params), jac=lambda d: -gradient / scale,
-                      method="SLSQP", constraints=constraints, options={"maxiter": 100, "ftol": 1e-10})
-    step = result.x
-    norm = np.linalg.norm(step)
-    return step if norm <= radius else step * radius / norm
+_DEFAULTS = {p.name: p.default for p in inspect.signature(InSituOptimizer.__init__).parameters.values()
+             if p.kind == p.KEYWORD_ONLY}
+_PARAMS = tuple(_DEFAULTS)
 
 
+def _same(a, b) -> bool:
+    try:
+        return bool(np.all(a == b)) if not (a is None or b is None) else a is b
+    except (TypeError, ValueError):
+        return False
+
+
+def _is_numeric(value) -> bool:
+    try:
+        np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _declares_symmetry(robot) -> bool:
+    """The robot says its chain is front–back symmetric, or simulates a symmetric Purcell swimmer."""
+    from ..systems import PurcellSwimmer
+
+    declared = getattr(robot, "front_back_symmetric", None)
+    if declared is not None:
+        return bool(declared)
+    system = robot.current_system() if hasattr(robot, "current_system") else None
+    if not isinstance(system, PurcellSwimmer):
+        return False
+    lengths = np.asarray(system.link_lengths)
+    return bool(np.allclose(lengths, lengths[::-1]))
+
+
+def _has_online_gamma(model) -> bool:
+    return hasattr(model, "reset_gamma") and hasattr(type(model), "gamma_") and hasattr(model, "partial_fit")
+
+
+# -- measuring a cycle --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CycleMeasurement:
+    """What one cycle of a robot tells about its gait, from its own samples."""
+
+    net: np.ndarray  # (x, y, heading) over the cycle, body frame at its start
+    start: np.ndarray  # world pose at the start of the cycle
+    tracking_error: float  # RMS realised − commanded shape (rad)
+
+
+def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: str) -> CycleMeasurement:
+    """Net SE(2) motion, start pose and tracking error of one cycle of robot samples.
+
+    The end pose is the last sample's pose advanced by its measured body velocity over one sample
+    interval (exact for a zero-order-hold robot such as ``SwimmerStream``). Without
+    ``commanded_shape`` the tracking error is measured against the nominal gait θ(φ) itself.
+    """
+    if not isinstance(chunk, Trajectory):
+        raise fail("robot", owner, "a next_cycle() returning a geogait.simulate.Trajectory", type(chunk).__name__)
+    n, d = chunk.time.shape[-1], gait.n_joints
+    if chunk.time.ndim != 1 or n < 4:
+        raise fail("robot", owner, "cycles of at least 4 samples without a trial axis",
+                   f"time of shape {chunk.time.shape}")
+    expected = {"phase": (n,), "shape": (n, d), "shape_velocity": (n, d), "body_velocity": (n, 3), "pose": (n, 3)}
+    for name, shape in expected.items():
+        value = np.asarray(getattr(chunk, name))
+        if value.shape != shape:
+            raise fail(f"cycle.{name}", owner, f"an array of shape {shape}", f"shape {value.shape}")
+        if not np.all(np.isfinite(value)):
+            raise fail(f"cycle.{name}", owner, "finite values", "NaN or inf")
+    if not np.all(np.isfinite(chunk.time)) or np.any(np.diff(chunk.time) <= 0):
+        raise fail("cycle.time", owner, "strictly increasing finite time stamps (seconds)", chunk.time[:5])
+    dt = period / n
+    end = se2.compose(chunk.pose[-1], se2.exp(chunk.body_velocity[-1] * dt))
+    commanded = chunk.commanded_shape if chunk.commanded_shape is not None else gait.shape(chunk.phase)
+    error = float(np.sqrt(np.mean((chunk.shape - commanded) ** 2)))
+    return CycleMeasurement(net=se2.between(chunk.pose[0], end), start=np.array(chunk.pose[0], dtype=float),
+                            tracking_error=error)
+
+
+# -- the run ------------------------------------------------------------------------------------
 @dataclass
 class _State:
-    """Mutable state of one optimisation run."""
+    """Everything a run carries from cycle to cycle (and saves in its checkpoint)."""
 
     gait: FourierGait
     radius: float
     model: object
+    n_cycles: int
+    ceiling: float | None
+    period: float
+    cycle: int = 0
     iteration: int = 0
     cycles_in_iteration: int = 0
+    settle_left: int = 0
     last_prediction: float = np.nan
     promised: tuple | None = None  # (value before the step, predicted value after, at the boundary)
-    history_gait: FourierGait | None = None
-    iteration_data: list = field(default_factory=list)
+    previous_gait: FourierGait | None = None
+    robot_gait: FourierGait | None = None  # gait the robot runs next
+    iteration_data: list = field(default_factory=list)  # the "cycles" gate's samples of this iteration
+    iteration_measured: list = field(default_factory=list)  # measured objective of this iteration's cycles
     residual_variance: float = np.nan  # recent mean squared a-priori error of ω
-    batch_cycles: int = 30
+    gamma: float = np.nan
+    direction: np.ndarray | None = None
+    world_heading: float = 0.0
+    tracking_limit: float = np.nan
+    seed_measured: list = field(default_factory=list)
+    seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
+    rows: list = field(default_factory=list)
+    gaits: list = field(default_factory=list)
+    family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
 
-    gamma: float = np.nan  # online Γ over the iteration after the last cycle (NaN on a burn-in cycle)
+    def restart_iteration(self):
+        self.cycles_in_iteration = 0
+        self.iteration_data = []
+        self.iteration_measured = []
 
-    def learn(self, chunk, method):
-        self.history_gait = self.gait
+    def learn(self, chunk, gate):
         self.cycles_in_iteration += 1
         args = (chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
-        if method == "batch":  # the iteration's cycles, fitted from scratch once the iteration is complete
+        if gate == "cycles":
             self.iteration_data.append(args)
-            if self.cycles_in_iteration >= self.batch_cycles:
-                self.model.fit(*(np.concatenate(parts) for parts in zip(*self.iteration_data, strict=True)))
             return
         self.model.partial_fit(*args)
         error = float(np.mean((self.model.prior_prediction_[..., 2] - chunk.body_velocity[..., 2]) ** 2))
@@ -362,6 +599,30 @@ class _State:
             self.gamma = np.nan
         else:
             self.gamma = float(self.model.gamma_)
+
+    def fit_iteration(self):
+        """The ``"cycles"`` gate: fit the model on this iteration's cycles from scratch."""
+        self.model.fit(*(np.concatenate(parts) for parts in zip(*self.iteration_data, strict=True)))
+
+    def rotation_std(self) -> float:
+        """Standard error of the model's predicted net rotation of its own nominal gait.
+
+        At δ = 0 the predicted rotation is ≈ Σ_m C_m,ω · 2π / (M φ̇) (the smoothed constant terms'
+        mean over a cycle), so its variance is ≈ σ_ω² (2π / (M φ̇))² Σ_m P_m[0, 0], with σ_ω² the
+        recent mean squared a-priori error of ω. Only a predicted rotation beyond twice this is
+        treated as real and restored. Models without RLS covariances report 0.
+        """
+        if hasattr(self.model, "rotation_std"):  # models that know their own error (ShapeSpaceModel)
+            return float(self.model.rotation_std(self.gait, self.residual_variance)) \
+                if np.isfinite(self.residual_variance) else np.inf
+        covariance = getattr(self.model, "covariance_", None)
+        if covariance is None or not hasattr(self.model, "phase_rate"):
+            return 0.0
+        if not np.isfinite(self.residual_variance):
+            return np.inf
+        p00 = covariance[..., 0, 0]
+        scale = 2 * np.pi / (p00.shape[-1] * self.model.phase_rate)
+        return float(np.sqrt(self.residual_variance * p00.sum()) * scale)
 
     def update_radius(self, value_now, low, high):
         """Ratio test: compare the gain the last step promised with what the new model sees."""
@@ -375,33 +636,291 @@ class _State:
             self.radius = min(high, self.radius * 1.5)
         self.promised = None
 
-    def move(self, gait, *, predicted, boundary, rebase, inflation, method, new_model):
-        self.promised = (self.last_prediction, predicted, boundary)
-        if method == "batch":
-            self.model = new_model(gait)
-            self.iteration_data = []
+    # -- checkpoint ---------------------------------------------------------------------------
+    _SCALARS = ("radius", "n_cycles", "ceiling", "period", "cycle", "iteration", "cycles_in_iteration",
+                "settle_left", "last_prediction", "residual_variance", "gamma", "world_heading", "tracking_limit",
+                "seed_value")
+
+    def to_checkpoint(self) -> tuple[dict, dict]:
+        metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS}
+        metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
+        family = self.family
+        metadata["family"] = {"kind": "symmetric" if isinstance(family, SymmetricGaitFamily) else "free",
+                              "n_joints": family.n_joints, "order": family.order,
+                              "center": float(getattr(family, "center", 0.0))}
+        arrays = {"gait": self.gait.coefficients, "robot_gait": self.robot_gait.coefficients,
+                  "iteration_measured": np.asarray(self.iteration_measured, dtype=float),
+                  "seed_measured": np.asarray(self.seed_measured, dtype=float),
+                  "gaits": np.stack([g.coefficients for g in self.gaits])}
+        if self.previous_gait is not None:
+            arrays["previous_gait"] = self.previous_gait.coefficients
+        if self.direction is not None:
+            arrays["direction"] = self.direction
+        for k, parts in enumerate(self.iteration_data):
+            for name, value in zip(("phase", "shape", "shape_velocity", "body_velocity"), parts, strict=True):
+                arrays[f"iteration_data/{k}/{name}"] = value
+        frame = pd.DataFrame(self.rows)
+        for column in frame.columns:
+            arrays[f"log/{column}"] = frame[column].to_numpy()
+        metadata["log_columns"] = list(frame.columns)
+        metadata["iteration_data"] = len(self.iteration_data)
+        return metadata, arrays
+
+    @classmethod
+    def from_checkpoint(cls, metadata: dict, arrays: dict) -> _State:
+        scalars = metadata["state"]
+        state = cls(gait=FourierGait(arrays["gait"]), radius=0.0, model=None, n_cycles=1, ceiling=None,
+                    period=1.0)
+        for name in cls._SCALARS:
+            value = scalars[name]
+            setattr(state, name, np.nan if value is None and name not in ("ceiling",) else value)
+        state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
+        promised = scalars["promised"]
+        state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
+        state.robot_gait = FourierGait(arrays["robot_gait"])
+        family = scalars.get("family") or {"kind": "free", "n_joints": state.gait.n_joints, "order": state.gait.order}
+        state.family = (SymmetricGaitFamily(family["n_joints"], family["order"], family["center"])
+                        if family["kind"] == "symmetric" else FreeGaitFamily(family["n_joints"], family["order"]))
+        state.previous_gait = FourierGait(arrays["previous_gait"]) if "previous_gait" in arrays else None
+        state.direction = arrays.get("direction")
+        state.iteration_measured = arrays["iteration_measured"].tolist()
+        state.seed_measured = arrays["seed_measured"].tolist()
+        state.gaits = [FourierGait(c) for c in arrays["gaits"]]
+        names = ("phase", "shape", "shape_velocity", "body_velocity")
+        state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
+                                for k in range(scalars["iteration_data"])]
+        columns = scalars["log_columns"]
+        state.rows = pd.DataFrame({c: arrays[f"log/{c}"] for c in columns}).to_dict("records")
+        if metadata["model"] is not None:
+            state.model = model_from_state(metadata["model"]["metadata"], _prefixed(arrays, "model/"))
+        return state
+
+
+def _json_float(value):
+    if isinstance(value, float | np.floating) and not np.isfinite(value):
+        return None
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _prefixed(arrays: dict, prefix: str) -> dict:
+    return {k.removeprefix(prefix): v for k, v in arrays.items() if k.startswith(prefix)}
+
+
+def _checkpoint_path(checkpoint, owner):
+    if checkpoint is None:
+        return None
+    path = Path(checkpoint)
+    if path.is_dir() or not path.parent.is_dir():
+        raise fail("checkpoint", owner, "a file path in an existing folder", str(path))
+    return path
+
+
+class _Loop:
+    """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
+
+    def __init__(self, optimizer, robot, state, checkpoint, checkpoint_every):
+        self.optimizer, self.robot, self.state = optimizer, robot, state
+        self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
+        self.gate = optimizer._gate()
+        self.truth = _Oracle(robot, optimizer)
+        if not state.gaits:
+            state.gaits = [state.gait]
+            state.robot_gait = state.gait
+            state.seed_value = self.truth(state.gait, state)[1]
+            if optimizer.direction is not None:
+                direction = np.asarray(optimizer.direction, dtype=float)
+                state.direction = direction / np.hypot(*direction)
+
+    def run(self, callback, record) -> OptimizationResult:
+        state, chunks = self.state, []
+        while state.cycle < state.n_cycles:
+            chunk = self.robot.next_cycle()
+            if record:
+                chunks.append(chunk)
+            row = self._cycle(chunk)
+            state.rows.append(row)
+            state.cycle += 1
+            if callback is not None:
+                callback(row)
+            due = state.cycle % self.checkpoint_every == 0 or state.cycle == state.n_cycles
+            if self.checkpoint is not None and due:
+                self._save()
+        return OptimizationResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
+                                  gaits=list(state.gaits),
+                                  trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
+
+    def _cycle(self, chunk) -> dict:
+        optimizer, state = self.optimizer, self.state
+        ran = state.robot_gait
+        measured = measure_cycle(chunk, ran, state.period, "InSituOptimizer.run")
+        state.world_heading = float(measured.start[2])
+        settling = state.settle_left > 0
+        step = rejected = False
+        prediction_ok = np.nan
+        value = np.nan
+        if settling:
+            state.settle_left -= 1
+            state.gamma = np.nan
         else:
-            self.model.rebase(gait, terms=rebase, covariance_inflation=inflation[0], constant_variance=inflation[1])
-            self.model.reset_gamma()
-        self.gait = gait
-        self.iteration += 1
-        self.cycles_in_iteration = 0
+            self._set_direction(measured)
+            value = optimizer._evaluate(measured.net, np.zeros((3, ran.params.size)), ran, state)[0]
+            if state.iteration == 0:
+                state.seed_measured.append(value)
+                if optimizer.max_tracking_error == "auto" and np.isnan(state.tracking_limit):
+                    state.tracking_limit = max(_TRACKING_FLOOR, 2 * measured.tracking_error)
+            rejected = self._tracking_rejects(measured)
+            if not rejected:
+                state.learn(chunk, self.gate)
+                state.iteration_measured.append(value)
+                if self._gate_open():
+                    if self.gate == "cycles":
+                        state.fit_iteration()
+                    prediction_ok = float(self._prediction_agrees())
+                    step = bool(prediction_ok) and optimizer._step(state)
+                    if not step and self.gate == "cycles":  # prior work: another block of cycles, then retry
+                        state.cycles_in_iteration = 0
+        row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
+                        prediction_ok, measured, value)
+        if step or rejected:
+            state.gaits.append(state.gait)
+        state.robot_gait = state.gait
+        self.robot.set_gait(state.gait)
+        return row
+
+    def _set_direction(self, measured):
+        """Fix the direction of ``"forward"`` from the seed's first measured cycle (default)."""
+        state = self.state
+        if self.optimizer.objective != "forward" or state.direction is not None:
+            return
+        net = measured.net[:2]
+        if self.optimizer.direction_frame == "world":
+            c, s = np.cos(measured.start[2]), np.sin(measured.start[2])
+            net = np.array([c * net[0] - s * net[1], s * net[0] + c * net[1]])
+        norm = np.hypot(*net)
+        if norm == 0:
+            raise GeogaitError("InSituOptimizer: the seed gait did not move in its first measured cycle, so "
+                               "objective 'forward' has no direction; pass 'direction' explicitly.")
+        state.direction = net / norm
+
+    def _tracking_rejects(self, measured) -> bool:
+        """Reject the current gait (back to the previous one) if the robot could not follow it."""
+        optimizer, state = self.optimizer, self.state
+        limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
+        if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
+            return False
+        state.promised = None
+        state.radius = max(optimizer.min_trust_radius, state.radius / 2)
+        previous = state.previous_gait
+        optimizer._change_gait(state, previous)
+        state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
+        return True
+
+    def _gate_open(self) -> bool:
+        state = self.state
+        if self.gate == "cycles":
+            return state.cycles_in_iteration >= self.optimizer.cycles_per_iteration
+        return (state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
+                and np.isfinite(state.gamma) and state.gamma >= self.optimizer.gamma_threshold)
+
+    def _prediction_agrees(self) -> bool:
+        """Model's predicted objective of the current gait vs the mean measured one (module docstring)."""
+        tolerance = self.optimizer.prediction_tolerance
+        if tolerance is None:
+            return True
+        predicted = self.optimizer._predict(self.state, self.state.gait)[1]
+        measured = float(np.mean(self.state.iteration_measured))
+        return bool(abs(predicted - measured) <= tolerance * abs(measured))
+
+    def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value) -> dict:
+        state = self.state
+        net = measured.net
+        progress = float(np.hypot(net[0], net[1]))
+        row = {"cycle": state.cycle, "iteration": state.iteration - int(step) - int(rejected), "settling": settling,
+               "gamma": gamma, "step": step, "rejected": rejected, "prediction_ok": prediction_ok,
+               "trust_radius": state.radius, "predicted_objective": state.last_prediction,
+               "measured_x": net[0], "measured_y": net[1], "measured_heading": net[2],
+               "measured_progress": progress, "measured_objective": value,
+               "measured_speed": progress / state.period, "tracking_error": measured.tracking_error,
+               "world_x": measured.start[0], "world_y": measured.start[1], "world_heading": measured.start[2]}
+        pose, true_value = self.truth(gait, state)
+        if self.truth.available:
+            row.update({"true_x": pose[0], "true_y": pose[1], "true_heading": pose[2],
+                        "true_progress": float(np.hypot(pose[0], pose[1])), "true_objective": true_value,
+                        "improvement": true_value / state.seed_value - 1})
+            reference = true_value
+        else:
+            seed = float(np.mean(state.seed_measured)) if state.seed_measured else np.nan
+            row["improvement"] = value / seed - 1 if seed else np.nan
+            reference = value
+        if state.ceiling is not None:
+            row["ceiling_fraction"] = reference / state.ceiling
+        row.update({f"param_{k}": v for k, v in enumerate(gait.params)})
+        return row
+
+    def _save(self):
+        """Write the checkpoint (one atomic ``.npz``: JSON metadata + arrays)."""
+        metadata, arrays = self.state.to_checkpoint()
+        model = self.state.model
+        model_metadata = None
+        if hasattr(model, "get_state") and hasattr(model, "batch_shape_"):  # fitted
+            model_metadata, model_arrays = model.get_state()
+            arrays.update({f"model/{k}": np.asarray(v) for k, v in model_arrays.items()})
+        robot_state = None
+        if hasattr(self.robot, "robot_state"):
+            robot_state = {}
+            for key, value in self.robot.robot_state().items():
+                if isinstance(value, np.ndarray):
+                    arrays[f"robot/{key}"] = value
+                else:
+                    robot_state[key] = value
+        payload = {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION, "geogait": __version__,
+                   "params": _params_to_json(self.optimizer), "state": metadata,
+                   "model": None if model_metadata is None else {"metadata": model_metadata},
+                   "robot_state": robot_state, "checkpoint_every": self.checkpoint_every}
+        write_state(self.checkpoint, payload, arrays)
+
+
+def _params_to_json(optimizer) -> dict:
+    """Hyper-parameters as JSON values; the model template as its class name and parameters."""
+    params = optimizer.get_params()
+    if params["model"] is not None:
+        model = params["model"]
+        params["model"] = {"class": type(model).__name__,
+                           "params": {k: v for k, v in model.get_params().items() if k != "gait"}}
+    if params["direction"] is not None:
+        params["direction"] = [float(v) for v in np.asarray(params["direction"], dtype=float)]
+    return params
+
+
+def _params_from_json(params: dict) -> dict:
+    from .. import models
+
+    params = dict(params)
+    if params.get("model") is not None:
+        name = params["model"]["class"]
+        if name not in models.__all__:
+            raise ValueError(f"unknown model class {name!r}")
+        params["model"] = getattr(models, name)(**params["model"]["params"])
+    return params
 
 
 class _Oracle:
-    """True (x, y, heading) and objective per cycle of a gait, when the stream exposes its system."""
+    """True (x, y, heading) and objective per cycle of a gait, when the robot exposes its system."""
 
-    def __init__(self, stream, kind):
-        self.system = getattr(stream, "current_system", None)
-        self.kind = kind
+    def __init__(self, robot, optimizer):
+        self.system = getattr(robot, "current_system", None)
+        self.available = self.system is not None
+        self.optimizer = optimizer
         self.cache = {}
 
-    def __call__(self, gait):
+    def __call__(self, gait, state):
         if self.system is None:
             return np.full(3, np.nan), np.nan
         system = self.system()
         key = (id(system), gait)
         if key not in self.cache:
-            pose = cycle_displacement(system, gait, resolution=128)
-            self.cache[key] = (pose, objective(self.kind, pose, np.zeros((3, gait.params.size)), gait)[0])
-        return self.cache[key]
+            self.cache[key] = cycle_displacement(system, gait, resolution=128)
+        pose = self.cache[key]
+        if self.optimizer.objective == "forward" and state.direction is None:
+            return pose, np.nan
+        return pose, self.optimizer._evaluate(pose, np.zeros((3, gait.params.size)), gait, state)[0]

@@ -5,6 +5,9 @@ r"""Gait objectives and constraints shared by the in-situ optimiser and the mode
   :math:`\theta_{net}(p) = 0` (a rotating gait swims in circles and makes no lasting progress).
 * ``"efficiency"``: progress per unit shape-space path length, :math:`\|t\| / L`,
   :math:`L = \oint \|\theta'(\phi)\|\,d\phi`, with the same rotation constraint.
+* ``"forward"``: signed progress along a unit direction :math:`u`, :math:`u^T t` (same rotation
+  constraint). Unlike :math:`\|t\|` it tells forward from backward, so a run can never turn
+  round; :math:`u` is given in the frame of the pose (the body frame at the start of the cycle).
 * ``"budget"``: progress per unit time when the cycle is run at a fixed RMS shape velocity (a budget
   on joint speed, or on power with the identity metric). At RMS joint speed 1 the period is
   :math:`T = 2\pi S` with :math:`S^2 = \frac{1}{2\pi}\oint\|\theta'(\phi)\|^2 d\phi
@@ -29,12 +32,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_choice
+from .._validation import check_choice, fail
 from ..gaits import FourierGait, fourier_basis
 
 __all__ = ["OBJECTIVES", "default_objective", "objective", "path_length", "joint_limit_constraints", "rms_speed"]
 
-OBJECTIVES = ("progress", "efficiency", "budget")
+OBJECTIVES = ("progress", "efficiency", "forward", "budget")
 _PATH_NODES = 256
 
 
@@ -70,9 +73,16 @@ def default_objective(order: int) -> str:
     return "progress" if order == 1 else "budget"
 
 
-def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: FourierGait):
-    """Objective value and gradient from net pose ``(3,)`` and its Jacobian ``(3, p)``."""
+def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: FourierGait, direction=None):
+    """Objective value and gradient from net pose ``(3,)`` and its Jacobian ``(3, p)``.
+
+    ``direction`` (unit 2-vector in the pose's frame) is required by ``"forward"`` only.
+    """
     check_choice(kind, "objective", "geogait.optimize", OBJECTIVES)
+    if kind == "forward":
+        if direction is None:
+            raise fail("direction", "geogait.optimize.objective", "a unit 2-vector for objective 'forward'", None)
+        return direction @ pose[:2], direction @ pose_jacobian[:2]
     translation = np.hypot(pose[0], pose[1])
     gradient = (pose[0] * pose_jacobian[0] + pose[1] * pose_jacobian[1]) / max(translation, 1e-15)
     if kind == "progress":
@@ -85,11 +95,22 @@ def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: Four
     return translation / length, gradient / length - translation * d_length / length**2
 
 
-def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float):
-    """Linear inequalities ``G p <= h`` equivalent to |θ_j(φ)| ≤ r_max for all φ (see module)."""
+def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float, max_joint_speed: float | None = None):
+    """Linear inequalities ``G p <= h`` equivalent to |θ_j(φ)| ≤ r_max for all φ (see module).
+
+    With ``max_joint_speed`` (rad per unit phase, i.e. the joint-velocity limit times the cycle
+    period / 2π) the rows |θ_j'(φ)| ≤ that bound are added the same way (θ' is a Fourier series of
+    the same order, so the same grid tightening makes the continuous limit hold).
+    """
     n_phases = max(64, 64 * order)
     phase = np.linspace(0, 2 * np.pi, n_phases, endpoint=False)
-    basis = fourier_basis(phase, order)  # (n, c)
-    bound = max_joint_angle * np.cos(order * np.pi / n_phases)
-    blocks = np.kron(np.eye(n_joints), basis)  # (d n, d c): row (j, φ) picks joint j's coefficients
-    return np.vstack([blocks, -blocks]), np.full(2 * blocks.shape[0], bound)
+    tightening = np.cos(order * np.pi / n_phases)
+    rows, bounds = [], []
+    for derivative, limit in ((0, max_joint_angle), (1, max_joint_speed)):
+        if limit is None:
+            continue
+        basis = fourier_basis(phase, order, derivative)  # (n, c)
+        blocks = np.kron(np.eye(n_joints), basis)  # (d n, d c): row (j, φ) picks joint j's coefficients
+        rows += [blocks, -blocks]
+        bounds.append(np.full(2 * blocks.shape[0], limit * tightening))
+    return np.vstack(rows), np.concatenate(bounds)

@@ -159,6 +159,46 @@ class SwimmerStream:
         else:
             self._pending_gait = gait
 
+    def robot_state(self) -> dict:
+        """Everything that determines the rest of the stream: generators, SDE state, pose, gait.
+
+        JSON values and NumPy arrays (what an optimiser checkpoint stores);
+        :meth:`restore_robot_state` puts a stream built with the same arguments back exactly.
+        """
+        state = {"cycle": self.cycle, "position": self.position,
+                 "perturbation_rngs": [rng.bit_generator.state for rng in self._perturbation_rngs],
+                 "noise_rngs": [rng.bit_generator.state for rng in self._noise_rngs],
+                 "perturbation_state": self._perturbation.state.copy(), "pose": self.pose.copy(),
+                 "gait": self._gait.coefficients.copy()}
+        if self._pending_gait is not None:
+            state["pending_gait"] = self._pending_gait.coefficients.copy()
+        return state
+
+    def restore_robot_state(self, state: dict) -> None:
+        """Inverse of :meth:`robot_state` (checks that the state fits this stream first)."""
+        owner = "SwimmerStream.restore_robot_state"
+        try:
+            rngs = [list(state[k]) for k in ("perturbation_rngs", "noise_rngs")]
+            arrays = {k: np.asarray(state[k], dtype=float) for k in ("perturbation_state", "pose", "gait")}
+            cycle, position = check_int(state["cycle"], "cycle", owner, minimum=0), \
+                check_int(state["position"], "position", owner, minimum=0)
+        except (KeyError, TypeError) as error:
+            raise fail("state", owner, "a dict from SwimmerStream.robot_state()", f"missing or bad {error}") from None
+        if any(len(r) != len(self._perturbation_rngs) for r in rngs) or \
+                arrays["perturbation_state"].shape != self._perturbation.state.shape or \
+                arrays["pose"].shape != self.pose.shape or position >= self.samples_per_cycle:
+            raise fail("state", owner, "the state of a stream with the same trials and joints", "another shape")
+        gait = FourierGait(arrays["gait"])
+        if gait.n_joints != self._gait.n_joints:
+            raise fail("state", owner, f"a gait with {self._gait.n_joints} joints", gait.n_joints)
+        for generator, saved in zip(self._perturbation_rngs + self._noise_rngs, rngs[0] + rngs[1], strict=True):
+            generator.bit_generator.state = saved
+        self._perturbation.state = arrays["perturbation_state"].copy()
+        self.pose = arrays["pose"].copy()
+        self.cycle, self.position, self._gait = cycle, position, gait
+        self._pending_gait = FourierGait(np.asarray(state["pending_gait"], dtype=float)) \
+            if state.get("pending_gait") is not None else None
+
     def current_system(self) -> System:
         """The system in force for the current cycle (after the environment schedule)."""
         return self.system if self.environment is None else self.environment(self.cycle)

@@ -1,0 +1,226 @@
+"""The in-situ optimiser on robots it did not simulate: measured objective, direction, feasibility,
+settling, checkpoint and resume."""
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from geogait import se2
+from geogait.gaits import Perturbation, seed_gait
+from geogait.models import BatchGaitModel
+from geogait.optimize import InSituOptimizer
+from geogait.robots import Robot
+from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
+from geogait.systems import PurcellSwimmer
+
+
+class SaturatingRobot:
+    """A kinematic 3-link swimmer whose joints cannot follow commands beyond ``limit`` (rad).
+
+    The realised shape is limit · tanh(commanded / limit): an actuator that saturates smoothly.
+    Written here, independently of SwimmerStream: it offers only the Robot protocol.
+    """
+
+    def __init__(self, limit=1.1, samples_per_cycle=100, cycle_period=1.5, seed=0):
+        self.system, self.limit = PurcellSwimmer(3), limit
+        self.n_joints, self.cycle_period, self.samples = 2, cycle_period, samples_per_cycle
+        self._gait, self.pose, self.cycle = seed_gait(2), np.zeros(3), 0
+        self.rng = np.random.default_rng(seed)
+
+    @property
+    def gait(self):
+        return self._gait
+
+    def set_gait(self, gait):
+        self._gait = gait
+
+    def next_cycle(self):
+        n, rate = self.samples, 2 * np.pi / self.cycle_period
+        phase = 2 * np.pi * np.arange(n) / n
+        offset = self.rng.uniform(0, 2 * np.pi, 2)
+        wobble = 0.1 * np.sin(np.outer(phase, [3, 5]) + offset)  # exploration
+        commanded = self._gait.shape(phase) + wobble
+        wobble_rate = 0.1 * np.array([3, 5]) * np.cos(np.outer(phase, [3, 5]) + offset)
+        commanded_rate = (self._gait.velocity(phase) + wobble_rate) * rate
+        shape = self.limit * np.tanh(commanded / self.limit)
+        shape_velocity = commanded_rate / np.cosh(commanded / self.limit) ** 2
+        body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
+        dt = self.cycle_period / n
+        poses = se2.integrate_body_velocity(body_velocity, dt, self.pose)
+        self.pose = poses[-1]
+        time = (self.cycle + np.arange(n) / n) * self.cycle_period
+        self.cycle += 1
+        return Trajectory(time=time, phase=phase, cycle=np.full(n, self.cycle - 1), shape=shape,
+                          shape_velocity=shape_velocity, body_velocity=body_velocity, pose=poses[:-1],
+                          commanded_shape=commanded)
+
+
+class BareRobot:
+    """Only the protocol's members of a SwimmerStream (no truth, no state)."""
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.n_joints, self.cycle_period = stream.n_joints, stream.cycle_period
+
+    @property
+    def gait(self):
+        return self._stream.gait
+
+    def set_gait(self, gait):
+        self._stream.set_gait(gait)
+
+    def next_cycle(self):
+        return self._stream.next_cycle()
+
+
+def _stream(seed=0, **options):
+    return SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.15),
+                         sensor_noise=0.1, seed=seed, **options)
+
+
+def test_robots_implement_the_protocol():
+    assert isinstance(_stream(), Robot)
+    assert isinstance(SaturatingRobot(), Robot)
+    assert not isinstance(object(), Robot)
+    with pytest.raises(ValueError, match="lacks cycle_period, gait, set_gait, next_cycle"):
+        InSituOptimizer().run(type("Half", (), {"n_joints": 2})(), 3)
+
+
+def test_measured_motion_per_cycle_is_the_true_one_without_perturbations():
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation(eta=0.0), seed=0,
+                           samples_per_cycle=400)
+    log = InSituOptimizer().run(stream, 4).log
+    measured = log[["measured_x", "measured_y", "measured_heading"]].to_numpy()
+    true = log[["true_x", "true_y", "true_heading"]].to_numpy()
+    np.testing.assert_allclose(measured, true, atol=2e-4)  # zero-order hold at 400 samples vs Magnus
+    np.testing.assert_allclose(measured[0], cycle_displacement(PurcellSwimmer(3), seed_gait(2)), atol=2e-4)
+
+
+def test_a_robot_without_truth_is_judged_by_measurement():
+    result = InSituOptimizer().run(BareRobot(_stream(seed=1)), 20, ceiling=0.1)
+    log = result.log
+    assert "true_objective" not in log and result.n_steps >= 3
+    on_seed = log["iteration"] == 0
+    seed = log.loc[on_seed, "measured_objective"].mean()  # once the seed's cycles are over
+    later = ~on_seed
+    np.testing.assert_allclose(log.loc[later, "improvement"], log.loc[later, "measured_objective"] / seed - 1)
+    np.testing.assert_allclose(log["ceiling_fraction"], log["measured_objective"] / 0.1)
+    assert log["measured_objective"].tail(5).mean() > 1.2 * seed
+
+
+def test_forward_objective_follows_the_commanded_heading_and_never_turns_round():
+    # Default direction: the way the seed started. Every cycle moves forward along it in the world.
+    log = InSituOptimizer(objective="forward").run(_stream(seed=2), 20).log
+    start = log[["world_x", "world_y"]].to_numpy()
+    direction = start[1] - start[0]
+    advance = np.diff(start, axis=0) @ (direction / np.linalg.norm(direction))
+    assert np.all(advance > 0)
+    assert log["measured_objective"].tail(3).mean() > log["measured_objective"].head(3).mean()
+
+
+def test_forward_objective_sign_matters():
+    # Asked to go the other way, the optimiser turns the gait round: the objective starts negative.
+    seed_motion = cycle_displacement(PurcellSwimmer(3), seed_gait(2))[:2]
+    log = InSituOptimizer(objective="forward", direction=-seed_motion, trust_radius=0.15).run(_stream(seed=3), 40).log
+    assert log["measured_objective"].iloc[0] < 0
+    assert log["measured_objective"].iloc[-1] > log["measured_objective"].iloc[0] + 0.02
+
+
+def test_saturated_actuators_are_detected_and_their_steps_rejected():
+    options = dict(trust_radius=0.15, max_trust_radius=0.3, prediction_tolerance=None)
+    result = InSituOptimizer(**options).run(SaturatingRobot(limit=1.1), 40)
+    log = result.log
+    limit = max(0.05, 2 * log["tracking_error"].iloc[0])  # "auto": twice the seed's own tracking error
+    assert result.n_rejected >= 1
+    assert np.all(log.loc[log["rejected"], "tracking_error"] > limit)
+    # each rejection commands the gait from before the rejected step again
+    reverts = sum(result.gaits[k + 2] == result.gaits[k] for k in range(len(result.gaits) - 2))
+    assert reverts >= result.n_rejected
+    assert log.loc[~log["rejected"], "tracking_error"].max() <= 1.1 * limit
+    # without the check the optimiser drives the joints far past what they can follow
+    unchecked = InSituOptimizer(**options, max_tracking_error=None).run(SaturatingRobot(limit=1.1), 40).log
+    assert not unchecked["rejected"].any() and unchecked["tracking_error"].max() > 2 * limit
+
+
+def test_the_prediction_check_closes_the_gate_when_the_model_overpredicts():
+    log = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3, max_tracking_error=None).run(
+        SaturatingRobot(limit=1.1), 25).log
+    checked = log.dropna(subset=["prediction_ok"])
+    failed = checked[checked["prediction_ok"] == 0]
+    assert len(failed) >= 1 and not failed["step"].any()
+    assert np.all(log.loc[log["step"], "prediction_ok"] == 1)
+
+
+def test_settle_cycles_are_run_but_not_learned_from():
+    result = InSituOptimizer(settle_cycles=1).run(_stream(seed=4), 16)
+    log = result.log
+    steps = log.index[log["step"]]
+    assert len(steps) >= 2
+    settling = log.index[log["settling"]]
+    np.testing.assert_array_equal(settling, [s + 1 for s in steps if s + 1 < len(log)])
+    assert log.loc[settling, ["gamma", "measured_objective"]].isna().all().all()
+    assert not log.loc[settling, "step"].any()
+
+
+def _interrupted_then_resumed(tmp_path, make_optimizer, stop_after, n_cycles):
+    path = tmp_path / "run.npz"
+
+    def stop(row):
+        if row["cycle"] == stop_after - 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        make_optimizer().run(_stream(seed=5), n_cycles, checkpoint=path, callback=stop, ceiling=0.1)
+    return InSituOptimizer.resume(path, _stream(seed=5))
+
+
+@pytest.mark.parametrize("make_optimizer", [
+    lambda: InSituOptimizer(settle_cycles=1),
+    lambda: InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=3, objective="forward"),
+], ids=["adaptive", "batch-forward"])
+def test_resume_is_bit_identical_to_an_uninterrupted_run(tmp_path, make_optimizer):
+    whole = make_optimizer().run(_stream(seed=5), 14, ceiling=0.1)
+    resumed = _interrupted_then_resumed(tmp_path, make_optimizer, stop_after=8, n_cycles=14)
+    assert whole.n_steps >= 2
+    np.testing.assert_array_equal(resumed.final_gait.params, whole.final_gait.params)
+    pd.testing.assert_frame_equal(resumed.log, whole.log, check_dtype=False)
+    assert resumed.gaits == whole.gaits
+
+
+def test_resume_refuses_a_corrupt_checkpoint(tmp_path):
+    path = tmp_path / "run.npz"
+    path.write_bytes(b"not a checkpoint")
+    with pytest.raises(ValueError, match="corrupt or truncated"):
+        InSituOptimizer.resume(path, _stream())
+
+
+def test_checkpoint_options_are_validated_before_the_robot_moves(tmp_path):
+    stream = _stream()
+    with pytest.raises(ValueError, match="'checkpoint'"):
+        InSituOptimizer().run(stream, 3, checkpoint=tmp_path / "missing" / "run.npz")
+    with pytest.raises(ValueError, match="'checkpoint_every'"):
+        InSituOptimizer().run(stream, 3, checkpoint=tmp_path / "run.npz", checkpoint_every=0)
+    assert stream.cycle == 0
+
+
+def test_joint_speed_limit_holds_for_every_commanded_gait():
+    limit = 1.3 * 2 * np.pi / 1.5  # rad/s at a period of 1.5 s; the seed needs 2π/1.5 · 1.0
+    result = InSituOptimizer(max_joint_velocity=limit, trust_radius=0.15).run(_stream(seed=6, cycle_period=1.5), 20)
+    assert result.n_steps >= 3
+    phase = np.linspace(0, 2 * np.pi, 512)
+    for gait in result.gaits:
+        assert np.abs(gait.velocity(phase)).max() * 2 * np.pi / 1.5 <= limit * (1 + 1e-9)
+    with pytest.raises(ValueError, match="max_joint_velocity"):
+        InSituOptimizer(max_joint_velocity=0.5).run(_stream(cycle_period=1.5), 2)
+
+
+def test_cycles_from_a_robot_are_checked():
+    class Broken(BareRobot):
+        def next_cycle(self):
+            chunk = super().next_cycle()
+            return dataclasses.replace(chunk, body_velocity=np.full_like(chunk.body_velocity, np.nan))
+
+    with pytest.raises(ValueError, match="'cycle.body_velocity'.*finite"):
+        InSituOptimizer().run(Broken(_stream()), 2)
