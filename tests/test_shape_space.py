@@ -139,3 +139,16 @@ def test_perfect_information_model_is_the_oracle():
     assert model.rebase(gait, terms="all") is model
     with pytest.raises(ValueError, match="'system' parameter of PerfectInformationModel"):
         PerfectInformationModel().predict_displacement(gait)
+
+
+def test_state_round_trip_gives_identical_predictions():
+    from geogait.models import model_from_state
+
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, seed=0, sensor_noise=0.1)
+    model = ShapeSpaceModel(degree=2).fit(*samples(run))
+    copy = model_from_state(*model.get_state())
+    assert isinstance(copy, ShapeSpaceModel) and copy.get_params() == model.get_params()
+    np.testing.assert_array_equal(copy.predict_displacement(seed_gait(2)), model.predict_displacement(seed_gait(2)))
+    assert copy.gamma_ == model.gamma_
+    more = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=1, seed=5, sensor_noise=0.1)
+    np.testing.assert_array_equal(copy.partial_fit(*samples(more)).weights_, model.partial_fit(*samples(more)).weights_)

@@ -318,6 +318,33 @@ class ShapeSpaceModel(_Parameters):
         self._check_is_fitted()
         return self.bank_.covariance[..., 0, :, :]
 
+    # -- persistence --------------------------------------------------------------------------
+    def get_state(self) -> tuple[dict, dict]:
+        """Learned state as ``(metadata, arrays)`` (the format of the gait models' files and of
+        optimiser checkpoints); :func:`~geogait.models.model_from_state` is the inverse."""
+        from ._base import FORMAT, FORMAT_VERSION
+
+        self._check_is_fitted()
+        metadata = {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
+                    "params": self.get_params(), "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
+        arrays = {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
+                  "n_updates": self.bank_.n_updates, "psi": self.psi_, "n_samples_seen": self.n_samples_seen_,
+                  **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+        return metadata, arrays
+
+    def _set_state(self, state: dict, metadata: dict) -> None:
+        from ._phase import _assign_bank
+
+        self._reset(tuple(metadata["batch_shape"]), int(metadata["n_joints"]))
+        _assign_bank(self.bank_, state)
+        psi = np.asarray(state["psi"], dtype=float)
+        if psi.shape != self.psi_.shape:
+            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
+        self.psi_ = psi
+        self.n_samples_seen_ = int(state["n_samples_seen"])
+        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_._set_state(own, {"batch_shape": list(self.batch_shape_)})
+
     # -- prediction ---------------------------------------------------------------------------
     def connection(self, shape) -> np.ndarray:
         """The learned local connection A(r) at shapes ``(..., d)`` → batch + (..., 3, d), ξ = −A ṙ."""
