@@ -13,7 +13,7 @@ what a rotating gait actually gains along a straight line (equal to ‖t‖ at �
 
 CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sqp, shape-linear,
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), perfect-linear, perfect-sqp (true
-connection, trust radius up to 0.5).
+connection, trust radius up to 0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5).
 """
 
 import argparse
@@ -33,8 +33,11 @@ CONFIGS = ("free-linear", "symmetric-linear", "symmetric-sqp", "shape-linear", "
 
 
 def optimizer(name, links):
+    name, _, radius = name.partition("@")
     model, rule = name.split("-")
     options = {"step_rule": rule, "family": "free" if model == "free" else "symmetric"}
+    if radius:
+        options["max_trust_radius"] = float(radius)
     if model == "shape":
         options["model"] = ShapeSpaceModel(degree=3 if links < 9 else 2)
     if model == "perfect":
@@ -80,7 +83,7 @@ if __name__ == "__main__":
     parser.add_argument("links", type=int)
     parser.add_argument("cycles", type=int)
     parser.add_argument("trials", type=int)
-    parser.add_argument("configs", nargs="*", default=list(CONFIGS), choices=CONFIGS)
+    parser.add_argument("configs", nargs="*", default=list(CONFIGS))
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--checkpoints", type=int, nargs="+", default=[30, 40, 60, 200])
     arguments = parser.parse_args()

@@ -151,7 +151,7 @@ class ShapeSpaceModel(_Parameters):
     >>> run = simulate(swimmer, gait, n_cycles=10, seed=0)
     >>> model = ShapeSpaceModel(degree=3).fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
     >>> error = model.predict_displacement(gait) - cycle_displacement(swimmer, gait)
-    >>> bool(np.abs(error).max() < 1e-3)
+    >>> bool(np.abs(error).max() < 3e-3)  # net motion ≈ 0.05 per cycle
     True
     """
 
