@@ -6,7 +6,15 @@ import pytest
 from geogait import se2
 from geogait.gaits import FourierGait, Perturbation, fourier_basis, seed_gait
 from geogait.models import BatchGaitModel
-from geogait.optimize import InSituOptimizer, joint_limit_constraints, objective, optimize_ceiling, path_length
+from geogait.optimize import (
+    InSituOptimizer,
+    default_objective,
+    joint_limit_constraints,
+    objective,
+    optimize_ceiling,
+    path_length,
+    rms_speed,
+)
 from geogait.simulate import SwimmerStream, cycle_displacement
 from geogait.simulate._oracle import gauss_phases, magnus_steps
 from geogait.systems import PurcellSwimmer
@@ -46,7 +54,7 @@ def test_ceiling_matches_brute_force_grid_search():
 
 def test_objective_gradients_match_finite_differences(rng):
     swimmer, gait = PurcellSwimmer(3), FourierGait(rng.normal(scale=0.5, size=(2, 5)))
-    for kind in ("progress", "efficiency"):
+    for kind in ("progress", "efficiency", "budget"):
         pose, jac = cycle_displacement(swimmer, gait, jacobian=True)
         _, gradient = objective(kind, pose, jac, gait)
         fd = []
@@ -146,3 +154,36 @@ def test_seed_outside_joint_limits_is_rejected():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2, amplitude=1.5), seed=0)
     with pytest.raises(ValueError, match="max_joint_angle"):
         InSituOptimizer(max_joint_angle=1.0).run(stream, 2)
+
+
+def repeated(gait: FourierGait, times: int) -> FourierGait:
+    """θ(times · φ): the same loop run ``times`` times per cycle, in the family of order ``times * K``."""
+    coefficients = np.zeros((gait.n_joints, 2 * times * gait.order + 1))
+    coefficients[:, 0] = gait.coefficients[:, 0]
+    k = np.arange(1, gait.order + 1)
+    coefficients[:, times * k] = gait.coefficients[:, k]
+    coefficients[:, times * gait.order + times * k] = gait.coefficients[:, gait.order + k]
+    return FourierGait(coefficients)
+
+
+def test_higher_orders_are_not_won_by_repeating_the_loop():
+    swimmer = PurcellSwimmer(3)
+    assert default_objective(1) == "progress" and default_objective(2) == "budget"
+    single = optimize_ceiling(swimmer, objective_kind="budget", starts=1)
+    twice = repeated(single.gait, 2)
+    phase = np.linspace(0, 2 * np.pi, 16)
+    np.testing.assert_allclose(twice.shape(phase), single.gait.shape(2 * phase), atol=1e-12)
+    values = {}
+    for kind in ("progress", "budget", "efficiency"):
+        values[kind] = [objective(kind, cycle_displacement(swimmer, g), np.zeros((3, g.params.size)), g)[0]
+                        for g in (single.gait, twice)]
+    assert np.isclose(values["progress"][1], 2 * values["progress"][0], rtol=1e-6)  # progress rewards repeats
+    assert np.isclose(values["budget"][1], values["budget"][0], rtol=1e-6)  # budget and efficiency do not
+    assert np.isclose(values["efficiency"][1], values["efficiency"][0], rtol=1e-6)
+    assert np.isclose(rms_speed(twice), 2 * rms_speed(single.gait))
+    # The order-2 optimum of the default objective is a single loop as good as the order-1 one (for the
+    # 3-link swimmer the second harmonic adds nothing), not a loop run twice.
+    order2 = optimize_ceiling(swimmer, order=2, starts=3)
+    assert single.value * (1 - 1e-6) <= order2.value <= 1.01 * single.value
+    harmonics = np.hypot(order2.gait.coefficients[:, 1:3], order2.gait.coefficients[:, 3:5])  # (d, k)
+    assert harmonics[:, 0].max() > 10 * harmonics[:, 1].max()

@@ -11,6 +11,11 @@ final box plots (5/25/50/75/95), the ceiling (same gait family, objective and co
 with the true connection) and the batch baseline's median curve; panel A shows the 3-link gaits in
 shape space over the height function.
 
+Model (``model="auto"``): the shape-space connection model (:class:`~geogait.models.ShapeSpaceModel`,
+degree 3) for the 3- and 5-link swimmers and the local window model (:class:`~geogait.models.AdaptiveGaitModel`)
+for the 9-link swimmer — whichever won on that swimmer in ``studies/ceiling.py`` (README). The optimiser
+searches its default family: the rotation-free symmetric family on these symmetric swimmers.
+
 Why these defaults: sensor noise 0.1 of the signal RMS (with the 0.3 of the accuracy experiment the
 3-link model's Γ saturates near 0.4 and never reaches Γ* = 1/2, so no step would ever be taken);
 perturbation std 0.15 rad as everywhere else.
@@ -23,9 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .._validation import check_float, check_int, fail
+from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import Perturbation
-from ..models import BatchGaitModel
+from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import InSituOptimizer, cached_ceiling
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
 from ..simulate import SwimmerStream
@@ -67,6 +72,9 @@ class OptimizationConfig:
         Measurement noise (fraction of RMS) and perturbation std (rad).
     gamma_threshold : float
         Γ*.
+    model : {"auto", "adaptive", "shape"}
+        Model of the in-situ runs: ``"auto"`` is the shape-space model up to 5 links, the adaptive
+        window model beyond (module docstring).
     seed : int
         Root seed; swimmer i uses ``seed + 1000 i`` so adding a swimmer leaves the others unchanged.
     chunk_size : int
@@ -81,6 +89,7 @@ class OptimizationConfig:
     sensor_noise: float = 0.1
     perturbation: float = 0.15
     gamma_threshold: float = 0.5
+    model: str = "auto"
     seed: int = 0
     chunk_size: int = 1
 
@@ -104,13 +113,22 @@ class OptimizationConfig:
         check_fraction(self.sensor_noise, "sensor_noise", _OWNER)
         check_fraction(self.perturbation, "perturbation", _OWNER)
         check_float(self.gamma_threshold, "gamma_threshold", _OWNER, high=1, high_open=True)
+        check_choice(self.model, "model", _OWNER, ("auto", "adaptive", "shape"))
         check_int(self.seed, "seed", _OWNER, minimum=0)
         check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
         return self
 
 
+def in_situ_model(name: str, n_links: int):
+    """The model of an in-situ run: ``"adaptive"``, ``"shape"`` or ``"auto"`` (shape up to 5 links)."""
+    if name == "shape" or (name == "auto" and n_links <= 5):
+        return ShapeSpaceModel(degree=3)
+    return AdaptiveGaitModel(forgetting_factor=1 - 0.1 / (n_links - 1))
+
+
 def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, method: str, sensor_noise: float,
-                        perturbation: float, gamma_threshold: float, ceiling: float) -> pd.DataFrame:
+                        perturbation: float, gamma_threshold: float, ceiling: float,
+                        model: str = "auto") -> pd.DataFrame:
     """Runner trial function: one in-situ (or batch-method) optimisation per trial.
 
     Returns
@@ -125,7 +143,7 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
     for trial, seed in zip(trial_indices, seeds, strict=True):
         stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                sensor_noise=sensor_noise, seed=seed)
-        optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else None,
+        optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
                                     gamma_threshold=gamma_threshold)
         log = optimizer.run(stream, n_cycles, ceiling=ceiling).log
         params = log[[c for c in log.columns if c.startswith("param_")]].to_numpy()
@@ -166,7 +184,8 @@ def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1,
             if n_trials == 0:
                 continue
             options = dict(n_links=n_links, n_cycles=cycles, method=method, sensor_noise=config.sensor_noise,
-                           perturbation=config.perturbation, gamma_threshold=config.gamma_threshold, ceiling=ceiling)
+                           perturbation=config.perturbation, gamma_threshold=config.gamma_threshold, ceiling=ceiling,
+                           model=config.model)
             frame, seconds, workers = run_sweep(optimization_trials, n_trials, options,
                                                 seed=config.seed + 1000 * index + offset, chunk_size=config.chunk_size,
                                                 jobs=jobs, scheduler=scheduler, progress=progress,

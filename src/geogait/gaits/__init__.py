@@ -2,5 +2,15 @@
 
 from ._fourier import FourierGait, fourier_basis, seed_gait
 from ._perturbation import Perturbation, PerturbationStream
+from ._symmetric import FreeGaitFamily, SymmetricGaitFamily, shift_phase
 
-__all__ = ["FourierGait", "Perturbation", "PerturbationStream", "fourier_basis", "seed_gait"]
+__all__ = [
+    "FourierGait",
+    "FreeGaitFamily",
+    "Perturbation",
+    "PerturbationStream",
+    "SymmetricGaitFamily",
+    "fourier_basis",
+    "seed_gait",
+    "shift_phase",
+]

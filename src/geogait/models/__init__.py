@@ -6,17 +6,23 @@ from ._base import gamma, load_model, model_from_state
 from ._batch import BatchGaitModel
 from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
+from ._perfect import PerfectInformationModel
 from ._phase import PhaseModel
 from ._rls import RLSBank
+from ._shape_space import ShapeSpaceModel, monomial_exponents, monomials
 
 __all__ = [
     "AdaptiveGaitModel",
     "BatchGaitModel",
+    "PerfectInformationModel",
     "PhaseModel",
     "PhaseWindows",
     "RLSBank",
+    "ShapeSpaceModel",
     "gamma",
     "load_model",
+    "monomial_exponents",
+    "monomials",
     "model_from_state",
     "n_regressors",
     "predicted_displacement",

@@ -375,8 +375,9 @@ def model_from_state(metadata: dict, state: dict):
     from ._adaptive import AdaptiveGaitModel
     from ._batch import BatchGaitModel
     from ._phase import PhaseModel
+    from ._shape_space import ShapeSpaceModel
 
-    classes = {c.__name__: c for c in (AdaptiveGaitModel, BatchGaitModel, PhaseModel)}
+    classes = {c.__name__: c for c in (AdaptiveGaitModel, BatchGaitModel, PhaseModel, ShapeSpaceModel)}
     if metadata.get("class") not in classes:
         raise GeogaitError(f"unknown model class {metadata.get('class')!r}.")
     model = classes[metadata["class"]](**metadata["params"])

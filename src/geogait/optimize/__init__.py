@@ -1,18 +1,27 @@
-"""Gait optimisation: the in-situ optimiser (paper Fig. 4), the model-based ceiling and the
-prior-work batch baseline."""
+"""Gait optimisation: the in-situ optimiser (paper Fig. 4), the model-based ceiling, the
+prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._insitu import InSituOptimizer, OptimizationResult
-from ._objective import OBJECTIVES, joint_limit_constraints, objective, path_length
+from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, path_length, rms_speed
+from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
     "OBJECTIVES",
+    "STEP_RULES",
     "Ceiling",
     "InSituOptimizer",
     "OptimizationResult",
+    "Step",
+    "StepProblem",
     "cached_ceiling",
+    "default_objective",
     "joint_limit_constraints",
+    "linear_step",
     "objective",
     "optimize_ceiling",
     "path_length",
+    "rms_speed",
+    "sqp_step",
+    "take_step",
 ]

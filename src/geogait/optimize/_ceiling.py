@@ -13,11 +13,11 @@ import numpy as np
 from scipy.optimize import minimize
 
 from .._files import write_json
-from .._validation import check_float, check_int
-from ..gaits import FourierGait, seed_gait
+from .._validation import check_choice, check_float, check_int
+from ..gaits import FourierGait, SymmetricGaitFamily, seed_gait
 from ..simulate import cycle_displacement
 from ..systems import System
-from ._objective import joint_limit_constraints, objective
+from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, rms_speed
 
 __all__ = ["Ceiling", "cached_ceiling", "optimize_ceiling"]
 
@@ -45,50 +45,60 @@ class Ceiling:
     values: np.ndarray
 
 
-def _solve(system, start: FourierGait, kind: str, limits, resolution: int):
-    def evaluate(params):
-        pose, jacobian = cycle_displacement(system, start.with_params(params), resolution, jacobian=True)
-        value, gradient = objective(kind, pose, jacobian, start.with_params(params))
-        return value, gradient, pose, jacobian
+def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matrix=None):
+    """SLSQP from ``start``; ``matrix`` T maps free parameters q to Fourier parameters p = T q
+    (a rotation-free family: no rotation constraint), identity when None."""
+    to_fourier = np.eye(start.params.size) if matrix is None else matrix
+
+    def evaluate(q):
+        gait = start.with_params(to_fourier @ q)
+        pose, jacobian = cycle_displacement(system, gait, resolution, jacobian=True)
+        value, gradient = objective(kind, pose, jacobian, gait)
+        return value, gradient @ to_fourier, pose, jacobian @ to_fourier
 
     cache = {}
 
-    def cached(params):
-        key = params.tobytes()
+    def cached(q):
+        key = q.tobytes()
         if key not in cache:
             cache.clear()
-            cache[key] = evaluate(params)
+            cache[key] = evaluate(q)
         return cache[key]
 
-    matrix, bound = limits
-    constraints = [
-        {"type": "eq", "fun": lambda p: cached(p)[2][2], "jac": lambda p: cached(p)[3][2]},
-        {"type": "ineq", "fun": lambda p: bound - matrix @ p, "jac": lambda p: -matrix},
-    ]
-    result = minimize(lambda p: -cached(p)[0], start.params, jac=lambda p: -cached(p)[1], method="SLSQP",
+    limit_matrix, bound = limits
+    limit_matrix = limit_matrix @ to_fourier
+    constraints = [{"type": "ineq", "fun": lambda q: bound - limit_matrix @ q, "jac": lambda q: -limit_matrix}]
+    if matrix is None:
+        constraints.append({"type": "eq", "fun": lambda q: cached(q)[2][2], "jac": lambda q: cached(q)[3][2]})
+    start_q = np.linalg.lstsq(to_fourier, start.params, rcond=None)[0]
+    result = minimize(lambda q: -cached(q)[0], start_q, jac=lambda q: -cached(q)[1], method="SLSQP",
                       constraints=constraints, options={"maxiter": 300, "ftol": 1e-12})
-    gait = start.with_params(result.x)
+    gait = start.with_params(to_fourier @ result.x)
     pose = cycle_displacement(system, gait, resolution)
-    feasible = abs(pose[2]) < 1e-6 and np.all(matrix @ result.x <= bound + 1e-9)
-    return gait, (objective(kind, pose, np.zeros((3, result.x.size)), gait)[0] if feasible else -np.inf), pose
+    feasible = abs(pose[2]) < 1e-6 and np.all(limit_matrix @ result.x <= bound + 1e-9)
+    return gait, (objective(kind, pose, np.zeros((3, gait.params.size)), gait)[0] if feasible else -np.inf), pose
 
 
-def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str = "progress",
+def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | None = None,
                      max_joint_angle: float = 2 * np.pi / 3, starts: int = 8, seed: int = 0,
-                     resolution: int = 128) -> Ceiling:
+                     resolution: int = 128, family: str = "free") -> Ceiling:
     """Maximise the objective over Fourier gaits of ``order`` with the true connection.
 
     SLSQP with exact gradients (:func:`~geogait.simulate.cycle_displacement` with
     ``jacobian=True``), the zero-net-rotation equality constraint and the joint limits as linear
     inequalities; multi-start from the paper's seed gait and ``starts - 1`` random gaits within the
-    limits. Returns the best feasible result.
+    limits. Returns the best feasible result; among starts that tie to 1e-6 (``"budget"`` and
+    ``"efficiency"`` do not change when a loop is repeated), the one with the least RMS shape speed.
 
     Parameters
     ----------
     system : System
     order : int
         Fourier order of the gait family.
-    objective_kind : {"progress", "efficiency"}
+    objective_kind : {"progress", "efficiency", "budget"}, optional
+        Default :func:`~geogait.optimize.default_objective` of ``order``: progress per cycle for
+        order 1, progress per unit time at a fixed RMS shape velocity (``"budget"``) for order ≥ 2
+        (progress per cycle would be won by repeating the order-1 loop ``order`` times per cycle).
     max_joint_angle : float
         r_max (rad).
     starts : int
@@ -96,22 +106,36 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str = "p
         Seed of the random starts.
     resolution : int
         Magnus steps per cycle (error ~1e-8 at 128).
+    family : {"free", "symmetric"}
+        ``"symmetric"`` optimises inside the front–back symmetric family
+        (:class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's φ₀), which is rotation-free
+        by construction, with half the parameters; only for chains with that symmetry.
     """
     order = check_int(order, "order", "optimize_ceiling", minimum=1)
     starts = check_int(starts, "starts", "optimize_ceiling", minimum=1)
     r_max = check_float(max_joint_angle, "max_joint_angle", "optimize_ceiling", low=0, high=np.pi, low_open=True)
+    kind = default_objective(order) if objective_kind is None else objective_kind
+    check_choice(kind, "objective_kind", "optimize_ceiling", OBJECTIVES)
+    check_choice(family, "family", "optimize_ceiling", ("free", "symmetric"))
     d = system.n_joints
     limits = joint_limit_constraints(d, order, r_max)
     rng = np.random.default_rng(seed)
-    candidates = [seed_gait(d, amplitude=min(1.0, 0.9 * r_max), order=order)]
+    seed_start = seed_gait(d, amplitude=min(1.0, 0.9 * r_max), order=order)
+    matrix = SymmetricGaitFamily.from_gait(seed_start).matrix if family == "symmetric" else None
+    candidates = [seed_start]
     for _ in range(starts - 1):
         coefficients = 0.5 * rng.normal(size=(d, 2 * order + 1))
         coefficients[:, 0] *= 0.2
+        if matrix is not None:  # project onto the family, then scale into the limits
+            coefficients = (matrix @ np.linalg.lstsq(matrix, coefficients.ravel(), rcond=None)[0]).reshape(d, -1)
         scale = np.abs(coefficients).sum(axis=1).max() / (0.8 * r_max)
         candidates.append(FourierGait(coefficients / max(scale, 1.0)))
-    results = [_solve(system, start, objective_kind, limits, resolution) for start in candidates]
+    results = [_solve(system, start, kind, limits, resolution, matrix) for start in candidates]
     values = np.array([value for _, value, _ in results])
-    best = int(np.argmax(values))
+    # "budget" and "efficiency" are invariant under repeating a loop (θ(φ) → θ(Kφ)); among starts that tie
+    # (within 1e-6), keep the gait with the least RMS shape speed: the single loop, not its repetition.
+    tied = np.nonzero(values >= values.max() - 1e-6 * abs(values.max()))[0]
+    best = int(tied[np.argmin([rms_speed(results[i][0]) for i in tied])])
     gait, value, pose = results[best]
     return Ceiling(gait=gait, value=float(value), displacement=pose, starts=starts, values=values)
 

@@ -10,7 +10,15 @@ poses (the last pose advanced by the last measured body velocity over one sample
 body frame at the start of the cycle. A simulator's truth (``current_system()``) only adds
 ``true_*`` columns to the log.
 
-Step rule (documented choice for the zero-rotation constraint: a *constrained step*). With the
+Gait family (``family``): the free Fourier family of ``order``, or, on chains with front–back
+symmetry, the rotation-free :class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's φ₀
+(half the parameters; every commanded gait has exactly zero net rotation, so the rotation
+constraint below is dropped). Step rule (``step_rule``): ``"linear"`` as below, or ``"sqp"`` — the
+model's own nonlinear predicted objective maximised inside the trust region by SQP
+(:func:`~geogait.optimize.sqp_step`). Both are the standalone functions of
+:mod:`geogait.optimize._steps`.
+
+Linear step rule (documented choice for the zero-rotation constraint: a *constrained step*). With the
 model's predicted net motion :math:`g(p)` at the current gait parameters :math:`p_0`, its objective
 gradient :math:`\nabla f` and rotation row :math:`J_\omega`, the step solves the linearised problem
 
@@ -45,16 +53,16 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize
 
 from .. import __version__, se2
 from .._files import read_state, write_state
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
-from ..gaits import FourierGait
+from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ..models import AdaptiveGaitModel, model_from_state
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ._objective import OBJECTIVES, joint_limit_constraints, objective
+from ._steps import STEP_RULES, StepProblem, take_step
 
 __all__ = ["InSituOptimizer", "OptimizationResult"]
 
@@ -129,7 +137,15 @@ class InSituOptimizer:
         Γ* (default 1/2).
     order : int
         Fourier order of the gait family optimised (the seed is embedded in it).
-    objective : {"progress", "efficiency", "forward"}
+    family : {"auto", "free", "symmetric"}
+        Gait family searched. ``"symmetric"``: the front–back symmetric, rotation-free family about
+        the seed's symmetry phase (the seed must be a member). ``"auto"`` (default): symmetric when
+        the robot declares the symmetry (a truthy ``front_back_symmetric`` attribute, or a simulated
+        :class:`~geogait.systems.PurcellSwimmer` whose link lengths read the same from both ends)
+        and the seed gait is a member; free otherwise.
+    step_rule : {"linear", "sqp"}
+        Trust-region step on the model's prediction (module docstring).
+    objective : {"progress", "efficiency", "forward", "budget"}
         Straight-line progress per cycle, progress per shape-space path length, or signed progress
         along ``direction``; all with zero net rotation.
     direction : array-like of 2 floats, optional
@@ -170,6 +186,7 @@ class InSituOptimizer:
 
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
                  objective: str = "progress", direction=None, direction_frame: str = "world",
+                 family: str = "auto", step_rule: str = "linear",
                  max_joint_angle: float = 2 * np.pi / 3, max_joint_velocity: float | None = None,
                  trust_radius: float = 0.1, min_trust_radius: float = 0.02, max_trust_radius: float = 0.15,
                  rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2, cycles_per_iteration: int = 30,
@@ -183,6 +200,8 @@ class InSituOptimizer:
         self.objective = objective
         self.direction = direction
         self.direction_frame = direction_frame
+        self.family = family
+        self.step_rule = step_rule
         self.max_joint_angle = max_joint_angle
         self.max_joint_velocity = max_joint_velocity
         self.trust_radius = trust_radius
@@ -242,6 +261,8 @@ class InSituOptimizer:
                     or np.hypot(*direction) == 0:
                 raise fail("direction", owner, "a non-zero finite 2-vector or None", self.direction)
         check_choice(self.direction_frame, "direction_frame", owner, ("world", "body"))
+        check_choice(self.family, "family", owner, ("auto", "free", "symmetric"))
+        check_choice(self.step_rule, "step_rule", owner, STEP_RULES)
         check_float(self.max_joint_angle, "max_joint_angle", owner, low=0, high=np.pi, low_open=True)
         if self.max_joint_velocity is not None:
             check_float(self.max_joint_velocity, "max_joint_velocity", owner, low=0, low_open=True)
@@ -305,9 +326,10 @@ class InSituOptimizer:
             if speed > self.max_joint_velocity * (1 + 1e-9):
                 raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
                            f"a gait reaching {speed:.4g} rad/s")
+        family = self._family(robot, gait)
         robot.set_gait(gait)
         state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait, period),
-                       n_cycles=n_cycles, ceiling=ceiling, period=period)
+                       n_cycles=n_cycles, ceiling=ceiling, period=period, family=family)
         return _Loop(self, robot, state, checkpoint, checkpoint_every).run(callback, record)
 
     @classmethod
@@ -342,6 +364,22 @@ class InSituOptimizer:
             robot.set_gait(state.robot_gait)
         loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"])
         return loop.run(callback, record)
+
+    # -- gait family --------------------------------------------------------------------------
+    def _family(self, robot, gait: FourierGait):
+        """The family searched (``family`` parameter): SymmetricGaitFamily about the seed or FreeGaitFamily."""
+        if self.family == "free" or gait.n_joints < 2:
+            if self.family == "symmetric":
+                raise fail("family", "InSituOptimizer.run", "'free' for a robot with one joint", self.family)
+            return FreeGaitFamily(gait.n_joints, self.order)
+        symmetric = SymmetricGaitFamily.from_gait(gait, self.order)
+        member = symmetric.residual(gait) <= 1e-9
+        if self.family == "symmetric":
+            if not member:
+                raise fail("robot", "InSituOptimizer.run", "a seed gait with front-back symmetry for family "
+                           "'symmetric'", f"a gait at distance {symmetric.residual(gait):.3g} from the family")
+            return symmetric
+        return symmetric if member and _declares_symmetry(robot) else FreeGaitFamily(gait.n_joints, self.order)
 
     # -- model --------------------------------------------------------------------------------
     def _model_template(self):
@@ -393,24 +431,26 @@ class InSituOptimizer:
         is (J_ω Δ = 0) instead of chasing it, and is taken only for a predicted gain of at least
         ``min_gain``.
         """
-        gait, limits = state.gait, self._limits(state)
-        pose, pose_jacobian, value, gradient = self._predict(state, gait, jacobian=True)
+        gait, family = state.gait, state.family
+        problem = StepProblem(state.model.predict_displacement, family, objective=self.objective,
+                              limits=self._limits(state), rotation_tolerance=self.rotation_tolerance,
+                              direction=self._direction(state))
+        params = family.params_of(gait, tolerance=1e-8)
+        value, _, pose, _ = problem.evaluate(params)
         state.update_radius(value, self.min_trust_radius, self.max_trust_radius)
         state.last_prediction = value
-        resolution = 2 * state.rotation_std()
-        restores = abs(pose[2]) > max(self.rotation_tolerance, resolution)
-        target = 0.0 if restores else pose[2]
-        direction = _linear_step(gradient, pose[2] - target, pose_jacobian[2], state.radius, limits, gait.params)
-        for _ in range(4):  # backtrack until the model predicts a feasible improvement
-            candidate = self._correct_rotation(state, gait.with_params(gait.params + direction), target)
-            if candidate is not None and np.all(limits[0] @ candidate.params <= limits[1] + 1e-12):
-                new_pose, new_value = self._predict(state, candidate)
-                on_target = abs(new_pose[2] - target) <= self.rotation_tolerance
-                if on_target and (restores or new_value > value * (1 + self.min_gain)):
-                    state.promised = (value, new_value, np.linalg.norm(direction) > 0.9 * state.radius)
-                    self._change_gait(state, candidate)
-                    return True
-            direction = direction / 2
+        restores = False
+        target = 0.0
+        if problem.rotation:
+            resolution = 2 * state.rotation_std()
+            restores = abs(pose[2]) > max(self.rotation_tolerance, resolution)
+            target = 0.0 if restores else pose[2]
+        step = take_step(self.step_rule, problem, params, state.radius, rotation_target=target,
+                         min_gain=self.min_gain, restore=restores)
+        if step.accepted:
+            state.promised = (value, step.predicted_value, step.boundary)
+            self._change_gait(state, step.gait)
+            return True
         if restores:  # the model could not find a feasible restoring step: trust it less far
             state.radius = max(self.min_trust_radius, state.radius / 2)
         return False
@@ -427,19 +467,6 @@ class InSituOptimizer:
         state.iteration += 1
         state.restart_iteration()
         state.settle_left = self.settle_cycles
-
-    def _correct_rotation(self, state, gait, target: float):
-        """Newton steps (minimum-norm) bringing the model's predicted net rotation to ``target``."""
-        for _ in range(3):
-            pose, pose_jacobian = state.model.predict_displacement(gait, jacobian=True)
-            miss = pose[2] - target
-            if abs(miss) <= self.rotation_tolerance / 10:
-                return gait
-            row = pose_jacobian[2]
-            if row @ row == 0:
-                return None
-            gait = gait.with_params(gait.params - miss * row / (row @ row))
-        return gait
 
 
 _DEFAULTS = {p.name: p.default for p in inspect.signature(InSituOptimizer.__init__).parameters.values()
@@ -462,25 +489,22 @@ def _is_numeric(value) -> bool:
     return True
 
 
+def _declares_symmetry(robot) -> bool:
+    """The robot says its chain is front–back symmetric, or simulates a symmetric Purcell swimmer."""
+    from ..systems import PurcellSwimmer
+
+    declared = getattr(robot, "front_back_symmetric", None)
+    if declared is not None:
+        return bool(declared)
+    system = robot.current_system() if hasattr(robot, "current_system") else None
+    if not isinstance(system, PurcellSwimmer):
+        return False
+    lengths = np.asarray(system.link_lengths)
+    return bool(np.allclose(lengths, lengths[::-1]))
+
+
 def _has_online_gamma(model) -> bool:
     return hasattr(model, "reset_gamma") and hasattr(type(model), "gamma_") and hasattr(model, "partial_fit")
-
-
-def _linear_step(gradient, rotation, rotation_row, radius, limits, params):
-    """Solve the linearised trust-region subproblem (module docstring) with SLSQP."""
-    matrix, bound = limits
-    slack = bound - matrix @ params
-    constraints = [
-        {"type": "eq", "fun": lambda d: rotation + rotation_row @ d, "jac": lambda d: rotation_row},
-        {"type": "ineq", "fun": lambda d: radius**2 - d @ d, "jac": lambda d: -2 * d},
-        {"type": "ineq", "fun": lambda d: slack - matrix @ d, "jac": lambda d: -matrix},
-    ]
-    scale = max(np.linalg.norm(gradient), 1e-12)
-    result = minimize(lambda d: -gradient @ d / scale, np.zeros_like(params), jac=lambda d: -gradient / scale,
-                      method="SLSQP", constraints=constraints, options={"maxiter": 100, "ftol": 1e-10})
-    step = result.x
-    norm = np.linalg.norm(step)
-    return step if norm <= radius else step * radius / norm
 
 
 # -- measuring a cycle --------------------------------------------------------------------------
@@ -553,6 +577,7 @@ class _State:
     seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
     rows: list = field(default_factory=list)
     gaits: list = field(default_factory=list)
+    family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
 
     def restart_iteration(self):
         self.cycles_in_iteration = 0
@@ -587,8 +612,11 @@ class _State:
         recent mean squared a-priori error of ω. Only a predicted rotation beyond twice this is
         treated as real and restored. Models without RLS covariances report 0.
         """
+        if hasattr(self.model, "rotation_std"):  # models that know their own error (ShapeSpaceModel)
+            return float(self.model.rotation_std(self.gait, self.residual_variance)) \
+                if np.isfinite(self.residual_variance) else np.inf
         covariance = getattr(self.model, "covariance_", None)
-        if covariance is None:
+        if covariance is None or not hasattr(self.model, "phase_rate"):
             return 0.0
         if not np.isfinite(self.residual_variance):
             return np.inf
@@ -616,6 +644,10 @@ class _State:
     def to_checkpoint(self) -> tuple[dict, dict]:
         metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS}
         metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
+        family = self.family
+        metadata["family"] = {"kind": "symmetric" if isinstance(family, SymmetricGaitFamily) else "free",
+                              "n_joints": family.n_joints, "order": family.order,
+                              "center": float(getattr(family, "center", 0.0))}
         arrays = {"gait": self.gait.coefficients, "robot_gait": self.robot_gait.coefficients,
                   "iteration_measured": np.asarray(self.iteration_measured, dtype=float),
                   "seed_measured": np.asarray(self.seed_measured, dtype=float),
@@ -646,6 +678,9 @@ class _State:
         promised = scalars["promised"]
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
         state.robot_gait = FourierGait(arrays["robot_gait"])
+        family = scalars.get("family") or {"kind": "free", "n_joints": state.gait.n_joints, "order": state.gait.order}
+        state.family = (SymmetricGaitFamily(family["n_joints"], family["order"], family["center"])
+                        if family["kind"] == "symmetric" else FreeGaitFamily(family["n_joints"], family["order"]))
         state.previous_gait = FourierGait(arrays["previous_gait"]) if "previous_gait" in arrays else None
         state.direction = arrays.get("direction")
         state.iteration_measured = arrays["iteration_measured"].tolist()

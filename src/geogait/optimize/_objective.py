@@ -8,6 +8,19 @@ r"""Gait objectives and constraints shared by the in-situ optimiser and the mode
 * ``"forward"``: signed progress along a unit direction :math:`u`, :math:`u^T t` (same rotation
   constraint). Unlike :math:`\|t\|` it tells forward from backward, so a run can never turn
   round; :math:`u` is given in the frame of the pose (the body frame at the start of the cycle).
+* ``"budget"``: progress per unit time when the cycle is run at a fixed RMS shape velocity (a budget
+  on joint speed, or on power with the identity metric). At RMS joint speed 1 the period is
+  :math:`T = 2\pi S` with :math:`S^2 = \frac{1}{2\pi}\oint\|\theta'(\phi)\|^2 d\phi
+  = \frac12\sum_{j,k} k^2 (a_{jk}^2 + b_{jk}^2)` (exact for Fourier gaits), so the objective is
+  :math:`\|t\| / (2\pi S)`, with the same rotation constraint.
+
+Why Fourier order K ≥ 2 needs ``"budget"`` (or ``"efficiency"``): progress per cycle is maximised
+by running the order-1 optimum K times per cycle, θ(Kφ), which moves K times as far per cycle and
+nothing more. Both ``"budget"`` and ``"efficiency"`` are invariant under that repetition (‖t‖, S and
+L all scale by K), so a higher order only wins by a better single loop (a repeated loop ties, and
+:func:`~geogait.optimize.optimize_ceiling` breaks ties towards the least RMS shape speed, i.e. the
+single loop). :func:`default_objective`
+picks ``"progress"`` for K = 1 (the paper's) and ``"budget"`` for K ≥ 2.
 
 Joint limits :math:`|\theta_j(\phi)| \le r_{max}` are linear in the Fourier coefficients at any
 fixed phase, so they are imposed on a phase grid fine enough that the maximum between grid points
@@ -22,9 +35,9 @@ import numpy as np
 from .._validation import check_choice, fail
 from ..gaits import FourierGait, fourier_basis
 
-__all__ = ["OBJECTIVES", "objective", "path_length", "joint_limit_constraints"]
+__all__ = ["OBJECTIVES", "default_objective", "objective", "path_length", "joint_limit_constraints", "rms_speed"]
 
-OBJECTIVES = ("progress", "efficiency", "forward")
+OBJECTIVES = ("progress", "efficiency", "forward", "budget")
 _PATH_NODES = 256
 
 
@@ -43,6 +56,23 @@ def path_length(gait: FourierGait, params=None, jacobian: bool = False):
     return length, gradient
 
 
+def rms_speed(gait: FourierGait, jacobian: bool = False):
+    r"""RMS shape speed per unit phase, :math:`S = (\frac12\sum_{j,k} k^2 (a_{jk}^2 + b_{jk}^2))^{1/2}`
+    (and dS/dp), exact for Fourier gaits."""
+    order = gait.order
+    k2 = np.concatenate([[0.0], np.arange(1, order + 1) ** 2, np.arange(1, order + 1) ** 2]).astype(float)
+    weighted = gait.coefficients * k2  # (d, 2K+1)
+    speed = np.sqrt(0.5 * np.sum(weighted * gait.coefficients))
+    if not jacobian:
+        return speed
+    return speed, (0.5 * weighted / max(speed, 1e-15)).ravel()
+
+
+def default_objective(order: int) -> str:
+    """``"progress"`` for Fourier order 1 (the paper's), ``"budget"`` for K ≥ 2 (see module)."""
+    return "progress" if order == 1 else "budget"
+
+
 def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: FourierGait, direction=None):
     """Objective value and gradient from net pose ``(3,)`` and its Jacobian ``(3, p)``.
 
@@ -57,6 +87,10 @@ def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: Four
     gradient = (pose[0] * pose_jacobian[0] + pose[1] * pose_jacobian[1]) / max(translation, 1e-15)
     if kind == "progress":
         return translation, gradient
+    if kind == "budget":
+        speed, d_speed = rms_speed(gait, jacobian=True)
+        scale = 2 * np.pi * speed
+        return translation / scale, gradient / scale - translation * d_speed / (2 * np.pi * speed**2)
     length, d_length = path_length(gait, jacobian=True)
     return translation / length, gradient / length - translation * d_length / length**2
 

@@ -1,0 +1,249 @@
+r"""Front–back symmetric gaits: a rotation-free family with half the parameters.
+
+A chain whose links are symmetric front to back (the Purcell swimmers with equal links, or any
+link lengths that read the same from both ends) looks the same when its joints are numbered from
+the other end and every joint angle changes sign. Gaits that are unchanged by that relabelling
+combined with a time reversal about a phase :math:`\phi_0`,
+
+.. math:: \theta_{d-1-j}(\phi) = -\theta_j(2\phi_0 - \phi), \qquad j = 0, \dots, d-1,
+
+have **exactly zero net rotation per cycle**: the relabelled chain, run backwards, turns by the
+same angle and, run backwards, by minus it. For a Fourier gait of order K the relation is linear
+in the coefficients. With :math:`c_k = \cos 2k\phi_0`, :math:`s_k = \sin 2k\phi_0` and
+:math:`R_k = \begin{pmatrix} c_k & s_k \\ s_k & -c_k\end{pmatrix}` (the coefficients of
+:math:`\theta(2\phi_0 - \phi)` are those of :math:`\theta(\phi)` mapped by :math:`R_k`),
+
+.. math:: a_{d-1-j,0} = -a_{j0}, \qquad
+   (a_{d-1-j,k}, b_{d-1-j,k}) = -R_k\,(a_{jk}, b_{jk}),
+
+and for odd d the middle joint m = (d − 1)/2 is odd about φ₀:
+:math:`\theta_m(\phi) = \sum_k t_k \sin k(\phi - \phi_0)`. The free parameters are the
+coefficients of the first ⌊d/2⌋ joints and, for odd d, the K middle-joint amplitudes t_k:
+``⌊d/2⌋ (2K + 1) + (d mod 2) K`` of the ``d (2K + 1)`` Fourier coefficients. The map to the
+full Fourier parameters is linear, ``p = T q``, so its Jacobian is the constant matrix T.
+
+The paper's seed gait :math:`\theta_j = a\cos(\phi - j\Delta)` is a member for
+:math:`\phi_0 = ((d-1)\Delta + \pi)/2`; every gait with the symmetry about some φ₀ is a member of
+the family of any other φ₀ after a phase shift, so :meth:`SymmetricGaitFamily.from_gait` picks the
+φ₀ that contains a given gait.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from .._validation import check_array, check_float, check_int, fail
+from ._fourier import FourierGait
+
+__all__ = ["FreeGaitFamily", "SymmetricGaitFamily", "shift_phase"]
+
+
+def shift_phase(gait: FourierGait, shift: float) -> FourierGait:
+    r"""The same loop started ``shift`` later: :math:`\theta^{s}(\phi) = \theta(\phi + s)`.
+
+    Per harmonic the coefficients rotate:
+    :math:`(a_k, b_k) \mapsto (a_k\cos ks + b_k\sin ks,\ b_k\cos ks - a_k\sin ks)`.
+    """
+    if not isinstance(gait, FourierGait):
+        raise fail("gait", "shift_phase", "a FourierGait", type(gait).__name__)
+    shift = check_float(shift, "shift", "shift_phase")
+    order = gait.order
+    k = np.arange(1, order + 1)
+    cos, sin = np.cos(k * shift), np.sin(k * shift)
+    a, b = gait.coefficients[:, 1:1 + order], gait.coefficients[:, 1 + order:]
+    coefficients = gait.coefficients.copy()
+    coefficients[:, 1:1 + order] = a * cos + b * sin
+    coefficients[:, 1 + order:] = b * cos - a * sin
+    return FourierGait(coefficients)
+
+
+def _family_matrix(n_joints: int, order: int, center: float) -> np.ndarray:
+    """The constant map T ``(d (2K+1), n_params)`` from free to Fourier parameters (module docstring)."""
+    width = 2 * order + 1
+    half = n_joints // 2
+    n_params = half * width + (n_joints % 2) * order
+    matrix = np.zeros((n_joints, width, n_params))
+    k = np.arange(1, order + 1)
+    cos, sin = np.cos(2 * k * center), np.sin(2 * k * center)
+    for j in range(half):
+        columns = slice(j * width, (j + 1) * width)
+        matrix[j, :, columns] = np.eye(width)
+        mirror = matrix[n_joints - 1 - j]
+        mirror[0, j * width] = -1.0
+        a_cols, b_cols = j * width + k, j * width + order + k  # free a_jk, b_jk
+        mirror[k, a_cols], mirror[k, b_cols] = -cos, -sin
+        mirror[order + k, a_cols], mirror[order + k, b_cols] = -sin, cos
+    if n_joints % 2:
+        middle, first = matrix[half], half * width
+        middle[k, first + k - 1] = -np.sin(k * center)
+        middle[order + k, first + k - 1] = np.cos(k * center)
+    matrix = matrix.reshape(n_joints * width, n_params)
+    matrix.setflags(write=False)
+    return matrix
+
+
+@dataclass(frozen=True)
+class SymmetricGaitFamily:
+    r"""Fourier gaits with :math:`\theta_{d-1-j}(\phi) = -\theta_j(2\phi_0 - \phi)` (module docstring).
+
+    Zero net rotation per cycle on every front–back symmetric chain, by construction.
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d (≥ 2).
+    order : int
+        Fourier order K (≥ 1).
+    center : float
+        Symmetry phase φ₀ (rad); only φ₀ mod π matters.
+
+    Attributes
+    ----------
+    matrix : ndarray of shape (d (2K + 1), n_params)
+        ∂(Fourier parameters)/∂(free parameters), constant.
+
+    Examples
+    --------
+    >>> from geogait.gaits import seed_gait
+    >>> family = SymmetricGaitFamily.from_gait(seed_gait(2))
+    >>> family.n_params, round(family.center, 6)
+    (3, 2.356194)
+    >>> q = family.params_of(seed_gait(2))
+    >>> bool(np.allclose(family.gait(q).coefficients, seed_gait(2).coefficients))
+    True
+    """
+
+    n_joints: int
+    order: int = 1
+    center: float = 0.0
+    matrix: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        owner = "SymmetricGaitFamily"
+        check_int(self.n_joints, "n_joints", owner, minimum=2)
+        check_int(self.order, "order", owner, minimum=1)
+        center = float(np.mod(check_float(self.center, "center", owner), np.pi))
+        object.__setattr__(self, "center", center)
+        object.__setattr__(self, "matrix", _family_matrix(self.n_joints, self.order, center))
+
+    @property
+    def n_params(self) -> int:
+        """Number of free parameters, ``⌊d/2⌋ (2K + 1) + (d mod 2) K``."""
+        return self.matrix.shape[1]
+
+    def _check_params(self, params, owner: str) -> np.ndarray:
+        params = check_array(params, "params", owner, ndim=1)
+        if params.size != self.n_params:
+            raise fail("params", owner, f"a vector of length {self.n_params}", f"length {params.size}")
+        return params
+
+    def fourier_params(self, params) -> np.ndarray:
+        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``."""
+        return self.matrix @ self._check_params(params, "SymmetricGaitFamily.fourier_params")
+
+    def gait(self, params) -> FourierGait:
+        """The member with free parameters ``params`` ``(n_params,)``."""
+        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
+
+    def residual(self, gait: FourierGait) -> float:
+        """Distance (Euclidean, in Fourier coefficients) from ``gait`` to the family."""
+        params = self._fourier_of(gait, "SymmetricGaitFamily.residual")
+        solution, *_ = np.linalg.lstsq(self.matrix, params, rcond=None)
+        return float(np.linalg.norm(self.matrix @ solution - params))
+
+    def params_of(self, gait: FourierGait, tolerance: float = 1e-9) -> np.ndarray:
+        """Free parameters of a member ``gait``; raises if it is farther than ``tolerance`` from the family."""
+        params = self._fourier_of(gait, "SymmetricGaitFamily.params_of")
+        solution, *_ = np.linalg.lstsq(self.matrix, params, rcond=None)
+        miss = float(np.linalg.norm(self.matrix @ solution - params))
+        if miss > tolerance:
+            raise fail("gait", "SymmetricGaitFamily.params_of",
+                       f"a member of the family (symmetric about φ₀ = {self.center:.6g}; distance <= {tolerance:g})",
+                       f"a gait at distance {miss:.3g}")
+        return solution
+
+    def _fourier_of(self, gait, owner) -> np.ndarray:
+        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
+            raise fail("gait", owner, f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
+        return gait.with_order(self.order).params
+
+    @classmethod
+    def from_gait(cls, gait: FourierGait, order: int | None = None) -> SymmetricGaitFamily:
+        """The family (of ``order``, default the gait's) whose φ₀ brings ``gait`` closest to it.
+
+        A grid over φ₀ ∈ [0, π) brackets the best φ₀, a bounded scalar search refines it; for a
+        member about any φ₀ the result contains ``gait`` to rounding (check with :meth:`residual`).
+        """
+        if not isinstance(gait, FourierGait) or gait.n_joints < 2:
+            raise fail("gait", "SymmetricGaitFamily.from_gait", "a FourierGait with at least 2 joints", gait)
+        order = gait.order if order is None else check_int(order, "order", "SymmetricGaitFamily.from_gait",
+                                                             minimum=max(1, gait.order))
+        target = gait.with_order(order)
+
+        def distance(center):
+            return cls(gait.n_joints, order, center).residual(target)
+
+        grid = np.linspace(0, np.pi, 8 * order * gait.n_joints + 16, endpoint=False)
+        values = np.array([distance(c) for c in grid])
+        best = grid[np.argmin(values)]
+        step = grid[1] - grid[0]
+        result = minimize_scalar(distance, bounds=(best - step, best + step), method="bounded",
+                                 options={"xatol": 1e-12})
+        center = result.x if result.fun <= values.min() else best
+        return cls(gait.n_joints, order, float(center))
+
+
+@dataclass(frozen=True)
+class FreeGaitFamily:
+    """All Fourier gaits of ``order`` on ``n_joints`` joints, with the interface of
+    :class:`SymmetricGaitFamily` (free parameters = Fourier parameters, ``matrix`` = identity).
+
+    Examples
+    --------
+    >>> family = FreeGaitFamily(2, 1)
+    >>> family.n_params, family.gait([0.0, 1.0, 0.0, 0.0, 0.0, 1.0]).shape(0.0).round(6).tolist()
+    (6, [1.0, 0.0])
+    """
+
+    n_joints: int
+    order: int = 1
+    matrix: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        check_int(self.n_joints, "n_joints", "FreeGaitFamily", minimum=1)
+        check_int(self.order, "order", "FreeGaitFamily", minimum=1)
+        matrix = np.eye(self.n_joints * (2 * self.order + 1))
+        matrix.setflags(write=False)
+        object.__setattr__(self, "matrix", matrix)
+
+    @property
+    def n_params(self) -> int:
+        """d (2K + 1)."""
+        return self.matrix.shape[1]
+
+    def fourier_params(self, params) -> np.ndarray:
+        """The parameters themselves (checked)."""
+        params = check_array(params, "params", "FreeGaitFamily.fourier_params", ndim=1)
+        if params.size != self.n_params:
+            raise fail("params", "FreeGaitFamily.fourier_params", f"a vector of length {self.n_params}",
+                       f"length {params.size}")
+        return params.copy()
+
+    def gait(self, params) -> FourierGait:
+        """The gait with flat Fourier parameters ``params``."""
+        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
+
+    def residual(self, gait: FourierGait) -> float:
+        """0 for any gait of this shape dimension and order ≤ K."""
+        self.params_of(gait)
+        return 0.0
+
+    def params_of(self, gait: FourierGait, tolerance: float = 0.0) -> np.ndarray:
+        """``gait`` written in this order."""
+        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
+            raise fail("gait", "FreeGaitFamily.params_of",
+                       f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
+        return gait.with_order(self.order).params

@@ -1,0 +1,412 @@
+r"""A connection model over shape space that keeps what earlier gaits taught.
+
+The local gait models (:class:`AdaptiveGaitModel`, :class:`BatchGaitModel`) expand ξ around one
+nominal gait; every gait change throws most of that information away. This model instead learns
+the local connection itself, :math:`\xi = -A(r)\dot r` (paper eq. 1), as a smooth function of
+shape, from every sample of every gait:
+
+.. math:: \xi_k = \sum_{j=1}^{d}\sum_{l=1}^{m} W_{ljk}\, f_l(r/s)\, \dot r_j
+   = W^T x, \qquad x = f(r/s) \otimes \dot r \in \mathbb{R}^{m d},
+
+with :math:`f` the monomials of total degree ≤ D in the scaled shape :math:`r/s`
+(:math:`m = \binom{d + D}{D}`), so each entry of :math:`-A(r)` is a polynomial of degree D.
+
+Why this basis: (1) the model is *linear in ṙ with no constant term*, exactly the structure of a
+principally kinematic system, so it is rate-independent (no phase rate or time unit enters) and
+cannot learn a drift; (2) polynomials of total degree D are the Taylor expansion of the (analytic)
+connection, so D = 1–2 already captures the curvature the optimiser needs over the ±2 rad a gait
+spans, while D is the one knob that trades bias against the number of weights (``m d``: 20 / 60 /
+360 for D = 2 and d = 2 / 4 / 8); (3) the regressor is linear in the weights, so recursive least
+squares gives the exact least-squares fit of all data seen, with no phase windows and no nominal
+gait: the model of a gait far from the current one is available without a rebase. A tensor-product
+or spline basis has far more weights for the same smoothness in d = 8.
+
+Learning is one RLS filter (:class:`RLSBank` with a single "window") per trial, forgetting λ per
+sample, covariance symmetric and bounded by the bank's trace clamp. The net motion per cycle of a
+candidate gait integrates :math:`\hat\xi(\phi) = W^T (f(\theta(\phi)/s) \otimes \theta'(\phi))`
+with the project's fourth-order Magnus integrator; its Jacobian with respect to the gait's Fourier
+parameters is exact (chain rule through the monomials and the Magnus steps).
+
+Confidence Γ (eq. 6) is computed online from a-priori errors against a phase model ξ_T learned
+alongside, exactly as for the local models.
+"""
+
+from __future__ import annotations
+
+import inspect
+import itertools
+
+import numpy as np
+from scipy.signal import lfilter
+
+from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from ..gaits import FourierGait
+from ..simulate._oracle import gauss_phases, integrate_cycle
+from ._base import gamma
+from ._phase import PhaseModel
+from ._rls import RLSBank
+
+__all__ = ["ShapeSpaceModel", "monomial_exponents", "monomials"]
+
+
+class _Parameters:
+    """scikit-learn's ``get_params`` / ``set_params`` / ``repr`` over keyword-only ``__init__`` arguments."""
+
+    @classmethod
+    def _param_names(cls) -> list[str]:
+        signature = inspect.signature(cls.__init__)
+        return [p.name for p in signature.parameters.values() if p.kind == p.KEYWORD_ONLY]
+
+    def get_params(self, deep: bool = True) -> dict:
+        """Hyper-parameters, as given to ``__init__``."""
+        return {name: getattr(self, name) for name in self._param_names()}
+
+    def set_params(self, **params):
+        """Set hyper-parameters (takes effect at the next ``fit``); returns ``self``."""
+        for name, value in params.items():
+            if name not in self._param_names():
+                raise fail(name, type(self).__name__, "one of " + ", ".join(self._param_names()), name)
+            setattr(self, name, value)
+        return self
+
+    def __repr__(self):
+        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}({params})"
+
+
+def monomial_exponents(n_joints: int, degree: int) -> np.ndarray:
+    """Exponents ``(m, d)`` of the monomials of total degree ≤ ``degree`` in d variables, graded."""
+    rows = [np.zeros(n_joints, dtype=np.int64)]
+    for total in range(1, degree + 1):
+        for combination in itertools.combinations_with_replacement(range(n_joints), total):
+            rows.append(np.bincount(combination, minlength=n_joints))
+    return np.array(rows)
+
+
+def monomials(shape, exponents: np.ndarray, derivative: bool = False):
+    r"""Monomials :math:`f_l(r) = \prod_i r_i^{E_{li}}` of shapes ``(..., d)`` → ``(..., m)``.
+
+    With ``derivative``, also :math:`\partial f_l/\partial r_i` ``(..., m, d)`` (products of the other
+    factors by prefix and suffix cumulative products: exact, no division).
+    """
+    shape = np.asarray(shape, dtype=float)
+    d = shape.shape[-1]
+    top = int(exponents.max()) if exponents.size else 0
+    powers = shape[..., :, None] ** np.arange(top + 1)  # (..., d, D+1)
+    joints = np.arange(d)
+    factors = powers[..., joints, exponents]  # (..., m, d)
+    values = np.prod(factors, axis=-1)
+    if not derivative:
+        return values
+    d_factors = exponents * powers[..., joints, np.maximum(exponents - 1, 0)]
+    ones = np.ones(factors.shape[:-1] + (1,))
+    before = np.concatenate([ones, np.cumprod(factors, axis=-1)[..., :-1]], axis=-1)
+    after = np.concatenate([np.cumprod(factors[..., ::-1], axis=-1)[..., -2::-1], ones], axis=-1)
+    return values, d_factors * before * after
+
+
+class ShapeSpaceModel(_Parameters):
+    r"""Polynomial connection model :math:`\hat\xi = W^T (f(r/s) \otimes \dot r)`, learned by RLS (module).
+
+    Parameters
+    ----------
+    degree : int >= 0
+        Total degree D of the polynomial entries of A(r).
+    shape_scale : float > 0
+        s: the monomials are of r / s (conditioning only; s ≈ the largest joint angle is best).
+    forgetting_factor : float in (0, 1]
+        λ per sample; memory ≈ 1 / (1 − λ) samples. 1 keeps everything (exact least squares).
+    initial_covariance : float > 0
+        δ₀: P starts at δ₀·I (a ridge prior 1/δ₀ on W); the trace clamp keeps trace P ≤ m d δ₀.
+    gamma_forgetting : float in (0, 1]
+        λ_Γ of the online Γ (eq. 6).
+    n_windows, smoothing_order : int
+        Phase windows and smoothing of the phase model ξ_T (the Γ baseline).
+    baseline_forgetting : float in (0, 1]
+        Forgetting of the phase model, per window update.
+    resolution : int
+        Magnus steps per cycle in :meth:`predict_displacement`.
+
+    Attributes
+    ----------
+    exponents_ : ndarray of shape (m, d)
+    weights_ : ndarray of shape batch + (m, d, 3)
+        :math:`W_{ljk}`; :meth:`connection` gives A(r).
+    covariance_ : ndarray of shape batch + (m d, m d)
+    phase_model_ : PhaseModel
+    gamma_ : float or ndarray of shape batch
+        Online Γ after the last sample (eq. 6).
+    prior_prediction_ : ndarray of shape batch + (n, 3)
+        A-priori predictions of the samples of the last ``partial_fit`` call.
+    n_joints_ : int
+    batch_shape_ : tuple
+    n_samples_seen_ : int
+
+    Examples
+    --------
+    >>> from geogait.systems import PurcellSwimmer
+    >>> from geogait.gaits import seed_gait
+    >>> from geogait.simulate import simulate, cycle_displacement
+    >>> swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    >>> run = simulate(swimmer, gait, n_cycles=10, seed=0)
+    >>> model = ShapeSpaceModel(degree=3).fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    >>> error = model.predict_displacement(gait) - cycle_displacement(swimmer, gait)
+    >>> bool(np.abs(error).max() < 3e-3)  # net motion ≈ 0.05 per cycle
+    True
+    """
+
+    def __init__(self, *, degree: int = 2, shape_scale: float = 1.0, forgetting_factor: float = 0.999,
+                 initial_covariance: float = 100.0, gamma_forgetting: float = 0.995, n_windows: int = 20,
+                 smoothing_order: int = 5, baseline_forgetting: float = 0.99, resolution: int = 128):
+        self.degree = degree
+        self.shape_scale = shape_scale
+        self.forgetting_factor = forgetting_factor
+        self.initial_covariance = initial_covariance
+        self.gamma_forgetting = gamma_forgetting
+        self.n_windows = n_windows
+        self.smoothing_order = smoothing_order
+        self.baseline_forgetting = baseline_forgetting
+        self.resolution = resolution
+
+    # -- validation ---------------------------------------------------------------------------
+    def _validate(self):
+        owner = type(self).__name__
+        check_int(self.degree, "degree", owner, minimum=0)
+        check_float(self.shape_scale, "shape_scale", owner, low=0, low_open=True)
+        lam = check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
+        delta0 = check_float(self.initial_covariance, "initial_covariance", owner, low=0, low_open=True)
+        check_float(self.gamma_forgetting, "gamma_forgetting", owner, low=0, high=1, low_open=True)
+        check_float(self.baseline_forgetting, "baseline_forgetting", owner, low=0, high=1, low_open=True)
+        check_int(self.resolution, "resolution", owner, minimum=4)
+        return lam, delta0
+
+    def _check_is_fitted(self):
+        if not hasattr(self, "batch_shape_"):
+            raise GeogaitError(f"This {type(self).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
+
+    def _check_samples(self, owner, phase, *arrays, names):
+        phase = check_array(phase, "phase", owner, min_ndim=1)
+        out = [phase]
+        for array, name in zip(arrays, names, strict=True):
+            value = check_array(array, name, owner, trailing=(3 if name == "body_velocity" else None,))
+            if value.shape[:-1] != phase.shape:
+                raise fail(name, owner, f"an array of shape {phase.shape + (value.shape[-1],)} matching 'phase'",
+                           f"shape {value.shape}")
+            out.append(value)
+        d = getattr(self, "n_joints_", None)
+        for value, name in zip(out[1:], names, strict=True):
+            if name != "body_velocity" and d is not None and value.shape[-1] != d:
+                raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
+                           f"shape {value.shape}")
+        batch = getattr(self, "batch_shape_", None)
+        if batch is not None and phase.shape[:-1] != batch:
+            raise fail("phase", owner, f"batched like the data seen so far, shape {batch} + (n,)",
+                       f"shape {phase.shape}")
+        return out
+
+    # -- fitting ------------------------------------------------------------------------------
+    def _reset(self, batch: tuple, n_joints: int):
+        lam, delta0 = self._validate()
+        self.exponents_ = monomial_exponents(n_joints, self.degree)
+        self.n_joints_ = n_joints
+        self.batch_shape_ = batch
+        self.bank_ = RLSBank(batch, 1, len(self.exponents_) * n_joints, 3, lam, delta0)
+        self.phase_model_ = PhaseModel(n_windows=self.n_windows, forgetting_factor=self.baseline_forgetting,
+                                       smoothing_order=self.smoothing_order)
+        self.phase_model_._reset(batch)
+        self.psi_ = np.zeros(batch + (2,))
+        self.n_samples_seen_ = 0
+
+    def _features(self, shape, shape_velocity) -> np.ndarray:
+        """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
+        f = monomials(shape / self.shape_scale, self.exponents_)
+        return (f[..., :, None] * shape_velocity[..., None, :]).reshape(f.shape[:-1] + (-1,))
+
+    def fit(self, phase, shape, shape_velocity, body_velocity):
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
+        for name in ("batch_shape_", "n_joints_"):
+            self.__dict__.pop(name, None)
+        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+
+    def partial_fit(self, phase, shape, shape_velocity, body_velocity):
+        """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+        shape, shape_velocity : array-like of shape batch + (n, d)
+        body_velocity : array-like of shape batch + (n, 3)
+
+        Returns
+        -------
+        self
+        """
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            f"{type(self).__name__}.partial_fit", phase, shape, shape_velocity, body_velocity,
+            names=("shape", "shape_velocity", "body_velocity"))
+        if not hasattr(self, "batch_shape_"):
+            self._reset(phase.shape[:-1], shape.shape[-1])
+        x = self._features(shape, shape_velocity)  # batch + (n, m d)
+        valid = np.ones(self.batch_shape_ + (1,), dtype=bool)
+        prior = np.empty(body_velocity.shape)
+        for i in range(phase.shape[-1]):  # RLS is sequential in time; each step is vectorised over trials
+            prior[..., i, :] = self.bank_.update(x[..., i, None, :], body_velocity[..., i, None, :], valid)[..., 0, :]
+        baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
+        self._update_gamma(prior, baseline, body_velocity)
+        self.prior_prediction_ = prior
+        self.n_samples_seen_ += phase.shape[-1]
+        return self
+
+    def _update_gamma(self, prior, baseline, body_velocity):
+        """ψ ← λ_Γ ψ + ‖error‖ per sample for model and baseline (eq. 6), as a linear filter."""
+        errors = np.stack([np.linalg.norm(prior - body_velocity, axis=-1),
+                           np.linalg.norm(baseline - body_velocity, axis=-1)], axis=-2)  # batch + (2, n)
+        lam = self.gamma_forgetting
+        psi, _ = lfilter([1.0], [1.0, -lam], errors, axis=-1, zi=lam * self.psi_[..., None])
+        self.psi_ = psi[..., -1]
+
+    @property
+    def gamma_(self):
+        """Online Γ = 1 − ψ_D / ψ_T after the last sample (eq. 6)."""
+        self._check_is_fitted()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            value = np.where(self.psi_[..., 1] > 0, 1 - self.psi_[..., 0] / self.psi_[..., 1], 0.0)
+        return float(value) if value.ndim == 0 else value
+
+    def reset_gamma(self):
+        """Restart the online Γ accumulators; returns ``self``."""
+        self._check_is_fitted()
+        self.psi_ = np.zeros_like(self.psi_)
+        return self
+
+    def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
+        """A new nominal gait: the connection model needs no re-centring (it has no nominal gait).
+
+        Only the phase model ξ_T, whose phase average belonged to the old gait, starts afresh
+        (``baseline="reset"``) or is kept (``"keep"``); other keyword options of the local models'
+        rebase (``terms``, ``covariance_inflation`` ...) are accepted and ignored. Returns ``self``.
+        """
+        self._check_is_fitted()
+        if baseline not in ("reset", "keep"):
+            raise fail("baseline", f"{type(self).__name__}.rebase", "one of 'reset', 'keep'", baseline)
+        if baseline == "reset":
+            self.phase_model_._reset(self.batch_shape_)
+        return self
+
+    def rotation_std(self, gait: FourierGait, residual_variance) -> np.ndarray:
+        r"""Standard error of the predicted net rotation per cycle of ``gait``.
+
+        The heading of the Magnus integration is exactly linear in the weights (the ω-component
+        of an se(2) bracket vanishes): :math:`\hat\theta_{net} = g^T W_{\cdot\omega}` with
+        :math:`g = \frac h2 \sum_{n,\pm} f(\theta/s) \otimes \theta'` over the Gauss nodes. With the
+        RLS covariance P and the residual variance σ²_ω of ω the standard error is
+        :math:`\sigma_\omega \sqrt{g^T P g}`.
+        """
+        self._check_is_fitted()
+        nodes, step = gauss_phases(self.resolution)
+        g = self._features(gait.shape(nodes), gait.velocity(nodes)).sum(axis=(0, 1)) * step / 2
+        spread = np.einsum("i,...ij,j->...", g, self.covariance_, g)
+        return np.sqrt(residual_variance * spread)
+
+    @property
+    def weights_(self) -> np.ndarray:
+        self._check_is_fitted()
+        return self.bank_.weights[..., 0, :, :].reshape(self.batch_shape_ + (len(self.exponents_), self.n_joints_, 3))
+
+    @property
+    def covariance_(self) -> np.ndarray:
+        self._check_is_fitted()
+        return self.bank_.covariance[..., 0, :, :]
+
+    # -- persistence --------------------------------------------------------------------------
+    def get_state(self) -> tuple[dict, dict]:
+        """Learned state as ``(metadata, arrays)`` (the format of the gait models' files and of
+        optimiser checkpoints); :func:`~geogait.models.model_from_state` is the inverse."""
+        from ._base import FORMAT, FORMAT_VERSION
+
+        self._check_is_fitted()
+        metadata = {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
+                    "params": self.get_params(), "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
+        arrays = {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
+                  "n_updates": self.bank_.n_updates, "psi": self.psi_, "n_samples_seen": self.n_samples_seen_,
+                  **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+        return metadata, arrays
+
+    def _set_state(self, state: dict, metadata: dict) -> None:
+        from ._phase import _assign_bank
+
+        self._reset(tuple(metadata["batch_shape"]), int(metadata["n_joints"]))
+        _assign_bank(self.bank_, state)
+        psi = np.asarray(state["psi"], dtype=float)
+        if psi.shape != self.psi_.shape:
+            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
+        self.psi_ = psi
+        self.n_samples_seen_ = int(state["n_samples_seen"])
+        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_._set_state(own, {"batch_shape": list(self.batch_shape_)})
+
+    # -- prediction ---------------------------------------------------------------------------
+    def connection(self, shape) -> np.ndarray:
+        """The learned local connection A(r) at shapes ``(..., d)`` → batch + (..., 3, d), ξ = −A ṙ."""
+        self._check_is_fitted()
+        shape = check_array(shape, "shape", f"{type(self).__name__}.connection", trailing=(self.n_joints_,))
+        f = monomials(shape / self.shape_scale, self.exponents_)
+        batch = "".join("abcdefg"[:len(self.batch_shape_)])
+        return -np.einsum(f"...l,{batch}ljk->{batch}...kj", f, self.weights_)
+
+    def predict(self, phase, shape, shape_velocity) -> np.ndarray:
+        """Predicted body velocity ξ̂ = Wᵀ(f(r/s) ⊗ ṙ) of samples batch + (n, d) → batch + (n, 3)
+        (``phase`` is accepted for the common interface and only checked)."""
+        self._check_is_fitted()
+        _, shape, shape_velocity = self._check_samples(f"{type(self).__name__}.predict", phase, shape,
+                                                       shape_velocity, names=("shape", "shape_velocity"))
+        weights = self.bank_.weights[..., 0, :, :]
+        return np.einsum("...ni,...ij->...nj", self._features(shape, shape_velocity), weights)
+
+    def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
+        """Γ on held-out samples (eq. 5) against ``baseline`` (default the phase model learned alongside)."""
+        self._check_is_fitted()
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            f"{type(self).__name__}.score", phase, shape, shape_velocity, body_velocity,
+            names=("shape", "shape_velocity", "body_velocity"))
+        baseline = self.phase_model_ if baseline is None else baseline
+        model_error = np.linalg.norm(self.predict(phase, shape, shape_velocity) - body_velocity, axis=-1)
+        baseline_error = np.linalg.norm(baseline.predict(phase) - body_velocity, axis=-1)
+        value = gamma(model_error, baseline_error)
+        return float(value) if np.ndim(value) == 0 else value
+
+    def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
+        r"""Net ``(x, y, heading)`` per cycle of ``gait`` under the learned connection.
+
+        Integrates :math:`\hat\xi(\phi) = \sum_{l,j} W_{lj\cdot} f_l(\theta(\phi)/s)\,\theta_j'(\phi)` over one
+        cycle with the fourth-order Magnus method. With ``jacobian``, also the exact derivative
+        with respect to ``gait.params``: with basis :math:`b_c(\phi)` of joint i's coefficients,
+
+        .. math:: \frac{\partial\hat\xi_k}{\partial c_{ic}} = U_{ki}\, b_c + V_{ki}\, b_c',\quad
+           U_{ki} = \sum_{l,j} W_{ljk}\, \frac{\partial f_l}{\partial r_i}\frac{\theta_j'}{s},\quad
+           V_{ki} = \sum_l W_{lik} f_l.
+
+        Returns
+        -------
+        pose : ndarray of shape batch + (3,)
+        jacobian : ndarray of shape batch + (3, p), only when ``jacobian``.
+        """
+        self._check_is_fitted()
+        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints_:
+            raise fail("gait", f"{type(self).__name__}.predict_displacement",
+                       f"a FourierGait with {self.n_joints_} joints", gait)
+        nodes, step = gauss_phases(self.resolution)
+        shape, rate = gait.shape(nodes), gait.velocity(nodes)  # (n, 2, d)
+        weights = self.weights_  # batch + (m, d, 3)
+        if not jacobian:
+            f = monomials(shape / self.shape_scale, self.exponents_)
+            velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
+            return integrate_cycle(velocity, step)
+        f, df = monomials(shape / self.shape_scale, self.exponents_, derivative=True)  # (n,2,m), (n,2,m,d)
+        velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
+        u = np.einsum("npli,npj,...ljk->...npki", df, rate, weights) / self.shape_scale  # batch+(n,2,3,d)
+        v = np.einsum("npl,...lik->...npki", f, weights)
+        basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
+        velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
+        velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
+        return integrate_cycle(velocity, step, velocity_jacobian)

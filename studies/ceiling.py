@@ -1,0 +1,91 @@
+"""Study behind issue 10's defaults: gait family, step rule and model, in the same seeded runs.
+
+For each configuration, ``TRIALS`` in-situ optimisations of the ``LINKS``-link swimmer (sensor noise
+0.1 × RMS, perturbation 0.15 rad, seed gait, ``CYCLES`` cycles; trial i uses stream seed i in every
+configuration). Prints per configuration: the median [25–75 %] true fraction of the (free-family,
+zero-rotation) ceiling after each checkpoint cycle, the share of trials at 90 % within 30 cycles,
+the median over trials of the largest |net rotation| of any commanded gait, and — for runs whose
+gaits rotate — the final fraction "with rotation removed": the mean progress per cycle over 10
+repetitions of the final gait, :math:`\\|t\\|\\,\\sin(5\\omega) / (10 \\sin(\\omega/2))`, which is
+what a rotating gait actually gains along a straight line (equal to ‖t‖ at ω = 0).
+
+    python studies/ceiling.py LINKS CYCLES TRIALS [CONFIG ...] [--jobs 1] [--checkpoints 30 40 60 200]
+
+CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sqp, shape-linear,
+shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), perfect-linear, perfect-sqp (true
+connection, trust radius up to 0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5).
+"""
+
+import argparse
+import time
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from geogait.gaits import seed_gait
+from geogait.models import PerfectInformationModel, ShapeSpaceModel
+from geogait.optimize import InSituOptimizer, cached_ceiling
+from geogait.simulate import SwimmerStream
+from geogait.systems import PurcellSwimmer
+
+CONFIGS = ("free-linear", "symmetric-linear", "symmetric-sqp", "shape-linear", "shape-sqp", "perfect-linear",
+           "perfect-sqp")
+
+
+def optimizer(name, links):
+    name, _, radius = name.partition("@")
+    model, rule = name.split("-")
+    options = {"step_rule": rule, "family": "free" if model == "free" else "symmetric"}
+    if radius:
+        options["max_trust_radius"] = float(radius)
+    if model == "shape":
+        options["model"] = ShapeSpaceModel(degree=3 if links < 9 else 2)
+    if model == "perfect":
+        options.update(model=PerfectInformationModel(system=PurcellSwimmer(links)), max_trust_radius=0.5)
+    return InSituOptimizer(**options)
+
+
+def one(links, cycles, name, seed, ceiling):
+    start = time.perf_counter()
+    stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=0.1, seed=seed)
+    log = optimizer(name, links).run(stream, cycles, ceiling=ceiling).log
+    fraction = log["ceiling_fraction"].to_numpy()
+    omega = log["true_heading"].to_numpy()[-1]
+    repeated = np.sin(5 * omega) / (10 * np.sin(omega / 2)) if abs(omega) > 1e-12 else 1.0
+    first = int(np.argmax(fraction >= 0.9)) if (fraction >= 0.9).any() else 999
+    return fraction, float(np.abs(log["true_heading"]).max()), first, fraction[-1] * repeated, \
+        time.perf_counter() - start
+
+
+def main(links, cycles, trials, names, jobs, checkpoints):
+    ceiling = cached_ceiling(PurcellSwimmer(links)).value
+    checkpoints = [c for c in checkpoints if c <= cycles]
+    print(f"{links}-link, {cycles} cycles, {trials} trials; fraction of the ceiling median [25-75 %] at cycles "
+          f"{checkpoints}", flush=True)
+    for name in names:
+        start = time.perf_counter()
+        runs = Parallel(n_jobs=jobs)(delayed(one)(links, cycles, name, s, ceiling) for s in range(trials))
+        fractions = np.array([r[0] for r in runs])
+        cells = []
+        for c in checkpoints:
+            q = np.percentile(fractions[:, c - 1], [25, 50, 75])
+            cells.append(f"@{c}: {q[1]:.3f} [{q[0]:.3f}-{q[2]:.3f}]")
+        rotation = np.median([r[1] for r in runs])
+        within = np.mean([r[2] < 30 for r in runs])
+        removed = np.median([r[3] for r in runs])
+        print(f"{name:17s} " + "  ".join(cells) + f" | ≥90 % by 30: {within:.2f} | max|rot| median {rotation:.1e}"
+              f" | final, rotation removed {removed:.3f} | {np.mean([r[4] for r in runs]):.1f} s/trial, "
+              f"{time.perf_counter() - start:.0f} s", flush=True)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("links", type=int)
+    parser.add_argument("cycles", type=int)
+    parser.add_argument("trials", type=int)
+    parser.add_argument("configs", nargs="*", default=list(CONFIGS))
+    parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--checkpoints", type=int, nargs="+", default=[30, 40, 60, 200])
+    arguments = parser.parse_args()
+    main(arguments.links, arguments.cycles, arguments.trials, arguments.configs, arguments.jobs,
+         arguments.checkpoints)

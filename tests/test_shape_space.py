@@ -1,0 +1,154 @@
+"""The shape-space connection model and the perfect-information model (the optimiser's model interface)."""
+
+import numpy as np
+import pytest
+
+from geogait.gaits import FourierGait, Perturbation, seed_gait
+from geogait.models import (
+    AdaptiveGaitModel,
+    PerfectInformationModel,
+    ShapeSpaceModel,
+    monomial_exponents,
+    monomials,
+    predicted_displacement,
+)
+from geogait.simulate import cycle_displacement, simulate
+from geogait.systems import FunctionSystem, PurcellSwimmer
+
+
+def polynomial_connection(shape):
+    """A(r) with entries of degree ≤ 2 in (r₀, r₁)."""
+    x, y = shape[..., 0], shape[..., 1]
+    rows = [[0.1 * x + 0.2 * y * y, 0.3 - 0.1 * x * y], [0.05 + x * x, 0.2 * y], [-0.3 + 0.1 * y, 0.3 + 0.2 * x]]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def samples(run):
+    return run.phase, run.shape, run.shape_velocity, run.body_velocity
+
+
+def test_monomials_and_their_derivatives(rng):
+    exponents = monomial_exponents(3, 3)
+    assert exponents.shape == (20, 3) and exponents.sum(axis=1).max() == 3  # C(3 + 3, 3) monomials
+    shape = rng.normal(size=(4, 3))
+    values, derivative = monomials(shape, exponents, derivative=True)
+    np.testing.assert_allclose(values, np.prod(shape[:, None, :] ** exponents, axis=-1))
+    step = 1e-6 * np.eye(3)
+    numeric = np.stack([(monomials(shape + s, exponents) - monomials(shape - s, exponents)) / 2e-6 for s in step], -1)
+    np.testing.assert_allclose(derivative, numeric, atol=1e-8)
+
+
+def test_recovers_a_polynomial_connection_exactly():
+    system = FunctionSystem(polynomial_connection, n_joints=2)
+    run = simulate(system, seed_gait(2), n_cycles=5, perturbation=Perturbation.from_std(0.3), seed=1)
+    model = ShapeSpaceModel(degree=2, forgetting_factor=1.0, initial_covariance=1e8).fit(*samples(run))
+    shapes = np.random.default_rng(3).normal(size=(7, 2))
+    np.testing.assert_allclose(model.connection(shapes), polynomial_connection(shapes), atol=1e-8)
+    np.testing.assert_allclose(model.predict_displacement(seed_gait(2)), cycle_displacement(system, seed_gait(2)),
+                               atol=1e-8)
+    assert model.gamma_ > 0.99 and model.score(*samples(run)) > 0.99
+
+
+def test_displacement_jacobian_matches_finite_differences(rng):
+    run = simulate(PurcellSwimmer(4), seed_gait(3), n_cycles=3, perturbation=Perturbation.from_std(0.2), seed=0)
+    model = ShapeSpaceModel(degree=2, shape_scale=2.0).fit(*samples(run))
+    gait = FourierGait(seed_gait(3, order=2).coefficients + rng.normal(scale=0.2, size=(3, 5)))
+    _, jacobian = model.predict_displacement(gait, jacobian=True)
+    numeric = np.stack([(model.predict_displacement(gait.with_params(gait.params + e))
+                         - model.predict_displacement(gait.with_params(gait.params - e))) / 2e-6
+                        for e in 1e-6 * np.eye(gait.params.size)], axis=-1)
+    np.testing.assert_allclose(jacobian, numeric, atol=1e-7)
+
+
+def test_batched_trials_equal_separate_models():
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, seed=[0, 1], sensor_noise=0.1)
+    batched = ShapeSpaceModel(degree=2).fit(*samples(run))
+    for trial in range(2):
+        single = ShapeSpaceModel(degree=2).fit(*(array[trial] for array in samples(run)))
+        np.testing.assert_allclose(batched.weights_[trial], single.weights_, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(batched.gamma_[trial], single.gamma_, rtol=1e-10)
+        np.testing.assert_allclose(batched.predict_displacement(seed_gait(2))[trial],
+                                   single.predict_displacement(seed_gait(2)), atol=1e-12)
+
+
+def test_streaming_equals_one_batch_and_covariance_stays_bounded():
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=3, seed=2, sensor_noise=0.1)
+    whole = ShapeSpaceModel(degree=3, forgetting_factor=0.9).fit(*samples(run))
+    parts = ShapeSpaceModel(degree=3, forgetting_factor=0.9)
+    for start in range(0, 300, 70):
+        parts.partial_fit(*(array[start:start + 70] for array in samples(run)))
+    np.testing.assert_allclose(parts.weights_, whole.weights_, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(parts.gamma_, whole.gamma_, rtol=1e-12)
+    covariance = whole.covariance_
+    np.testing.assert_array_equal(covariance, covariance.T)
+    assert np.linalg.eigvalsh(covariance).min() > 0  # λ = 0.9 with poor excitation: SPD, trace clamped
+    assert np.trace(covariance) <= covariance.shape[0] * whole.initial_covariance * (1 + 1e-12)
+
+
+def test_far_gaits_are_predicted_better_than_by_the_local_model():
+    """Trained on two gaits, the shape-space model predicts gaits far from both 2-4× better than the window
+    model (rebased onto the second gait, whose local expansion is all it keeps)."""
+    swimmer = PurcellSwimmer(3)
+    trained = [seed_gait(2), FourierGait(np.array([[0.3, 1.2, 0.0], [-0.2, 0.0, 0.8]]))]
+    far = [FourierGait(np.array([[0.0, 1.2, 0.0], [0.0, 0.6, 1.0]])), FourierGait(np.array([[0.4, 1, 0], [0.4, 0, 1]]))]
+    for trial in range(2):
+        shape_space = ShapeSpaceModel(degree=3, forgetting_factor=1.0)
+        local = AdaptiveGaitModel(gait=trained[0], forgetting_factor=0.95)
+        for i, gait in enumerate(trained):
+            run = simulate(swimmer, gait, n_cycles=10, perturbation=Perturbation.from_std(0.15), sensor_noise=0.1,
+                           seed=[trial, i])
+            if i:
+                local.rebase(gait, terms="all")
+            local.partial_fit(*samples(run))
+            shape_space.partial_fit(*samples(run))
+        for gait in far:
+            truth = cycle_displacement(swimmer, gait)
+            error = np.linalg.norm(shape_space.predict_displacement(gait) - truth)
+            assert error < 0.6 * np.linalg.norm(predicted_displacement(local, gait) - truth)
+
+
+def test_model_interface_of_the_optimiser():
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, seed=0, sensor_noise=0.1)
+    model = ShapeSpaceModel(degree=1)
+    assert model.partial_fit(*samples(run)) is model
+    assert model.get_params()["degree"] == 1 and model.set_params(degree=2) is model and model.degree == 2
+    with pytest.raises(ValueError, match="'smoothness' parameter of ShapeSpaceModel"):
+        model.set_params(smoothness=1)
+    before = model.weights_.copy()
+    assert model.rebase(FourierGait(seed_gait(2).coefficients * 1.2), terms="all", covariance_inflation=2.0) is model
+    np.testing.assert_array_equal(model.weights_, before)  # nothing to re-centre
+    assert model.reset_gamma().gamma_ == 0.0
+    with pytest.raises(ValueError, match="'degree' parameter of ShapeSpaceModel must be an int >= 0"):
+        ShapeSpaceModel(degree=-1).fit(*samples(run))
+    with pytest.raises(ValueError, match="'shape' parameter of ShapeSpaceModel.partial_fit"):
+        model.partial_fit(run.phase, run.shape[:, :1], run.shape_velocity, run.body_velocity)
+
+
+def test_perfect_information_model_is_the_oracle():
+    swimmer = PurcellSwimmer(4)
+    model = PerfectInformationModel(system=swimmer)
+    run = simulate(swimmer, seed_gait(3), n_cycles=1, seed=0)
+    assert model.partial_fit(*samples(run)) is model and model.gamma_ == 1.0 and model.reset_gamma() is model
+    gait = seed_gait(3)
+    pose, jacobian = model.predict_displacement(gait, jacobian=True)
+    expected = cycle_displacement(swimmer, gait, resolution=128, jacobian=True)
+    np.testing.assert_array_equal(pose, expected[0])
+    np.testing.assert_array_equal(jacobian, expected[1])
+    np.testing.assert_allclose(model.predict(run.phase, run.shape, run.shape_velocity), run.body_velocity,
+                               atol=1e-12)
+    assert model.rebase(gait, terms="all") is model
+    with pytest.raises(ValueError, match="'system' parameter of PerfectInformationModel"):
+        PerfectInformationModel().predict_displacement(gait)
+
+
+def test_state_round_trip_gives_identical_predictions():
+    from geogait.models import model_from_state
+
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, seed=0, sensor_noise=0.1)
+    model = ShapeSpaceModel(degree=2).fit(*samples(run))
+    copy = model_from_state(*model.get_state())
+    assert isinstance(copy, ShapeSpaceModel) and copy.get_params() == model.get_params()
+    np.testing.assert_array_equal(copy.predict_displacement(seed_gait(2)), model.predict_displacement(seed_gait(2)))
+    assert copy.gamma_ == model.gamma_
+    more = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=1, seed=5, sensor_noise=0.1)
+    np.testing.assert_array_equal(copy.partial_fit(*samples(more)).weights_, model.partial_fit(*samples(more)).weights_)
