@@ -12,6 +12,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from .._files import dumps_json, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import OptimizationConfig, OptimizationResult, run_optimization
 from ..gaits import Perturbation, seed_gait
@@ -31,7 +32,6 @@ from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
 from ._common import console, output_folder, progress_bar, write_manifest
-from ._fit import _user_errors
 
 DEFAULT_CYCLES = {3: 40, 5: 60, 9: 60}
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
@@ -40,13 +40,13 @@ CHECKPOINT_FILE = "checkpoint.npz"
 
 @app.command()
 def optimize(
-    links: Annotated[int, typer.Option(help="Number of links N of the built-in Purcell swimmer.")] = 3,
+    links: Annotated[int, typer.Option(min=2, max=200, help="Number of links N of the built-in Purcell swimmer.")] = 3,
     cycles: Annotated[int | None, typer.Option(
         help="Cycle budget [default: 40 for 3 links, else 60; 100 with --robot]. With --resume: the new total.",
     )] = None,
-    seed: Annotated[int, typer.Option(help="Random seed of perturbations and sensor noise.")] = 0,
-    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
-    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed of perturbations and sensor noise.")] = 0,
+    noise: Annotated[float, typer.Option(min=0, help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
+    perturbation: Annotated[float, typer.Option(min=0, help="Std (rad) of the shape perturbation δ.")] = 0.15,
     period: Annotated[float, typer.Option(help="Seconds per cycle of the built-in swimmer.")] = 1.0,
     gamma_threshold: Annotated[float, typer.Option(help="Γ* that gates a step.")] = 0.5,
     forgetting_factor: Annotated[float | None, typer.Option(
@@ -70,38 +70,37 @@ def optimize(
 ) -> None:
     """Optimise a gait in situ (built-in swimmer or --robot); write PNGs, per-cycle CSV, JSON summary."""
     started = time.perf_counter()
-    with _user_errors():
-        if resume is not None:
-            folder, settings = Path(resume), _read_settings(Path(resume))
-            if cycles is not None:
-                settings["cycles"] = cycles
-        else:
-            settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
-                            period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
-                            order=order, objective=objective, max_joint_angle=max_joint_angle,
-                            max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
-                            max_tracking_error=max_tracking_error, method=method, robot=robot,
-                            robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
-            folder = out
-        optimizer = _optimizer(settings)  # every option checked before anything starts or is written
-        folder = output_folder(folder)
-        system, target = _target(settings)
-        ceiling = None
-        if system is not None:
-            with console.status("computing the ceiling with the true connection (cached after the first run)"):
-                ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
-                                         max_joint_angle=settings["max_joint_angle"])
-        with target() as robot_driver:
-            if resume is None:
-                _write_settings(folder, settings)
-            result = _run(optimizer, robot_driver, settings, folder, ceiling, resume is not None)
-        result.log.to_csv(folder / "cycles.csv", index=False)
-        _figures(folder, system, result, ceiling)
-        summary = _summary(result, ceiling)
-        write_manifest(folder / "summary.json", command="optimize", config={**settings,
-                       "optimizer": optimizer.describe(), "resumed": resume is not None}, results=summary,
-                       started=started)
-    console.print(json.dumps(summary, indent=1))
+    if resume is not None:
+        folder, settings = Path(resume), _read_settings(Path(resume))
+        if cycles is not None:
+            settings["cycles"] = cycles
+    else:
+        settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
+                        period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
+                        order=order, objective=objective, max_joint_angle=max_joint_angle,
+                        max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
+                        max_tracking_error=max_tracking_error, method=method, robot=robot,
+                        robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
+        folder = out
+    optimizer = _optimizer(settings)  # every option checked before anything starts or is written
+    folder = output_folder(folder)
+    system, target = _target(settings)
+    ceiling = None
+    if system is not None:
+        with console.status("computing the ceiling with the true connection (cached after the first run)"):
+            ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
+                                     max_joint_angle=settings["max_joint_angle"])
+    with target() as robot_driver:
+        if resume is None:
+            _write_settings(folder, settings)
+        result = _run(optimizer, robot_driver, settings, folder, ceiling, resume is not None)
+    write_text(folder / "cycles.csv", result.log.to_csv(index=False))
+    _figures(folder, system, result, ceiling)
+    summary = _summary(result, ceiling)
+    write_manifest(folder / "summary.json", command="optimize", config={**settings,
+                   "optimizer": optimizer.describe(), "resumed": resume is not None}, results=summary,
+                   started=started)
+    console.print(dumps_json(summary, indent=1))
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
 
 
@@ -167,9 +166,7 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed):
 
 
 def _write_settings(folder: Path, settings: dict) -> None:
-    temporary = folder / f".{RUN_FILE}.tmp"
-    temporary.write_text(json.dumps(settings, indent=1) + "\n")
-    temporary.replace(folder / RUN_FILE)
+    write_text(folder / RUN_FILE, dumps_json(settings, indent=1) + "\n")
 
 
 def _read_settings(folder: Path) -> dict:

@@ -31,7 +31,6 @@ from ..plotting import plt, save_figure
 from ..simulate import DragRatioSchedule, SwimmerStream
 from ._app import app, figure_app
 from ._common import console, output_folder, progress_bar, write_manifest
-from ._fit import _user_errors
 
 QUICK = {"cycles": 12, "warmup": 5}
 
@@ -115,35 +114,34 @@ def track(
     controller uses the true connection of the environment in force.
     """
     started = time.perf_counter()
-    with _user_errors():
-        ratios = _ratios(drag_ratio)
-        names = _names(controllers, "--controllers", CONTROLLERS)
-        system, gait, step = straight_gait(links)
-        reference = _path(path, step, scale)
-        n_cycles = cycles if cycles is not None else (QUICK["cycles"] if quick else 60)
-        warmup_cycles = warmup if warmup is not None else (QUICK["warmup"] if quick else 10)
-        change = change_cycle if change_cycle is not None else n_cycles // 2
-        start_offset = offset if offset is not None else (3 * step if path == "line" else 0.0)
-        if len(ratios) == 2 and not 1 <= change < n_cycles:
-            raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
-        results = {}
-        with progress_bar() as progress:
-            for name in names:
-                system_k = system.with_drag_ratio(ratios[0])
-                schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
-                robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
-                                      sensor_noise=noise, environment=schedule, seed=seed)
-                tracker = PathTracker(controller=name, warmup_cycles=warmup_cycles, horizon=horizon)
-                task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
+    ratios = _ratios(drag_ratio)
+    names = _names(controllers, "--controllers", CONTROLLERS)
+    system, gait, step = straight_gait(links)
+    reference = _path(path, step, scale)
+    n_cycles = cycles if cycles is not None else (QUICK["cycles"] if quick else 60)
+    warmup_cycles = warmup if warmup is not None else (QUICK["warmup"] if quick else 10)
+    change = change_cycle if change_cycle is not None else n_cycles // 2
+    start_offset = offset if offset is not None else (3 * step if path == "line" else 0.0)
+    if len(ratios) == 2 and not 1 <= change < n_cycles:
+        raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
+    results = {}
+    with progress_bar() as progress:
+        for name in names:
+            system_k = system.with_drag_ratio(ratios[0])
+            schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
+            robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
+                                  sensor_noise=noise, environment=schedule, seed=seed)
+            tracker = PathTracker(controller=name, warmup_cycles=warmup_cycles, horizon=horizon)
+            task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
 
-                def show(row, task=task):
-                    gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
-                    drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
-                    progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
-                                    f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
+            def show(row, task=task):
+                gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
+                drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
+                progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
+                                f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
 
-                results[name] = tracker.run(robot, reference, n_cycles, start_offset=start_offset, callback=show,
-                                            record=True)
+            results[name] = tracker.run(robot, reference, n_cycles, start_offset=start_offset, callback=show,
+                                        record=True)
     folder = output_folder(out)
     log = pd.concat([r.log for r in results.values()], ignore_index=True)
     log.to_csv(folder / "cycles.csv", index=False)
@@ -204,18 +202,17 @@ def figure_tracking(
     """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4."""
     started = time.perf_counter()
     folder = output_folder(out)
-    with _user_errors():
-        if from_csv is not None:
-            result = TrackingResult.from_csv(from_csv)
-        else:
-            base = TrackingConfig.quick() if quick else TrackingConfig()
-            changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
-                           links=None if links is None else _links(links))
-            config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
-            if cycles is not None:
-                config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
-            result = run_tracking(config, jobs=jobs, scheduler=scheduler)
-            result.to_csv(folder / "tracking.csv")
+    if from_csv is not None:
+        result = TrackingResult.from_csv(from_csv)
+    else:
+        base = TrackingConfig.quick() if quick else TrackingConfig()
+        changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
+                       links=None if links is None else _links(links))
+        config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
+        if cycles is not None:
+            config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
+        result = run_tracking(config, jobs=jobs, scheduler=scheduler)
+        result.to_csv(folder / "tracking.csv")
     result.plot(folder / "tracking.png")
     families = sorted(result.frame["links"].unique())
     fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.5), squeeze=False)

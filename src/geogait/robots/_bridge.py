@@ -7,7 +7,9 @@ Driver → geogait, first line::
     {"type": "hello", "protocol": "geogait-robot", "version": 1, "n_joints": 2, "cycle_period": 1.0,
      "gait": {"order": 1, "params": [a_00, a_01, b_01, a_10, a_11, b_11]}}
 
-``gait`` is the robot's current nominal gait, a Fourier series per joint with the flat parameter
+An optional ``"front_back_symmetric": true`` declares a chain with front–back symmetry (the
+optimiser then searches the rotation-free symmetric gait family). ``gait`` is the robot's current
+nominal gait, a Fourier series per joint with the flat parameter
 vector of :class:`~geogait.gaits.FourierGait` (per joint ``[a_0, a_1 … a_K, b_1 … b_K]``).
 
 geogait → driver::
@@ -73,6 +75,8 @@ class ProcessRobot:
         From the driver's ``hello``.
     cycle : int
         Cycles run so far.
+    front_back_symmetric : bool or None
+        As declared by the driver (None: not said).
     """
 
     def __init__(self, command, *, timeout: float = 30.0, cwd=None):
@@ -226,6 +230,10 @@ class ProcessRobot:
             raise self._failure(f"'cycle_period' must be positive (seconds), got {float(period)}")
         self.cycle_period = float(period)
         self._gait = self._read_gait(hello.get("gait"))
+        symmetric = hello.get("front_back_symmetric")
+        if symmetric is not None and not isinstance(symmetric, bool):
+            raise self._failure(f"'front_back_symmetric' must be true or false, got {symmetric!r}")
+        self.front_back_symmetric = symmetric
 
     def _read_gait(self, gait) -> FourierGait:
         if not isinstance(gait, dict) or not isinstance(gait.get("order"), int) or gait["order"] < 1:

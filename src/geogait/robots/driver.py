@@ -44,7 +44,8 @@ def main(argv=None) -> int:
         out.write(json.dumps(message) + "\n")
 
     send({"type": "hello", "protocol": PROTOCOL, "version": PROTOCOL_VERSION, "n_joints": swimmer.n_joints,
-          "cycle_period": args.period, "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}})
+          "cycle_period": args.period, "front_back_symmetric": True,
+          "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}})
     out.flush()
     for line in sys.stdin:
         message = json.loads(line)
