@@ -175,10 +175,11 @@ class InSituOptimizer:
         Smallest predicted relative gain worth a step (a gait the model sees rotating is restored
         regardless).
     settle_cycles : int
-        Cycles after each gait change that are run but neither learned from nor measured.
+        Cycles after each gait change — and at the start, when a robot may start from rest — that are
+        run but neither learned from nor measured.
     max_tracking_error : float or "auto" or None
         Largest RMS realised − commanded shape error (rad) of an accepted gait. ``"auto"``: twice the
-        seed gait's own tracking error, at least 0.05 rad. ``None`` disables the check.
+        seed gait's own mean tracking error over its measured cycles, at least 0.05 rad. ``None`` disables the check.
     prediction_tolerance : float or None
         Largest relative difference between the model's predicted objective of the current gait and
         its mean measured objective for the gate to open. ``None`` disables the check.
@@ -329,7 +330,8 @@ class InSituOptimizer:
         family = self._family(robot, gait)
         robot.set_gait(gait)
         state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait, period),
-                       n_cycles=n_cycles, ceiling=ceiling, period=period, family=family)
+                       n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
+                       settle_left=self.settle_cycles)
         return _Loop(self, robot, state, checkpoint, checkpoint_every).run(callback, record)
 
     @classmethod
@@ -574,6 +576,7 @@ class _State:
     world_heading: float = 0.0
     tracking_limit: float = np.nan
     seed_measured: list = field(default_factory=list)
+    seed_tracking: list = field(default_factory=list)  # tracking errors of the seed's measured cycles
     seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
     rows: list = field(default_factory=list)
     gaits: list = field(default_factory=list)
@@ -651,6 +654,7 @@ class _State:
         arrays = {"gait": self.gait.coefficients, "robot_gait": self.robot_gait.coefficients,
                   "iteration_measured": np.asarray(self.iteration_measured, dtype=float),
                   "seed_measured": np.asarray(self.seed_measured, dtype=float),
+                  "seed_tracking": np.asarray(self.seed_tracking, dtype=float),
                   "gaits": np.stack([g.coefficients for g in self.gaits])}
         if self.previous_gait is not None:
             arrays["previous_gait"] = self.previous_gait.coefficients
@@ -685,6 +689,7 @@ class _State:
         state.direction = arrays.get("direction")
         state.iteration_measured = arrays["iteration_measured"].tolist()
         state.seed_measured = arrays["seed_measured"].tolist()
+        state.seed_tracking = arrays["seed_tracking"].tolist()
         state.gaits = [FourierGait(c) for c in arrays["gaits"]]
         names = ("phase", "shape", "shape_velocity", "body_velocity")
         state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
@@ -766,8 +771,8 @@ class _Loop:
             value = optimizer._evaluate(measured.net, np.zeros((3, ran.params.size)), ran, state)[0]
             if state.iteration == 0:
                 state.seed_measured.append(value)
-                if optimizer.max_tracking_error == "auto" and np.isnan(state.tracking_limit):
-                    state.tracking_limit = max(_TRACKING_FLOOR, 2 * measured.tracking_error)
+                state.seed_tracking.append(measured.tracking_error)
+                state.tracking_limit = max(_TRACKING_FLOOR, 2 * float(np.mean(state.seed_tracking)))
             rejected = self._tracking_rejects(measured)
             if not rejected:
                 state.learn(chunk, self.gate)
