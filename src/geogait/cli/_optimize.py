@@ -31,7 +31,7 @@ from ..robots import ProcessRobot
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
-from ._common import console, output_folder, progress_bar, write_manifest
+from ._common import comma_list, console, output_folder, progress_bar, write_manifest
 
 DEFAULT_CYCLES = {3: 40, 5: 60, 9: 60}
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
@@ -244,14 +244,16 @@ def _figures(folder, system, result, ceiling) -> None:
 
 @figure_app.command("optimization")
 def figure_optimization(
-    trials: Annotated[int | None, typer.Option(help="In-situ trials per swimmer [default: 50].")] = None,
+    trials: Annotated[int | None, typer.Option(min=1, help="In-situ trials per swimmer [default: 50].")] = None,
     links: Annotated[str | None, typer.Option(help="Swimmers, comma-separated [default: 3,5,9].")] = None,
     cycles: Annotated[str | None, typer.Option(help="Cycle budgets per swimmer [default: 40,60,60].")] = None,
-    baseline_trials: Annotated[int | None, typer.Option(help="Batch-method trials per swimmer [default: 10].")] = None,
+    baseline_trials: Annotated[int | None, typer.Option(
+        min=0, help="Batch-method trials per swimmer [default: 10].")] = None,
     baseline_iterations: Annotated[int | None, typer.Option(
-        help="Batch iterations of 30 cycles [default: 30].")] = None,
-    noise: Annotated[float | None, typer.Option(help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
-    seed: Annotated[int | None, typer.Option(help="Root random seed [default: 0].")] = None,
+        min=1, help="Batch iterations of 30 cycles [default: 30].")] = None,
+    noise: Annotated[float | None, typer.Option(
+        min=0, help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
+    seed: Annotated[int | None, typer.Option(min=0, help="Root random seed [default: 0].")] = None,
     jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
     quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
@@ -267,7 +269,7 @@ def figure_optimization(
         base = OptimizationConfig.quick() if quick else OptimizationConfig()
         changes = dict(n_trials=trials, baseline_trials=baseline_trials, baseline_iterations=baseline_iterations,
                        sensor_noise=noise, seed=seed,
-                       links=_ints(links, "--links"), budgets=_ints(cycles, "--cycles"))
+                       links=comma_list(links, "--links", int), budgets=comma_list(cycles, "--cycles", int))
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if links is not None and cycles is None:
             config = dataclasses.replace(config, budgets=tuple(DEFAULT_CYCLES.get(n, 60) for n in config.links))
@@ -275,19 +277,11 @@ def figure_optimization(
         result.to_csv(folder / "optimization.csv")
     result.plot(folder / "optimization.png")
     summary = result.summary()
-    write_manifest(folder / "optimization.json", command="figure optimization",
-                   config=result.config_dict() or {"from_csv": str(from_csv)},
-                   results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers, **summary},
-                   started=started)
-    console.print(json.dumps(summary, indent=1, default=str))
-    console.print(f"wrote {folder}/ (optimization.png, .csv, .json)")
+    manifest = write_manifest(folder / "optimization.json", command="figure optimization",
+                              config=result.config_dict() or {"from_csv": str(from_csv)},
+                              results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
+                                       **summary}, started=started)
+    console.print(dumps_json(summary, indent=1, default=str))
+    written = ["optimization.png", *([] if from_csv is not None else ["optimization.csv"]), manifest.name]
+    console.print(f"wrote {folder}/ ({', '.join(written)})")
 
-
-def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
-    if text is None:
-        return None
-    try:
-        return tuple(int(v) for v in text.split(","))
-    except ValueError:
-        raise typer.BadParameter(f"expected comma-separated integers such as '3,5,9', got {text!r}",
-                                 param_hint=option) from None
