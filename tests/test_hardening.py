@@ -610,3 +610,38 @@ def test_a_stream_after_kill_9_removes_the_dead_writers_temporary(run, config, t
     result = CliRunner().invoke(app, ["stream", str(out)], input=lines(run, 50, 100))
     assert result.exit_code == 0 and not leftover.exists()
     assert load_model(out).n_samples_seen_ == 100
+
+
+@pytest.mark.parametrize(("options", "match"), [
+    (dict(seed=-1), "'seed'.*>= 0"),
+    (dict(sensor_noise=1e300), "'sensor_noise'"),
+    (dict(shape_noise=-0.1), "'shape_noise'"),
+    (dict(samples_per_cycle=10**7), "'samples_per_cycle'"),
+])
+def test_swimmer_stream_bounds(options, match):
+    from geogait.gaits import seed_gait as _seed_gait
+    from geogait.simulate import SwimmerStream as _Stream
+    from geogait.systems import PurcellSwimmer as _Swimmer
+
+    with pytest.raises(ValueError, match=match):
+        _Stream(_Swimmer(3), _seed_gait(2), **options)
+
+
+def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_path):
+    from geogait.gaits import seed_gait as _seed_gait
+    from geogait.simulate import Trajectory as _Trajectory
+    from geogait.simulate import simulate as _simulate
+    from geogait.systems import PurcellSwimmer as _Swimmer
+
+    run = _simulate(_Swimmer(3), _seed_gait(2), 2, seed=0)
+    link = tmp_path / "link.csv"
+    target = tmp_path / "target.csv"
+    target.write_text("old")
+    link.symlink_to(target)
+    run.to_csv(link)
+    assert link.is_symlink() and len(pd.read_csv(target)) == run.n_samples
+    run.to_parquet(tmp_path / "run.parquet")
+    assert _Trajectory.from_pandas(pd.read_parquet(tmp_path / "run.parquet")).n_samples == run.n_samples
+    assert not list(tmp_path.glob(".*tmp*"))
+    with pytest.raises(ValueError, match="'parts'"):
+        _Trajectory.concatenate([])

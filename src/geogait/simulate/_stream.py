@@ -58,6 +58,10 @@ class DragRatioSchedule:
 
 def _trial_generators(seed, n_trials):
     """Per trial, independent generators for the perturbations and for the sensor noise."""
+    seeds = seed if isinstance(seed, Sequence) and not isinstance(seed, str) else [seed]
+    for value in seeds:
+        if value is not None and not isinstance(value, np.random.SeedSequence):
+            check_int(value, "seed", "SwimmerStream", minimum=0)
     if isinstance(seed, Sequence) and not isinstance(seed, str):
         sequences = [s if isinstance(s, np.random.SeedSequence) else np.random.SeedSequence(s)
                      for s in seed]
@@ -116,8 +120,11 @@ class SwimmerStream:
         if gait.n_joints != system.n_joints:
             raise fail("gait", owner, f"a gait with {system.n_joints} joints", gait.n_joints)
         self.samples_per_cycle = check_int(samples_per_cycle, "samples_per_cycle", owner, minimum=4)
-        self.sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0)
-        self.shape_noise = check_float(shape_noise, "shape_noise", owner, low=0)
+        if self.samples_per_cycle > 100_000:
+            raise fail("samples_per_cycle", owner, "an int in [4, 100000]", samples_per_cycle)
+        # noise is a fraction of the signal's RMS: beyond 100× it is no longer a measurement
+        self.sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=100)
+        self.shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=100)
         self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
         if n_trials is not None:
             check_int(n_trials, "n_trials", owner, minimum=1)

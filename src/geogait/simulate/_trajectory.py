@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._files import atomic_write, write_text
 from .._validation import fail
 
 __all__ = ["Trajectory"]
@@ -75,6 +76,8 @@ class Trajectory:
     @classmethod
     def concatenate(cls, parts: list[Trajectory]) -> Trajectory:
         """Join trajectories along time."""
+        if not parts:
+            raise fail("parts", "Trajectory.concatenate", "a non-empty list of Trajectory", parts)
         names = [f.name for f in fields(cls) if all(getattr(p, f.name) is not None for p in parts)]
         return cls(**{name: np.concatenate([getattr(p, name) for p in parts], axis=parts[0].time.ndim - 1)
                       for name in names})
@@ -123,12 +126,8 @@ class Trajectory:
 
     def to_parquet(self, path) -> Path:
         """Write :meth:`to_pandas` as Parquet; returns the path."""
-        path = Path(path)
-        self.to_pandas().to_parquet(path, index=False)
-        return path
+        return atomic_write(path, lambda stream: self.to_pandas().to_parquet(stream, index=False))
 
     def to_csv(self, path) -> Path:
         """Write :meth:`to_pandas` as CSV; returns the path."""
-        path = Path(path)
-        self.to_pandas().to_csv(path, index=False)
-        return path
+        return write_text(path, self.to_pandas().to_csv(index=False))
