@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from _robots import BareRobot
 
 from geogait import se2
 from geogait._validation import GeogaitError
@@ -191,27 +192,9 @@ def test_true_controller_converges_to_a_line_without_noise(three_link):
     np.testing.assert_allclose(log["predicted_turn"], log["true_turn"], atol=1e-7)
 
 
-class _Unsimulated:
-    """A robot known only through the protocol (no current_system): a swimmer behind a wall."""
-
-    def __init__(self, stream):
-        self._stream = stream
-        self.n_joints, self.cycle_period = stream.n_joints, stream.cycle_period
-
-    @property
-    def gait(self):
-        return self._stream.gait
-
-    def set_gait(self, gait):
-        self._stream.set_gait(gait)
-
-    def next_cycle(self):
-        return self._stream.next_cycle()
-
-
 def test_adaptive_controller_runs_on_a_robot_that_is_not_simulated(three_link):
     system, straight = three_link
-    robot = _Unsimulated(SwimmerStream(system, straight, sensor_noise=0.1, seed=2))
+    robot = BareRobot(SwimmerStream(system, straight, sensor_noise=0.1, seed=2))
     result = PathTracker(controller="adaptive", warmup_cycles=5).run(robot, ReferencePath.circle(1.0), 8)
     log = result.log
     assert len(log) == 8 and log["true_turn"].isna().all() and log["gamma"].between(0, 1).all()

@@ -6,6 +6,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
+from _robots import BareRobot
 
 from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
@@ -55,24 +56,6 @@ class SaturatingRobot:
         return Trajectory(time=time, phase=phase, cycle=np.full(n, self.cycle - 1), shape=shape,
                           shape_velocity=shape_velocity, body_velocity=body_velocity, pose=poses[:-1],
                           commanded_shape=commanded)
-
-
-class BareRobot:
-    """Only the protocol's members of a SwimmerStream (no truth, no state)."""
-
-    def __init__(self, stream):
-        self._stream = stream
-        self.n_joints, self.cycle_period = stream.n_joints, stream.cycle_period
-
-    @property
-    def gait(self):
-        return self._stream.gait
-
-    def set_gait(self, gait):
-        self._stream.set_gait(gait)
-
-    def next_cycle(self):
-        return self._stream.next_cycle()
 
 
 def _stream(seed=0, **options):

@@ -3,11 +3,11 @@ r"""The adaptive gait model: a bank of RLS filters over phase windows (paper §I
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
 
 from .._validation import check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
 from ._base import GaitModelBase
+from ._estimator import OnlineGamma
 from ._features import n_regressors, regressors
 from ._phase import _assign_bank
 from ._rls import RLSBank
@@ -15,7 +15,7 @@ from ._rls import RLSBank
 __all__ = ["AdaptiveGaitModel"]
 
 
-class AdaptiveGaitModel(GaitModelBase):
+class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     r"""Local model of ξ = −A(r)ṙ around a nominal gait, learned sample by sample.
 
     Each of ``n_windows`` phase windows holds an RLS filter (eq. 4) on the regressor
@@ -181,33 +181,6 @@ class AdaptiveGaitModel(GaitModelBase):
 
         prior = self._run_rounds(self.bank_, phase, body_velocity / scale, window_regressors) * scale
         return prior, self.phase_model_.partial_fit_predict(phase, body_velocity)
-
-    def _update_gamma(self, prior, baseline, body_velocity):
-        """ψ ← λ_Γ ψ + ‖error‖ per sample for model and baseline (eq. 6), as a linear filter."""
-        errors = np.stack([np.linalg.norm(prior - body_velocity, axis=-1),
-                           np.linalg.norm(baseline - body_velocity, axis=-1)], axis=-2)  # batch+(2,n)
-        lam = self.gamma_forgetting
-        if errors.shape[-1] == 1:
-            psi = lam * self.psi_[..., None] + errors
-        else:
-            psi, _ = lfilter([1.0], [1.0, -lam], errors, axis=-1, zi=lam * self.psi_[..., None])
-        self.psi_ = psi[..., -1]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self.online_gamma_ = np.where(psi[..., 1, :] > 0, 1 - psi[..., 0, :] / psi[..., 1, :], 0.0)
-
-    @property
-    def gamma_(self):
-        """Online Γ = 1 − ψ_D / ψ_T after the last sample (eq. 6)."""
-        self._check_is_fitted()
-        with np.errstate(invalid="ignore", divide="ignore"):
-            value = np.where(self.psi_[..., 1] > 0, 1 - self.psi_[..., 0] / self.psi_[..., 1], 0.0)
-        return float(value) if value.ndim == 0 else value
-
-    def reset_gamma(self):
-        """Restart the online Γ accumulators (e.g. at the start of an optimisation iteration)."""
-        self._check_is_fitted()
-        self.psi_ = np.zeros_like(self.psi_)
-        return self
 
     def _set_gait(self, gait: FourierGait) -> None:
         self.gait_ = gait

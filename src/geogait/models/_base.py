@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import inspect
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +19,7 @@ import numpy as np
 from .._files import read_state, write_state
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
+from ._estimator import Parameters
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
@@ -38,32 +38,10 @@ def gamma(error_model, error_baseline) -> np.ndarray:
     return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
 
 
-class GaitModelBase:
+class GaitModelBase(Parameters):
     """Shared machinery; subclasses define ``_fit_samples`` and their learned state."""
 
     _estimated_gait_order = 1
-
-    # -- scikit-learn protocol ----------------------------------------------------------------
-    @classmethod
-    def _param_names(cls) -> list[str]:
-        signature = inspect.signature(cls.__init__)
-        return [p.name for p in signature.parameters.values() if p.kind == p.KEYWORD_ONLY]
-
-    def get_params(self, deep: bool = True) -> dict:
-        """Hyper-parameters, as given to ``__init__``."""
-        return {name: getattr(self, name) for name in self._param_names()}
-
-    def set_params(self, **params):
-        """Set hyper-parameters (takes effect at the next ``fit``); returns ``self``."""
-        for name, value in params.items():
-            if name not in self._param_names():
-                raise fail(name, type(self).__name__, "one of " + ", ".join(self._param_names()), name)
-            setattr(self, name, value)
-        return self
-
-    def __repr__(self):
-        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({params})"
 
     # -- validation ---------------------------------------------------------------------------
     def _windows(self) -> PhaseWindows:

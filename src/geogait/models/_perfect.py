@@ -12,12 +12,12 @@ from .._validation import GeogaitError, check_array, check_int, fail
 from ..gaits import FourierGait
 from ..simulate import cycle_displacement
 from ..systems import System
-from ._shape_space import _Parameters
+from ._estimator import Parameters
 
 __all__ = ["PerfectInformationModel"]
 
 
-class PerfectInformationModel(_Parameters):
+class PerfectInformationModel(Parameters):
     r"""The model interface of the gait models, answered exactly by a known :class:`~geogait.systems.System`.
 
     ``partial_fit`` only records the data's shape dimension (there is nothing to learn),

@@ -33,45 +33,19 @@ alongside, exactly as for the local models.
 
 from __future__ import annotations
 
-import inspect
 import itertools
 
 import numpy as np
-from scipy.signal import lfilter
 
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait
 from ..simulate._oracle import gauss_phases, integrate_cycle
 from ._base import gamma
+from ._estimator import OnlineGamma, Parameters
 from ._phase import PhaseModel
 from ._rls import RLSBank
 
 __all__ = ["ShapeSpaceModel", "monomial_exponents", "monomials"]
-
-
-class _Parameters:
-    """scikit-learn's ``get_params`` / ``set_params`` / ``repr`` over keyword-only ``__init__`` arguments."""
-
-    @classmethod
-    def _param_names(cls) -> list[str]:
-        signature = inspect.signature(cls.__init__)
-        return [p.name for p in signature.parameters.values() if p.kind == p.KEYWORD_ONLY]
-
-    def get_params(self, deep: bool = True) -> dict:
-        """Hyper-parameters, as given to ``__init__``."""
-        return {name: getattr(self, name) for name in self._param_names()}
-
-    def set_params(self, **params):
-        """Set hyper-parameters (takes effect at the next ``fit``); returns ``self``."""
-        for name, value in params.items():
-            if name not in self._param_names():
-                raise fail(name, type(self).__name__, "one of " + ", ".join(self._param_names()), name)
-            setattr(self, name, value)
-        return self
-
-    def __repr__(self):
-        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({params})"
 
 
 def monomial_exponents(n_joints: int, degree: int) -> np.ndarray:
@@ -105,7 +79,7 @@ def monomials(shape, exponents: np.ndarray, derivative: bool = False):
     return values, d_factors * before * after
 
 
-class ShapeSpaceModel(_Parameters):
+class ShapeSpaceModel(Parameters, OnlineGamma):
     r"""Polynomial connection model :math:`\hat\xi = W^T (f(r/s) \otimes \dot r)`, learned by RLS (module).
 
     Parameters
@@ -255,28 +229,6 @@ class ShapeSpaceModel(_Parameters):
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
-        return self
-
-    def _update_gamma(self, prior, baseline, body_velocity):
-        """ψ ← λ_Γ ψ + ‖error‖ per sample for model and baseline (eq. 6), as a linear filter."""
-        errors = np.stack([np.linalg.norm(prior - body_velocity, axis=-1),
-                           np.linalg.norm(baseline - body_velocity, axis=-1)], axis=-2)  # batch + (2, n)
-        lam = self.gamma_forgetting
-        psi, _ = lfilter([1.0], [1.0, -lam], errors, axis=-1, zi=lam * self.psi_[..., None])
-        self.psi_ = psi[..., -1]
-
-    @property
-    def gamma_(self):
-        """Online Γ = 1 − ψ_D / ψ_T after the last sample (eq. 6)."""
-        self._check_is_fitted()
-        with np.errstate(invalid="ignore", divide="ignore"):
-            value = np.where(self.psi_[..., 1] > 0, 1 - self.psi_[..., 0] / self.psi_[..., 1], 0.0)
-        return float(value) if value.ndim == 0 else value
-
-    def reset_gamma(self):
-        """Restart the online Γ accumulators; returns ``self``."""
-        self._check_is_fitted()
-        self.psi_ = np.zeros_like(self.psi_)
         return self
 
     def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
