@@ -8,7 +8,8 @@ import pytest
 
 from geogait import se2
 from geogait.gaits import seed_gait
-from geogait.io import ColumnMapping, Log, body_velocity_from_poses, load_column_mapping, read_log
+from geogait.io import ColumnMapping, Log, load_column_mapping, read_log
+from geogait.se2 import body_velocity_from_poses
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 

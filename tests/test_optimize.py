@@ -15,8 +15,8 @@ from geogait.optimize import (
     path_length,
     rms_speed,
 )
+from geogait.se2 import gauss_phases, magnus_steps
 from geogait.simulate import SwimmerStream, cycle_displacement
-from geogait.simulate._oracle import gauss_phases, magnus_steps
 from geogait.systems import PurcellSwimmer
 
 

@@ -10,7 +10,7 @@ from ._fit import (
     read_log_for_prediction,
     resolve_mapping,
 )
-from ._logs import ColumnMapping, Log, body_velocity_from_poses, load_column_mapping, read_log
+from ._logs import ColumnMapping, Log, load_column_mapping, read_log
 from ._streaming import (
     CsvReader,
     JsonLinesReader,
@@ -37,7 +37,6 @@ __all__ = [
     "StreamOutput",
     "StreamSample",
     "StreamSummary",
-    "body_velocity_from_poses",
     "fit_log",
     "load_column_mapping",
     "load_stream_model",

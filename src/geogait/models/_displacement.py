@@ -19,7 +19,7 @@ import numpy as np
 
 from .._validation import check_int, fail
 from ..gaits import FourierGait
-from ..simulate._oracle import gauss_phases, integrate_cycle
+from ..se2 import gauss_phases, integrate_cycle
 from ._features import regressors, split_coefficients
 
 __all__ = ["predicted_displacement"]

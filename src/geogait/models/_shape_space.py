@@ -39,7 +39,7 @@ import numpy as np
 
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait
-from ..simulate._oracle import gauss_phases, integrate_cycle
+from ..se2 import gauss_phases, integrate_cycle
 from ._base import gamma
 from ._estimator import OnlineGamma, Parameters
 from ._phase import PhaseModel
