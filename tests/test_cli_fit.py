@@ -12,7 +12,7 @@ from geogait import se2
 from geogait.cli import app
 from geogait.gaits import seed_gait
 from geogait.models import AdaptiveGaitModel, load_model
-from geogait.phase import load_phaser
+from geogait.phase import Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
@@ -76,7 +76,7 @@ def test_fit_writes_models_config_mapping_and_figures(fitted):
         assert (out / name).stat().st_size > 20_000
     model = load_model(out / "model.npz", n_joints=2)
     assert model.n_samples_seen_ == 8000 and model.phase_rate == pytest.approx(report["results"]["phase_rate"])
-    assert load_phaser(out / "phaser.npz").n_channels_ == 2
+    assert Phaser.load(out / "phaser.npz").n_channels_ == 2
     config = json.loads((out / "config.json").read_text())
     np.testing.assert_array_equal(config["gait"], model.gait_.coefficients)
     assert json.loads((out / "mapping.json").read_text())["pose"] == ["x", "y", "yaw"]

@@ -13,7 +13,9 @@ def test_quick_figure_writes_consistent_outputs(tmp_path):
     assert result.exit_code == 0, result.output
     frame = pd.read_csv(tmp_path / "optimization.csv")
     config = OptimizationConfig.quick()
-    assert list(frame.columns) == list(OptimizationResult.COLUMNS)
+    n_params = 6  # 3-link swimmer, order-1 gaits: 2 joints × 3 coefficients, one number per column
+    assert list(frame.columns) == list(OptimizationResult.COLUMNS) + [f"param_{i}" for i in range(n_params)]
+    assert np.isfinite(frame[[f"param_{i}" for i in range(n_params)]].to_numpy()).all()
     adaptive = frame[frame["method"] == "adaptive"]
     assert adaptive["trial"].nunique() == config.n_trials and adaptive["cycle"].max() == config.budgets[0] - 1
     batch = frame[frame["method"] == "batch"]

@@ -568,9 +568,9 @@ def test_undecodable_stream_input_stops_with_a_clear_error(run, tmp_path):
 
 
 def test_stream_never_saves_over_its_phaser_or_config(run, config, tmp_path):
-    from geogait.phase import Phaser, save_phaser
+    from geogait.phase import Phaser
 
-    phaser = save_phaser(Phaser().fit(run.shape), tmp_path / "phaser.npz")
+    phaser = Phaser().fit(run.shape).save(tmp_path / "phaser.npz")
     before = phaser.read_bytes()
     result = CliRunner().invoke(app, ["stream", str(config), "--phaser", str(phaser), "--out", str(phaser)],
                                 input=lines(run, 0, 10))

@@ -24,3 +24,16 @@ def test_public_names_have_docstrings(name):
                         and not inspect.getdoc(method)):
                     missing.append(f"{public}.{method_name}")
     assert not missing, f"undocumented public names in {name}: {missing}"
+
+
+def test_importing_the_library_leaves_the_matplotlib_backend_alone():
+    """Only the CLI selects Agg; a notebook's or script's own backend survives ``import geogait.*``."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import matplotlib; matplotlib.use('svg'); import geogait.experiments, geogait.plotting, geogait.io, "
+            "geogait.control; print(matplotlib.get_backend())")
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.strip() == "svg"

@@ -28,7 +28,7 @@ from geogait.io import (
     run_stream,
 )
 from geogait.models import AdaptiveGaitModel, load_model
-from geogait.phase import OnlinePhaser, Phaser, load_phaser, save_phaser
+from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
@@ -263,8 +263,8 @@ def test_online_phaser_equals_the_last_sample_of_a_sliding_window(run, phaser):
 
 
 def test_stream_with_a_phaser_and_a_gap(run, phaser, tmp_path):
-    save_phaser(phaser, tmp_path / "phaser.npz")
-    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT), phaser=load_phaser(tmp_path / "phaser.npz"),
+    phaser.save(tmp_path / "phaser.npz")
+    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT), phaser=Phaser.load(tmp_path / "phaser.npz"),
                             path=tmp_path / "m.npz")
     text = lines(run, 3000, 4000, phase=False) + lines(run, 4300, 4600, phase=False)  # a gap of 3 cycles
     sink = io.StringIO()
@@ -288,14 +288,14 @@ def test_phaser_files_round_trip_without_pickle(run, phaser, tmp_path):
     truncated = tmp_path / "truncated.npz"
     truncated.write_bytes(path.read_bytes()[:200])
     with pytest.raises(ValueError, match="not a readable geogait phaser"):
-        load_phaser(truncated)
+        Phaser.load(truncated)
     model_path = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run, 300)).save(tmp_path / "model.npz")
     with pytest.raises(ValueError, match="not a geogait phaser file"):
-        load_phaser(model_path)
+        Phaser.load(model_path)
     with pytest.raises(ValueError, match="does not exist"):
-        load_phaser(tmp_path / "none.npz")
-    with pytest.raises(ValueError, match="fitted Phaser"):
-        save_phaser(Phaser(), tmp_path / "unfitted.npz")
+        Phaser.load(tmp_path / "none.npz")
+    with pytest.raises(ValueError, match="Phaser is not fitted yet"):
+        Phaser().save(tmp_path / "unfitted.npz")
 
 
 # -- the robot example -------------------------------------------------------------------------------
@@ -313,8 +313,8 @@ def test_docstring_examples_run():
     import doctest
 
     from geogait.io import _fit, _streaming
-    from geogait.phase import _online, _persistence
+    from geogait.phase import _online, _phaser
 
-    for module in (_streaming, _fit, _online, _persistence):
+    for module in (_streaming, _fit, _online, _phaser):
         outcome = doctest.testmod(module)
         assert outcome.attempted > 0 and outcome.failed == 0, module.__name__

@@ -3,7 +3,7 @@
 * Hyper-parameters are the keyword-only arguments of ``__init__``, stored unchanged as attributes:
   ``get_params`` / ``set_params`` / ``repr`` read the signature, so ``sklearn.base.clone`` works.
 * Each class declares ``_parameter_constraints`` (one checker per hyper-parameter, the
-  :func:`~geogait._validation.fail` template); :meth:`Estimator._validate_params` runs them all, and
+  :func:`~geogait._validation.fail` template); :meth:`Estimator.validate` runs them all, and
   ``_check_param_combinations`` the rules that join several, before ``fit`` changes any state.
   ``set_params`` checks the new values before it sets any of them.
 * Learned attributes end in ``_``; ``__sklearn_is_fitted__`` says whether ``_fitted_attribute``
@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +27,7 @@ from ._files import read_state, write_state
 from ._validation import GeogaitError, check_choice, check_float, check_int, fail
 
 __all__ = ["Boolean", "Estimator", "InstanceOf", "Integer", "Options", "Real", "check_is_fitted",
-           "estimator_from_state"]
+           "estimator_from_state", "read_estimator"]
 
 
 # -- parameter constraints -----------------------------------------------------------------------
@@ -160,12 +161,13 @@ class Estimator:
             setattr(self, name, value)
         return self
 
-    def _validate_params(self) -> None:
-        """Check every hyper-parameter against its declared constraint, then their combinations."""
+    def validate(self):
+        """Check every hyper-parameter (raises naming the first bad one; changes nothing); returns ``self``."""
         owner = type(self).__name__
         for name, check in self._parameter_constraints.items():
             check(getattr(self, name), name, owner)
         self._check_param_combinations()
+        return self
 
     def _check_param_combinations(self) -> None:
         """Rules that join several hyper-parameters (none by default)."""
@@ -174,6 +176,17 @@ class Estimator:
         defaults = {p.name: p.default for p in inspect.signature(type(self).__init__).parameters.values()}
         changed = {k: v for k, v in self.get_params(deep=False).items() if not _same(v, defaults.get(k))}
         return f"{type(self).__name__}(" + ", ".join(f"{k}={v!r}" for k, v in changed.items()) + ")"
+
+    @contextlib.contextmanager
+    def _unchanged_on_error(self):
+        """Restore every attribute when the block raises: a failed ``fit`` leaves the estimator as it was."""
+        saved = dict(self.__dict__)
+        try:
+            yield
+        except BaseException:
+            self.__dict__.clear()
+            self.__dict__.update(saved)
+            raise
 
     # -- fitted state --------------------------------------------------------------------------
     def __sklearn_is_fitted__(self) -> bool:
@@ -222,7 +235,7 @@ class Estimator:
     @classmethod
     def load(cls, path):
         """Read an estimator written by :meth:`save`; checks format, version and class."""
-        estimator = _read(path, cls._format, cls._readable_versions or (cls._format_version,),
+        estimator = read_estimator(path, cls._format, cls._readable_versions or (cls._format_version,),
                           kind=_kind(cls._format))
         if not isinstance(estimator, cls):
             raise GeogaitError(f"{path} holds a {type(estimator).__name__}, not a {cls.__name__}.")
@@ -250,7 +263,8 @@ def estimator_from_state(metadata: dict, state: dict, file_format: str | None = 
     return estimator
 
 
-def _read(path, file_format: str, versions: tuple[int, ...], kind: str):
+def read_estimator(path, file_format: str, versions: tuple[int, ...], kind: str):
+    """Read a file written by :meth:`Estimator.save` (format ``file_format``, one of ``versions``)."""
     metadata, state = read_state(path, kind, file_format, versions)
     try:
         return estimator_from_state(metadata, state, file_format)

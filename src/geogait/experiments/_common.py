@@ -208,6 +208,8 @@ class ExperimentResult:
     """
 
     COLUMNS = ()
+    #: Prefix of further columns whose number varies (kept by :meth:`from_csv`); None: no such columns.
+    VARIABLE_COLUMNS = None
 
     frame: pd.DataFrame
     config: object = None
@@ -252,7 +254,8 @@ class ExperimentResult:
             if bad.size:
                 raise GeogaitError(f"{path} is not a valid {cls.__name__} CSV: column {column!r} must hold integers. "
                                    f"Got {str(frame[column].iloc[bad[0]])!r} in data row {bad[0]} instead.")
-        result = cls(frame=frame[list(cls.COLUMNS)])
+        extra = [c for c in frame.columns if cls.VARIABLE_COLUMNS and str(c).startswith(cls.VARIABLE_COLUMNS)]
+        result = cls(frame=frame[list(cls.COLUMNS) + extra])
         try:  # the columns are right; do the values form a result?
             result.summary()
         except (KeyError, ValueError, TypeError, IndexError, ZeroDivisionError, AttributeError) as error:

@@ -44,12 +44,21 @@ from ._common import (
     swimmer_and_gait,
 )
 
-__all__ = ["OptimizationConfig", "OptimizationResult", "optimization_trials", "run_optimization",
+__all__ = ["OptimizationConfig", "OptimizationResult", "default_budget", "optimization_trials", "run_optimization",
            "optimization_summary", "plot_optimization"]
 
 _OWNER = "OptimizationConfig"
 PAPER = {3: "≈ 50 % improvement in 40 cycles", 5: "(shown, no number in the text)",
          9: "top quartile > 80 % in 60 cycles; ≈ 10 cycles per link vs 900 cycles for the batch method"}
+
+
+def default_budget(n_links: int) -> int:
+    """The paper's cycle budget of an in-situ run: 40 cycles for the 3-link swimmer, 60 beyond."""
+    return 40 if n_links <= 3 else 60
+
+
+_LINKS = (3, 5, 9)
+_BATCH_CYCLES = InSituOptimizer().cycles_per_iteration  # cycles per batch-method iteration (Bittner 2018)
 
 
 @dataclass(frozen=True)
@@ -81,9 +90,9 @@ class OptimizationConfig:
         Trials per runner chunk.
     """
 
-    links: tuple[int, ...] = (3, 5, 9)
+    links: tuple[int, ...] = _LINKS
     n_trials: int = 50
-    budgets: tuple[int, ...] = (40, 60, 60)
+    budgets: tuple[int, ...] = tuple(map(default_budget, _LINKS))
     baseline_trials: int = 10
     baseline_iterations: int = 30
     sensor_noise: float = 0.1
@@ -135,8 +144,8 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
     -------
     pandas.DataFrame
         One row per trial × cycle: ``trial``, ``links``, ``method``, ``cycle``, ``gamma``, ``step``,
-        ``true_objective``, ``true_heading``, ``improvement``, ``ceiling_fraction`` and ``params``
-        (the nominal gait's flat parameter vector, space separated).
+        ``true_objective``, ``true_heading``, ``improvement``, ``ceiling_fraction`` and ``param_0`` …
+        ``param_{p-1}`` (the nominal gait's flat parameter vector, one number per column).
     """
     system, gait = swimmer_and_gait(n_links, "optimization_trials")
     frames = []
@@ -146,10 +155,10 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
         optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
                                     gamma_threshold=gamma_threshold)
         log = optimizer.run(stream, n_cycles, ceiling=ceiling).log
-        params = log[[c for c in log.columns if c.startswith("param_")]].to_numpy()
-        log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction"]]
-        frames.append(log.assign(trial=int(trial), links=n_links, method=method,
-                                 params=[" ".join(f"{v:.10g}" for v in row) for row in params]))
+        params = [c for c in log.columns if c.startswith("param_")]
+        log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction",
+                   *params]]
+        frames.append(log.assign(trial=int(trial), links=n_links, method=method))
     return pd.concat(frames, ignore_index=True)
 
 
@@ -158,7 +167,8 @@ class OptimizationResult(ExperimentResult):
     """Long-format per-cycle logs of every trial (see :func:`optimization_trials`)."""
 
     COLUMNS = ("trial", "links", "method", "cycle", "gamma", "step", "true_objective", "true_heading",
-               "improvement", "ceiling_fraction", "params")
+               "improvement", "ceiling_fraction")
+    VARIABLE_COLUMNS = "param_"  # param_0 … param_{p-1}; empty where a swimmer has fewer parameters
 
     def summary(self) -> dict:
         """Headline numbers per swimmer (:func:`optimization_summary`)."""
@@ -179,7 +189,7 @@ def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1,
         system, _ = swimmer_and_gait(n_links, "run_optimization")
         ceiling = cached_ceiling(system).value
         runs = [("adaptive", config.n_trials, budget),
-                ("batch", config.baseline_trials, 30 * config.baseline_iterations)]
+                ("batch", config.baseline_trials, _BATCH_CYCLES * config.baseline_iterations)]
         for offset, (method, n_trials, cycles) in enumerate(runs):
             if n_trials == 0:
                 continue
@@ -192,8 +202,14 @@ def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1,
                                                 description=f"{n_links}-link {method}")
             frames.append(frame)
             wall += seconds
-    frame = pd.concat(frames, ignore_index=True)[list(OptimizationResult.COLUMNS)]
+    frame = pd.concat(frames, ignore_index=True)
+    frame = frame[list(OptimizationResult.COLUMNS) + _param_columns(frame)]
     return OptimizationResult(frame=frame, config=config, wall_time_s=wall, n_workers=workers)
+
+
+def _param_columns(frame: pd.DataFrame) -> list[str]:
+    """``param_0`` … in numeric order (the widest swimmer's count)."""
+    return sorted((c for c in frame.columns if c.startswith("param_")), key=lambda c: int(c.removeprefix("param_")))
 
 
 def _ceiling_improvement(n_links: int) -> float:
@@ -286,7 +302,7 @@ def plot_gaits(ax, frame: pd.DataFrame):
     final = frame[(frame["links"] == 3) & (frame["method"] == "adaptive")]
     final = final[final["cycle"] == final["cycle"].max()]
     median_trial = final.iloc[(final["improvement"] - final["improvement"].median()).abs().argmin()]
-    params = np.array(median_trial["params"].split(), dtype=float)
+    params = median_trial[_param_columns(frame)].dropna().to_numpy(float)
     gaits["optimised (median trial)"] = FourierGait.from_params(params, 2)
     limit = max(g.joint_limit().max() for g in gaits.values()) * 1.15
     direction = ceiling.displacement[:2] / np.hypot(*ceiling.displacement[:2])

@@ -42,12 +42,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._estimator import check_is_fitted
 from .._files import write_json, write_text
 from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
-from ._logs import ColumnMapping, Log, _load_frame, _resolve_mapping, load_column_mapping, read_log
+from ._logs import ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
 from ._streaming import PREDICTION_COLUMNS, model_config
 
 __all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log", "read_log_for_prediction",
@@ -74,7 +75,7 @@ def resolve_mapping(mapping=None, **columns) -> ColumnMapping:
     -------
     ColumnMapping
     """
-    return _resolve_mapping(mapping, columns)
+    return resolve_columns(mapping, columns)
 
 
 def read_log_for_prediction(source, mapping=None, *, measured: bool = True, **arguments) -> tuple[Log, bool]:
@@ -106,7 +107,7 @@ def read_log_for_prediction(source, mapping=None, *, measured: bool = True, **ar
         base["pose"] = base["body_velocity"] = None
     if base.get("pose") is not None or base.get("body_velocity") is not None:
         return read_log(source, ColumnMapping(**base), **options), True
-    frame = _load_frame(source).copy()
+    frame = load_frame(source).copy()
     for name in _PLACEHOLDER:
         frame[name] = 0.0
     base["body_velocity"] = _PLACEHOLDER
@@ -314,7 +315,7 @@ class LogFit:
             "saved_model": (f"refit on all {self.log.n_samples} samples (training and held-out cycles); "
                             "held-out scores are those of the same model trained on the training cycles only")
             if self.refit else "trained on the training cycles only (the model that was scored)",
-            "hyper_parameters": {k: v for k, v in self.model.get_params().items() if k != "gait"},
+            "hyper_parameters": {k: v for k, v in self.model.get_params(deep=False).items() if k != "gait"},
             "segments": self._segments(),
         }
 
@@ -580,7 +581,7 @@ def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = N
     """
     if not isinstance(model, AdaptiveGaitModel):
         raise fail("model", "predict_log", "an AdaptiveGaitModel", type(model).__name__)
-    model._check_is_fitted()
+    check_is_fitted(model)
     if model.n_joints_ != log.n_joints:
         raise fail("log", "predict_log", f"a log with {model.n_joints_} shape columns (the model's joints)",
                    f"{log.n_joints} shape columns")

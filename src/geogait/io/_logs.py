@@ -392,13 +392,13 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     >>> log.shape.shape, round(float(log.shape_velocity[100, 0]), 3)
     ((200, 1), 6.283)
     """
-    columns = _resolve_mapping(mapping, dict(time=time, shape=shape, body_velocity=body_velocity, pose=pose,
+    columns = resolve_columns(mapping, dict(time=time, shape=shape, body_velocity=body_velocity, pose=pose,
                                              shape_velocity=shape_velocity, phase=phase, degrees=degrees))
     options = _check_options(drop_nan, gap_factor, max_jitter, window, polyorder, smooth_poses, scheme)
     scale = _time_scale(time_unit)
     limit = None if outlier_limit is None else check_float(outlier_limit, "outlier_limit", _READ, low=0,
                                                            low_open=True)
-    frame = _load_frame(source)
+    frame = load_frame(source)
     data = _numeric_columns(frame, columns)
     keep = _finite_rows(data, columns, options.drop_nan)
     rows = np.flatnonzero(keep)
@@ -488,7 +488,7 @@ def _check_plausible(data: dict[str, np.ndarray], columns: ColumnMapping, rows: 
                        f"(the first of {bad.size} such value(s); median {np.median(values):.4g})")
 
 
-def _resolve_mapping(mapping, overrides: dict) -> ColumnMapping:
+def resolve_columns(mapping, overrides: dict) -> ColumnMapping:
     if mapping is None:
         base: dict = {}
     elif isinstance(mapping, ColumnMapping):
@@ -523,7 +523,7 @@ def _check_options(drop_nan, gap_factor, max_jitter, window, polyorder, smooth_p
                     scheme=check_choice(scheme, "scheme", _READ, _SCHEMES))
 
 
-def _load_frame(source) -> pd.DataFrame:
+def load_frame(source) -> pd.DataFrame:
     if isinstance(source, pd.DataFrame):
         return source
     if not isinstance(source, str | Path):

@@ -50,7 +50,6 @@ file may be left beside it (the next save of that model removes it).
 
 from __future__ import annotations
 
-import copy
 import csv
 import json
 import math
@@ -211,7 +210,7 @@ def model_config(model: AdaptiveGaitModel) -> dict:
     gait = model.gait if gait is None else gait
     if gait is None:
         raise fail("gait", "model_config", "known (a fitted model, or one built with a gait)", None)
-    params = {k: v for k, v in model.get_params().items() if k != "gait"}
+    params = {k: v for k, v in model.get_params(deep=False).items() if k != "gait"}
     return {"format": CONFIG_FORMAT, "format_version": CONFIG_VERSION, "params": params,
             "gait": gait.coefficients.tolist()}
 
@@ -240,9 +239,7 @@ def model_from_config(config: dict, source: str = "config") -> AdaptiveGaitModel
     params = config.get("params", {})
     if not isinstance(params, dict):
         raise fail("params", owner, "an object of AdaptiveGaitModel hyper-parameters", params)
-    model = AdaptiveGaitModel(gait=gait).set_params(**params)
-    copy.deepcopy(model)._reset((), gait.n_joints, gait)  # validates every hyper-parameter now
-    return model
+    return AdaptiveGaitModel(gait=gait).set_params(**params).validate()
 
 
 def load_stream_model(path) -> AdaptiveGaitModel:

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._estimator import Real
 from .._validation import check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
-from ._base import GaitModelBase
-from ._estimator import OnlineGamma
+from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
 from ._features import n_regressors, regressors
-from ._phase import _assign_bank
+from ._online_gamma import OnlineGamma
+from ._phase import phase_baseline
 from ._rls import RLSBank
 
 __all__ = ["AdaptiveGaitModel"]
@@ -87,6 +88,13 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     True
     """
 
+    _parameter_constraints = {
+        **GAIT_MODEL_CONSTRAINTS,
+        "forgetting_factor": Real(low=0, high=1, low_open=True),
+        "initial_covariance": Real(low=0, low_open=True),
+        "gamma_forgetting": Real(low=0, high=1, low_open=True),
+    }
+
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, forgetting_factor: float = 0.99,
                  initial_covariance: float = 100.0, smoothing_order: int = 5,
@@ -103,18 +111,15 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
-        owner = "AdaptiveGaitModel"
+        self.validate()
         self.windows_ = self._windows()
-        lam = check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
-        delta0 = check_float(self.initial_covariance, "initial_covariance", owner, low=0, low_open=True)
-        check_float(self.gamma_forgetting, "gamma_forgetting", owner, low=0, high=1, low_open=True)
-        self._phase_rate()
         self._set_gait(gait)
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
         n = n_regressors(self.n_joints_, self.interaction)
-        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, lam, delta0)
-        self.phase_model_ = self._new_baseline(lam)
+        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, self.forgetting_factor,
+                             self.initial_covariance)
+        self.phase_model_ = phase_baseline(self, self.forgetting_factor)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
 
@@ -260,7 +265,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self._set_gait(new_gait)
         bank = self.phase_model_.bank_
         if baseline == "reset":
-            self.phase_model_._reset(self.batch_shape_)
+            self.phase_model_.start(self.batch_shape_)
         elif baseline == "reseed":
             bank.weights[..., 0, :] = self.bank_.weights[..., 0, :]
             bank.covariance[...] = 1.0
@@ -268,8 +273,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
 
     # -- persistence --------------------------------------------------------------------------
     def _state(self) -> dict:
-        state = {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
-                 "n_updates": self.bank_.n_updates, "psi": self.psi_, "gait": self.gait_.coefficients,
+        state = {**self.bank_.state(), **self._gamma_state(), "gait": self.gait_.coefficients,
                  "n_samples_seen": self.n_samples_seen_,
                  **self._baseline_state()}
         if self.gait is not None:
@@ -283,10 +287,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
             raise ValueError(f"gait has {gait.n_joints} joints, metadata says {d}")
         self.gait = FourierGait(state["initial_gait"]) if "initial_gait" in state else None
         self._reset(batch, d, gait)
-        _assign_bank(self.bank_, state)
-        psi = np.asarray(state["psi"], dtype=float)
-        if psi.shape != self.psi_.shape:
-            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
-        self.psi_ = psi
+        self.bank_.assign(state)
+        self._set_gamma_state(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
         self._set_baseline_state(state)

@@ -8,16 +8,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import GeogaitError, check_array, check_int, fail
+from .._estimator import Estimator, InstanceOf, Integer
+from .._validation import check_array, fail
 from ..gaits import FourierGait
 from ..simulate import cycle_displacement
 from ..systems import System
-from ._estimator import Parameters
 
 __all__ = ["PerfectInformationModel"]
 
 
-class PerfectInformationModel(Parameters):
+class PerfectInformationModel(Estimator):
     r"""The model interface of the gait models, answered exactly by a known :class:`~geogait.systems.System`.
 
     ``partial_fit`` only records the data's shape dimension (there is nothing to learn),
@@ -50,15 +50,17 @@ class PerfectInformationModel(Parameters):
     True
     """
 
+    _parameter_constraints = {
+        "system": InstanceOf(System, "a System (an object with n_joints and connection)", none=False),
+        "resolution": Integer(minimum=4),
+    }
+
     def __init__(self, *, system: System | None = None, resolution: int = 128):
         self.system = system
         self.resolution = resolution
 
     def _check_system(self) -> System:
-        if not isinstance(self.system, System):
-            raise fail("system", type(self).__name__, "a System (an object with n_joints and connection)",
-                       self.system)
-        check_int(self.resolution, "resolution", type(self).__name__, minimum=4)
+        self.validate()
         return self.system
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
@@ -106,11 +108,12 @@ class PerfectInformationModel(Parameters):
         """Nothing to re-centre; options are accepted and ignored. Returns ``self``."""
         return self
 
+    def __sklearn_is_fitted__(self) -> bool:
+        return True  # stateless: the system is the model
+
     @property
     def gamma_(self) -> float:
         """1.0: perfect information."""
-        if not hasattr(self, "n_joints_"):
-            raise GeogaitError(f"This {type(self).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
         return 1.0
 
     def reset_gamma(self):

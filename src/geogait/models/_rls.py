@@ -81,6 +81,19 @@ class RLSBank:
     def batch_shape(self) -> tuple:
         return self.n_updates.shape[:-1]
 
+    def state(self, prefix: str = "") -> dict:
+        """The bank's arrays, named ``prefix + name`` (what a model file stores)."""
+        return {prefix + name: getattr(self, name) for name in ("weights", "covariance", "n_updates")}
+
+    def assign(self, state: dict, prefix: str = "") -> None:
+        """Copy saved arrays (:meth:`state`) into this bank, checking their shapes (``ValueError``)."""
+        for name in ("weights", "covariance", "n_updates"):
+            saved = np.asarray(state[prefix + name])
+            current = getattr(self, name)
+            if saved.shape != current.shape:
+                raise ValueError(f"array {prefix + name!r} has shape {saved.shape}, expected {current.shape}")
+            setattr(self, name, saved.astype(current.dtype, copy=True))
+
     def inflate(self, factor: float) -> None:
         """Multiply every covariance by ``factor`` (≥ 1), then re-apply the trace clamp."""
         self.covariance *= factor
