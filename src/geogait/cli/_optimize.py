@@ -31,7 +31,7 @@ from ..robots import ProcessRobot
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
-from ._common import comma_list, console, output_folder, progress_bar, write_manifest
+from ._common import comma_list, console, listed, output_folder, progress_bar, write_manifest
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
@@ -208,18 +208,14 @@ def _figures(folder, system, result, ceiling) -> None:
     save_figure(fig, folder / "path.png")
 
 
-def _listed(values) -> str:
-    return ",".join(map(str, values))
-
-
 @figure_app.command("optimization")
 def figure_optimization(
     trials: Annotated[int | None, typer.Option(
         min=1, help=f"In-situ trials per swimmer [default: {_FIG5.n_trials}].")] = None,
     links: Annotated[str | None, typer.Option(
-        help=f"Swimmers, comma-separated [default: {_listed(_FIG5.links)}].")] = None,
+        help=f"Swimmers, comma-separated [default: {listed(_FIG5.links)}].")] = None,
     cycles: Annotated[str | None, typer.Option(
-        help=f"Cycle budgets per swimmer [default: {_listed(_FIG5.budgets)}].")] = None,
+        help=f"Cycle budgets per swimmer [default: {listed(_FIG5.budgets)}].")] = None,
     baseline_trials: Annotated[int | None, typer.Option(
         min=0, help=f"Batch-method trials per swimmer [default: {_FIG5.baseline_trials}].")] = None,
     baseline_iterations: Annotated[int | None, typer.Option(

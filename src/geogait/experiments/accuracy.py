@@ -36,13 +36,16 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.patches import Patch
 
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..plotting import plt, save_figure
 from ..simulate import simulate
 from ._common import (
     PERCENTILES,
@@ -369,12 +372,6 @@ def plot_accuracy(frame: pd.DataFrame, path):
     -------
     pathlib.Path
     """
-    from pathlib import Path
-
-    from matplotlib.patches import Patch
-
-    from ..plotting import plt, save_figure
-
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 8), sharex=True, height_ratios=(3, 2))
     plot_gamma_boxes(top, frame)
     top.axhline(PAPER_GAMMA_AT_5, color="0.4", lw=0.8, ls=":")

@@ -51,13 +51,16 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.patches import Patch
 
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..plotting import plt, save_figure
 from ..simulate import DragRatioSchedule, simulate
 from ._common import (
     ExperimentResult,
@@ -457,12 +460,6 @@ def plot_environments(frame: pd.DataFrame, path):
     -------
     pathlib.Path
     """
-    from pathlib import Path
-
-    from matplotlib.patches import Patch
-
-    from ..plotting import plt, save_figure
-
     fig, ax = plt.subplots(figsize=(10, 5))
     plot_error_bands(ax, frame)
     mark_switches(ax, frame)

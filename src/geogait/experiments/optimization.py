@@ -29,11 +29,11 @@ import numpy as np
 import pandas as pd
 
 from .._validation import check_choice, check_float, check_int, fail
-from ..gaits import Perturbation
+from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import InSituOptimizer, cached_ceiling
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
-from ..simulate import SwimmerStream
+from ..simulate import SwimmerStream, cycle_displacement
 from ._common import (
     PERCENTILES,
     ExperimentResult,
@@ -214,8 +214,6 @@ def _param_columns(frame: pd.DataFrame) -> list[str]:
 
 def _ceiling_improvement(n_links: int) -> float:
     system, gait = swimmer_and_gait(n_links, "optimization")
-    from ..simulate import cycle_displacement
-
     seed_value = float(np.hypot(*cycle_displacement(system, gait)[:2]))
     return cached_ceiling(system).value / seed_value - 1
 
@@ -294,8 +292,6 @@ def plot_bands(ax, frame: pd.DataFrame, n_links: int):
 
 def plot_gaits(ax, frame: pd.DataFrame):
     """Panel A: the 3-link seed gait, the median trial's final gait and the ceiling gait."""
-    from ..gaits import FourierGait
-
     system, seed = swimmer_and_gait(3, "plot_gaits")
     ceiling = cached_ceiling(system)
     gaits = {"seed": seed, "ceiling": ceiling.gait}

@@ -48,7 +48,8 @@ from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
-from ._logs import ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
+from ._logs import TIME_UNITS, ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
+from ._report import write_fit_figures
 from ._streaming import PREDICTION_COLUMNS, model_config
 
 __all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log", "read_log_for_prediction",
@@ -182,8 +183,6 @@ def check_phase_rate(rate: float, time_unit: str | None, owner: str) -> float:
     float
         ``rate``.
     """
-    from ._logs import TIME_UNITS
-
     frequency = rate / (2 * np.pi)
     low, high = PLAUSIBLE_FREQUENCY
     if low <= frequency <= high:
@@ -347,8 +346,6 @@ class LogFit:
         -------
         dict of name to Path
         """
-        from ._report import write_fit_figures
-
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         paths = {"model": self.model.save(folder / "model.npz")}

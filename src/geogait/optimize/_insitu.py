@@ -61,6 +61,7 @@ from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ..models import AdaptiveGaitModel, model_from_state
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
+from ..systems import PurcellSwimmer
 from ._objective import OBJECTIVES, joint_limit_constraints, objective
 from ._steps import STEP_RULES, StepProblem, take_step
 
@@ -507,8 +508,6 @@ def _is_numeric(value) -> bool:
 
 def _declares_symmetry(robot) -> bool:
     """The robot says its chain is front–back symmetric, or simulates a symmetric Purcell swimmer."""
-    from ..systems import PurcellSwimmer
-
     declared = getattr(robot, "front_back_symmetric", None)
     if declared is not None:
         return bool(declared)
