@@ -53,14 +53,16 @@ def plot_shape_space(ax, shape=None, gaits: dict[str, FourierGait] | None = None
     return ax
 
 
-def save_figure(fig, path) -> None:
-    """Write ``fig`` to ``path`` atomically (format from the suffix, 130 dpi) and close it."""
+def save_figure(fig, path) -> Path:
+    """Write ``fig`` to ``path`` atomically (format from the suffix, 130 dpi), close it, return the path."""
     fig.tight_layout()
+    path = Path(path)
     try:
-        fmt = Path(path).suffix.lstrip(".").lower() or "png"
+        fmt = path.suffix.lstrip(".").lower() or "png"
         atomic_write(path, lambda stream: fig.savefig(stream, dpi=130, format=fmt))
     finally:
         plt.close(fig)
+    return path
 
 
 def plot_height_function(ax, system, direction, limit: float):

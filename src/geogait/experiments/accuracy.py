@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -359,19 +358,8 @@ def plot_online_gamma(ax, frame: pd.DataFrame):
 
 
 def plot_accuracy(frame: pd.DataFrame, path):
-    """Fig. 2: held-out Γ box plots of both models (top) and the adaptive model's online Γ (bottom).
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        Long-format results.
-    path : path-like
-        PNG to write.
-
-    Returns
-    -------
-    pathlib.Path
-    """
+    """Draw Fig. 2 from the long-format results ``frame`` to the PNG ``path`` (returned as a Path):
+    held-out Γ box plots of both models (top) and the adaptive model's online Γ (bottom)."""
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 8), sharex=True, height_ratios=(3, 2))
     plot_gamma_boxes(top, frame)
     top.axhline(PAPER_GAMMA_AT_5, color="0.4", lw=0.8, ls=":")
@@ -385,6 +373,4 @@ def plot_accuracy(frame: pd.DataFrame, path):
                title_fontsize=8)
     top.grid(axis="y", alpha=0.3)
     plot_online_gamma(bottom, frame)
-    path = Path(path)
-    save_figure(fig, path)
-    return path
+    return save_figure(fig, path)

@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -447,19 +446,8 @@ def mark_switches(ax, frame: pd.DataFrame):
 
 
 def plot_environments(frame: pd.DataFrame, path):
-    """Fig. 3: log prediction error over time through the environment switches.
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        Long-format results.
-    path : path-like
-        PNG to write.
-
-    Returns
-    -------
-    pathlib.Path
-    """
+    """Draw Fig. 3 from the long-format results ``frame`` to the PNG ``path`` (returned as a Path): log
+    prediction error over time through the environment switches."""
     fig, ax = plt.subplots(figsize=(10, 5))
     plot_error_bands(ax, frame)
     mark_switches(ax, frame)
@@ -469,6 +457,4 @@ def plot_environments(frame: pd.DataFrame, path):
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, ncols=3)
     n_trials = frame["trial"].nunique()
     ax.set_title(f"Adaptation to changing environments ({n_trials} trials)", pad=18)
-    path = Path(path)
-    save_figure(fig, path)
-    return path
+    return save_figure(fig, path)
