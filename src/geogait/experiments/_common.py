@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .._files import write_text
+from .._seeds import child_seed
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
@@ -62,10 +63,7 @@ def check_links(n_links, name: str, owner: str) -> int:
 
 
 def child_seeds(seeds, key: int) -> list[np.random.SeedSequence]:
-    """Child ``key`` of every trial seed, built without mutating the parents.
-
-    ``SeedSequence(s.entropy, spawn_key=s.spawn_key + (key,))`` is what ``s.spawn`` would hand out
-    as its ``key``-th child, but calling it twice gives the same sequence.
+    """Child ``key`` of every trial seed, built without mutating the parents (:func:`geogait._seeds.child_seed`).
 
     Parameters
     ----------
@@ -76,7 +74,7 @@ def child_seeds(seeds, key: int) -> list[np.random.SeedSequence]:
     -------
     list of numpy.random.SeedSequence
     """
-    return [np.random.SeedSequence(s.entropy, spawn_key=tuple(s.spawn_key) + (key,)) for s in seeds]
+    return [child_seed(s, key) for s in seeds]
 
 
 def cycle_block(run: Trajectory, start: int, stop: int, samples_per_cycle: int) -> tuple[np.ndarray, ...]:

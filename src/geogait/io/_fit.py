@@ -48,6 +48,7 @@ from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
+from ..simulate import BODY_VELOCITY_COLUMNS
 from ._logs import TIME_UNITS, ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
 from ._report import write_fit_figures
 from ._streaming import PREDICTION_COLUMNS, model_config
@@ -57,7 +58,6 @@ __all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log
 
 MIN_TRAIN_CYCLES = 5
 DEFAULT_TEST_FRACTION = 0.25
-_MEASURED_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
 _PLACEHOLDER = ("__geogait_unmeasured_vx", "__geogait_unmeasured_vy", "__geogait_unmeasured_w")
 
 
@@ -464,7 +464,7 @@ class LogPrediction:
                    "cycle": self.cycle}
         columns.update(zip(PREDICTION_COLUMNS, self.prediction.T, strict=True))
         if self.measured:
-            columns.update(zip(_MEASURED_COLUMNS, self.log.body_velocity.T, strict=True))
+            columns.update(zip(BODY_VELOCITY_COLUMNS, self.log.body_velocity.T, strict=True))
         return pd.DataFrame(columns)
 
     def summary(self) -> dict:

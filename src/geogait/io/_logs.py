@@ -72,8 +72,7 @@ from scipy.signal import savgol_filter
 from .. import se2
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float, check_int, fail
 from ..phase import cycle_index
-from ..simulate import Trajectory
-from ..simulate._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS
+from ..simulate import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
 
 __all__ = ["ColumnMapping", "Log", "load_column_mapping", "read_log"]
 

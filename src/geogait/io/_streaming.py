@@ -80,6 +80,7 @@ from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, load_model
 from ..models._base import MAX_PHASE
 from ..phase import OnlinePhaser, Phaser
+from ..simulate import BODY_VELOCITY_COLUMNS
 from ._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 
 __all__ = ["CONFIG_FORMAT", "CsvReader", "JsonLinesReader", "OnlineDifferentiator", "StreamLearner",
@@ -89,7 +90,6 @@ __all__ = ["CONFIG_FORMAT", "CsvReader", "JsonLinesReader", "OnlineDifferentiato
 CONFIG_FORMAT = "geogait-model-config"
 CONFIG_VERSION = 1
 PREDICTION_COLUMNS = ("predicted_body_velocity_x", "predicted_body_velocity_y", "predicted_body_velocity_theta")
-_BODY = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
 _KEYS = ("time", "phase", "shape", "shape_velocity", "body_velocity")
 #: Accepted samples whose medians and spreads define the stream's plausibility bound.
 PLAUSIBILITY_WINDOW = 1000
@@ -686,7 +686,8 @@ class CsvReader:
     def _columns(self, header: list[str]) -> dict[str, list[int] | None]:
         d = self.n_joints
         groups = {"time": ["time"], "phase": ["phase"], "shape": [f"shape_{j}" for j in range(d)],
-                  "shape_velocity": [f"shape_velocity_{j}" for j in range(d)], "body_velocity": list(_BODY)}
+                  "shape_velocity": [f"shape_velocity_{j}" for j in range(d)],
+                  "body_velocity": list(BODY_VELOCITY_COLUMNS)}
         index = {name: i for i, name in enumerate(header)}
         found: dict[str, list[int] | None] = {}
         for key, names in groups.items():

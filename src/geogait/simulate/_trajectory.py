@@ -13,6 +13,7 @@ from .._validation import fail
 
 __all__ = ["Trajectory"]
 
+#: Column names of body velocity and world pose in every table geogait writes or reads by default.
 BODY_VELOCITY_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
 POSE_COLUMNS = ("x", "y", "heading")
 
