@@ -28,7 +28,7 @@ from geogait import GeogaitError
 from geogait._files import dumps_json
 from geogait.cli import app
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, model_config, read_log, run_stream
+from geogait.io import StreamLearner, read_log, run_stream
 from geogait.models import AdaptiveGaitModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
@@ -227,7 +227,7 @@ def files(run, fitted, tmp_path_factory):
     folder = tmp_path_factory.mktemp("cli")
     run.to_pandas().to_csv(folder / "log.csv", index=False)
     fitted.save(folder / "model.npz")
-    (folder / "config.json").write_text(json.dumps(model_config(fitted)))
+    (folder / "config.json").write_text(json.dumps(fitted.to_config()))
     (folder / "a_file").write_text("x")
     return folder
 

@@ -21,8 +21,8 @@ from geogait._files import atomic_write, check_writable, json_ready, write_json
 from geogait.cli import app
 from geogait.cli._common import comma_list, write_manifest
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, fit_log, model_config, read_log, run_stream
-from geogait.io._streaming import StreamOutput, _JsonLinesWriter
+from geogait.io import StreamLearner, fit_log, read_log, run_stream
+from geogait.io._records import StreamOutput, _JsonLinesWriter
 from geogait.models import AdaptiveGaitModel, PhaseModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
@@ -48,7 +48,7 @@ def frame(run):
 @pytest.fixture
 def config(tmp_path):
     path = tmp_path / "config.json"
-    path.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=GAIT))))
+    path.write_text(json.dumps(AdaptiveGaitModel(gait=GAIT).to_config()))
     return path
 
 

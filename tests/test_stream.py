@@ -23,8 +23,6 @@ from geogait.io import (
     OnlineDifferentiator,
     StreamLearner,
     load_stream_model,
-    model_config,
-    model_from_config,
     run_stream,
 )
 from geogait.models import AdaptiveGaitModel, load_model
@@ -65,7 +63,7 @@ def fit_args(run, stop=None):
 @pytest.fixture
 def config(tmp_path):
     path = tmp_path / "config.json"
-    path.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=GAIT))))
+    path.write_text(json.dumps(AdaptiveGaitModel(gait=GAIT).to_config()))
     return path
 
 
@@ -183,11 +181,11 @@ def test_bad_models_and_configs(tmp_path, config):
     result = runner.invoke(app, ["stream", str(tmp_path / "bad.json")], input="")
     assert result.exit_code == 1 and "'forgetting_factor' parameter of AdaptiveGaitModel" in result.stderr
     with pytest.raises(ValueError, match=r"unknown key\(s\) \['lambda'\]"):
-        model_from_config({"gait": [[0, 1, 0]], "lambda": 0.9})
+        AdaptiveGaitModel.from_config({"gait": [[0, 1, 0]], "lambda": 0.9})
     with pytest.raises(ValueError, match="'gait' parameter of the model config.*Fourier coefficients"):
-        model_from_config({"params": {}})
+        AdaptiveGaitModel.from_config({"params": {}})
     with pytest.raises(ValueError, match="'n_windowz' parameter of AdaptiveGaitModel"):
-        model_from_config({"gait": [[0, 1, 0]], "params": {"n_windowz": 3}})
+        AdaptiveGaitModel.from_config({"gait": [[0, 1, 0]], "params": {"n_windowz": 3}})
     result = runner.invoke(app, ["stream", str(tmp_path / "missing.npz")], input="")
     assert result.exit_code == 1 and "does not exist" in result.stderr
     result = runner.invoke(app, ["stream", str(config), "--format", "xml"], input="")
@@ -312,9 +310,9 @@ def test_robot_example_runs_quick(tmp_path, capsys):
 def test_docstring_examples_run():
     import doctest
 
-    from geogait.io import _fit, _streaming
+    from geogait.io import _fit, _learner
     from geogait.phase import _online, _phaser
 
-    for module in (_streaming, _fit, _online, _phaser):
+    for module in (_learner, _fit, _online, _phaser):
         outcome = doctest.testmod(module)
         assert outcome.attempted > 0 and outcome.failed == 0, module.__name__

@@ -10,20 +10,10 @@ from ._fit import (
     read_log_for_prediction,
     resolve_mapping,
 )
+from ._learner import OnlineDifferentiator, StreamLearner, load_stream_model
 from ._logs import ColumnMapping, Log, load_column_mapping, read_log
-from ._streaming import (
-    CsvReader,
-    JsonLinesReader,
-    OnlineDifferentiator,
-    StreamLearner,
-    StreamOutput,
-    StreamSample,
-    StreamSummary,
-    load_stream_model,
-    model_config,
-    model_from_config,
-    run_stream,
-)
+from ._records import CsvReader, JsonLinesReader, StreamOutput, StreamSample, StreamSummary
+from ._streaming import run_stream
 
 __all__ = [
     "ColumnMapping",
@@ -41,8 +31,6 @@ __all__ = [
     "load_column_mapping",
     "load_stream_model",
     "mapping_to_json",
-    "model_config",
-    "model_from_config",
     "predict_log",
     "read_log",
     "read_log_for_prediction",

@@ -50,8 +50,8 @@ from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
 from ..simulate import BODY_VELOCITY_COLUMNS
 from ._logs import TIME_UNITS, ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
+from ._records import PREDICTION_COLUMNS
 from ._report import write_fit_figures
-from ._streaming import PREDICTION_COLUMNS, model_config
 
 __all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log", "read_log_for_prediction",
            "resolve_mapping"]
@@ -351,7 +351,7 @@ class LogFit:
         paths = {"model": self.model.save(folder / "model.npz")}
         if self.phaser is not None:
             paths["phaser"] = self.phaser.save(folder / "phaser.npz")
-        paths["config"] = write_json(folder / "config.json", model_config(self.model))
+        paths["config"] = write_json(folder / "config.json", self.model.to_config())
         if mapping is not None:
             paths["mapping"] = write_text(folder / "mapping.json", mapping_to_json(mapping))
         paths.update(write_fit_figures(self, folder))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._estimator import Real
-from .._validation import check_choice, check_float, fail, warn_if_degrees
+from .._validation import check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
 from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
 from ._features import n_regressors, regressors
@@ -13,7 +13,10 @@ from ._online_gamma import OnlineGamma
 from ._phase import phase_baseline
 from ._rls import RLSBank
 
-__all__ = ["AdaptiveGaitModel"]
+__all__ = ["CONFIG_FORMAT", "AdaptiveGaitModel"]
+
+CONFIG_FORMAT = "geogait-model-config"
+CONFIG_VERSION = 1
 
 
 class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
@@ -270,6 +273,50 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
             bank.weights[..., 0, :] = self.bank_.weights[..., 0, :]
             bank.covariance[...] = 1.0
         return self
+
+    # -- configs: a fresh model's recipe as JSON ----------------------------------------------
+    def to_config(self) -> dict:
+        """A JSON-ready config that starts a fresh model with these hyper-parameters and nominal gait
+        (``geogait fit`` writes it as ``config.json``; ``geogait stream`` and :meth:`from_config` read it).
+
+        Returns
+        -------
+        dict with keys ``format``, ``format_version``, ``params`` and ``gait`` (coefficients ``(d, 2K+1)``).
+        """
+        gait = getattr(self, "gait_", None)
+        gait = self.gait if gait is None else gait
+        if gait is None:
+            raise fail("gait", "AdaptiveGaitModel.to_config", "known (a fitted model, or one built with a gait)", None)
+        params = {k: v for k, v in self.get_params(deep=False).items() if k != "gait"}
+        return {"format": CONFIG_FORMAT, "format_version": CONFIG_VERSION, "params": params,
+                "gait": gait.coefficients.tolist()}
+
+    @classmethod
+    def from_config(cls, config: dict, source: str = "config") -> AdaptiveGaitModel:
+        """A fresh model from a config of :meth:`to_config`; ``source`` names it in errors.
+
+        Only ``gait`` is required; ``params`` holds any hyper-parameters, and ``format`` /
+        ``format_version`` are checked when present. Unknown keys are errors. The hyper-parameters
+        are validated here, not at the first sample.
+        """
+        owner = f"the model config {source}"
+        if not isinstance(config, dict):
+            raise fail("config", owner, "a JSON object", type(config).__name__)
+        unknown = sorted(set(config) - {"format", "format_version", "params", "gait"})
+        if unknown:
+            raise fail("config", owner, "an object with keys among format, format_version, params, gait",
+                       f"unknown key(s) {unknown}")
+        if config.get("format", CONFIG_FORMAT) != CONFIG_FORMAT or config.get("format_version", 1) != 1:
+            raise fail("format", owner, f"{CONFIG_FORMAT!r} version {CONFIG_VERSION}",
+                       f"{config.get('format')!r} version {config.get('format_version')}")
+        if "gait" not in config:
+            raise fail("gait", owner, "given: the nominal gait's Fourier coefficients, a list of d lists "
+                       "[a_0, a_1..a_K, b_1..b_K]", None)
+        gait = FourierGait(check_array(config["gait"], "gait", owner, ndim=2))
+        params = config.get("params", {})
+        if not isinstance(params, dict):
+            raise fail("params", owner, "an object of AdaptiveGaitModel hyper-parameters", params)
+        return cls(gait=gait).set_params(**params).validate()
 
     # -- persistence --------------------------------------------------------------------------
     def _state(self) -> dict:
