@@ -11,11 +11,11 @@ import copy
 
 import numpy as np
 import pytest
+from _reference import GAIT, SWIMMER
 from sklearn.base import clone
 
 from geogait import GeogaitError
 from geogait._estimator import Boolean, InstanceOf, Integer, Options, Real
-from geogait.gaits import seed_gait
 from geogait.models import (
     AdaptiveGaitModel,
     BatchGaitModel,
@@ -27,9 +27,7 @@ from geogait.models import (
 from geogait.optimize import InSituOptimizer
 from geogait.phase import Phaser
 from geogait.simulate import simulate
-from geogait.systems import PurcellSwimmer
 
-SWIMMER, GAIT = PurcellSwimmer(3), seed_gait(2)
 RUN = simulate(SWIMMER, GAIT, n_cycles=12, samples_per_cycle=60, sensor_noise=0.05, seed=3)
 HELD_OUT = simulate(SWIMMER, GAIT, n_cycles=2, samples_per_cycle=60, sensor_noise=0.05, seed=4)
 

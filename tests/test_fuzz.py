@@ -20,6 +20,7 @@ import string
 
 import numpy as np
 import pytest
+from _reference import GAIT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -33,7 +34,6 @@ from geogait.models import AdaptiveGaitModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-GAIT = seed_gait(2)
 FUZZ = settings(derandomize=True, database=None, deadline=None, print_blob=False,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
                                        HealthCheck.data_too_large])

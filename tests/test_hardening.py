@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _reference import GAIT, lines, record
 from typer.testing import CliRunner
 
 from geogait import GeogaitError, GeogaitWarning
@@ -27,7 +28,6 @@ from geogait.models import AdaptiveGaitModel, PhaseModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-GAIT = seed_gait(2)
 BODY = ["body_velocity_x", "body_velocity_y", "body_velocity_theta"]
 COLUMNS = dict(shape=["shape_0", "shape_1"], body_velocity=BODY, phase="phase",
                shape_velocity=["shape_velocity_0", "shape_velocity_1"])
@@ -50,17 +50,6 @@ def config(tmp_path):
     path = tmp_path / "config.json"
     path.write_text(json.dumps(AdaptiveGaitModel(gait=GAIT).to_config()))
     return path
-
-
-def record(run, s, **changes):
-    entry = {"time": float(run.time[s]), "phase": float(run.phase[s]), "shape": run.shape[s].tolist(),
-             "shape_velocity": run.shape_velocity[s].tolist(), "body_velocity": run.body_velocity[s].tolist()}
-    return {**entry, **changes}
-
-
-def lines(run, start, stop, changes=None):
-    changes = changes or {}
-    return "".join(json.dumps(record(run, s, **changes.get(s, {}))) + "\n" for s in range(start, stop))
 
 
 def strict_json(text: str):

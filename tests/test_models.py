@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
+from _reference import GAIT, SWIMMER, fit_args
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geogait.gaits import FourierGait, seed_gait
+from geogait.gaits import FourierGait
 from geogait.models import (
     AdaptiveGaitModel,
     BatchGaitModel,
@@ -16,13 +17,6 @@ from geogait.models import (
     regressors,
 )
 from geogait.simulate import simulate
-from geogait.systems import PurcellSwimmer
-
-SWIMMER, GAIT = PurcellSwimmer(3), seed_gait(2)
-
-
-def fit_args(run):
-    return run.phase, run.shape, run.shape_velocity, run.body_velocity
 
 
 @pytest.fixture(scope="module")

@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _reference import GAIT, fit_args, lines
 from scipy.signal import savgol_coeffs
 from typer.testing import CliRunner
 
 from geogait.cli import app
-from geogait.gaits import seed_gait
 from geogait.io import (
     OnlineDifferentiator,
     StreamLearner,
@@ -30,7 +30,6 @@ from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-GAIT = seed_gait(2)
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = Path(sys.executable).with_name("geogait")
 COMMAND = [str(SCRIPT)] if SCRIPT.exists() else [sys.executable, "-c", "from geogait.cli import main; main()"]
@@ -40,24 +39,6 @@ ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_N
 @pytest.fixture(scope="module")
 def run():
     return simulate(PurcellSwimmer(3), GAIT, 50, seed=4, sensor_noise=0.1)  # 5 000 samples
-
-
-def record(run, s, *, phase=True, rate=True):
-    entry = {"time": float(run.time[s]), "shape": run.shape[s].tolist(), "body_velocity": run.body_velocity[s].tolist()}
-    if phase:
-        entry["phase"] = float(run.phase[s])
-    if rate:
-        entry["shape_velocity"] = run.shape_velocity[s].tolist()
-    return entry
-
-
-def lines(run, start=0, stop=None, **options):
-    stop = run.n_samples if stop is None else stop
-    return "".join(json.dumps(record(run, s, **options)) + "\n" for s in range(start, stop))
-
-
-def fit_args(run, stop=None):
-    return run.phase[:stop], run.shape[:stop], run.shape_velocity[:stop], run.body_velocity[:stop]
 
 
 @pytest.fixture
