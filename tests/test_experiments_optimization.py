@@ -63,6 +63,20 @@ def test_optimize_command_writes_report(tmp_path):
         assert (tmp_path / name).stat().st_size > 10_000
 
 
+def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
+    options = ["--method", "shape", "--family", "free", "--step-rule", "sqp"]
+    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "10", *options, "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    optimizer = json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]
+    assert optimizer["model"]["class"] == "ShapeSpaceModel" and optimizer["model"]["params"]["degree"] == 3
+    assert optimizer["family"] == "free" and optimizer["step_rule"] == "sqp"
+    log = pd.read_csv(tmp_path / "cycles.csv")
+    assert log["step"].any() and log["param_0"].notna().all()  # it moved, in the free family's parameters
+    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "12"])
+    assert resumed.exit_code == 0, resumed.output
+    assert len(pd.read_csv(tmp_path / "cycles.csv")) == 12
+
+
 def test_bad_figure_options_are_reported(tmp_path):
     result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
                                       str(tmp_path)])

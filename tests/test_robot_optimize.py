@@ -10,7 +10,7 @@ from _robots import BareRobot
 
 from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
-from geogait.models import BatchGaitModel
+from geogait.models import BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer
 from geogait.robots import Robot
 from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
@@ -163,7 +163,8 @@ def _interrupted_then_resumed(tmp_path, make_optimizer, stop_after, n_cycles):
 @pytest.mark.parametrize("make_optimizer", [
     lambda: InSituOptimizer(settle_cycles=1),
     lambda: InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=3, objective="forward"),
-], ids=["adaptive", "batch-forward"])
+    lambda: InSituOptimizer(model=ShapeSpaceModel(degree=2), family="free", step_rule="sqp"),
+], ids=["adaptive", "batch-forward", "shape-space-sqp"])
 def test_resume_is_bit_identical_to_an_uninterrupted_run(tmp_path, make_optimizer):
     whole = make_optimizer().run(_stream(seed=5), 14, ceiling=0.1)
     resumed = _interrupted_then_resumed(tmp_path, make_optimizer, stop_after=8, n_cycles=14)

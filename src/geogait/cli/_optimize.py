@@ -16,7 +16,7 @@ from .._files import dumps_json, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import OptimizationConfig, OptimizationResult, default_budget, run_optimization
 from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
 from ..plotting import (
     plot_height_function,
@@ -34,6 +34,7 @@ from ._app import app, figure_app
 from ._common import comma_list, console, listed, output_folder, progress_bar, write_manifest
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
+_METHODS = ("adaptive", "shape", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 CHECKPOINT_FILE = "checkpoint.npz"
 
@@ -60,7 +61,13 @@ def optimize(
     settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
-    method: Annotated[str, typer.Option(help="adaptive (this paper) or batch (Bittner 2018).")] = "adaptive",
+    method: Annotated[str, typer.Option(
+        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space, degree 3) "
+             "or batch (Bittner 2018).")] = "adaptive",
+    family: Annotated[str, typer.Option(
+        help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
+             "symmetric.")] = "auto",
+    step_rule: Annotated[str, typer.Option(help="Step rule: linear (linearised, constrained) or sqp.")] = "linear",
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
@@ -80,7 +87,8 @@ def optimize(
                         period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
                         order=order, objective=objective, max_joint_angle=max_joint_angle,
                         max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
-                        max_tracking_error=max_tracking_error, method=method, robot=robot,
+                        max_tracking_error=max_tracking_error, method=method, family=family,
+                        step_rule=step_rule, robot=robot,
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
@@ -106,8 +114,9 @@ def optimize(
 
 
 def _optimizer(settings) -> InSituOptimizer:
-    if settings["method"] not in ("adaptive", "batch"):
-        raise typer.BadParameter(f"expected 'adaptive' or 'batch', got {settings['method']!r}", param_hint="--method")
+    if settings["method"] not in _METHODS:
+        raise typer.BadParameter(f"expected one of {', '.join(_METHODS)}, got {settings['method']!r}",
+                                 param_hint="--method")
     tracking = settings["max_tracking_error"]
     if tracking not in ("auto", "off"):
         try:
@@ -119,12 +128,16 @@ def _optimizer(settings) -> InSituOptimizer:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
-    model = BatchGaitModel() if settings["method"] == "batch" else (
-        None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting))
+    model = {"batch": lambda: BatchGaitModel(),
+             "shape": lambda: ShapeSpaceModel(degree=3) if forgetting is None else ShapeSpaceModel(
+                 degree=3, forgetting_factor=forgetting),
+             "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
+             }[settings["method"]]()
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=settings["max_joint_angle"],
                            max_joint_velocity=settings["max_joint_velocity"],
-                           settle_cycles=settings["settle_cycles"],
+                           settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
+                           step_rule=settings.get("step_rule", "linear"),
                            max_tracking_error=None if tracking == "off" else tracking).validate()
 
 
