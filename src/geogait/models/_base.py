@@ -58,7 +58,8 @@ def gamma(error_model, error_baseline) -> np.ndarray:
     Returns
     -------
     ndarray of shape (...)
-        Γ, summed over the last (sample) axis; 1 is a perfect model, 0 no better than the baseline.
+        Γ, the sums running over the last (sample) axis: 1 is a perfect model, 0 no better than the
+        baseline, negative worse.
     """
     return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
 
