@@ -43,12 +43,30 @@ _SMALL = 1e-4  # |omega| below which the series of sin(w)/w and (1-cos w)/w are 
 
 
 def wrap_angle(angle):
-    """Wrap angles to ``[-pi, pi)``."""
+    """Wrap angles to ``[-pi, pi)``.
+
+    Parameters
+    ----------
+    angle : float or array-like
+        Angle(s) in radians, any shape.
+
+    Returns
+    -------
+    ndarray
+        The same angles shifted by multiples of 2π into ``[-pi, pi)``.
+    """
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 def hat(twist) -> np.ndarray:
-    """Twist ``(..., 3)`` to its 3x3 matrix in se(2), ``(..., 3, 3)``."""
+    """Twist ``(..., 3)`` to its 3x3 matrix in se(2), ``(..., 3, 3)``.
+
+    Parameters
+    ----------
+    twist : array-like of shape (..., 3)
+        (v_x, v_y, omega): linear velocity (body lengths per unit time) and angular velocity (radians per
+        unit time), or any such twist already multiplied by a duration.
+    """
     twist = np.asarray(twist, dtype=float)
     out = np.zeros(twist.shape[:-1] + (3, 3))
     out[..., 0, 1] = -twist[..., 2]
@@ -110,7 +128,13 @@ def compose(first, second) -> np.ndarray:
 
 
 def inverse(pose) -> np.ndarray:
-    """Group inverse of poses ``(..., 3)``."""
+    """Group inverse of poses ``(..., 3)``.
+
+    Parameters
+    ----------
+    pose : array-like of shape (..., 3)
+        (x, y, heading): position in body lengths, heading in radians.
+    """
     pose = np.asarray(pose, dtype=float)
     x, y = _rotate(-pose[..., 2], -pose[..., 0], -pose[..., 1])
     return np.stack([x, y, -pose[..., 2]], axis=-1)
@@ -124,7 +148,13 @@ def between(first, second) -> np.ndarray:
 
 def adjoint(pose) -> np.ndarray:
     r"""Adjoint matrix ``(..., 3, 3)`` of poses ``(..., 3)``: :math:`\mathrm{Ad}_g \xi =
-    (g\hat\xi g^{-1})^\vee`, i.e. ``[[R, (y, -x)^T], [0, 0, 1]]``."""
+    (g\hat\xi g^{-1})^\vee`, i.e. ``[[R, (y, -x)^T], [0, 0, 1]]``.
+
+    Parameters
+    ----------
+    pose : array-like of shape (..., 3)
+        (x, y, heading) of g: position in body lengths, heading in radians.
+    """
     pose = np.asarray(pose, dtype=float)
     cos, sin = np.cos(pose[..., 2]), np.sin(pose[..., 2])
     out = np.zeros(pose.shape[:-1] + (3, 3))
@@ -180,7 +210,15 @@ def integrate_body_velocity(body_velocity, dt, initial_pose=None) -> np.ndarray:
 
 
 def displacement(body_velocity, dt) -> np.ndarray:
-    """Net pose ``(..., 3)`` reached from the identity by :func:`integrate_body_velocity`."""
+    """Net pose ``(..., 3)`` reached from the identity by :func:`integrate_body_velocity`.
+
+    Parameters
+    ----------
+    body_velocity : array-like of shape (..., n_samples, 3)
+        Body velocity (v_x, v_y, omega) held constant over each step.
+    dt : float or array-like of shape (..., n_samples)
+        Duration of each step (seconds, or the time unit of ``body_velocity``).
+    """
     return product_of_exponentials(np.asarray(body_velocity, dtype=float) * np.asarray(dt, dtype=float)[..., None])
 
 
@@ -299,6 +337,13 @@ def magnus_steps(velocity_at_nodes: np.ndarray, step: float) -> np.ndarray:
     r"""Fourth-order Magnus twist per step from body velocities at the two Gauss nodes ``(..., n, 2, 3)``.
 
     :math:`\Omega = \tfrac h2(\xi_1 + \xi_2) + \tfrac{\sqrt3}{12}h^2[\xi_1, \xi_2]`; returns ``(..., n, 3)``.
+
+    Parameters
+    ----------
+    velocity_at_nodes : ndarray of shape (..., n, 2, 3)
+        Body velocity per unit phase, ξ₁ and ξ₂, at the two Gauss nodes of each step (see :func:`gauss_phases`).
+    step : float
+        Phase step h in radians (``2π / n``).
     """
     first, second = velocity_at_nodes[..., 0, :], velocity_at_nodes[..., 1, :]
     return step / 2 * (first + second) + np.sqrt(3) / 12 * step**2 * bracket(first, second)
@@ -320,7 +365,24 @@ def _magnus_step_jacobian(velocity_at_nodes: np.ndarray, velocity_jacobian: np.n
 def integrate_cycle(velocity, step, velocity_jacobian=None):
     """Net motion over a cycle from body velocities per unit phase at the Gauss nodes of
     :func:`gauss_phases` ``(..., n, 2, 3)`` by :func:`magnus_steps` and exact exponentials (and its
-    Jacobian when ``velocity_jacobian`` ``(..., n, 2, 3, p)`` is given)."""
+    Jacobian when ``velocity_jacobian`` ``(..., n, 2, 3, p)`` is given).
+
+    Parameters
+    ----------
+    velocity : ndarray of shape (..., n, 2, 3)
+        Body velocity per unit phase at the two Gauss nodes of each of the n phase steps.
+    step : float
+        Phase step in radians, as returned by :func:`gauss_phases`.
+    velocity_jacobian : ndarray of shape (..., n, 2, 3, p), optional
+        Derivative of ``velocity`` with respect to p parameters.
+
+    Returns
+    -------
+    pose : ndarray of shape (..., 3)
+        Net displacement over the cycle.
+    jacobian : ndarray of shape (..., 3, p)
+        Only when ``velocity_jacobian`` is given.
+    """
     steps = magnus_steps(velocity, step)
     if velocity_jacobian is None:
         return product_of_exponentials(steps)

@@ -165,14 +165,34 @@ def accuracy_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, checkp
                     n_windows: int, online_points_per_cycle: int) -> pd.DataFrame:
     """Runner trial function: train/test pairs, vectorised across the pairs of a chunk.
 
+    The keyword arguments are the fields of :class:`AccuracyConfig` other than ``n_trials``, ``seed`` and
+    ``chunk_size``.
+
     Parameters
     ----------
     trial_indices : int ndarray of shape (n,)
         Pair indices of the chunk.
     seeds : list of n numpy.random.SeedSequence
         Pair seeds; child 0 drives the training trial, child 1 the test trial.
-    **options
-        The fields of :class:`AccuracyConfig` other than ``n_trials``, ``seed``, ``chunk_size``.
+    n_links : int
+        Links of the Purcell swimmer (3, 5 or 9); the seed gait is the paper's for that swimmer.
+    n_cycles : int
+        Cycles per trial (training and test trials alike).
+    checkpoint_every : int
+        Checkpoint spacing: every this many cycles the batch model re-solves on all training cycles so far
+        and both models are scored (held-out Γ) on the test trial.
+    samples_per_cycle : int
+        Simulated samples per gait cycle.
+    sensor_noise : float
+        Std of the noise on measured ξ, as a fraction of its RMS.
+    perturbation : float
+        Stationary std (rad) of the shape perturbation δ of eq. 8.
+    forgetting_factor : float in (0, 1]
+        λ_RLS of the adaptive model.
+    n_windows : int
+        Phase windows of both models.
+    online_points_per_cycle : int
+        How many times per training cycle the adaptive model's online Γ is recorded.
 
     Returns
     -------
@@ -216,6 +236,17 @@ class AccuracyResult(ExperimentResult):
 
     ``frame`` has one row per pair × model × checkpoint, columns ``trial, model, metric, cycles,
     gamma`` (see :func:`accuracy_trials`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Long-format results, with the columns of ``COLUMNS``.
+    config : AccuracyConfig or None
+        The configuration that produced ``frame``; None for results read back from a CSV.
+    wall_time_s : float or None
+        Wall-clock time of the sweep, seconds.
+    n_workers : int or None
+        Number of workers that ran the sweep.
     """
 
     COLUMNS = ("trial", "model", "metric", "cycles", "gamma")

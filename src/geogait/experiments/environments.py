@@ -175,12 +175,31 @@ def environment_trials(trial_indices, seeds, *, n_links: int, drag_ratios, cycle
                        n_windows: int) -> pd.DataFrame:
     """Runner trial function: one run through every environment per trial, trials vectorised.
 
+    The keyword arguments are the fields of :class:`EnvironmentConfig` other than ``n_trials``, ``seed`` and
+    ``chunk_size``.
+
     Parameters
     ----------
     trial_indices : int ndarray of shape (n,)
+        Trial indices of the chunk.
     seeds : list of n numpy.random.SeedSequence
-    **options
-        The fields of :class:`EnvironmentConfig` other than ``n_trials``, ``seed``, ``chunk_size``.
+        One seed per trial.
+    n_links : int
+        Links of the Purcell swimmer; the seed gait is the paper's for that swimmer.
+    drag_ratios : sequence of float
+        Drag ratio k of each environment, in order (:class:`~geogait.simulate.DragRatioSchedule`).
+    cycles_per_environment : int
+        Cycles spent in each environment.
+    samples_per_cycle : int
+        Simulated samples per gait cycle.
+    sensor_noise : float
+        Std of the noise on measured ξ, as a fraction of its RMS.
+    perturbation : float
+        Stationary std (rad) of the shape perturbation δ of eq. 8.
+    forgetting_factors : sequence of float
+        λ_RLS of each adaptive model (one model per value).
+    n_windows : int
+        Phase windows of every model.
 
     Returns
     -------
@@ -228,6 +247,17 @@ class EnvironmentResult(ExperimentResult):
 
     ``frame`` has one row per trial × model × cycle, columns ``trial, model, cycle, environment,
     drag_ratio, error, error_measured`` (see :func:`environment_trials`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Long-format results, with the columns of ``COLUMNS``.
+    config : EnvironmentConfig or None
+        The configuration that produced ``frame``; None for results read back from a CSV.
+    wall_time_s : float or None
+        Wall-clock time of the sweep, seconds.
+    n_workers : int or None
+        Number of workers that ran the sweep.
     """
 
     COLUMNS = ("trial", "model", "cycle", "environment", "drag_ratio", "error", "error_measured")

@@ -140,6 +140,30 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
                         model: str = "auto") -> pd.DataFrame:
     """Runner trial function: one in-situ (or batch-method) optimisation per trial.
 
+    Parameters
+    ----------
+    trial_indices : sequence of int
+        Trial indices of the chunk.
+    seeds : sequence of numpy.random.SeedSequence
+        One seed per trial (drives the simulated swimmer's perturbations and noise).
+    n_links : int
+        Links of the Purcell swimmer; the run starts from the paper's seed gait.
+    n_cycles : int
+        Cycle budget of each run.
+    method : {"adaptive", "batch"}
+        ``"batch"`` runs the prior-work batch method (:class:`~geogait.models.BatchGaitModel`); anything
+        else the in-situ optimiser with the model chosen by ``model``.
+    sensor_noise : float
+        Std of the noise on measured ξ, as a fraction of its RMS.
+    perturbation : float
+        Stationary std (rad) of the shape perturbation δ of eq. 8.
+    gamma_threshold : float
+        Γ*: the optimiser steps only when the model's online Γ exceeds it.
+    ceiling : float
+        Ceiling objective value (the best gait with the true connection), for the log's ``ceiling_fraction``.
+    model : {"auto", "adaptive", "shape"}, default "auto"
+        Model of the in-situ runs (see :class:`OptimizationConfig`).
+
     Returns
     -------
     pandas.DataFrame
@@ -164,7 +188,19 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
 
 @dataclass(frozen=True)
 class OptimizationResult(ExperimentResult):
-    """Long-format per-cycle logs of every trial (see :func:`optimization_trials`)."""
+    """Long-format per-cycle logs of every trial (see :func:`optimization_trials`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Long-format results, with the columns of ``COLUMNS`` and ``param_0`` … ``param_{p-1}``.
+    config : OptimizationConfig or None
+        The configuration that produced ``frame``; None for results read back from a CSV.
+    wall_time_s : float or None
+        Wall-clock time of the sweep, seconds.
+    n_workers : int or None
+        Number of workers that ran the sweep.
+    """
 
     COLUMNS = ("trial", "links", "method", "cycle", "gamma", "step", "true_objective", "true_heading",
                "improvement", "ceiling_fraction")
@@ -182,7 +218,23 @@ class OptimizationResult(ExperimentResult):
 
 def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1, scheduler=None,
                      progress: bool = True) -> OptimizationResult:
-    """Run Experiment 3 for every swimmer of ``config``; see the module docstring."""
+    """Run Experiment 3 for every swimmer of ``config``; see the module docstring.
+
+    Parameters
+    ----------
+    config : OptimizationConfig, optional
+        Default ``OptimizationConfig()``: the paper's 3-, 5- and 9-link studies.
+    jobs : int
+        joblib workers (1 in-process, -1 all cores).
+    scheduler : str or distributed.Client, optional
+        Run on a Dask cluster instead.
+    progress : bool
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    OptimizationResult
+    """
     config = (config or OptimizationConfig()).validate()
     frames, wall, workers = [], 0.0, 1
     for index, (n_links, budget) in enumerate(zip(config.links, config.budgets, strict=True)):
@@ -226,7 +278,19 @@ def _cycles_to_reach(frame: pd.DataFrame, level: float) -> float:
 
 
 def optimization_summary(frame: pd.DataFrame) -> dict:
-    """Headline numbers per swimmer, next to the paper's."""
+    """Headline numbers per swimmer, next to the paper's.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Per-cycle logs of :func:`optimization_trials` (``OptimizationResult.frame``).
+
+    Returns
+    -------
+    dict
+        One entry per swimmer (``"3-link"`` …): improvement percentiles, ceiling fraction, rotation and,
+        when batch runs are present, the batch method's cycles to the same improvement.
+    """
     summary = {}
     for n_links, group in frame.groupby("links"):
         adaptive = group[group["method"] == "adaptive"]
@@ -309,7 +373,15 @@ def plot_gaits(ax, frame: pd.DataFrame):
 
 
 def plot_optimization(frame: pd.DataFrame, path):
-    """The whole figure: panel A (if 3-link results) and one band panel per swimmer."""
+    """The whole figure: panel A (if 3-link results) and one band panel per swimmer.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Per-cycle logs of :func:`optimization_trials` (``OptimizationResult.frame``).
+    path : path-like
+        Where the figure is saved; returned.
+    """
     links = sorted(frame["links"].unique())
     panels = len(links) + (3 in links)
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.4))

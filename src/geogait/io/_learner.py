@@ -104,7 +104,15 @@ class OnlineDifferentiator:
         return self
 
     def push(self, time: float, value) -> None:
-        """Buffer one sample (``time`` must exceed the previous one; callers check)."""
+        """Buffer one sample (``time`` must exceed the previous one; callers check).
+
+        Parameters
+        ----------
+        time : float
+            Sample time, in the stream's time unit (seconds, or cycles).
+        value : array-like of shape (k,)
+            The signal at ``time`` (e.g. the joint angles, radians); :meth:`derivative` returns its slope.
+        """
         self._times.append(float(time))
         self._values.append(np.asarray(value, dtype=float))
 

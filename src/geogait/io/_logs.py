@@ -154,7 +154,16 @@ class ColumnMapping:
 
     @classmethod
     def from_dict(cls, entries: dict, source: str = "mapping") -> ColumnMapping:
-        """From a dict with the field names as keys; unknown keys are an error."""
+        """From a dict with the field names as keys; unknown keys are an error.
+
+        Parameters
+        ----------
+        entries : dict
+            Field name → value, e.g. ``{"shape": ["q1", "q2"], "pose": ["x", "y", "yaw"]}`` (as read from a
+            JSON or TOML file).
+        source : str, default "mapping"
+            Name of where ``entries`` came from (e.g. the file), used in error messages.
+        """
         if not isinstance(entries, dict):
             raise fail(source, "ColumnMapping.from_dict", "a table of column names", entries)
         known = {f.name for f in fields(cls)}

@@ -159,7 +159,16 @@ class JsonLinesReader:
                 yield self.parse(text, line)
 
     def parse(self, text: str, line: int) -> StreamSample:
-        """One record; errors name ``line`` and the field."""
+        """One record; errors name ``line`` and the field.
+
+        Parameters
+        ----------
+        text : str
+            One JSON object with keys among ``time``, ``phase``, ``shape``, ``shape_velocity`` and
+            ``body_velocity`` (``shape`` and ``body_velocity`` required).
+        line : int
+            Its line number in the input (1-based), for error messages.
+        """
         try:
             record = json.loads(text)
         except json.JSONDecodeError as error:
@@ -181,6 +190,14 @@ class JsonLinesReader:
 
 class CsvReader:
     """Samples from CSV rows under a header line (see the module notes).
+
+    Parameters
+    ----------
+    source : iterable of str
+        Lines of CSV text, e.g. ``sys.stdin`` or an open file; the first is the header.
+    n_joints : int
+        Shape dimension d: the columns ``shape_0 .. shape_{d-1}`` (and optionally
+        ``shape_velocity_0 ..``) are read.
 
     Attributes
     ----------

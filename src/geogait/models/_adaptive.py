@@ -127,7 +127,19 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.n_samples_seen_ = 0
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        shape : array-like of shape batch + (n, d)
+            Joint angles r of each sample, radians.
+        shape_velocity : array-like of shape batch + (n, d)
+            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        """
         with self._unchanged_on_error():
             self._forget()
             return self.partial_fit(phase, shape, shape_velocity, body_velocity)

@@ -46,7 +46,21 @@ GAIT_MODEL_CONSTRAINTS = {
 
 
 def gamma(error_model, error_baseline) -> np.ndarray:
-    r"""Γ = 1 − Σ‖ξ_D − ξ‖ / Σ‖ξ_T − ξ‖ (eq. 5) from per-sample error norms ``(..., n)``."""
+    r"""Γ = 1 − Σ‖ξ_D − ξ‖ / Σ‖ξ_T − ξ‖ (eq. 5) from per-sample error norms ``(..., n)``.
+
+    Parameters
+    ----------
+    error_model : array-like of shape (..., n)
+        ‖ξ_D − ξ‖ per sample: error norms of the gait model's predictions.
+    error_baseline : array-like of shape (..., n)
+        ‖ξ_T − ξ‖ per sample: error norms of the phase model's (baseline) predictions.
+
+    Returns
+    -------
+    ndarray of shape (...)
+        Γ, the sums running over the last (sample) axis: 1 is a perfect model, 0 no better than the
+        baseline, negative worse.
+    """
     return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
 
 
@@ -328,7 +342,16 @@ def load_model(path, n_joints: int | None = None):
 
 
 def model_from_state(metadata: dict, state: dict):
-    """Rebuild a gait model from :meth:`GaitModelBase.get_state` output (checks class and arrays)."""
+    """Rebuild a gait model from :meth:`GaitModelBase.get_state` output (checks class and arrays).
+
+    Parameters
+    ----------
+    metadata : dict
+        JSON-ready metadata (format, version, class name, hyper-parameters, shapes), the first item of
+        ``get_state()``.
+    state : dict of str to ndarray
+        The learned arrays, the second item of ``get_state()``.
+    """
     return estimator_from_state(metadata, state, FORMAT)
 
 

@@ -74,13 +74,37 @@ class BatchGaitModel(GaitModelBase):
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
         """Least squares on exactly these samples (forgets earlier data). Returns ``self``; on an error the
-        model is unchanged."""
+        model is unchanged.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        shape : array-like of shape batch + (n, d)
+            Joint angles r of each sample, radians.
+        shape_velocity : array-like of shape batch + (n, d)
+            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        """
         with self._unchanged_on_error():
             self._forget()
             return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``."""
+        """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        shape : array-like of shape batch + (n, d)
+            Joint angles r of each sample, radians.
+        shape_velocity : array-like of shape batch + (n, d)
+            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        """
         phase, shape, shape_velocity, body_velocity = self._check_samples(
             phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
             owner="BatchGaitModel.partial_fit")

@@ -64,11 +64,37 @@ class PerfectInformationModel(Estimator):
         return self.system
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Same as :meth:`partial_fit` (nothing is learned). Returns ``self``."""
+        """Same as :meth:`partial_fit` (nothing is learned). Returns ``self``.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        shape : array-like of shape batch + (n, d)
+            Joint angles r of each sample, radians.
+        shape_velocity : array-like of shape batch + (n, d)
+            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        """
         return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Check the samples against the system; nothing is learned. Returns ``self``."""
+        """Check the samples against the system; nothing is learned. Returns ``self``.
+
+        ``prior_prediction_`` is set to −A(r)ṙ of the samples.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        shape : array-like of shape batch + (n, d)
+            Joint angles r of each sample, radians.
+        shape_velocity : array-like of shape batch + (n, d)
+            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        """
         system = self._check_system()
         owner = f"{type(self).__name__}.partial_fit"
         phase = check_array(phase, "phase", owner)
@@ -85,7 +111,17 @@ class PerfectInformationModel(Estimator):
         return self
 
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
-        """ξ = −A(r)ṙ of samples ``(..., d)`` → ``(..., 3)`` (``phase`` only for the common interface)."""
+        """ξ = −A(r)ṙ of samples ``(..., d)`` → ``(..., 3)`` (``phase`` only for the common interface).
+
+        Parameters
+        ----------
+        phase : array-like
+            Ignored: the connection depends on the shape only.
+        shape : array-like of shape (..., d)
+            Joint angles r, radians.
+        shape_velocity : array-like of shape (..., d)
+            Joint angular velocities ṙ, radians per unit time; ξ comes back in the same time unit.
+        """
         system = self._check_system()
         owner = f"{type(self).__name__}.predict"
         shape = check_array(shape, "shape", owner, trailing=(system.n_joints,))
@@ -93,11 +129,27 @@ class PerfectInformationModel(Estimator):
         return -np.einsum("...kj,...j->...k", system.connection(shape), shape_velocity)
 
     def score(self, phase, shape, shape_velocity, body_velocity, baseline=None) -> float:
-        """Γ = 1: the model is the truth (not computed from noisy data)."""
+        """Γ = 1: the model is the truth (not computed from noisy data).
+
+        Parameters
+        ----------
+        phase, shape, shape_velocity, body_velocity : array-like
+            Held-out samples, as for :meth:`partial_fit`; ignored (not even checked).
+        baseline : PhaseModel, optional
+            Ignored: there is no phase-model baseline to compare with.
+        """
         return 1.0
 
     def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
-        """Exact net ``(x, y, heading)`` per cycle of ``gait`` (and its ``(3, p)`` Jacobian)."""
+        """Exact net ``(x, y, heading)`` per cycle of ``gait`` (and its ``(3, p)`` Jacobian).
+
+        Parameters
+        ----------
+        gait : FourierGait
+            The gait, with the system's number of joints.
+        jacobian : bool, default False
+            Also return the ``(3, p)`` derivative with respect to the gait's ``p`` flat Fourier parameters.
+        """
         system = self._check_system()
         if not isinstance(gait, FourierGait) or gait.n_joints != system.n_joints:
             raise fail("gait", f"{type(self).__name__}.predict_displacement",
@@ -105,7 +157,13 @@ class PerfectInformationModel(Estimator):
         return cycle_displacement(system, gait, resolution=self.resolution, jacobian=jacobian)
 
     def rebase(self, gait: FourierGait | None = None, **options):
-        """Nothing to re-centre; options are accepted and ignored. Returns ``self``."""
+        """Nothing to re-centre; options are accepted and ignored. Returns ``self``.
+
+        Parameters
+        ----------
+        gait : FourierGait, optional
+            The new nominal gait; ignored, since the system's connection holds for every gait.
+        """
         return self
 
     def __sklearn_is_fitted__(self) -> bool:

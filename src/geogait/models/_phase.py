@@ -62,7 +62,15 @@ class PhaseModel(PhaseWindowModel):
         return self
 
     def fit(self, phase, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        """
         with self._unchanged_on_error():
             for name in ("batch_shape_", "bank_"):
                 self.__dict__.pop(name, None)
@@ -74,7 +82,19 @@ class PhaseModel(PhaseWindowModel):
         return self
 
     def partial_fit_predict(self, phase, body_velocity) -> np.ndarray:
-        """Update and return each sample's a-priori prediction (before that sample was learned)."""
+        """Update and return each sample's a-priori prediction (before that sample was learned).
+
+        Parameters
+        ----------
+        phase : array-like of shape batch + (n,)
+            Gait phase φ of each sample, radians, in time order.
+        body_velocity : array-like of shape batch + (n, 3)
+            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+
+        Returns
+        -------
+        ndarray of shape batch + (n, 3)
+        """
         phase, body_velocity = self._check_samples(phase, body_velocity, names=("body_velocity",),
                                                    owner="PhaseModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
@@ -85,7 +105,15 @@ class PhaseModel(PhaseWindowModel):
 
     def learn_one(self, valid, body_velocity) -> np.ndarray:
         """One sample of an unbatched model: ``valid`` ``(M,)`` are its covering windows; returns the
-        a-priori prediction ``(3,)`` (the fast path of :meth:`partial_fit_predict`)."""
+        a-priori prediction ``(3,)`` (the fast path of :meth:`partial_fit_predict`).
+
+        Parameters
+        ----------
+        valid : bool ndarray of shape (M,)
+            Which of the M windows cover the sample's phase (:meth:`PhaseWindows.cover`).
+        body_velocity : array-like of shape (3,)
+            The sample's body velocity ξ = (v_x, v_y, ω).
+        """
         ones = np.ones((valid.size, 1))
         prior = self.bank_.update(ones, np.broadcast_to(body_velocity, (valid.size, 3)), valid)[valid].mean(axis=0)
         self.n_samples_seen_ += 1

@@ -370,6 +370,19 @@ class InSituOptimizer(Estimator):
         put back exactly where the checkpoint left it, so the resumed run is bit-identical to an
         uninterrupted one. Any other robot simply continues from where it physically is, commanded
         the checkpoint's gait. ``n_cycles`` extends (or shortens) the total budget.
+
+        Parameters
+        ----------
+        checkpoint : path-like
+            ``.npz`` checkpoint written by :meth:`run`; it keeps being rewritten as the run goes on.
+        robot : Robot
+            The robot to continue on, with the checkpoint gait's number of joints.
+        callback : callable, optional
+            Called with each new log row (a dict) as it is produced, as in :meth:`run`.
+        record : bool, default False
+            Keep every sample of the resumed part (``result.trajectory``).
+        n_cycles : int, optional
+            New total cycle budget (counting the cycles already run); the checkpoint's by default.
         """
         path = Path(checkpoint)
         metadata, arrays = read_state(path, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)

@@ -106,7 +106,13 @@ class OnlinePhaser:
         return min(self._count, self.window)
 
     def update(self, shape) -> float | None:
-        """Add one sample ``(n_channels,)``; return its phase in ``[0, 2π)``, or None while warming up."""
+        """Add one sample ``(n_channels,)``; return its phase in ``[0, 2π)``, or None while warming up.
+
+        Parameters
+        ----------
+        shape : array-like of shape (n_channels,)
+            The newest sample of the channels the phaser was fitted on (e.g. joint angles, radians).
+        """
         sample = check_magnitude(check_array(shape, "shape", f"{_OWNER}.update", ndim=1), "shape", f"{_OWNER}.update")
         if sample.shape != (self.phaser.n_channels_,):
             raise fail("shape", f"{_OWNER}.update", f"an array of shape ({self.phaser.n_channels_},)",

@@ -189,6 +189,13 @@ class Phaser(Estimator):
 
         Records are independent trials or segments (no continuity is assumed between them).
         ``y`` is ignored. Returns ``self``.
+
+        Parameters
+        ----------
+        x : array-like of shape (n, n_channels), or a list of such arrays
+            Periodic signals (e.g. joint angles), each record covering several cycles.
+        y : None
+            Ignored (scikit-learn convention).
         """
         self.validate()
         order, min_cycles, edge = self.order, self.min_cycles, self.edge_cycles
@@ -294,7 +301,21 @@ class Phaser(Estimator):
         return phases[0] if single else phases
 
     def fit_transform(self, x, y=None, *, unwrap: bool = False):
-        """:meth:`fit` then :meth:`transform` on the same records."""
+        """:meth:`fit` then :meth:`transform` on the same records.
+
+        Parameters
+        ----------
+        x : array-like of shape (n, n_channels), or a list of such arrays
+            Records to fit on and to compute the phase of.
+        y : None
+            Ignored (scikit-learn convention).
+        unwrap : bool, default False
+            Return the continuous phase (growing by 2π per cycle) instead of ``[0, 2π)``.
+
+        Returns
+        -------
+        ndarray of shape (n,), or a list of them
+        """
         return self.fit(x).transform(x, unwrap=unwrap)
 
     def _phase(self, record: np.ndarray, unwrap: bool) -> np.ndarray:
