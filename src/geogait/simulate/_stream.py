@@ -32,6 +32,15 @@ class DragRatioSchedule:
 
     ``drag_ratios[i]`` holds for cycles ``[i * cycles_per_environment, (i + 1) * ...)``; the last
     value persists after the schedule ends. The paper's Fig. 3 uses (2, 3, 4) every 40 cycles.
+
+    Parameters
+    ----------
+    system : PurcellSwimmer
+        The swimmer whose drag ratio k changes (its other parameters stay).
+    drag_ratios : sequence of float > 0
+        k of each environment, in order.
+    cycles_per_environment : int >= 1
+        Cycles each environment lasts.
     """
 
     system: PurcellSwimmer
