@@ -2,6 +2,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from geogait.cli import app
@@ -45,6 +46,7 @@ def test_quick_figure_writes_consistent_outputs(tmp_path):
     assert "from_csv" in json.loads((tmp_path / "optimization.redraw.json").read_text())["config"]
 
 
+@pytest.mark.slow
 def test_sweep_is_identical_for_one_and_two_workers():
     config = OptimizationConfig.quick(n_trials=2, budgets=(6,), baseline_trials=0)
     one = run_optimization(config, jobs=1, progress=False).frame

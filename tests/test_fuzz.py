@@ -241,6 +241,7 @@ CLI_VALUES = st.one_of(st.sampled_from(["0", "-1", "1", "2", "nan", "inf", "-inf
 @given(option=st.sampled_from(["--links", "--cycles", "--drag-ratio", "--cycles-per-environment",
                                "--samples-per-cycle", "--amplitude", "--perturbation", "--noise", "--shape-noise",
                                "--body-frame", "--seed"]), value=CLI_VALUES)
+@pytest.mark.slow
 def test_cli_simulate(files, tmp_path_factory, option, value):
     out = tmp_path_factory.mktemp("sim")
     args = ["simulate", "--cycles", "2", "--samples-per-cycle", "20", option, value, "--out", str(out)]
@@ -258,6 +259,7 @@ LOG_EDITS = st.lists(st.tuples(st.integers(0, 799), st.sampled_from(["time", "sh
 @given(edits=LOG_EDITS, option=st.sampled_from([[], ["--smoothing-window", "4"], ["--time-unit", "ms"],
                                                 ["--outlier-limit", "0"], ["--gait-order", "0"], ["--windows", "1"],
                                                 ["--forgetting-factor", "2"], ["--test-fraction", "0.95"]]))
+@pytest.mark.slow
 def test_cli_fit_and_predict(run, files, tmp_path_factory, edits, option):
     folder = tmp_path_factory.mktemp("fit")
     frame = run.to_pandas().astype(object)

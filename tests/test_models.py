@@ -90,6 +90,7 @@ def test_learned_coefficients_match_the_true_connection(runs):
     assert np.abs(learned["C"] - nominal).max() < 0.03 * np.abs(nominal).max()
 
 
+@pytest.mark.slow
 def test_covariance_stays_bounded_without_excitation():
     # 10^6 window updates at λ = 0.7 on samples exactly on the nominal gait (δ = δ̇ = 0).
     phase = np.tile(np.linspace(0, 2 * np.pi, 100, endpoint=False), 5000)

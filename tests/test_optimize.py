@@ -30,6 +30,7 @@ def batched_displacement(system, coefficients, resolution=48):
     return se2.product_of_exponentials(magnus_steps(velocity, step))
 
 
+@pytest.mark.slow
 def test_ceiling_matches_brute_force_grid_search():
     swimmer = PurcellSwimmer(3)
     ceiling = optimize_ceiling(swimmer, starts=3)
