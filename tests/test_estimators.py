@@ -225,3 +225,11 @@ def test_loading_the_wrong_class_is_refused(tmp_path):
         AdaptiveGaitModel.load(path)
     with pytest.raises(GeogaitError, match="not a geogait phaser file"):
         Phaser.load(path)
+
+
+def test_an_estimator_without_a_saved_form_says_so(tmp_path):
+    model = PerfectInformationModel(system=SWIMMER)
+    assert not model.can_save() and all(ESTIMATORS[name][0]().can_save() for name in SAVEABLE)
+    with pytest.raises(GeogaitError, match="PerfectInformationModel cannot be saved"):
+        model.save(tmp_path / "perfect.npz")
+    assert not (tmp_path / "perfect.npz").exists()

@@ -209,3 +209,15 @@ def test_cycles_from_a_robot_are_checked():
 
     with pytest.raises(ValueError, match="'cycle.body_velocity'.*finite"):
         InSituOptimizer().run(Broken(_stream()), 2)
+
+
+def test_a_run_that_cannot_be_checkpointed_is_refused_before_the_robot_moves(tmp_path):
+    from geogait.models import PerfectInformationModel
+
+    stream = _stream(seed=1)
+    optimizer = InSituOptimizer(model=PerfectInformationModel(system=stream.current_system()))
+    with pytest.raises(ValueError, match="'checkpoint' parameter of InSituOptimizer.run must be None for a "
+                                         "PerfectInformationModel"):
+        optimizer.run(stream, 4, checkpoint=tmp_path / "run.npz")
+    assert stream.cycle == 0 and not (tmp_path / "run.npz").exists()
+    assert optimizer.run(stream, 4).log.shape[0] == 4  # without a checkpoint it runs

@@ -201,15 +201,21 @@ class Estimator:
         return {}
 
     def _state(self) -> dict:
-        raise NotImplementedError(f"{type(self).__name__} cannot be saved.")
+        """The arrays to save (every saveable class defines it)."""
+        return {}
 
     def _set_state(self, state: dict, metadata: dict) -> None:
-        raise NotImplementedError(f"{type(self).__name__} cannot be loaded.")
+        """Restore from :meth:`_state`'s arrays and :meth:`get_state`'s metadata (every saveable class defines it)."""
 
     @classmethod
     def _upgrade_state(cls, state: dict, metadata: dict) -> dict:
         """Convert the arrays of an older format version (none to convert by default)."""
         return state
+
+    @classmethod
+    def can_save(cls) -> bool:
+        """Whether a fitted instance can be saved (and an optimiser run with it checkpointed)."""
+        return cls._format is not None
 
     def get_state(self) -> tuple[dict, dict]:
         """Learned state as ``(metadata, arrays)``: JSON-ready metadata and NumPy arrays.
@@ -217,6 +223,8 @@ class Estimator:
         What :meth:`save` writes; :func:`estimator_from_state` is the inverse (checkpoints embed it).
         """
         self._check_is_fitted()
+        if not self.can_save():
+            raise GeogaitError(f"A {type(self).__name__} cannot be saved (it holds no learned state of its own).")
         params = {k: v for k, v in self.get_params(deep=False).items() if k not in self._array_params}
         metadata = {"format": self._format, "format_version": self._format_version, "class": type(self).__name__,
                     "params": params, **self._metadata()}

@@ -343,6 +343,10 @@ class InSituOptimizer(Estimator):
         if ceiling is not None:
             ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
         checkpoint = _checkpoint_path(checkpoint, owner)
+        template = self._model_template()
+        if checkpoint is not None and not getattr(template, "can_save", lambda: True)():
+            raise fail("checkpoint", owner, f"None for a {type(template).__name__}, which cannot be saved",
+                       str(checkpoint))
         check_robot(robot, owner)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
         gait = robot.gait.with_order(self.order)
