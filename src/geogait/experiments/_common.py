@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._docs import fill_doc
 from .._files import write_text
 from .._seeds import child_seed
 from .._validation import GeogaitError, check_float, check_int, fail
@@ -187,22 +188,16 @@ def check_fraction(value, name: str, owner: str) -> float:
     return check_float(value, name, owner, low=0)
 
 
+@fill_doc
 @dataclass(frozen=True)
 class ExperimentResult:
     """Long-format results of one experiment, and how they were made.
 
     Subclasses set ``COLUMNS`` and add ``summary()`` and ``plot(path)``.
 
-    Attributes
+    Parameters
     ----------
-    frame : pandas.DataFrame
-        Long format, one row per trial × model × checkpoint.
-    config : dataclass or None
-        The experiment's configuration; None for results read back from a CSV.
-    wall_time_s : float or None
-        Wall-clock time of the sweep.
-    n_workers : int or None
-        Workers that ran the sweep.
+    %(result_fields)s
     """
 
     COLUMNS = ()

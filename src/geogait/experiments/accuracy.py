@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.patches import Patch
 
+from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel
@@ -160,6 +161,7 @@ class AccuracyConfig:
         return {k: v for k, v in dataclasses.asdict(self).items() if k not in skip}
 
 
+@fill_doc
 def accuracy_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, checkpoint_every: int,
                     samples_per_cycle: int, sensor_noise: float, perturbation: float, forgetting_factor: float,
                     n_windows: int, online_points_per_cycle: int) -> pd.DataFrame:
@@ -181,12 +183,7 @@ def accuracy_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, checkp
     checkpoint_every : int
         Checkpoint spacing: every this many cycles the batch model re-solves on all training cycles so far
         and both models are scored (held-out Γ) on the test trial.
-    samples_per_cycle : int
-        Simulated samples per gait cycle.
-    sensor_noise : float
-        Std of the noise on measured ξ, as a fraction of its RMS.
-    perturbation : float
-        Stationary std (rad) of the shape perturbation δ of eq. 8.
+    %(simulation)s
     forgetting_factor : float in (0, 1]
         λ_RLS of the adaptive model.
     n_windows : int
@@ -230,6 +227,7 @@ def _rows(trial_indices, model: str, metric: str, cycles, gamma: np.ndarray) -> 
                          "gamma": gamma.ravel()})
 
 
+@fill_doc
 @dataclass(frozen=True)
 class AccuracyResult(ExperimentResult):
     """Result of :func:`run_accuracy` (or of a CSV read back with :meth:`from_csv`).
@@ -239,14 +237,7 @@ class AccuracyResult(ExperimentResult):
 
     Parameters
     ----------
-    frame : pandas.DataFrame
-        Long-format results, with the columns of ``COLUMNS``.
-    config : AccuracyConfig or None
-        The configuration that produced ``frame``; None for results read back from a CSV.
-    wall_time_s : float or None
-        Wall-clock time of the sweep, seconds.
-    n_workers : int or None
-        Number of workers that ran the sweep.
+    %(result_fields)s
     """
 
     COLUMNS = ("trial", "model", "metric", "cycles", "gamma")
@@ -260,6 +251,7 @@ class AccuracyResult(ExperimentResult):
         return plot_accuracy(self.frame, path)
 
 
+@fill_doc
 def run_accuracy(config: AccuracyConfig | None = None, *, jobs: int = 1, scheduler=None,
                  progress: bool = True) -> AccuracyResult:
     """Run the accuracy experiment (Fig. 2).
@@ -268,12 +260,7 @@ def run_accuracy(config: AccuracyConfig | None = None, *, jobs: int = 1, schedul
     ----------
     config : AccuracyConfig, optional
         Default ``AccuracyConfig()``: the paper's 200 trials × 40 cycles, 3-link swimmer.
-    jobs : int
-        joblib workers (1 in-process, -1 all cores).
-    scheduler : str or distributed.Client, optional
-        Run on a Dask cluster instead.
-    progress : bool
-        Show a progress bar on stderr.
+    %(sweep)s
 
     Returns
     -------

@@ -56,6 +56,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.patches import Patch
 
+from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel
@@ -170,6 +171,7 @@ def adaptive_name(forgetting_factor: float) -> str:
     return f"adaptive_{forgetting_factor:g}"
 
 
+@fill_doc
 def environment_trials(trial_indices, seeds, *, n_links: int, drag_ratios, cycles_per_environment: int,
                        samples_per_cycle: int, sensor_noise: float, perturbation: float, forgetting_factors,
                        n_windows: int) -> pd.DataFrame:
@@ -190,12 +192,7 @@ def environment_trials(trial_indices, seeds, *, n_links: int, drag_ratios, cycle
         Drag ratio k of each environment, in order (:class:`~geogait.simulate.DragRatioSchedule`).
     cycles_per_environment : int
         Cycles spent in each environment.
-    samples_per_cycle : int
-        Simulated samples per gait cycle.
-    sensor_noise : float
-        Std of the noise on measured ξ, as a fraction of its RMS.
-    perturbation : float
-        Stationary std (rad) of the shape perturbation δ of eq. 8.
+    %(simulation)s
     forgetting_factors : sequence of float
         λ_RLS of each adaptive model (one model per value).
     n_windows : int
@@ -241,6 +238,7 @@ def _rows(trial_indices, model: str, cycle: int, schedule: DragRatioSchedule, er
                          "error": error, "error_measured": error_measured})
 
 
+@fill_doc
 @dataclass(frozen=True)
 class EnvironmentResult(ExperimentResult):
     """Result of :func:`run_environments` (or of a CSV read back with :meth:`from_csv`).
@@ -250,14 +248,7 @@ class EnvironmentResult(ExperimentResult):
 
     Parameters
     ----------
-    frame : pandas.DataFrame
-        Long-format results, with the columns of ``COLUMNS``.
-    config : EnvironmentConfig or None
-        The configuration that produced ``frame``; None for results read back from a CSV.
-    wall_time_s : float or None
-        Wall-clock time of the sweep, seconds.
-    n_workers : int or None
-        Number of workers that ran the sweep.
+    %(result_fields)s
     """
 
     COLUMNS = ("trial", "model", "cycle", "environment", "drag_ratio", "error", "error_measured")
@@ -275,6 +266,7 @@ class EnvironmentResult(ExperimentResult):
         return plot_environments(self.frame, path)
 
 
+@fill_doc
 def run_environments(config: EnvironmentConfig | None = None, *, jobs: int = 1, scheduler=None,
                      progress: bool = True) -> EnvironmentResult:
     """Run the changing-environment experiment (Fig. 3).
@@ -283,12 +275,7 @@ def run_environments(config: EnvironmentConfig | None = None, *, jobs: int = 1, 
     ----------
     config : EnvironmentConfig, optional
         Default ``EnvironmentConfig()``: 100 trials, 40 cycles each at k = 2, 3, 4.
-    jobs : int
-        joblib workers (1 in-process, -1 all cores).
-    scheduler : str or distributed.Client, optional
-        Run on a Dask cluster instead.
-    progress : bool
-        Show a progress bar on stderr.
+    %(sweep)s
 
     Returns
     -------

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._docs import fill_doc
 from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
@@ -216,6 +217,7 @@ class OptimizationResult(ExperimentResult):
         return path
 
 
+@fill_doc
 def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1, scheduler=None,
                      progress: bool = True) -> OptimizationResult:
     """Run Experiment 3 for every swimmer of ``config``; see the module docstring.
@@ -224,12 +226,7 @@ def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1,
     ----------
     config : OptimizationConfig, optional
         Default ``OptimizationConfig()``: the paper's 3-, 5- and 9-link studies.
-    jobs : int
-        joblib workers (1 in-process, -1 all cores).
-    scheduler : str or distributed.Client, optional
-        Run on a Dask cluster instead.
-    progress : bool
-        Show a progress bar on stderr.
+    %(sweep)s
 
     Returns
     -------

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docs import fill_doc
 from .._estimator import Real
 from .._validation import check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
@@ -19,6 +20,7 @@ CONFIG_FORMAT = "geogait-model-config"
 CONFIG_VERSION = 1
 
 
+@fill_doc
 class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     r"""Local model of ξ = −A(r)ṙ around a nominal gait, learned sample by sample.
 
@@ -125,24 +127,6 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.phase_model_ = phase_baseline(self, self.forgetting_factor)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
-
-    def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged.
-
-        Parameters
-        ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        shape : array-like of shape batch + (n, d)
-            Joint angles r of each sample, radians.
-        shape_velocity : array-like of shape batch + (n, d)
-            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
-        """
-        with self._unchanged_on_error():
-            self._forget()
-            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn from samples in time order (one sample or a batch; optional leading trial axes).

@@ -14,6 +14,7 @@ import functools
 
 import numpy as np
 
+from .._docs import fill_doc
 from .._estimator import Estimator, InstanceOf, Integer, Real, estimator_from_state
 from .._files import read_state
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, fail
@@ -189,6 +190,7 @@ class PhaseWindowModel(Estimator):
     def _upgrade_state(cls, state: dict, metadata: dict) -> dict:
         return _from_version_1(state, metadata) if metadata.get("format_version") == 1 else state
 
+@fill_doc
 class GaitModelBase(PhaseWindowModel):
     """The gait models' shared API: nominal gait, prediction (eq. 3), coefficients, Γ score (eq. 5),
     the phase-model baseline and predicted net motion per cycle."""
@@ -226,6 +228,18 @@ class GaitModelBase(PhaseWindowModel):
         return regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)
 
     # -- public API shared by the gait models -------------------------------------------------
+    def fit(self, phase, shape, shape_velocity, body_velocity):
+        """Forget everything, then :meth:`partial_fit` (for the batch model: least squares on exactly these
+        samples). Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
+        with self._unchanged_on_error():
+            self._forget()
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
         r"""Predicted body velocity ξ̂ = C + Bδ + Aδ̇ + δᵀ∂Aδ̇ (eq. 3) with smoothed coefficients.
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docs import fill_doc
 from .._estimator import Real
 from ..gaits import FourierGait
 from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
@@ -15,6 +16,7 @@ __all__ = ["BatchGaitModel"]
 _CHUNK = 512  # samples per normal-equation accumulation step (bounds memory for 9-link batches)
 
 
+@fill_doc
 class BatchGaitModel(GaitModelBase):
     """Same windows, regressors and smoothing as :class:`AdaptiveGaitModel`, but every window is an
     ordinary least-squares fit over all samples seen, with equal weights.
@@ -72,38 +74,12 @@ class BatchGaitModel(GaitModelBase):
         self.phase_model_ = phase_baseline(self, 1.0)
         self.n_samples_seen_ = 0
 
-    def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Least squares on exactly these samples (forgets earlier data). Returns ``self``; on an error the
-        model is unchanged.
-
-        Parameters
-        ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        shape : array-like of shape batch + (n, d)
-            Joint angles r of each sample, radians.
-        shape_velocity : array-like of shape batch + (n, d)
-            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
-        """
-        with self._unchanged_on_error():
-            self._forget()
-            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
-
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``.
 
         Parameters
         ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        shape : array-like of shape batch + (n, d)
-            Joint angles r of each sample, radians.
-        shape_velocity : array-like of shape batch + (n, d)
-            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        %(samples)s
         """
         phase, shape, shape_velocity, body_velocity = self._check_samples(
             phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docs import fill_doc
 from .._estimator import Estimator, InstanceOf, Integer
 from .._validation import check_array, fail
 from ..gaits import FourierGait
@@ -17,6 +18,7 @@ from ..systems import System
 __all__ = ["PerfectInformationModel"]
 
 
+@fill_doc
 class PerfectInformationModel(Estimator):
     r"""The model interface of the gait models, answered exactly by a known :class:`~geogait.systems.System`.
 
@@ -68,14 +70,7 @@ class PerfectInformationModel(Estimator):
 
         Parameters
         ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        shape : array-like of shape batch + (n, d)
-            Joint angles r of each sample, radians.
-        shape_velocity : array-like of shape batch + (n, d)
-            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        %(samples)s
         """
         return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
@@ -86,14 +81,7 @@ class PerfectInformationModel(Estimator):
 
         Parameters
         ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        shape : array-like of shape batch + (n, d)
-            Joint angles r of each sample, radians.
-        shape_velocity : array-like of shape batch + (n, d)
-            Joint angular velocities ṙ, radians per unit of the data's time (seconds, or cycles).
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        %(samples)s
         """
         system = self._check_system()
         owner = f"{type(self).__name__}.partial_fit"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docs import fill_doc
 from .._estimator import Real
 from ._base import WINDOW_CONSTRAINTS, PhaseWindowModel
 from ._rls import RLSBank
@@ -11,6 +12,7 @@ from ._rls import RLSBank
 __all__ = ["PhaseModel", "phase_baseline"]
 
 
+@fill_doc
 class PhaseModel(PhaseWindowModel):
     """Body velocity as a function of phase only: the exponentially weighted mean of ξ per phase
     window, smoothed along φ by a Fourier series.
@@ -66,10 +68,7 @@ class PhaseModel(PhaseWindowModel):
 
         Parameters
         ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        %(phase_samples)s
         """
         with self._unchanged_on_error():
             for name in ("batch_shape_", "bank_"):
@@ -86,10 +85,7 @@ class PhaseModel(PhaseWindowModel):
 
         Parameters
         ----------
-        phase : array-like of shape batch + (n,)
-            Gait phase φ of each sample, radians, in time order.
-        body_velocity : array-like of shape batch + (n, 3)
-            Measured body velocity ξ = (v_x, v_y, ω): body lengths and radians per unit of time.
+        %(phase_samples)s
 
         Returns
         -------
