@@ -71,18 +71,19 @@ def test_batched_trials_equal_separate_models():
                                    single.predict_displacement(seed_gait(2)), atol=1e-12)
 
 
-def test_streaming_equals_one_batch_and_covariance_stays_bounded():
+@pytest.mark.parametrize("symmetry", [None, "mirror+reversal"])
+def test_streaming_equals_one_batch_and_covariance_stays_bounded(symmetry):
     run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=3, seed=2, sensor_noise=0.1)
-    whole = ShapeSpaceModel(degree=3, forgetting_factor=0.9).fit(*samples(run))
-    parts = ShapeSpaceModel(degree=3, forgetting_factor=0.9)
+    whole = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=0.9).fit(*samples(run))
+    parts = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=0.9)
     for start in range(0, 300, 70):
         parts.partial_fit(*(array[start:start + 70] for array in samples(run)))
     np.testing.assert_allclose(parts.weights_, whole.weights_, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(parts.gamma_, whole.gamma_, rtol=1e-12)
-    covariance = whole.covariance_
-    np.testing.assert_array_equal(covariance, covariance.T)
-    assert np.linalg.eigvalsh(covariance).min() > 0  # λ = 0.9 with poor excitation: SPD, trace clamped
-    assert np.trace(covariance) <= covariance.shape[0] * whole.initial_covariance * (1 + 1e-12)
+    for covariance in whole.covariances_:
+        np.testing.assert_array_equal(covariance, covariance.T)
+        assert np.linalg.eigvalsh(covariance).min() > 0  # λ = 0.9 with poor excitation: SPD, trace clamped
+        assert np.trace(covariance) <= covariance.shape[0] * whole.initial_covariance * (1 + 1e-12)
 
 
 def test_far_gaits_are_predicted_better_than_by_the_local_model():
