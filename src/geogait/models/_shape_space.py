@@ -453,8 +453,9 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
             velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
             return integrate_cycle(velocity, step)
         f, df = monomials(shape / self.shape_scale, self.exponents_, derivative=True)  # (n,2,m), (n,2,m,d)
-        velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
-        u = np.einsum("npli,npj,...ljk->...npki", df, rate, weights) / self.shape_scale  # batch+(n,2,3,d)
+        along = np.einsum("npj,...ljk->...nplk", rate, weights)  # Σ_j W_ljk θ_j': contract once, reuse
+        velocity = np.einsum("npl,...nplk->...npk", f, along)
+        u = np.einsum("npli,...nplk->...npki", df, along) / self.shape_scale  # batch+(n,2,3,d)
         v = np.einsum("npl,...lik->...npki", f, weights)
         basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
         velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
