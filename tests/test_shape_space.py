@@ -37,6 +37,8 @@ def test_monomials_and_their_derivatives(rng):
     step = 1e-6 * np.eye(3)
     numeric = np.stack([(monomials(shape + s, exponents) - monomials(shape - s, exponents)) / 2e-6 for s in step], -1)
     np.testing.assert_allclose(derivative, numeric, atol=1e-8)
+    with pytest.raises(ValueError, match="'exponents' parameter of monomials must be exponents closed under"):
+        monomials(shape, np.array([[0, 0, 0], [2, 0, 0]]))  # r₀² without r₀
 
 
 def test_recovers_a_polynomial_connection_exactly():

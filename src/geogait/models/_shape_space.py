@@ -47,6 +47,7 @@ alongside, exactly as for the local models.
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -76,26 +77,47 @@ def monomial_exponents(n_joints: int, degree: int) -> np.ndarray:
     return np.array(rows)
 
 
+@functools.lru_cache(maxsize=32)
+def _lowering(key: bytes, m: int, d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For exponents E ``(m, d)`` (bytes ``key``): index of :math:`E_l - e_i` ``(m, d)`` (0 where
+    :math:`E_{li} = 0`), and per monomial a variable it contains and its total degree; raises
+    ``KeyError`` naming a monomial whose divisor is missing."""
+    exponents = np.frombuffer(key, dtype=np.int64).reshape(m, d)
+    position = {tuple(row): l for l, row in enumerate(exponents)}
+    lower = np.zeros((m, d), dtype=np.int64)
+    for l, i in zip(*np.nonzero(exponents), strict=True):
+        below = exponents[l].copy()
+        below[i] -= 1
+        lower[l, i] = position[tuple(below)]
+    variable = np.argmax(exponents > 0, axis=1)
+    return lower, variable, exponents.sum(axis=1)
+
+
 def monomials(shape, exponents: np.ndarray, derivative: bool = False):
     r"""Monomials :math:`f_l(r) = \prod_i r_i^{E_{li}}` of shapes ``(..., d)`` → ``(..., m)``.
 
-    With ``derivative``, also :math:`\partial f_l/\partial r_i` ``(..., m, d)`` (products of the other
-    factors by prefix and suffix cumulative products: exact, no division).
+    The exponents must be closed under lowering (with every monomial, each of its divisors
+    :math:`E_l - e_i`, like :func:`monomial_exponents`): then degree by degree
+    :math:`f_l = r_i f_{l - e_i}`, and with ``derivative`` also
+    :math:`\partial f_l/\partial r_i = E_{li} f_{l - e_i}` ``(..., m, d)`` — exact, one gather each.
     """
     shape = np.asarray(shape, dtype=float)
-    d = shape.shape[-1]
-    top = int(exponents.max()) if exponents.size else 0
-    powers = shape[..., :, None] ** np.arange(top + 1)  # (..., d, D+1)
-    joints = np.arange(d)
-    factors = powers[..., joints, exponents]  # (..., m, d)
-    values = np.prod(factors, axis=-1)
+    exponents = np.ascontiguousarray(exponents, dtype=np.int64)
+    m, d = exponents.shape
+    try:
+        lower, variable, degree = _lowering(exponents.tobytes(), m, d)
+    except KeyError as missing:
+        raise fail("exponents", "monomials", "exponents closed under lowering (e.g. monomial_exponents)",
+                   f"no divisor {missing.args[0]}") from None
+    values = np.empty(shape.shape[:-1] + (m,))
+    values[..., degree == 0] = 1.0
+    for total in range(1, int(degree.max(initial=0)) + 1):
+        level = np.flatnonzero(degree == total)
+        parent = lower[level, variable[level]]
+        values[..., level] = values[..., parent] * shape[..., variable[level]]
     if not derivative:
         return values
-    d_factors = exponents * powers[..., joints, np.maximum(exponents - 1, 0)]
-    ones = np.ones(factors.shape[:-1] + (1,))
-    before = np.concatenate([ones, np.cumprod(factors, axis=-1)[..., :-1]], axis=-1)
-    after = np.concatenate([np.cumprod(factors[..., ::-1], axis=-1)[..., -2::-1], ones], axis=-1)
-    return values, d_factors * before * after
+    return values, exponents * values[..., lower]
 
 
 def symmetry_blocks(exponents: np.ndarray, symmetry: str | None) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -273,6 +295,7 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         self.phase_model_._reset(batch)
         self.psi_ = np.zeros(batch + (2,))
         self.n_samples_seen_ = 0
+        self._flat = None
 
     def _features(self, shape, shape_velocity) -> np.ndarray:
         """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
@@ -315,6 +338,7 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
+        self._flat = None
         return self
 
     def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
@@ -350,11 +374,13 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         return np.sqrt(residual_variance * spread)
 
     def _flat_weights(self) -> np.ndarray:
-        """Full weights ``batch + (m d, 3)``: column k is :math:`B w_k` of its block."""
-        weights = np.zeros(self.batch_shape_ + (len(self.exponents_) * self.n_joints_, 3))
-        for (outputs, basis), bank in zip(self.blocks_, self.banks_, strict=True):
-            weights[..., outputs] = basis @ bank.weights[..., 0, :, :]
-        return weights
+        """Full weights ``batch + (m d, 3)``: column k is :math:`B w_k` of its block (kept until the
+        next update: the optimiser predicts many gaits between two cycles)."""
+        if self._flat is None:
+            self._flat = np.zeros(self.batch_shape_ + (len(self.exponents_) * self.n_joints_, 3))
+            for (outputs, basis), bank in zip(self.blocks_, self.banks_, strict=True):
+                self._flat[..., outputs] = basis @ bank.weights[..., 0, :, :]
+        return self._flat
 
     @property
     def weights_(self) -> np.ndarray:
@@ -388,6 +414,7 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         self._reset(tuple(metadata["batch_shape"]), int(metadata["n_joints"]))
         for b, bank in enumerate(self.banks_):
             _assign_bank(bank, state, _block_prefix(b))
+        self._flat = None
         psi = np.asarray(state["psi"], dtype=float)
         if psi.shape != self.psi_.shape:
             raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
