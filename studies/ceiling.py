@@ -15,9 +15,10 @@ CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sq
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
 (ShapeSpaceModel of degree 3 with the swimmer's mirror and reversal symmetries built in,
 ``symmetry="mirror+reversal"``), perfect-linear, perfect-sqp (true connection, trust radius up to
-0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5); a suffix ``,KEY=VALUE`` (repeatable)
-sets an ``InSituOptimizer`` option, or with ``KEY = model.NAME`` a model hyper-parameter (e.g.
-``mirror-sqp@0.5,model.forgetting_factor=0.9999,gamma_threshold=0.3``).
+0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5); each suffix ``,KEY=VALUE``
+sets an ``InSituOptimizer`` option KEY, or a hyper-parameter NAME of the model when KEY is
+``model.NAME`` (models named in the config only), e.g.
+``mirror-sqp@0.5,model.forgetting_factor=0.9999,gamma_threshold=0.3``.
 """
 
 import argparse
