@@ -12,8 +12,13 @@ what a rotating gait actually gains along a straight line (equal to ‖t‖ at �
     python studies/ceiling.py LINKS CYCLES TRIALS [CONFIG ...] [--jobs 1] [--checkpoints 30 40 60 200]
 
 CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sqp, shape-linear,
-shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), perfect-linear, perfect-sqp (true
-connection, trust radius up to 0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5).
+shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
+(ShapeSpaceModel of degree 3 with the swimmer's mirror and reversal symmetries built in,
+``symmetry="mirror+reversal"``), perfect-linear, perfect-sqp (true connection, trust radius up to
+0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5); each suffix ``,KEY=VALUE``
+sets an ``InSituOptimizer`` option KEY, or a hyper-parameter NAME of the model when KEY is
+``model.NAME`` (models named in the config only), e.g.
+``mirror-sqp@0.5,model.forgetting_factor=0.9999,gamma_threshold=0.3``.
 """
 
 import argparse
@@ -28,11 +33,12 @@ from geogait.optimize import InSituOptimizer, cached_ceiling
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
-CONFIGS = ("free-linear", "symmetric-linear", "symmetric-sqp", "shape-linear", "shape-sqp", "perfect-linear",
-           "perfect-sqp")
+CONFIGS = ("free-linear", "symmetric-linear", "symmetric-sqp", "shape-linear", "shape-sqp", "mirror-linear",
+           "mirror-sqp", "perfect-linear", "perfect-sqp")
 
 
-def optimizer(name, links):
+def optimizer(config, links):
+    name, *settings = config.split(",")
     name, _, radius = name.partition("@")
     model, rule = name.split("-")
     options = {"step_rule": rule, "family": "free" if model == "free" else "symmetric"}
@@ -40,8 +46,17 @@ def optimizer(name, links):
         options["max_trust_radius"] = float(radius)
     if model == "shape":
         options["model"] = ShapeSpaceModel(degree=3 if links < 9 else 2)
+    if model == "mirror":
+        options["model"] = ShapeSpaceModel(degree=3, symmetry="mirror+reversal")
     if model == "perfect":
         options.update(model=PerfectInformationModel(system=PurcellSwimmer(links)), max_trust_radius=0.5)
+    for setting in settings:
+        key, _, value = setting.partition("=")
+        value = int(value) if value.isdigit() else float(value)
+        if key.startswith("model."):
+            options["model"].set_params(**{key.removeprefix("model."): value})
+        else:
+            options[key] = value
     return InSituOptimizer(**options)
 
 

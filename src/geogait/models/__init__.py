@@ -9,7 +9,7 @@ from ._features import PhaseWindows, n_regressors, regressors, split_coefficient
 from ._perfect import PerfectInformationModel
 from ._phase import PhaseModel
 from ._rls import RLSBank
-from ._shape_space import ShapeSpaceModel, monomial_exponents, monomials
+from ._shape_space import ShapeSpaceModel, monomial_exponents, monomials, symmetry_blocks
 
 __all__ = [
     "MAX_PHASE",
@@ -29,4 +29,5 @@ __all__ = [
     "predicted_displacement",
     "regressors",
     "split_coefficients",
+    "symmetry_blocks",
 ]

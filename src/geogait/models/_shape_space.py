@@ -21,8 +21,22 @@ squares gives the exact least-squares fit of all data seen, with no phase window
 gait: the model of a gait far from the current one is available without a rebase. A tensor-product
 or spline basis has far more weights for the same smoothness in d = 8.
 
-Learning is one RLS filter (:class:`RLSBank` with a single "window") per trial, forgetting λ per
-sample, covariance symmetric and bounded by the bank's trace clamp. The net motion per cycle of a
+Symmetry (``symmetry``): a chain swimmer's connection obeys exact symmetries that halve or quarter
+the weights. Reflecting the body about its x axis maps :math:`r \to -r` and
+:math:`(\xi_x, \xi_y, \xi_\theta) \to (\xi_x, -\xi_y, -\xi_\theta)`, so :math:`A(-r) = -M A(r)`
+with :math:`M = \mathrm{diag}(1, -1, -1)`: the x row of A is odd in r, the y and θ rows even
+(``"mirror"``). Reversing the chain (link i ↔ link N−1−i, body frame at the middle, turned by π) maps
+:math:`r \to -Pr` with P the reversal of the joint order; with the mirror this gives
+:math:`A(Pr)\,P = \mathrm{diag}(-1, 1, -1)\,A(r)` (``"mirror+reversal"``). Each output k then has
+its weights in a subspace :math:`W_{\cdot k} = B_k w_k` of the features (monomials of the right
+parity; symmetric or antisymmetric pairs under the reversal), with orthonormal :math:`B_k`
+(:func:`symmetry_blocks`). Outputs sharing a subspace share one filter; a degree-3 model of the
+9-link swimmer has 1320 features for all three outputs without symmetry, 1024 (x) and 296 (y, θ)
+with the mirror, and 512 / 148 / 148 with both.
+
+Learning is one RLS filter (:class:`RLSBank` with a single "window") per trial and per block of
+outputs with a common subspace, forgetting λ per sample, covariance symmetric and bounded by the
+bank's trace clamp. The net motion per cycle of a
 candidate gait integrates :math:`\hat\xi(\phi) = W^T (f(\theta(\phi)/s) \otimes \theta'(\phi))`
 with the project's fourth-order Magnus integrator; its Jacobian with respect to the gait's Fourier
 parameters is exact (chain rule through the monomials and the Magnus steps).
@@ -33,11 +47,12 @@ alongside, exactly as for the local models.
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
 
-from .._estimator import Estimator, Integer, Real, estimator_from_state
+from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
 from .._validation import check_array, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
@@ -46,7 +61,12 @@ from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
 
-__all__ = ["ShapeSpaceModel", "monomial_exponents", "monomials"]
+__all__ = ["SYMMETRIES", "ShapeSpaceModel", "monomial_exponents", "monomials", "symmetry_blocks"]
+
+#: Values of ``ShapeSpaceModel(symmetry=...)``.
+SYMMETRIES = (None, "mirror", "mirror+reversal")
+_MIRROR_SIGN = np.array([1, -1, -1])  # ξ(−r, −ṙ) = diag(1, −1, −1) ξ(r, ṙ)
+_REVERSAL_SIGN = np.array([-1, 1, -1])  # ξ(Pr, Pṙ) = diag(−1, 1, −1) ξ(r, ṙ), mirror and reversal composed
 
 
 def monomial_exponents(n_joints: int, degree: int) -> np.ndarray:
@@ -58,26 +78,96 @@ def monomial_exponents(n_joints: int, degree: int) -> np.ndarray:
     return np.array(rows)
 
 
+@functools.lru_cache(maxsize=32)
+def _lowering(key: bytes, m: int, d: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For exponents E ``(m, d)`` (bytes ``key``): index of :math:`E_l - e_i` ``(m, d)`` (0 where
+    :math:`E_{li} = 0`), and per monomial a variable it contains and its total degree; raises
+    ``KeyError`` naming a monomial whose divisor is missing."""
+    exponents = np.frombuffer(key, dtype=np.int64).reshape(m, d)
+    position = {tuple(row): l for l, row in enumerate(exponents)}
+    lower = np.zeros((m, d), dtype=np.int64)
+    for l, i in zip(*np.nonzero(exponents), strict=True):
+        below = exponents[l].copy()
+        below[i] -= 1
+        lower[l, i] = position[tuple(below)]
+    variable = np.argmax(exponents > 0, axis=1)
+    return lower, variable, exponents.sum(axis=1)
+
+
 def monomials(shape, exponents: np.ndarray, derivative: bool = False):
     r"""Monomials :math:`f_l(r) = \prod_i r_i^{E_{li}}` of shapes ``(..., d)`` → ``(..., m)``.
 
-    With ``derivative``, also :math:`\partial f_l/\partial r_i` ``(..., m, d)`` (products of the other
-    factors by prefix and suffix cumulative products: exact, no division).
+    The exponents must be closed under lowering (with every monomial, each of its divisors
+    :math:`E_l - e_i`, like :func:`monomial_exponents`): then degree by degree
+    :math:`f_l = r_i f_{l - e_i}`, and with ``derivative`` also
+    :math:`\partial f_l/\partial r_i = E_{li} f_{l - e_i}` ``(..., m, d)`` — exact, one gather each.
     """
     shape = np.asarray(shape, dtype=float)
-    d = shape.shape[-1]
-    top = int(exponents.max()) if exponents.size else 0
-    powers = shape[..., :, None] ** np.arange(top + 1)  # (..., d, D+1)
-    joints = np.arange(d)
-    factors = powers[..., joints, exponents]  # (..., m, d)
-    values = np.prod(factors, axis=-1)
+    exponents = np.ascontiguousarray(exponents, dtype=np.int64)
+    m, d = exponents.shape
+    try:
+        lower, variable, degree = _lowering(exponents.tobytes(), m, d)
+    except KeyError as missing:
+        raise fail("exponents", "monomials", "exponents closed under lowering (e.g. monomial_exponents)",
+                   f"no divisor {missing.args[0]}") from None
+    values = np.empty(shape.shape[:-1] + (m,))
+    values[..., degree == 0] = 1.0
+    for total in range(1, int(degree.max(initial=0)) + 1):
+        level = np.flatnonzero(degree == total)
+        parent = lower[level, variable[level]]
+        values[..., level] = values[..., parent] * shape[..., variable[level]]
     if not derivative:
         return values
-    d_factors = exponents * powers[..., joints, np.maximum(exponents - 1, 0)]
-    ones = np.ones(factors.shape[:-1] + (1,))
-    before = np.concatenate([ones, np.cumprod(factors, axis=-1)[..., :-1]], axis=-1)
-    after = np.concatenate([np.cumprod(factors[..., ::-1], axis=-1)[..., -2::-1], ones], axis=-1)
-    return values, d_factors * before * after
+    return values, exponents * values[..., lower]
+
+
+def symmetry_blocks(exponents: np.ndarray, symmetry: str | None) -> list[tuple[np.ndarray, np.ndarray]]:
+    r"""Outputs that share a weight subspace, and an orthonormal basis of it (module docstring).
+
+    Features are :math:`x_{lj} = f_l(r)\,\dot r_j` at flat index :math:`l d + j`. Under the mirror
+    :math:`x_{lj} \to (-1)^{|E_l| + 1} x_{lj}`, so output k keeps the features whose sign equals
+    :math:`M_k`. The reversal permutes them, :math:`x_{lj}(Pr, P\dot r) = x_{\pi(l),\, d-1-j}(r, \dot r)`
+    (π reverses the exponents), an involution Q; output k keeps Q's eigenspace of eigenvalue
+    :math:`c_k`, spanned by :math:`(e_i + c_k e_{Q(i)})/\sqrt 2` and, for c_k = 1, the fixed points.
+
+    Parameters
+    ----------
+    exponents : int ndarray of shape (m, d)
+        Monomial exponents (:func:`monomial_exponents`).
+    symmetry : {None, "mirror", "mirror+reversal"}
+
+    Returns
+    -------
+    list of (outputs, basis)
+        ``outputs``: int array of the outputs (0 = x, 1 = y, 2 = θ) of one block; ``basis``: ndarray
+        of shape (m d, n_b) with orthonormal columns, :math:`W_{\cdot k} = B\, w_k`.
+    """
+    m, d = exponents.shape
+    size = m * d
+    if symmetry is None:
+        return [(np.arange(3), np.eye(size))]
+    degree = np.repeat(exponents.sum(axis=1), d)  # of feature l d + j
+    feature_sign = np.where(degree % 2 == 1, 1, -1)  # (−1)^(|E_l| + 1)
+    keys = _MIRROR_SIGN[:, None] if symmetry == "mirror" else np.stack([_MIRROR_SIGN, _REVERSAL_SIGN], axis=1)
+    position = {tuple(row): i for i, row in enumerate(exponents)}
+    reversed_monomial = np.array([position[tuple(row[::-1])] for row in exponents])
+    partner = (reversed_monomial[:, None] * d + np.arange(d)[::-1]).ravel()  # Q(i)
+    blocks = []
+    for key in np.unique(keys, axis=0)[::-1]:
+        outputs = np.flatnonzero((keys == key).all(axis=1))
+        kept = np.flatnonzero(feature_sign == key[0])
+        if symmetry == "mirror":
+            basis = np.eye(size)[:, kept]
+        else:
+            first = kept[kept <= partner[kept]]  # one index per orbit {i, Q(i)}
+            pair = first[first != partner[first]]
+            fixed = first[first == partner[first]] if key[1] == 1 else first[:0]
+            basis = np.zeros((size, len(pair) + len(fixed)))
+            basis[pair, np.arange(len(pair))] = np.sqrt(0.5)
+            basis[partner[pair], np.arange(len(pair))] = key[1] * np.sqrt(0.5)
+            basis[fixed, len(pair) + np.arange(len(fixed))] = 1.0
+        blocks.append((outputs, basis))
+    return sorted(blocks, key=lambda block: block[0][0])
 
 
 class ShapeSpaceModel(OnlineGamma, Estimator):
@@ -87,6 +177,12 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
     ----------
     degree : int >= 0
         Total degree D of the polynomial entries of A(r).
+    symmetry : {None, "mirror", "mirror+reversal"}
+        Exact symmetries of the connection built into the basis (module docstring): ``"mirror"``
+        (A_x odd, A_y and A_θ even in r: any planar chain whose body frame lies on a link's axis or
+        on the chain's symmetry axis), ``"mirror+reversal"`` (also the front–back reversal: chains
+        with lengths and drags symmetric about the middle, body frame at the middle, e.g.
+        ``PurcellSwimmer(body_frame="middle")``). ``None``: no constraint.
     shape_scale : float > 0
         s: the monomials are of r / s (conditioning only; s ≈ the largest joint angle is best).
     forgetting_factor : float in (0, 1]
@@ -105,9 +201,14 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
     Attributes
     ----------
     exponents_ : ndarray of shape (m, d)
+    blocks_ : list of (outputs, basis)
+        Outputs sharing a weight subspace and its orthonormal basis ``(m d, n_b)``
+        (:func:`symmetry_blocks`); one block of all outputs without symmetry.
     weights_ : ndarray of shape batch + (m, d, 3)
         :math:`W_{ljk}`; :meth:`connection` gives A(r).
-    covariance_ : ndarray of shape batch + (m d, m d)
+    covariances_ : list of ndarray of shape batch + (n_b, n_b)
+        RLS covariance of each block's weights :math:`w_k` (``covariances_[0]`` is the full
+        ``(m d, m d)`` covariance shared by all outputs without symmetry).
     phase_model_ : PhaseModel
     gamma_ : float or ndarray of shape batch
         Online Γ after the last sample (eq. 6).
@@ -134,6 +235,7 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
     _format_version = FORMAT_VERSION
     _parameter_constraints = {
         "degree": Integer(minimum=0),
+        "symmetry": Options(SYMMETRIES),
         "shape_scale": Real(low=0, low_open=True),
         "forgetting_factor": Real(low=0, high=1, low_open=True),
         "initial_covariance": Real(low=0, low_open=True),
@@ -144,10 +246,12 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         "resolution": Integer(minimum=4),
     }
 
-    def __init__(self, *, degree: int = 2, shape_scale: float = 1.0, forgetting_factor: float = 0.999,
-                 initial_covariance: float = 100.0, gamma_forgetting: float = 0.995, n_windows: int = 20,
-                 smoothing_order: int = 5, baseline_forgetting: float = 0.99, resolution: int = 128):
+    def __init__(self, *, degree: int = 2, symmetry: str | None = None, shape_scale: float = 1.0,
+                 forgetting_factor: float = 0.999, initial_covariance: float = 100.0, gamma_forgetting: float = 0.995,
+                 n_windows: int = 20, smoothing_order: int = 5, baseline_forgetting: float = 0.99,
+                 resolution: int = 128):
         self.degree = degree
+        self.symmetry = symmetry
         self.shape_scale = shape_scale
         self.forgetting_factor = forgetting_factor
         self.initial_covariance = initial_covariance
@@ -184,12 +288,14 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         self.exponents_ = monomial_exponents(n_joints, self.degree)
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
-        self.bank_ = RLSBank(batch, 1, len(self.exponents_) * n_joints, 3, self.forgetting_factor,
-                             self.initial_covariance)
+        self.blocks_ = symmetry_blocks(self.exponents_, self.symmetry)
+        self.banks_ = [RLSBank(batch, 1, basis.shape[1], len(outputs), self.forgetting_factor, self.initial_covariance)
+                       for outputs, basis in self.blocks_]
         self.phase_model_ = PhaseModel(n_windows=self.n_windows, forgetting_factor=self.baseline_forgetting,
                                        smoothing_order=self.smoothing_order).start(batch)
         self.psi_ = np.zeros(batch + (2,))
         self.n_samples_seen_ = 0
+        self._flat = None
 
     def _features(self, shape, shape_velocity) -> np.ndarray:
         """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
@@ -225,12 +331,16 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         x = self._features(shape, shape_velocity)  # batch + (n, m d)
         valid = np.ones(self.batch_shape_ + (1,), dtype=bool)
         prior = np.empty(body_velocity.shape)
-        for i in range(phase.shape[-1]):  # RLS is sequential in time; each step is vectorised over trials
-            prior[..., i, :] = self.bank_.update(x[..., i, None, :], body_velocity[..., i, None, :], valid)[..., 0, :]
+        for (outputs, basis), bank in zip(self.blocks_, self.banks_, strict=True):
+            z = x if self.symmetry is None else x @ basis  # block regressors Bᵀx, batch + (n, n_b)
+            y = body_velocity[..., outputs]
+            for i in range(phase.shape[-1]):  # RLS is sequential in time; each step is vectorised over trials
+                prior[..., i, outputs] = bank.update(z[..., i, None, :], y[..., i, None, :], valid)[..., 0, :]
         baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
+        self._flat = None
         return self
 
     def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
@@ -254,35 +364,52 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         of an se(2) bracket vanishes): :math:`\hat\theta_{net} = g^T W_{\cdot\omega}` with
         :math:`g = \frac h2 \sum_{n,\pm} f(\theta/s) \otimes \theta'` over the Gauss nodes. With the
         RLS covariance P and the residual variance σ²_ω of ω the standard error is
-        :math:`\sigma_\omega \sqrt{g^T P g}`.
+        :math:`\sigma_\omega \sqrt{g^T P g}`; with a symmetry, :math:`W_{\cdot\omega} = B w` and the
+        block's covariance P of w give :math:`\sigma_\omega \sqrt{(B^T g)^T P\, B^T g}`.
         """
         self._check_is_fitted()
         nodes, step = gauss_phases(self.resolution)
         g = self._features(gait.shape(nodes), gait.velocity(nodes)).sum(axis=(0, 1)) * step / 2
-        spread = np.einsum("i,...ij,j->...", g, self.covariance_, g)
+        block = next(b for b, (outputs, _) in enumerate(self.blocks_) if 2 in outputs)
+        g = g @ self.blocks_[block][1]
+        spread = np.einsum("i,...ij,j->...", g, self.covariances_[block], g)
         return np.sqrt(residual_variance * spread)
+
+    def _flat_weights(self) -> np.ndarray:
+        """Full weights ``batch + (m d, 3)``: column k is :math:`B w_k` of its block (kept until the
+        next update: the optimiser predicts many gaits between two cycles)."""
+        if self._flat is None:
+            self._flat = np.zeros(self.batch_shape_ + (len(self.exponents_) * self.n_joints_, 3))
+            for (outputs, basis), bank in zip(self.blocks_, self.banks_, strict=True):
+                self._flat[..., outputs] = basis @ bank.weights[..., 0, :, :]
+        return self._flat
 
     @property
     def weights_(self) -> np.ndarray:
         self._check_is_fitted()
-        return self.bank_.weights[..., 0, :, :].reshape(self.batch_shape_ + (len(self.exponents_), self.n_joints_, 3))
+        return self._flat_weights().reshape(self.batch_shape_ + (len(self.exponents_), self.n_joints_, 3))
 
     @property
-    def covariance_(self) -> np.ndarray:
+    def covariances_(self) -> list[np.ndarray]:
         self._check_is_fitted()
-        return self.bank_.covariance[..., 0, :, :]
+        return [bank.covariance[..., 0, :, :] for bank in self.banks_]
 
     # -- persistence --------------------------------------------------------------------------
     def _metadata(self) -> dict:
         return {"n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
 
     def _state(self) -> dict:
-        return {**self.bank_.state(), **self._gamma_state(), "n_samples_seen": self.n_samples_seen_,
-                **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
+        arrays = {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_,
+                  **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
+        for b, bank in enumerate(self.banks_):
+            arrays.update(bank.state(_block_prefix(b)))
+        return arrays
 
     def _set_state(self, state: dict, metadata: dict) -> None:
         self._reset(tuple(metadata["batch_shape"]), int(metadata["n_joints"]))
-        self.bank_.assign(state)
+        for b, bank in enumerate(self.banks_):
+            bank.assign(state, _block_prefix(b))
+        self._flat = None
         self._set_gamma_state(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
         own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
@@ -303,8 +430,7 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         self._check_is_fitted()
         _, shape, shape_velocity = self._check_samples(f"{type(self).__name__}.predict", phase, shape,
                                                        shape_velocity, names=("shape", "shape_velocity"))
-        weights = self.bank_.weights[..., 0, :, :]
-        return np.einsum("...ni,...ij->...nj", self._features(shape, shape_velocity), weights)
+        return np.einsum("...ni,...ij->...nj", self._features(shape, shape_velocity), self._flat_weights())
 
     def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
         """Γ on held-out samples (eq. 5) against ``baseline`` (default the phase model learned alongside)."""
@@ -346,10 +472,16 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
             velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
             return integrate_cycle(velocity, step)
         f, df = monomials(shape / self.shape_scale, self.exponents_, derivative=True)  # (n,2,m), (n,2,m,d)
-        velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
-        u = np.einsum("npli,npj,...ljk->...npki", df, rate, weights) / self.shape_scale  # batch+(n,2,3,d)
+        along = np.einsum("npj,...ljk->...nplk", rate, weights)  # Σ_j W_ljk θ_j': contract once, reuse
+        velocity = np.einsum("npl,...nplk->...npk", f, along)
+        u = np.einsum("npli,...nplk->...npki", df, along) / self.shape_scale  # batch+(n,2,3,d)
         v = np.einsum("npl,...lik->...npki", f, weights)
         basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
         velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
         velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
         return integrate_cycle(velocity, step, velocity_jacobian)
+
+
+def _block_prefix(block: int) -> str:
+    """Saved-array prefix of block ``block`` (none for the first, so files without symmetry keep their names)."""
+    return f"block{block}/" if block else ""
