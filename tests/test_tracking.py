@@ -102,6 +102,7 @@ def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
     assert set(log["controller"]) == {"adaptive", "frozen", "true"} and log.groupby("controller").size().max() <= 6
     summary = _strict_json(out / "summary.json")
     assert summary["config"]["drag_ratios"] == [2.0, 4.0]
+    assert summary["config"]["turn_limit"] == pytest.approx(0.5)  # the 3-link swimmer's joint limits
     assert summary["results"]["frozen"]["final_gamma"] is None  # NaN is written as null
     assert set(summary["results"]["drag_change"]) >= {"pre_change_level", "cycles_to_recover"}
     for name in ("path.png", "family.png"):
@@ -116,6 +117,7 @@ def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
     (["--controllers", "adaptive,psychic"], "The '--controllers' option"),
     (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "The '--change-cycle' option"),
     (["--links", "1"], "n_links"),
+    (["--turn-limit", "0"], "The '--turn-limit' option"),
 ])
 def test_track_command_user_errors(tmp_path, options, message):
     result = CliRunner().invoke(app, ["track", "--quick", "--out", str(tmp_path / "x"), *options])
