@@ -6,7 +6,7 @@ import inspect
 import pytest
 
 PACKAGES = ["geogait.se2", "geogait.systems", "geogait.gaits", "geogait.simulate", "geogait.models",
-            "geogait.optimize", "geogait.experiments", "geogait.io", "geogait.phase"]
+            "geogait.optimize", "geogait.experiments", "geogait.io", "geogait.phase", "geogait.control"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)
