@@ -42,6 +42,21 @@ sensor_noise : float
     Std of the noise on measured ξ, as a fraction of its RMS.
 perturbation : float
     Stationary std (rad) of the shape perturbation δ of eq. 8.""",
+    "step": """\
+problem : StepProblem
+    The predictor, family, objective, rotation row and joint limits of this step.
+params : array-like of shape (n_params,)
+    Current free parameters q₀ (within the joint limits).
+radius : float
+    Trust radius R (rad): bound on ‖T Δq‖, the step's Euclidean length in Fourier parameters
+    (the same distance between gaits in every family).
+rotation_target : float
+    c*: 0 restores zero rotation; the current predicted rotation keeps it (when it is within
+    the model's resolution).
+min_gain : float
+    Smallest predicted relative gain accepted.
+restore : bool
+    Accept a feasible step on the rotation target even without a gain.""",
     "sweep": """\
 jobs : int
     joblib workers (1 in-process, -1 all cores).
