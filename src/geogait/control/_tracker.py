@@ -15,12 +15,13 @@ and picks the sequence minimising
 
 with :math:`e` the cross-track error of the predicted position, :math:`\chi_i` the course of the
 chord :math:`g_{k+i-1} \to g_{k+i}`, :math:`\psi_i` the path tangent at the chord's midpoint,
-:math:`\ell` the straight gait's step per cycle as predicted now and :math:`w_\chi` the heading
-weight. Both terms scale with :math:`\ell`, so the chosen turns do not depend on how fast the
-swimmer is (per cycle, the same offset in steps gives the same correction): a swimmer that becomes
-1.9× faster (a drag change) is neither over- nor under-corrected by gains tuned at the old speed. Only the first
-turn is used: its steering gait is solved exactly (warm-started from the family) and commanded for
-one cycle; then the loop repeats with the newly measured pose.
+:math:`\ell` the straight gait's step per cycle as the current motion source predicts it (updated
+every cycle) and :math:`w_\chi` the heading weight. Both terms then scale with :math:`\ell`, so an
+offset of so many steps gets about the same correction per cycle at any speed — also right after the
+swimmer becomes faster or slower (a drag change), where a weight fixed at the old step would weigh
+the course too little for a faster swimmer and overshoot (tested). Only the first turn is used: its
+steering gait is solved exactly (warm-started from the family) and commanded for one cycle; then the
+loop repeats with the newly measured pose.
 
 Three sources of the motion :math:`m`:
 
@@ -141,7 +142,8 @@ class PathTracker:
     n_first_turns : int
         Candidate first turns (fine grid between the family's extreme feasible turns).
     heading_weight : float
-        :math:`w_\\chi`, weight of the course error against the cross-track error.
+        :math:`w_\\chi`, weight of the course error (times the current step) against the cross-track
+        error.
     forgetting_factor : float
         λ_RLS of the gait model (adaptive and frozen).
     warmup_cycles : int

@@ -4,7 +4,10 @@ For each swimmer and scenario (a path, at drag ratio 2 throughout or switched 2 
 telling the controllers), every trial runs the three controllers of
 :class:`~geogait.control.PathTracker` on the same seeded perturbations and sensor noise (paired
 trials): 10 warm-up cycles on the straight gait (the ceiling gait, the optimum of
-:func:`~geogait.optimize.cached_ceiling`), then ``n_cycles`` cycles of path following.
+:func:`~geogait.optimize.cached_ceiling`), then ``n_cycles`` cycles of path following. The
+controllers turn by at most 1 rad per cycle, cut to what the swimmer's joint limits allow
+(:func:`feasible_turn_limit`: 0.5 rad for the 3-link, 1.0 for the 5-link swimmer), with steering
+families spaced 0.1 rad and heading weight 0.5.
 
 Paths are scaled by the swimmer's own step ℓ (true net translation per cycle of the straight gait at
 drag ratio 2: 0.10 body lengths for the 3-link, 0.20 for the 5-link swimmer), so every swimmer gets
