@@ -59,7 +59,6 @@ def _documented_callables():
                         yield f"{package}.{public}.{name}", method, inspect.getdoc(method) or ""
 
 
-@pytest.mark.xfail(reason="docstrings being completed (issue 12)", strict=False)
 def test_every_parameter_is_documented():
     """python-control's rule: a public callable's docstring names each of its parameters."""
     import re

@@ -105,12 +105,13 @@ class ReferencePath:
 
     @classmethod
     def waypoints(cls, points, *, closed: bool = False, name: str = "waypoints") -> ReferencePath:
-        """The polyline through ``points`` ``(n, 2)`` (straight segments, sharp corners kept)."""
+        """The polyline through ``points`` ``(n, 2)`` (body lengths; straight segments, sharp corners kept),
+        back to the first point when ``closed``; ``name`` labels it in logs and plots."""
         return cls(np.asarray(points, dtype=float), closed=closed, name=name)
 
     @classmethod
     def from_csv(cls, path) -> ReferencePath:
-        """Waypoints from a CSV file with columns ``x`` and ``y`` (body lengths), one row per waypoint.
+        """Waypoints from the CSV file ``path`` with columns ``x`` and ``y`` (body lengths), one row per waypoint.
 
         Raises
         ------
@@ -140,8 +141,8 @@ class ReferencePath:
 
     @classmethod
     def named(cls, kind: str, scale: float = 1.0) -> ReferencePath:
-        """A built-in path by name: ``"line"``, ``"circle"`` (radius ``scale``) or ``"figure8"`` (size
-        ``scale``)."""
+        """A built-in path by name ``kind``: ``"line"``, ``"circle"`` (radius ``scale``) or ``"figure8"``
+        (size ``scale``), body lengths."""
         if kind == "line":
             return cls.line()
         if kind == "circle":

@@ -297,8 +297,9 @@ class SteeringFamily:
         _, turns = self._abscissa()
         return float(turns[0]), float(turns[-1])
 
-    def _usable(self) -> np.ndarray:
-        """Feasible members in the contiguous run containing the member nearest zero turn."""
+    def usable(self) -> np.ndarray:
+        """Boolean mask ``(n_members,)`` of the members a controller may use: the feasible ones in the
+        contiguous run containing the member nearest zero turn."""
         ok = np.asarray(self.feasible, bool).copy()
         centre = int(np.argmin(np.abs(self.turns)))
         if not ok[centre]:
@@ -316,7 +317,7 @@ class SteeringFamily:
     def _abscissa(self) -> tuple[np.ndarray, np.ndarray]:
         """Usable members and their turns (the motion's own Δθ, increasing; the commanded turns
         where a re-prediction made them non-monotonic)."""
-        ok = self._usable()
+        ok = self.usable()
         turns = self.poses[ok, 2]
         if turns.size > 1 and np.any(np.diff(turns) <= 0):
             turns = self.turns[ok]

@@ -62,7 +62,8 @@ CONTROLLERS = ("adaptive", "frozen", "true")
 
 
 def end_pose(chunk: Trajectory) -> np.ndarray:
-    r"""Pose ``(3,)`` at the end of a cycle: the last sampled pose moved by the last measured step.
+    r"""Pose ``(3,)`` at the end of the cycle ``chunk`` (its Trajectory): the last sampled pose moved by the
+    last measured step.
 
     The samples hold the pose *before* each step, so the boundary pose after the last step is
     :math:`g_{end} = g_{n-1}\exp(\Delta t\,\hat\xi_{n-1})`, with the measured body velocity
@@ -338,7 +339,7 @@ class PathTracker:
         first turns, then two finer grids around the best one (turns are continuous; a coarse grid
         alone would leave a small steady drift)."""
         low, high = family.turn_range
-        held = family.turns[family._usable()]
+        held = family.turns[family.usable()]
         later = family.interpolate(held)  # (C, 3)
         _, _, here = path.project(pose[:2], near=s, window=window)
 

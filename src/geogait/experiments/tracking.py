@@ -30,6 +30,7 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 
+from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..control import CONTROLLERS, ModelMotion, PathTracker, ReferencePath, TrueMotion, max_step_family, steering_family
 from ..gaits import Perturbation
@@ -201,6 +202,21 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
                     line_offset: float, turn_limit: float, heading_weight: float, controllers) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
+    Parameters
+    ----------
+    trial_indices : sequence of int
+        Trial indices of the chunk.
+    seeds : sequence of numpy.random.SeedSequence
+        One seed per trial, shared by its controllers (paired comparison).
+    n_links : int
+        Links of the Purcell swimmer.
+    scenarios : sequence of (path, environment)
+        Paths to follow, each at ``"constant"`` drag or through the ``"change"``.
+    drag_ratios, n_cycles, change_cycle, warmup_cycles, sensor_noise, perturbation, path_scale, line_offset
+        As in :class:`TrackingConfig`.
+    turn_limit, heading_weight, controllers
+        As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
+
     Returns
     -------
     pandas.DataFrame
@@ -232,9 +248,15 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
     return pd.concat(frames, ignore_index=True)
 
 
+@fill_doc
 @dataclass(frozen=True)
 class TrackingResult(ExperimentResult):
-    """Long-format per-cycle logs of every trial (see :func:`tracking_trials`)."""
+    """Long-format per-cycle logs of every trial (see :func:`tracking_trials`).
+
+    Parameters
+    ----------
+    %(result_fields)s
+    """
 
     COLUMNS = ("trial", "links", "path", "environment", "controller", "cycle", "cross_track", "heading_error", "x",
                "y", "turn_command", "predicted_turn", "true_turn", "measured_turn", "gamma", "drag_ratio")
@@ -250,9 +272,21 @@ class TrackingResult(ExperimentResult):
         return path
 
 
+@fill_doc
 def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, scheduler=None,
                  progress: bool = True) -> TrackingResult:
-    """Run the path-following experiment for every swimmer of ``config``; see the module docstring."""
+    """Run the path-following experiment for every swimmer of ``config``; see the module docstring.
+
+    Parameters
+    ----------
+    config : TrackingConfig, optional
+        Default ``TrackingConfig()``: 20 paired trials of the 3- and 5-link swimmers.
+    %(sweep)s
+
+    Returns
+    -------
+    TrackingResult
+    """
     config = (config or TrackingConfig()).validate()
     frames, wall, workers = [], 0.0, 1
     for index, n_links in enumerate(config.links):
@@ -329,8 +363,9 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
 
 
 def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> dict:
-    """Headline numbers per swimmer, path and environment: error statistics per controller, the
-    adaptive / true ratio of mean cross-track error and the goals; drag-change recovery."""
+    """Headline numbers per swimmer, path and environment of the long-format ``frame``: error statistics
+    per controller, the adaptive / true ratio of mean cross-track error and the goals; drag-change
+    recovery after ``change_cycle`` (default: half the run)."""
     if change_cycle is None:
         change_cycle = int(frame["cycle"].max() + 1) // 2
     summary = {}
@@ -402,7 +437,8 @@ def plot_error_curves(ax, frame: pd.DataFrame, n_links: int, kind: str, change_c
 
 
 def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
-    """The whole figure: per swimmer a row of path panels (trial 0) and drag-change error curves."""
+    """Draw the whole figure from the long-format ``frame`` to ``path``: per swimmer a row of path panels
+    (trial 0) and drag-change error curves after ``change_cycle`` (default: half the run)."""
     links = sorted(frame["links"].unique())
     scenarios = frame[["path", "environment"]].drop_duplicates().itertuples(index=False)
     constant = [p for p, e in scenarios if e == "constant"]
