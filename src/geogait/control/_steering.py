@@ -380,9 +380,7 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
     -------
     SteeringFamily
     """
-    turns = np.asarray(check_array(turns, "turns", "steering_family", ndim=1), dtype=float)
-    if turns.size < 1 or np.any(np.diff(turns) <= 0):
-        raise fail("turns", "steering_family", "a non-empty increasing array", turns)
+    turns = _increasing_turns(turns, "steering_family")
     gaits, poses, feasible = [None] * turns.size, np.zeros((turns.size, 3)), np.zeros(turns.size, bool)
     order = np.argsort(np.abs(turns), kind="stable")
     use_previous = previous is not None and np.array_equal(previous.turns, turns)
@@ -401,6 +399,14 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
                                        max_joint_angle=max_joint_angle, max_iterations=max_iterations)
         gaits[index], poses[index], feasible[index] = solution.gait, solution.pose, solution.converged
     return SteeringFamily(turns=turns, gaits=tuple(gaits), poses=poses, feasible=feasible, direction=float(direction))
+
+
+def _increasing_turns(turns, owner: str) -> np.ndarray:
+    """``turns`` as a non-empty, strictly increasing float array (rad per cycle), or the standard error."""
+    turns = np.asarray(check_array(turns, "turns", owner, ndim=1), dtype=float)
+    if turns.size < 1 or np.any(np.diff(turns) <= 0):
+        raise fail("turns", owner, "a non-empty increasing array", turns)
+    return turns
 
 
 def max_step_family(motion, start: FourierGait, turns, *, direction: float = 0.0,
@@ -427,9 +433,7 @@ def max_step_family(motion, start: FourierGait, turns, *, direction: float = 0.0
     -------
     SteeringFamily
     """
-    turns = np.asarray(check_array(turns, "turns", "max_step_family", ndim=1), dtype=float)
-    if turns.size < 1 or np.any(np.diff(turns) <= 0):
-        raise fail("turns", "max_step_family", "a non-empty increasing array", turns)
+    turns = _increasing_turns(turns, "max_step_family")
     r_max = check_float(max_joint_angle, "max_joint_angle", "max_step_family", low=0, high=np.pi, low_open=True)
     limit_fun, limit_jac = _limit_inequalities(start, r_max)
     heading = np.array([np.cos(direction), np.sin(direction), 0.0])
