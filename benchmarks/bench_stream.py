@@ -19,7 +19,7 @@ from pathlib import Path
 from run import best_time
 
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, model_config, run_stream
+from geogait.io import StreamLearner, run_stream
 from geogait.models import AdaptiveGaitModel
 from geogait.phase import Phaser
 from geogait.simulate import simulate
@@ -70,7 +70,7 @@ def run():
             gait = seed_gait(links - 1)
             trajectory = simulate(PurcellSwimmer(links), gait, N_SAMPLES // 100, seed=0, sensor_noise=0.1)
             config = folder / f"config{links}.json"
-            config.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=gait))))
+            config.write_text(json.dumps(AdaptiveGaitModel(gait=gait).to_config()))
             text = _json_lines(trajectory)
             empty = _subprocess_seconds(config, "", folder)
             full = _subprocess_seconds(config, text, folder)

@@ -21,6 +21,7 @@ DRIVER = [sys.executable, "-m", "geogait.robots.driver"]
 GEOGAIT = [sys.executable, "-c", "from geogait.cli import main; main()"]
 
 
+@pytest.mark.slow
 def test_the_reference_driver_through_a_process_gives_the_in_process_result():
     with ProcessRobot(DRIVER + ["--period", "2", "--seed", "3"]) as robot:
         assert isinstance(robot, Robot) and robot.cycle_period == 2.0
@@ -32,6 +33,7 @@ def test_the_reference_driver_through_a_process_gives_the_in_process_result():
     np.testing.assert_array_equal(bridged.final_gait.params, direct.final_gait.params)  # JSON floats round-trip
 
 
+@pytest.mark.slow
 def test_poses_only_drivers_get_body_velocities_from_poses():
     with ProcessRobot(DRIVER + ["--poses-only", "--perturbation", "0", "--noise", "0"]) as robot:
         cycle = robot.next_cycle()
@@ -74,6 +76,7 @@ def test_a_driver_that_cannot_start_is_a_clear_error():
         ProcessRobot("/nonexistent/driver --fast")
 
 
+@pytest.mark.slow
 def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
     driver = " ".join(DRIVER + ["--period", "0.5"])
     done = subprocess.run(GEOGAIT + ["optimize", "--robot", driver, "--cycles", "6", "--out", str(tmp_path / "r")],
@@ -87,6 +90,7 @@ def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
     assert broken.returncode == 1 and broken.stderr.strip().splitlines()[-1].startswith("error: robot driver 'false'")
 
 
+@pytest.mark.slow
 def test_sigkill_then_resume_gives_the_uninterrupted_final_gait(tmp_path):
     options = ["optimize", "--links", "3", "--cycles", "24", "--seed", "7"]
     whole = subprocess.run(GEOGAIT + options + ["--out", str(tmp_path / "whole")], capture_output=True, text=True,

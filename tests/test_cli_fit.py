@@ -6,13 +6,13 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
+from _reference import mocap_log
 from typer.testing import CliRunner
 
-from geogait import se2
 from geogait.cli import app
 from geogait.gaits import seed_gait
 from geogait.models import AdaptiveGaitModel, load_model
-from geogait.phase import load_phaser
+from geogait.phase import Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
@@ -20,26 +20,16 @@ SAMPLES_PER_CYCLE = 200
 POSE_OPTIONS = ["--time", "t", "--shape", "q0,q1", "--pose", "x,y,yaw", "--smoothing-window", "21"]
 
 
-def mocap_log(run, seed, position=3e-4, heading_deg=0.1, encoder_deg=0.05):
-    """Poses and joint angles only (no ξ, no phase, no ṙ), heading wrapped, with mocap noise.
-
-    Defaults: a 0.5 m swimmer (length unit) tracked at 100 Hz with 2 s cycles (200 samples per
-    cycle): 0.15 mm marker jitter (3e-4 lengths), 0.1° heading, 0.05° joint encoders.
-    """
-    rng = np.random.default_rng(seed)
-    n = run.n_samples
-    shape = run.shape + rng.normal(0, np.deg2rad(encoder_deg), (n, 2))
-    xy = run.pose[:, :2] + rng.normal(0, position, (n, 2))
-    yaw = se2.wrap_angle(run.pose[:, 2] + rng.normal(0, np.deg2rad(heading_deg), n))
-    return pd.DataFrame({"t": run.time, "q0": shape[:, 0], "q1": shape[:, 1], "x": xy[:, 0], "y": xy[:, 1],
-                         "yaw": yaw})
+#: A 0.5 m swimmer (length unit) tracked at 100 Hz with 2 s cycles (200 samples per cycle): 0.15 mm marker
+#: jitter (3e-4 lengths), 0.1° heading, 0.05° joint encoders.
+MOCAP = dict(position=3e-4, heading=np.deg2rad(0.1), encoder=np.deg2rad(0.05))
 
 
 @pytest.fixture(scope="module")
 def fitted(tmp_path_factory):
     folder = tmp_path_factory.mktemp("fit")
     run = simulate(PurcellSwimmer(3), seed_gait(2), 40, seed=0, samples_per_cycle=SAMPLES_PER_CYCLE)
-    mocap_log(run, seed=10).to_csv(folder / "log.csv", index=False)
+    mocap_log(run, seed=10, **MOCAP).to_csv(folder / "log.csv", index=False)
     result = CliRunner().invoke(app, ["fit", str(folder / "log.csv"), *POSE_OPTIONS, "--out", str(folder / "out")])
     assert result.exit_code == 0, result.output
     return run, folder, json.loads((folder / "out" / "report.json").read_text())
@@ -76,7 +66,7 @@ def test_fit_writes_models_config_mapping_and_figures(fitted):
         assert (out / name).stat().st_size > 20_000
     model = load_model(out / "model.npz", n_joints=2)
     assert model.n_samples_seen_ == 8000 and model.phase_rate == pytest.approx(report["results"]["phase_rate"])
-    assert load_phaser(out / "phaser.npz").n_channels_ == 2
+    assert Phaser.load(out / "phaser.npz").n_channels_ == 2
     config = json.loads((out / "config.json").read_text())
     np.testing.assert_array_equal(config["gait"], model.gait_.coefficients)
     assert json.loads((out / "mapping.json").read_text())["pose"] == ["x", "y", "yaw"]
@@ -86,7 +76,7 @@ def test_fit_writes_models_config_mapping_and_figures(fitted):
 def test_predict_on_a_new_log_writes_csv_and_gamma(fitted, tmp_path):
     _, folder, report = fitted
     new = simulate(PurcellSwimmer(3), seed_gait(2), 10, seed=7, samples_per_cycle=SAMPLES_PER_CYCLE)
-    mocap_log(new, seed=11).to_parquet(tmp_path / "new.parquet", index=False)
+    mocap_log(new, seed=11, **MOCAP).to_parquet(tmp_path / "new.parquet", index=False)
     out = folder / "out"
     result = CliRunner().invoke(app, ["predict", str(out / "model.npz"), str(tmp_path / "new.parquet"), "--phaser",
                                       str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"),
@@ -136,7 +126,7 @@ def short_run():
 
 
 def bad_log(kind, run):
-    frame = mocap_log(run, seed=2)
+    frame = mocap_log(run, seed=2, **MOCAP)
     if kind == "missing column":
         return frame.drop(columns="yaw")
     if kind == "text":

@@ -19,7 +19,7 @@ from geogait.control import (
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.models import AdaptiveGaitModel
 from geogait.optimize import cached_ceiling
-from geogait.simulate import SwimmerStream, cycle_displacement, simulate
+from geogait.simulate import DragRatioSchedule, SwimmerStream, cycle_displacement, simulate
 from geogait.systems import PurcellSwimmer
 
 FREE = np.nan
@@ -168,6 +168,24 @@ def test_steering_family_and_its_ceiling(three_link):
     assert np.all(front.steps >= family.steps - 1e-6)  # nothing turns as much with a larger step
 
 
+def test_contiguous_family_stops_at_the_joint_limits(three_link):
+    """The 3-link swimmer turns at most ≈ 0.55 rad per cycle within the joint limits 2π/3: the
+    contiguous family solves outwards only to the first failing member and agrees with the full one
+    wherever the tracker uses it."""
+    system, straight = three_link
+    truth = TrueMotion(system)
+    pose = truth(straight)
+    turns = np.linspace(-1.0, 1.0, 9)
+    full = steering_family(truth, straight, turns, direction=np.arctan2(pose[1], pose[0]))
+    short = steering_family(truth, straight, turns, direction=full.direction, contiguous=True)
+    np.testing.assert_allclose([full.turn_range, short.turn_range], [[-0.5, 0.5]] * 2, atol=1e-7)
+    used = np.abs(turns) <= 0.5
+    assert short.feasible[used].all() and not short.feasible[~used].any()
+    np.testing.assert_allclose(short.poses[used], full.poses[used], atol=1e-9)
+    np.testing.assert_allclose(short.interpolate(turns), full.interpolate(turns), atol=1e-9)
+    assert short.gaits[0] is short.gaits[1]  # beyond the first failure: a copy of it, never solved
+
+
 # -- the controller ---------------------------------------------------------------------------
 def test_end_pose_matches_the_simulated_boundary(three_link):
     system, straight = three_link
@@ -190,6 +208,37 @@ def test_true_controller_converges_to_a_line_without_noise(three_link):
     assert np.abs(log["heading_error"].iloc[-5:]).max() < 1e-3
     assert log["solved"].all()
     np.testing.assert_allclose(log["predicted_turn"], log["true_turn"], atol=1e-7)
+
+
+def _line_run(system, straight, drag_ratios, offset_steps):
+    """True controller, no perturbations or noise, 1000 samples per cycle; the drag ratio switches
+    after the first tracking cycle. Returns the log and the step after the switch."""
+    schedule = DragRatioSchedule(system, drag_ratios, 2)  # 1 warm-up cycle, 1 tracking cycle, then the second
+    step = float(np.hypot(*cycle_displacement(schedule(2), straight)[:2]))
+    robot = SwimmerStream(system, straight, perturbation=Perturbation(eta=0.0), samples_per_cycle=1000,
+                          environment=schedule, seed=0)
+    log = PathTracker(controller="true", warmup_cycles=1).run(robot, ReferencePath.line(), 25,
+                                                              start_offset=offset_steps * step).log
+    return log, step
+
+
+def test_true_controller_corrects_in_steps_at_any_speed(three_link):
+    """The cost scales with the step predicted now: from 3 steps off a line the swimmer at drag ratio 2
+    (0.10 body lengths per cycle) and at 4 (0.23) follow the same course in units of their step and
+    both converge; switched 2 → 4 after the first cycle, the controller uses the new step at once."""
+    system, straight = three_link
+    curves = {}
+    for ratios in ((2.0, 2.0), (4.0, 4.0), (2.0, 4.0)):
+        log, step = _line_run(system, straight, ratios, 3.0)
+        curves[ratios] = log["cross_track"].to_numpy() / step
+        assert np.abs(curves[ratios][-5:]).max() < 0.02  # on the line (ZOH offset ≈ 0.006 steps)
+        assert curves[ratios].min() > -0.4  # no large overshoot
+    np.testing.assert_allclose(curves[(2.0, 2.0)], curves[(4.0, 4.0)], atol=0.3)
+    assert abs(curves[(2.0, 2.0)][2:8] - curves[(4.0, 4.0)][2:8]).mean() < 0.15
+    # After the switch the path in steps settles like the one at drag ratio 4 throughout (a cost still
+    # scaled by the old step overshoots to -0.20 steps and is still 0.075 steps off at cycle 6).
+    assert curves[(2.0, 4.0)].min() > -0.15
+    np.testing.assert_allclose(curves[(2.0, 4.0)][6:], curves[(4.0, 4.0)][6:], atol=0.03)
 
 
 def test_adaptive_controller_runs_on_a_robot_that_is_not_simulated(three_link):
@@ -217,21 +266,3 @@ def test_tracker_rejects_bad_settings(three_link):
     with pytest.raises(GeogaitError, match="'robot' parameter"):
         PathTracker().run(object(), ReferencePath.line(), 2)
     assert isinstance(FourierGait, type)
-
-
-def test_every_public_name_is_documented():
-    """The rule of tests/test_public_api.py, applied to geogait.control."""
-    import inspect
-
-    import geogait.control as control
-
-    assert control.__doc__
-    missing = []
-    for name in control.__all__:
-        value = getattr(control, name)
-        if (inspect.isclass(value) or inspect.isfunction(value)) and not inspect.getdoc(value):
-            missing.append(name)
-        if inspect.isclass(value):
-            missing += [f"{name}.{m}" for m, f in vars(value).items()
-                        if not m.startswith("_") and inspect.isfunction(f) and not inspect.getdoc(f)]
-    assert not missing

@@ -2,6 +2,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from geogait.cli import app
@@ -13,7 +14,9 @@ def test_quick_figure_writes_consistent_outputs(tmp_path):
     assert result.exit_code == 0, result.output
     frame = pd.read_csv(tmp_path / "optimization.csv")
     config = OptimizationConfig.quick()
-    assert list(frame.columns) == list(OptimizationResult.COLUMNS)
+    n_params = 6  # 3-link swimmer, order-1 gaits: 2 joints × 3 coefficients, one number per column
+    assert list(frame.columns) == list(OptimizationResult.COLUMNS) + [f"param_{i}" for i in range(n_params)]
+    assert np.isfinite(frame[[f"param_{i}" for i in range(n_params)]].to_numpy()).all()
     adaptive = frame[frame["method"] == "adaptive"]
     assert adaptive["trial"].nunique() == config.n_trials and adaptive["cycle"].max() == config.budgets[0] - 1
     batch = frame[frame["method"] == "batch"]
@@ -43,6 +46,7 @@ def test_quick_figure_writes_consistent_outputs(tmp_path):
     assert "from_csv" in json.loads((tmp_path / "optimization.redraw.json").read_text())["config"]
 
 
+@pytest.mark.slow
 def test_sweep_is_identical_for_one_and_two_workers():
     config = OptimizationConfig.quick(n_trials=2, budgets=(6,), baseline_trials=0)
     one = run_optimization(config, jobs=1, progress=False).frame
@@ -59,6 +63,20 @@ def test_optimize_command_writes_report(tmp_path):
     assert summary["final_displacement_per_cycle"] == log["true_objective"].iloc[-1]
     for name in ("gait.png", "progress.png", "path.png"):
         assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
+    options = ["--method", "shape", "--family", "free", "--step-rule", "sqp"]
+    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "10", *options, "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    optimizer = json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]
+    assert optimizer["model"]["class"] == "ShapeSpaceModel" and optimizer["model"]["params"]["degree"] == 3
+    assert optimizer["family"] == "free" and optimizer["step_rule"] == "sqp"
+    log = pd.read_csv(tmp_path / "cycles.csv")
+    assert log["step"].any() and log["param_0"].notna().all()  # it moved, in the free family's parameters
+    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "12"])
+    assert resumed.exit_code == 0, resumed.output
+    assert len(pd.read_csv(tmp_path / "cycles.csv")) == 12
 
 
 def test_bad_figure_options_are_reported(tmp_path):

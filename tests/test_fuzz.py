@@ -20,6 +20,7 @@ import string
 
 import numpy as np
 import pytest
+from _reference import GAIT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -28,12 +29,11 @@ from geogait import GeogaitError
 from geogait._files import dumps_json
 from geogait.cli import app
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, model_config, read_log, run_stream
+from geogait.io import StreamLearner, read_log, run_stream
 from geogait.models import AdaptiveGaitModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-GAIT = seed_gait(2)
 FUZZ = settings(derandomize=True, database=None, deadline=None, print_blob=False,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
                                        HealthCheck.data_too_large])
@@ -227,7 +227,7 @@ def files(run, fitted, tmp_path_factory):
     folder = tmp_path_factory.mktemp("cli")
     run.to_pandas().to_csv(folder / "log.csv", index=False)
     fitted.save(folder / "model.npz")
-    (folder / "config.json").write_text(json.dumps(model_config(fitted)))
+    (folder / "config.json").write_text(json.dumps(fitted.to_config()))
     (folder / "a_file").write_text("x")
     return folder
 
@@ -241,6 +241,7 @@ CLI_VALUES = st.one_of(st.sampled_from(["0", "-1", "1", "2", "nan", "inf", "-inf
 @given(option=st.sampled_from(["--links", "--cycles", "--drag-ratio", "--cycles-per-environment",
                                "--samples-per-cycle", "--amplitude", "--perturbation", "--noise", "--shape-noise",
                                "--body-frame", "--seed"]), value=CLI_VALUES)
+@pytest.mark.slow
 def test_cli_simulate(files, tmp_path_factory, option, value):
     out = tmp_path_factory.mktemp("sim")
     args = ["simulate", "--cycles", "2", "--samples-per-cycle", "20", option, value, "--out", str(out)]
@@ -258,6 +259,7 @@ LOG_EDITS = st.lists(st.tuples(st.integers(0, 799), st.sampled_from(["time", "sh
 @given(edits=LOG_EDITS, option=st.sampled_from([[], ["--smoothing-window", "4"], ["--time-unit", "ms"],
                                                 ["--outlier-limit", "0"], ["--gait-order", "0"], ["--windows", "1"],
                                                 ["--forgetting-factor", "2"], ["--test-fraction", "0.95"]]))
+@pytest.mark.slow
 def test_cli_fit_and_predict(run, files, tmp_path_factory, edits, option):
     folder = tmp_path_factory.mktemp("fit")
     frame = run.to_pandas().astype(object)

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _reference import GAIT, lines, record
 from typer.testing import CliRunner
 
 from geogait import GeogaitError, GeogaitWarning
@@ -21,13 +22,12 @@ from geogait._files import atomic_write, check_writable, json_ready, write_json
 from geogait.cli import app
 from geogait.cli._common import comma_list, write_manifest
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, fit_log, model_config, read_log, run_stream
-from geogait.io._streaming import StreamOutput, _JsonLinesWriter
+from geogait.io import StreamLearner, fit_log, read_log, run_stream
+from geogait.io._records import StreamOutput, _JsonLinesWriter
 from geogait.models import AdaptiveGaitModel, PhaseModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-GAIT = seed_gait(2)
 BODY = ["body_velocity_x", "body_velocity_y", "body_velocity_theta"]
 COLUMNS = dict(shape=["shape_0", "shape_1"], body_velocity=BODY, phase="phase",
                shape_velocity=["shape_velocity_0", "shape_velocity_1"])
@@ -48,19 +48,8 @@ def frame(run):
 @pytest.fixture
 def config(tmp_path):
     path = tmp_path / "config.json"
-    path.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=GAIT))))
+    path.write_text(json.dumps(AdaptiveGaitModel(gait=GAIT).to_config()))
     return path
-
-
-def record(run, s, **changes):
-    entry = {"time": float(run.time[s]), "phase": float(run.phase[s]), "shape": run.shape[s].tolist(),
-             "shape_velocity": run.shape_velocity[s].tolist(), "body_velocity": run.body_velocity[s].tolist()}
-    return {**entry, **changes}
-
-
-def lines(run, start, stop, changes=None):
-    changes = changes or {}
-    return "".join(json.dumps(record(run, s, **changes.get(s, {}))) + "\n" for s in range(start, stop))
 
 
 def strict_json(text: str):
@@ -568,9 +557,9 @@ def test_undecodable_stream_input_stops_with_a_clear_error(run, tmp_path):
 
 
 def test_stream_never_saves_over_its_phaser_or_config(run, config, tmp_path):
-    from geogait.phase import Phaser, save_phaser
+    from geogait.phase import Phaser
 
-    phaser = save_phaser(Phaser().fit(run.shape), tmp_path / "phaser.npz")
+    phaser = Phaser().fit(run.shape).save(tmp_path / "phaser.npz")
     before = phaser.read_bytes()
     result = CliRunner().invoke(app, ["stream", str(config), "--phaser", str(phaser), "--out", str(phaser)],
                                 input=lines(run, 0, 10))

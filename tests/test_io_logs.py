@@ -5,10 +5,12 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from _reference import mocap_log
 
 from geogait import se2
 from geogait.gaits import seed_gait
-from geogait.io import ColumnMapping, Log, body_velocity_from_poses, load_column_mapping, read_log
+from geogait.io import ColumnMapping, Log, load_column_mapping, read_log
+from geogait.se2 import body_velocity_from_poses
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
@@ -24,21 +26,10 @@ def run():
     return simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=30, seed=0)
 
 
-def pose_log(run, position_noise=0.0, heading_noise=0.0, shape_noise=0.0, seed=1):
-    """A poses-only log (no ξ, no phase, no ṙ), heading wrapped to [-π, π) like a mocap system."""
-    rng = np.random.default_rng(seed)
-    n = run.n_samples
-    shape = run.shape + rng.normal(0, shape_noise, (n, 2))
-    xy = run.pose[:, :2] + rng.normal(0, position_noise, (n, 2))
-    heading = se2.wrap_angle(run.pose[:, 2] + rng.normal(0, heading_noise, n))
-    return pd.DataFrame({"t": run.time, "q0": shape[:, 0], "q1": shape[:, 1],
-                         "x": xy[:, 0], "y": xy[:, 1], "yaw": heading})
-
-
 # -- body velocity and shape velocity from a simulated run ---------------------------------------
 def test_round_trip_with_mocap_noise(run, tmp_path):
     # Body length 1: 1 mm-scale position noise (1e-3), 0.5 deg heading, 0.1 deg joint encoders.
-    frame = pose_log(run, 1e-3, np.deg2rad(0.5), np.deg2rad(0.1))
+    frame = mocap_log(run, position=1e-3, heading=np.deg2rad(0.5), encoder=np.deg2rad(0.1))
     frame.to_csv(tmp_path / "log.csv", index=False)
     log = read_log(tmp_path / "log.csv", **COLUMNS)
     assert log.phase is None and log.n_segments == 1 and log.n_samples == run.n_samples
@@ -48,12 +39,12 @@ def test_round_trip_with_mocap_noise(run, tmp_path):
     # does much better on this data.
     assert np.all(relative_rms(log.body_velocity, run.body_velocity) < 0.2)
     assert np.all(relative_rms(log.shape_velocity, run.shape_velocity) < 0.12)
-    clean = read_log(pose_log(run), **COLUMNS)
+    clean = read_log(mocap_log(run), **COLUMNS)
     assert np.all(relative_rms(clean.shape_velocity, run.shape_velocity) > 0.08)
 
 
 def test_smoothing_the_poses_is_what_makes_noisy_poses_usable(run):
-    frame = pose_log(run, 1e-3, np.deg2rad(0.5))
+    frame = mocap_log(run, position=1e-3, heading=np.deg2rad(0.5))
     raw = read_log(frame, **COLUMNS, smooth_poses=False)
     smoothed = read_log(frame, **COLUMNS)
     # Measured: raw (0.55, 0.48, 0.69), smoothed (0.137, 0.138, 0.157).
@@ -62,7 +53,7 @@ def test_smoothing_the_poses_is_what_makes_noisy_poses_usable(run):
 
 
 def test_se2_logarithm_inverts_the_simulator_exactly_unlike_finite_differences(run):
-    log = read_log(pose_log(run), **COLUMNS, smooth_poses=False)
+    log = read_log(mocap_log(run), **COLUMNS, smooth_poses=False)
     # Zero-order hold g_{n+1} = g_n exp(dt ξ_n) is inverted exactly (the last sample repeats).
     np.testing.assert_allclose(log.body_velocity[:-1], run.body_velocity[:-1], atol=1e-10)
     dt = np.diff(run.time)[:, None]
@@ -126,7 +117,7 @@ def test_body_velocity_and_shape_velocity_columns_are_used_as_given(run):
 
 # -- formats, mappings, units ----------------------------------------------------------------------
 def test_csv_parquet_and_frame_agree(run, tmp_path):
-    frame = pose_log(run, 1e-3, 0.01)
+    frame = mocap_log(run, position=1e-3, heading=0.01)
     frame.to_parquet(tmp_path / "log.parquet", index=False)
     frame.to_csv(tmp_path / "log.csv", index=False)
     sources = (frame, tmp_path / "log.parquet", str(tmp_path / "log.csv"))
@@ -140,7 +131,7 @@ def test_csv_parquet_and_frame_agree(run, tmp_path):
 
 
 def test_mapping_files_json_and_toml(run, tmp_path):
-    frame = pose_log(run)
+    frame = mocap_log(run)
     entries = {"time": "t", "shape": ["q0", "q1"], "pose": ["x", "y", "yaw"]}
     (tmp_path / "map.json").write_text(json.dumps(entries))
     (tmp_path / "map.toml").write_text('time = "t"\nshape = ["q0", "q1"]\npose = ["x", "y", "yaw"]\n')
@@ -178,7 +169,7 @@ def test_mapping_validation():
 
 
 def test_degrees_converts_every_angle(run):
-    frame = pose_log(run)
+    frame = mocap_log(run)
     in_degrees = frame.assign(q0=np.rad2deg(frame.q0), q1=np.rad2deg(frame.q1), yaw=np.rad2deg(frame.yaw))
     radians = read_log(frame, **COLUMNS)
     degrees = read_log(in_degrees, **COLUMNS, degrees=True)
@@ -188,13 +179,13 @@ def test_degrees_converts_every_angle(run):
 
 
 def test_datetime_time_column_becomes_seconds(run):
-    frame = pose_log(run)
+    frame = mocap_log(run)
     stamped = frame.assign(t=pd.Timestamp("2025-01-01") + pd.to_timedelta(frame.t, unit="s"))
     np.testing.assert_allclose(read_log(stamped, **COLUMNS).time, run.time - run.time[0], atol=1e-6)
 
 
 def test_log_tables_and_trajectory(run):
-    log = read_log(pose_log(run), **COLUMNS)
+    log = read_log(mocap_log(run), **COLUMNS)
     table = log.to_pandas()
     assert list(table.columns[:3]) == ["row", "segment", "time"]
     assert {"shape_velocity_1", "body_velocity_theta", "heading"} <= set(table.columns)

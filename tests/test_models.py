@@ -2,10 +2,11 @@
 
 import numpy as np
 import pytest
+from _reference import GAIT, SWIMMER, fit_args
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geogait.gaits import FourierGait, seed_gait
+from geogait.gaits import FourierGait
 from geogait.models import (
     AdaptiveGaitModel,
     BatchGaitModel,
@@ -16,13 +17,6 @@ from geogait.models import (
     regressors,
 )
 from geogait.simulate import simulate
-from geogait.systems import PurcellSwimmer
-
-SWIMMER, GAIT = PurcellSwimmer(3), seed_gait(2)
-
-
-def fit_args(run):
-    return run.phase, run.shape, run.shape_velocity, run.body_velocity
 
 
 @pytest.fixture(scope="module")
@@ -96,6 +90,7 @@ def test_learned_coefficients_match_the_true_connection(runs):
     assert np.abs(learned["C"] - nominal).max() < 0.03 * np.abs(nominal).max()
 
 
+@pytest.mark.slow
 def test_covariance_stays_bounded_without_excitation():
     # 10^6 window updates at λ = 0.7 on samples exactly on the nominal gait (δ = δ̇ = 0).
     phase = np.tile(np.linspace(0, 2 * np.pi, 100, endpoint=False), 5000)

@@ -15,8 +15,8 @@ from geogait.optimize import (
     path_length,
     rms_speed,
 )
+from geogait.se2 import gauss_phases, magnus_steps
 from geogait.simulate import SwimmerStream, cycle_displacement
-from geogait.simulate._oracle import gauss_phases, magnus_steps
 from geogait.systems import PurcellSwimmer
 
 
@@ -30,6 +30,7 @@ def batched_displacement(system, coefficients, resolution=48):
     return se2.product_of_exponentials(magnus_steps(velocity, step))
 
 
+@pytest.mark.slow
 def test_ceiling_matches_brute_force_grid_search():
     swimmer = PurcellSwimmer(3)
     ceiling = optimize_ceiling(swimmer, starts=3)

@@ -114,7 +114,7 @@ def test_phaser_errors():
         Phaser(section_channel=4).fit(x)
     with pytest.raises(ValueError, match="'section_level'.*crosses"):
         Phaser(section_level=100.0).fit(x)
-    with pytest.raises(ValueError, match="fitted Phaser"):
+    with pytest.raises(ValueError, match="Phaser is not fitted yet"):
         Phaser().transform(x)
     phaser = Phaser().fit(x)
     with pytest.raises(ValueError, match="'x'.*4 channels.*2 channels"):

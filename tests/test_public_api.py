@@ -6,7 +6,7 @@ import inspect
 import pytest
 
 PACKAGES = ["geogait.se2", "geogait.systems", "geogait.gaits", "geogait.simulate", "geogait.models",
-            "geogait.optimize", "geogait.experiments", "geogait.io", "geogait.phase"]
+            "geogait.optimize", "geogait.experiments", "geogait.io", "geogait.phase", "geogait.control"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)
@@ -24,3 +24,52 @@ def test_public_names_have_docstrings(name):
                         and not inspect.getdoc(method)):
                     missing.append(f"{public}.{method_name}")
     assert not missing, f"undocumented public names in {name}: {missing}"
+
+
+def test_importing_the_library_leaves_the_matplotlib_backend_alone():
+    """Only the CLI selects Agg; a notebook's or script's own backend survives ``import geogait.*``."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import matplotlib; matplotlib.use('svg'); import geogait.experiments, geogait.plotting, geogait.io, "
+            "geogait.control; print(matplotlib.get_backend())")
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.strip() == "svg"
+
+
+def _documented_callables():
+    """(qualified name, callable, docstring) of every public function, class and public method."""
+    for package in PACKAGES:
+        module = importlib.import_module(package)
+        for public in module.__all__:
+            value = getattr(module, public)
+            if inspect.isfunction(value):
+                yield f"{package}.{public}", value, inspect.getdoc(value) or ""
+            elif inspect.isclass(value):
+                doc = inspect.getdoc(value) or ""
+                init = value.__dict__.get("__init__")
+                if inspect.isfunction(init):  # hyper-parameters live in the class docstring (numpy style)
+                    yield f"{package}.{public}", init, doc + "\n" + (inspect.getdoc(init) or "")
+                for name, method in vars(value).items():
+                    if isinstance(method, classmethod | staticmethod):
+                        method = method.__func__
+                    if not name.startswith("_") and inspect.isfunction(method):
+                        yield f"{package}.{public}.{name}", method, inspect.getdoc(method) or ""
+
+
+@pytest.mark.xfail(reason="docstrings being completed (issue 12)", strict=False)
+def test_every_parameter_is_documented():
+    """python-control's rule: a public callable's docstring names each of its parameters."""
+    import re
+
+    missing = []
+    for name, function, doc in _documented_callables():
+        for parameter in inspect.signature(function).parameters.values():
+            if parameter.name in ("self", "cls") or parameter.kind in (parameter.VAR_POSITIONAL,
+                                                                       parameter.VAR_KEYWORD):
+                continue
+            if not re.search(rf"(?<![\w.]){re.escape(parameter.name)}(?!\w)", doc):
+                missing.append(f"{name}({parameter.name})")
+    assert not missing, f"{len(missing)} undocumented parameters: {missing}"

@@ -10,7 +10,7 @@ from _robots import BareRobot
 
 from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
-from geogait.models import BatchGaitModel
+from geogait.models import BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer
 from geogait.robots import Robot
 from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
@@ -163,7 +163,8 @@ def _interrupted_then_resumed(tmp_path, make_optimizer, stop_after, n_cycles):
 @pytest.mark.parametrize("make_optimizer", [
     lambda: InSituOptimizer(settle_cycles=1),
     lambda: InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=3, objective="forward"),
-], ids=["adaptive", "batch-forward"])
+    lambda: InSituOptimizer(model=ShapeSpaceModel(degree=2), family="free", step_rule="sqp"),
+], ids=["adaptive", "batch-forward", "shape-space-sqp"])
 def test_resume_is_bit_identical_to_an_uninterrupted_run(tmp_path, make_optimizer):
     whole = make_optimizer().run(_stream(seed=5), 14, ceiling=0.1)
     resumed = _interrupted_then_resumed(tmp_path, make_optimizer, stop_after=8, n_cycles=14)
@@ -208,3 +209,15 @@ def test_cycles_from_a_robot_are_checked():
 
     with pytest.raises(ValueError, match="'cycle.body_velocity'.*finite"):
         InSituOptimizer().run(Broken(_stream()), 2)
+
+
+def test_a_run_that_cannot_be_checkpointed_is_refused_before_the_robot_moves(tmp_path):
+    from geogait.models import PerfectInformationModel
+
+    stream = _stream(seed=1)
+    optimizer = InSituOptimizer(model=PerfectInformationModel(system=stream.current_system()))
+    with pytest.raises(ValueError, match="'checkpoint' parameter of InSituOptimizer.run must be None for a "
+                                         "PerfectInformationModel"):
+        optimizer.run(stream, 4, checkpoint=tmp_path / "run.npz")
+    assert stream.cycle == 0 and not (tmp_path / "run.npz").exists()
+    assert optimizer.run(stream, 4).log.shape[0] == 4  # without a checkpoint it runs

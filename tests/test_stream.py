@@ -14,25 +14,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _reference import GAIT, fit_args, lines
 from scipy.signal import savgol_coeffs
 from typer.testing import CliRunner
 
 from geogait.cli import app
-from geogait.gaits import seed_gait
 from geogait.io import (
     OnlineDifferentiator,
     StreamLearner,
     load_stream_model,
-    model_config,
-    model_from_config,
     run_stream,
 )
 from geogait.models import AdaptiveGaitModel, load_model
-from geogait.phase import OnlinePhaser, Phaser, load_phaser, save_phaser
+from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-GAIT = seed_gait(2)
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = Path(sys.executable).with_name("geogait")
 COMMAND = [str(SCRIPT)] if SCRIPT.exists() else [sys.executable, "-c", "from geogait.cli import main; main()"]
@@ -44,28 +41,10 @@ def run():
     return simulate(PurcellSwimmer(3), GAIT, 50, seed=4, sensor_noise=0.1)  # 5 000 samples
 
 
-def record(run, s, *, phase=True, rate=True):
-    entry = {"time": float(run.time[s]), "shape": run.shape[s].tolist(), "body_velocity": run.body_velocity[s].tolist()}
-    if phase:
-        entry["phase"] = float(run.phase[s])
-    if rate:
-        entry["shape_velocity"] = run.shape_velocity[s].tolist()
-    return entry
-
-
-def lines(run, start=0, stop=None, **options):
-    stop = run.n_samples if stop is None else stop
-    return "".join(json.dumps(record(run, s, **options)) + "\n" for s in range(start, stop))
-
-
-def fit_args(run, stop=None):
-    return run.phase[:stop], run.shape[:stop], run.shape_velocity[:stop], run.body_velocity[:stop]
-
-
 @pytest.fixture
 def config(tmp_path):
     path = tmp_path / "config.json"
-    path.write_text(json.dumps(model_config(AdaptiveGaitModel(gait=GAIT))))
+    path.write_text(json.dumps(AdaptiveGaitModel(gait=GAIT).to_config()))
     return path
 
 
@@ -183,11 +162,11 @@ def test_bad_models_and_configs(tmp_path, config):
     result = runner.invoke(app, ["stream", str(tmp_path / "bad.json")], input="")
     assert result.exit_code == 1 and "'forgetting_factor' parameter of AdaptiveGaitModel" in result.stderr
     with pytest.raises(ValueError, match=r"unknown key\(s\) \['lambda'\]"):
-        model_from_config({"gait": [[0, 1, 0]], "lambda": 0.9})
+        AdaptiveGaitModel.from_config({"gait": [[0, 1, 0]], "lambda": 0.9})
     with pytest.raises(ValueError, match="'gait' parameter of the model config.*Fourier coefficients"):
-        model_from_config({"params": {}})
+        AdaptiveGaitModel.from_config({"params": {}})
     with pytest.raises(ValueError, match="'n_windowz' parameter of AdaptiveGaitModel"):
-        model_from_config({"gait": [[0, 1, 0]], "params": {"n_windowz": 3}})
+        AdaptiveGaitModel.from_config({"gait": [[0, 1, 0]], "params": {"n_windowz": 3}})
     result = runner.invoke(app, ["stream", str(tmp_path / "missing.npz")], input="")
     assert result.exit_code == 1 and "does not exist" in result.stderr
     result = runner.invoke(app, ["stream", str(config), "--format", "xml"], input="")
@@ -263,8 +242,8 @@ def test_online_phaser_equals_the_last_sample_of_a_sliding_window(run, phaser):
 
 
 def test_stream_with_a_phaser_and_a_gap(run, phaser, tmp_path):
-    save_phaser(phaser, tmp_path / "phaser.npz")
-    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT), phaser=load_phaser(tmp_path / "phaser.npz"),
+    phaser.save(tmp_path / "phaser.npz")
+    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT), phaser=Phaser.load(tmp_path / "phaser.npz"),
                             path=tmp_path / "m.npz")
     text = lines(run, 3000, 4000, phase=False) + lines(run, 4300, 4600, phase=False)  # a gap of 3 cycles
     sink = io.StringIO()
@@ -288,14 +267,14 @@ def test_phaser_files_round_trip_without_pickle(run, phaser, tmp_path):
     truncated = tmp_path / "truncated.npz"
     truncated.write_bytes(path.read_bytes()[:200])
     with pytest.raises(ValueError, match="not a readable geogait phaser"):
-        load_phaser(truncated)
+        Phaser.load(truncated)
     model_path = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run, 300)).save(tmp_path / "model.npz")
     with pytest.raises(ValueError, match="not a geogait phaser file"):
-        load_phaser(model_path)
+        Phaser.load(model_path)
     with pytest.raises(ValueError, match="does not exist"):
-        load_phaser(tmp_path / "none.npz")
-    with pytest.raises(ValueError, match="fitted Phaser"):
-        save_phaser(Phaser(), tmp_path / "unfitted.npz")
+        Phaser.load(tmp_path / "none.npz")
+    with pytest.raises(ValueError, match="Phaser is not fitted yet"):
+        Phaser().save(tmp_path / "unfitted.npz")
 
 
 # -- the robot example -------------------------------------------------------------------------------
@@ -312,9 +291,9 @@ def test_robot_example_runs_quick(tmp_path, capsys):
 def test_docstring_examples_run():
     import doctest
 
-    from geogait.io import _fit, _streaming
-    from geogait.phase import _online, _persistence
+    from geogait.io import _fit, _learner
+    from geogait.phase import _online, _phaser
 
-    for module in (_streaming, _fit, _online, _persistence):
+    for module in (_learner, _fit, _online, _phaser):
         outcome = doctest.testmod(module)
         assert outcome.attempted > 0 and outcome.failed == 0, module.__name__

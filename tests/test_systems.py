@@ -176,3 +176,22 @@ def test_user_connection_plugs_in():
 def test_bad_input_names_the_field(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_height_function_is_the_curl_of_the_connection_by_stokes():
+    """Stokes: around a small circle of radius ε about r₀ the body-frame line integral ∮ ξ dφ of
+    ξ = −A(r)ṙ equals π ε² × height(r₀) (first order: it leaves out the frame's rotation, the
+    Lie-bracket part of the holonomy)."""
+    from geogait.systems import height_function
+
+    swimmer = PurcellSwimmer(3)
+    direction = np.array([0.6, 0.8])
+    axis, values = height_function(swimmer, direction, limit=1.0, resolution=21)  # grid step 0.1
+    phase = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    for i, j in [(10, 10), (13, 8), (6, 15)]:
+        centre, epsilon = np.array([axis[j], axis[i]]), 0.01  # values are indexed [r2, r1]
+        shape = centre + epsilon * np.stack([np.cos(phase), np.sin(phase)], axis=-1)  # counter-clockwise
+        rate = epsilon * np.stack([-np.sin(phase), np.cos(phase)], axis=-1)
+        xi = -np.einsum("nkj,nj->nk", swimmer.connection(shape), rate)
+        line_integral = xi[:, :2].mean(axis=0) * 2 * np.pi @ direction
+        np.testing.assert_allclose(line_integral, np.pi * epsilon**2 * values[i, j], rtol=1e-3)

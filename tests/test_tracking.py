@@ -12,6 +12,7 @@ from geogait.experiments.tracking import (
     TrackingConfig,
     TrackingResult,
     drag_change_metrics,
+    feasible_turn_limit,
     run_tracking,
     tracking_path,
 )
@@ -74,6 +75,20 @@ def test_built_in_paths_scale_with_the_step():
         TrackingConfig(paths=("spiral",)).validate()
     with pytest.raises(ValueError, match="'change_cycle' parameter"):
         TrackingConfig(n_cycles=10, change_cycle=10).validate()
+    with pytest.raises(ValueError, match="'turn_limit' parameter of TrackingConfig"):
+        TrackingConfig(turn_limit=0.05).validate()
+    with pytest.raises(ValueError, match="'heading_weight' parameter of TrackingConfig"):
+        TrackingConfig(heading_weight=-1.0).validate()
+
+
+def test_turn_limit_is_cut_to_the_joint_limits():
+    """Within the joint limits 2π/3 the 3-link swimmer turns ≈ 0.55 rad per cycle at most, the 5-link one
+    more than 1 rad."""
+    assert feasible_turn_limit(3) == pytest.approx(0.5)
+    assert feasible_turn_limit(5) == pytest.approx(1.0)
+    assert feasible_turn_limit(5, 0.3) == pytest.approx(0.3)
+    with pytest.raises(ValueError, match="'upper' parameter of feasible_turn_limit"):
+        feasible_turn_limit(5, 0.0)
 
 
 def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
@@ -87,6 +102,7 @@ def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
     assert set(log["controller"]) == {"adaptive", "frozen", "true"} and log.groupby("controller").size().max() <= 6
     summary = _strict_json(out / "summary.json")
     assert summary["config"]["drag_ratios"] == [2.0, 4.0]
+    assert summary["config"]["turn_limit"] == pytest.approx(0.5)  # the 3-link swimmer's joint limits
     assert summary["results"]["frozen"]["final_gamma"] is None  # NaN is written as null
     assert set(summary["results"]["drag_change"]) >= {"pre_change_level", "cycles_to_recover"}
     for name in ("path.png", "family.png"):
@@ -101,6 +117,7 @@ def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
     (["--controllers", "adaptive,psychic"], "The '--controllers' option"),
     (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "The '--change-cycle' option"),
     (["--links", "1"], "n_links"),
+    (["--turn-limit", "0"], "The '--turn-limit' option"),
 ])
 def test_track_command_user_errors(tmp_path, options, message):
     result = CliRunner().invoke(app, ["track", "--quick", "--out", str(tmp_path / "x"), *options])

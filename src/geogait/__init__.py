@@ -8,6 +8,7 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
+from ._estimator import check_is_fitted
 from ._validation import GeogaitError, GeogaitWarning
 
-__all__ = ["GeogaitError", "GeogaitWarning", "__version__"]
+__all__ = ["GeogaitError", "GeogaitWarning", "__version__", "check_is_fitted"]

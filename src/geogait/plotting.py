@@ -1,19 +1,20 @@
 """Figure panels shared by the CLI and the experiments: one function per panel, each drawing on an
-``Axes`` it is given and returning it."""
+``Axes`` it is given and returning it.
+
+Importing geogait never changes the matplotlib backend: the CLI selects Agg (it only writes
+files); in a notebook or script the user's backend is used.
+"""
 
 from __future__ import annotations
 
-import matplotlib
+from pathlib import Path
 
-matplotlib.use("Agg")  # geogait writes files; it never needs a screen
+import matplotlib.pyplot as plt
+import numpy as np
 
-from pathlib import Path  # noqa: E402
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ._files import atomic_write  # noqa: E402
-from .gaits import FourierGait  # noqa: E402
+from ._files import atomic_write
+from .gaits import FourierGait
+from .systems import height_function
 
 __all__ = ["plt", "plot_path", "plot_shape_space", "save_figure"]
 
@@ -52,30 +53,16 @@ def plot_shape_space(ax, shape=None, gaits: dict[str, FourierGait] | None = None
     return ax
 
 
-def save_figure(fig, path) -> None:
-    """Write ``fig`` to ``path`` atomically (format from the suffix, 130 dpi) and close it."""
+def save_figure(fig, path) -> Path:
+    """Write ``fig`` to ``path`` atomically (format from the suffix, 130 dpi), close it, return the path."""
     fig.tight_layout()
+    path = Path(path)
     try:
-        fmt = Path(path).suffix.lstrip(".").lower() or "png"
+        fmt = path.suffix.lstrip(".").lower() or "png"
         atomic_write(path, lambda stream: fig.savefig(stream, dpi=130, format=fmt))
     finally:
         plt.close(fig)
-
-
-def height_function(system, direction, limit: float, resolution: int = 81):
-    """First-order height function of a 2-joint system along a body-frame ``direction`` ``(2,)``.
-
-    By Stokes, a small loop's net translation is ≈ ∬ −(∂A_2/∂r_1 − ∂A_1/∂r_2) dr (sign of ξ = −Aṙ);
-    projected on ``direction``. Returns the grid axis ``(m,)`` and values ``(m, m)`` indexed [r2, r1].
-    """
-    axis = np.linspace(-limit, limit, resolution)
-    r1, r2 = np.meshgrid(axis, axis)
-    shapes = np.stack([r1, r2], axis=-1)
-    h = 1e-5
-    d_by_r1 = (system.connection(shapes + [h, 0]) - system.connection(shapes - [h, 0])) / (2 * h)
-    d_by_r2 = (system.connection(shapes + [0, h]) - system.connection(shapes - [0, h])) / (2 * h)
-    curl = d_by_r1[..., :2, 1] - d_by_r2[..., :2, 0]  # (m, m, 2): x and y rows
-    return axis, -(curl @ np.asarray(direction, dtype=float))
+    return path
 
 
 def plot_height_function(ax, system, direction, limit: float):

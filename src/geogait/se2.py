@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import check_array
+from ._validation import check_array, check_choice, fail
 
 __all__ = [
     "hat",
@@ -32,19 +32,41 @@ __all__ = [
     "wrap_angle",
     "integrate_body_velocity",
     "displacement",
+    "body_velocity_from_poses",
     "product_of_exponentials",
+    "gauss_phases",
+    "magnus_steps",
+    "integrate_cycle",
 ]
 
 _SMALL = 1e-4  # |omega| below which the series of sin(w)/w and (1-cos w)/w are used
 
 
 def wrap_angle(angle):
-    """Wrap angles to ``[-pi, pi)``."""
+    """Wrap angles to ``[-pi, pi)``.
+
+    Parameters
+    ----------
+    angle : float or array-like
+        Angle(s) in radians, any shape.
+
+    Returns
+    -------
+    ndarray
+        The same angles shifted by multiples of 2π into ``[-pi, pi)``.
+    """
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 def hat(twist) -> np.ndarray:
-    """Twist ``(..., 3)`` to its 3x3 matrix in se(2), ``(..., 3, 3)``."""
+    """Twist ``(..., 3)`` to its 3x3 matrix in se(2), ``(..., 3, 3)``.
+
+    Parameters
+    ----------
+    twist : array-like of shape (..., 3)
+        (v_x, v_y, omega): linear velocity (body lengths per unit time) and angular velocity (radians per
+        unit time), or any such twist already multiplied by a duration.
+    """
     twist = np.asarray(twist, dtype=float)
     out = np.zeros(twist.shape[:-1] + (3, 3))
     out[..., 0, 1] = -twist[..., 2]
@@ -106,7 +128,13 @@ def compose(first, second) -> np.ndarray:
 
 
 def inverse(pose) -> np.ndarray:
-    """Group inverse of poses ``(..., 3)``."""
+    """Group inverse of poses ``(..., 3)``.
+
+    Parameters
+    ----------
+    pose : array-like of shape (..., 3)
+        (x, y, heading): position in body lengths, heading in radians.
+    """
     pose = np.asarray(pose, dtype=float)
     x, y = _rotate(-pose[..., 2], -pose[..., 0], -pose[..., 1])
     return np.stack([x, y, -pose[..., 2]], axis=-1)
@@ -120,7 +148,13 @@ def between(first, second) -> np.ndarray:
 
 def adjoint(pose) -> np.ndarray:
     r"""Adjoint matrix ``(..., 3, 3)`` of poses ``(..., 3)``: :math:`\mathrm{Ad}_g \xi =
-    (g\hat\xi g^{-1})^\vee`, i.e. ``[[R, (y, -x)^T], [0, 0, 1]]``."""
+    (g\hat\xi g^{-1})^\vee`, i.e. ``[[R, (y, -x)^T], [0, 0, 1]]``.
+
+    Parameters
+    ----------
+    pose : array-like of shape (..., 3)
+        (x, y, heading) of g: position in body lengths, heading in radians.
+    """
     pose = np.asarray(pose, dtype=float)
     cos, sin = np.cos(pose[..., 2]), np.sin(pose[..., 2])
     out = np.zeros(pose.shape[:-1] + (3, 3))
@@ -176,8 +210,64 @@ def integrate_body_velocity(body_velocity, dt, initial_pose=None) -> np.ndarray:
 
 
 def displacement(body_velocity, dt) -> np.ndarray:
-    """Net pose ``(..., 3)`` reached from the identity by :func:`integrate_body_velocity`."""
+    """Net pose ``(..., 3)`` reached from the identity by :func:`integrate_body_velocity`.
+
+    Parameters
+    ----------
+    body_velocity : array-like of shape (..., n_samples, 3)
+        Body velocity (v_x, v_y, omega) held constant over each step.
+    dt : float or array-like of shape (..., n_samples)
+        Duration of each step (seconds, or the time unit of ``body_velocity``).
+    """
     return product_of_exponentials(np.asarray(body_velocity, dtype=float) * np.asarray(dt, dtype=float)[..., None])
+
+
+def body_velocity_from_poses(time, pose, *, scheme: str = "forward") -> np.ndarray:
+    r"""Body velocity from world poses of one uniformly or irregularly sampled segment.
+
+    .. math:: \xi_{n+1/2} = \log\bigl(g_n^{-1} g_{n+1}\bigr)^\vee / (t_{n+1} - t_n)
+
+    ``"forward"`` assigns :math:`\xi_{n+1/2}` to sample n (exact inverse of
+    :func:`integrate_body_velocity`; the last sample repeats the previous twist);
+    ``"central"`` assigns the duration-weighted mean of :math:`\xi_{n-1/2}` and
+    :math:`\xi_{n+1/2}` (one-sided at the ends).
+
+    Parameters
+    ----------
+    time : array-like of shape (n,), strictly increasing, n >= 2
+    pose : array-like of shape (n, 3)
+        (x, y, heading); the heading may be wrapped (each step is taken modulo 2π).
+    scheme : {"forward", "central"}
+
+    Returns
+    -------
+    ndarray of shape (n, 3)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> xi = np.tile([0.3, 0.1, 2.0], (50, 1))
+    >>> poses = integrate_body_velocity(xi, 0.05)
+    >>> recovered = body_velocity_from_poses(0.05 * np.arange(51), poses)
+    >>> bool(np.allclose(recovered, [0.3, 0.1, 2.0]))
+    True
+    """
+    owner = "body_velocity_from_poses"
+    scheme = check_choice(scheme, "scheme", owner, ("forward", "central"))
+    time = check_array(time, "time", owner, ndim=1)
+    pose = check_array(pose, "pose", owner, trailing=(None, 3), ndim=2)
+    if time.size < 2 or pose.shape != time.shape + (3,):
+        raise fail("pose", owner, "an array of shape (n, 3) with n = len(time) >= 2", f"shape {pose.shape}")
+    dt = np.diff(time)
+    if np.any(dt <= 0):
+        raise fail("time", owner, "strictly increasing",
+                   f"a step of {dt.min():g} at index {int(np.argmin(dt))}")
+    steps = log(between(pose[:-1], pose[1:])) / dt[:, None]
+    if scheme == "forward":
+        return np.concatenate([steps, steps[-1:]], axis=0)
+    weights = dt[:-1, None], dt[1:, None]
+    inner = (steps[:-1] * weights[0] + steps[1:] * weights[1]) / (weights[0] + weights[1])
+    return np.concatenate([steps[:1], inner, steps[-1:]], axis=0)
 
 
 def _v_derivatives(omega):
@@ -229,3 +319,71 @@ def product_of_exponentials(steps, step_jacobian=None):
     dx = np.sum(cos[..., None] * dux - sin[..., None] * duy - ry * dbefore, axis=-2)
     dy = np.sum(sin[..., None] * dux + cos[..., None] * duy + rx * dbefore, axis=-2)
     return pose, np.stack([dx, dy, np.sum(domega, axis=-2)], axis=-2)
+
+
+# -- fourth-order Magnus integration over one cycle ------------------------------------------------
+_GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3) / 6
+
+
+def gauss_phases(resolution: int) -> tuple[np.ndarray, float]:
+    """The two Gauss–Legendre nodes of each of ``resolution`` equal phase steps over [0, 2π), ``(n, 2)``,
+    and the step."""
+    step = 2 * np.pi / resolution
+    starts = np.arange(resolution) * step
+    return starts[:, None] + step * _GAUSS, step
+
+
+def magnus_steps(velocity_at_nodes: np.ndarray, step: float) -> np.ndarray:
+    r"""Fourth-order Magnus twist per step from body velocities at the two Gauss nodes ``(..., n, 2, 3)``.
+
+    :math:`\Omega = \tfrac h2(\xi_1 + \xi_2) + \tfrac{\sqrt3}{12}h^2[\xi_1, \xi_2]`; returns ``(..., n, 3)``.
+
+    Parameters
+    ----------
+    velocity_at_nodes : ndarray of shape (..., n, 2, 3)
+        Body velocity per unit phase, ξ₁ and ξ₂, at the two Gauss nodes of each step (see :func:`gauss_phases`).
+    step : float
+        Phase step h in radians (``2π / n``).
+    """
+    first, second = velocity_at_nodes[..., 0, :], velocity_at_nodes[..., 1, :]
+    return step / 2 * (first + second) + np.sqrt(3) / 12 * step**2 * bracket(first, second)
+
+
+def _magnus_step_jacobian(velocity_at_nodes: np.ndarray, velocity_jacobian: np.ndarray, step: float) -> np.ndarray:
+    """Derivative of :func:`magnus_steps` given ∂ξ/∂p at the nodes ``(..., n, 2, 3, p)`` → ``(..., n, 3, p)``.
+
+    The bracket is bilinear: d[ξ₁, ξ₂] = [dξ₁, ξ₂] + [ξ₁, dξ₂].
+    """
+    first, second = velocity_at_nodes[..., 0, None, :], velocity_at_nodes[..., 1, None, :]  # (..., n, 1, 3)
+    d_first = np.swapaxes(velocity_jacobian[..., 0, :, :], -1, -2)  # (..., n, p, 3)
+    d_second = np.swapaxes(velocity_jacobian[..., 1, :, :], -1, -2)
+    d_bracket = bracket(d_first, second) + bracket(first, d_second)
+    d_steps = step / 2 * (d_first + d_second) + np.sqrt(3) / 12 * step**2 * d_bracket
+    return np.swapaxes(d_steps, -1, -2)
+
+
+def integrate_cycle(velocity, step, velocity_jacobian=None):
+    """Net motion over a cycle from body velocities per unit phase at the Gauss nodes of
+    :func:`gauss_phases` ``(..., n, 2, 3)`` by :func:`magnus_steps` and exact exponentials (and its
+    Jacobian when ``velocity_jacobian`` ``(..., n, 2, 3, p)`` is given).
+
+    Parameters
+    ----------
+    velocity : ndarray of shape (..., n, 2, 3)
+        Body velocity per unit phase at the two Gauss nodes of each of the n phase steps.
+    step : float
+        Phase step in radians, as returned by :func:`gauss_phases`.
+    velocity_jacobian : ndarray of shape (..., n, 2, 3, p), optional
+        Derivative of ``velocity`` with respect to p parameters.
+
+    Returns
+    -------
+    pose : ndarray of shape (..., 3)
+        Net displacement over the cycle.
+    jacobian : ndarray of shape (..., 3, p)
+        Only when ``velocity_jacobian`` is given.
+    """
+    steps = magnus_steps(velocity, step)
+    if velocity_jacobian is None:
+        return product_of_exponentials(steps)
+    return product_of_exponentials(steps, _magnus_step_jacobian(velocity, velocity_jacobian, step))

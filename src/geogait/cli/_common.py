@@ -39,6 +39,11 @@ def output_folder(path: Path) -> Path:
     return path
 
 
+def listed(values) -> str:
+    """The comma-separated text of ``values`` (the inverse of :func:`comma_list`, for help defaults)."""
+    return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in values)
+
+
 def comma_list(text: str | None, option: str, kind: Callable = float) -> tuple | None:
     """Parse a comma-separated option value ('2,3,4') into a tuple of ``kind``; None stays None.
 

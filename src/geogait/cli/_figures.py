@@ -18,7 +18,7 @@ from rich.table import Table
 from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 from ._app import figure_app
-from ._common import comma_list, console, output_folder, write_manifest
+from ._common import comma_list, console, listed, output_folder, write_manifest
 
 _A, _E = AccuracyConfig(), EnvironmentConfig()
 _QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
@@ -44,6 +44,13 @@ ChunkSize = Annotated[int | None, typer.Option(
 def _configure(base, **overrides):
     """``base`` with every override that was given on the command line."""
     return dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})
+
+
+def _run_or_redraw(result_class, from_csv, run, extra: dict):
+    """The results read back from ``--from-csv``, or a fresh run; and the manifest's extra config."""
+    if from_csv is not None:
+        return result_class.from_csv(from_csv), {"from_csv": str(from_csv)}
+    return run(), extra
 
 
 def _write(result, folder: Path, name: str, command: str, started: float, extra: dict) -> tuple[dict, list[str]]:
@@ -89,15 +96,12 @@ def accuracy(
     """
     started = time.perf_counter()
     folder = output_folder(out)
-    if from_csv is not None:
-        result = AccuracyResult.from_csv(from_csv)
-        extra = {"from_csv": str(from_csv)}
-    else:
-        config = _configure(_QA if quick else _A, n_trials=trials, n_links=links, n_cycles=cycles,
-                            sensor_noise=noise, perturbation=perturbation, samples_per_cycle=samples_per_cycle,
-                            chunk_size=chunk_size, seed=seed)
-        result = run_accuracy(config, jobs=jobs, scheduler=scheduler)
-        extra = {"jobs": jobs, "scheduler": scheduler, "quick": quick}
+    config = None if from_csv is not None else _configure(
+        _QA if quick else _A, n_trials=trials, n_links=links, n_cycles=cycles, sensor_noise=noise,
+        perturbation=perturbation, samples_per_cycle=samples_per_cycle, chunk_size=chunk_size, seed=seed)
+    result, extra = _run_or_redraw(AccuracyResult, from_csv,
+                                   lambda: run_accuracy(config, jobs=jobs, scheduler=scheduler),
+                                   {"jobs": jobs, "scheduler": scheduler, "quick": quick})
     summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra)
     console.print(_accuracy_table(summary))
     console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
@@ -123,9 +127,9 @@ def environments(
     cycles_per_environment: Annotated[int | None, typer.Option(
         help=f"Cycles in each environment [default: {_E.cycles_per_environment}].")] = None,
     drag_ratios: Annotated[str | None, typer.Option(
-        help="Comma-separated drag ratio of each environment [default: 2,3,4].")] = None,
+        help=f"Comma-separated drag ratio of each environment [default: {listed(_E.drag_ratios)}].")] = None,
     forgetting_factors: Annotated[str | None, typer.Option(
-        help="Comma-separated λ of the adaptive models [default: 0.99,0.7].")] = None,
+        help=f"Comma-separated λ of the adaptive models [default: {listed(_E.forgetting_factors)}].")] = None,
     noise: Annotated[float | None, typer.Option(
         help=f"Sensor noise on ξ as a fraction of its RMS [default: {_E.sensor_noise}].")] = None,
     perturbation: Perturbation = None,
@@ -145,18 +149,14 @@ def environments(
     """
     started = time.perf_counter()
     folder = output_folder(out)
-    if from_csv is not None:
-        result = EnvironmentResult.from_csv(from_csv)
-        extra = {"from_csv": str(from_csv)}
-    else:
-        config = _configure(_QE if quick else _E, n_trials=trials, n_links=links,
-                            cycles_per_environment=cycles_per_environment,
-                            drag_ratios=comma_list(drag_ratios, "--drag-ratios"),
-                            forgetting_factors=comma_list(forgetting_factors, "--forgetting-factors"),
-                            sensor_noise=noise, perturbation=perturbation, samples_per_cycle=samples_per_cycle,
-                            chunk_size=chunk_size, seed=seed)
-        result = run_environments(config, jobs=jobs, scheduler=scheduler)
-        extra = {"jobs": jobs, "scheduler": scheduler, "quick": quick}
+    config = None if from_csv is not None else _configure(
+        _QE if quick else _E, n_trials=trials, n_links=links, cycles_per_environment=cycles_per_environment,
+        drag_ratios=comma_list(drag_ratios, "--drag-ratios"),
+        forgetting_factors=comma_list(forgetting_factors, "--forgetting-factors"), sensor_noise=noise,
+        perturbation=perturbation, samples_per_cycle=samples_per_cycle, chunk_size=chunk_size, seed=seed)
+    result, extra = _run_or_redraw(EnvironmentResult, from_csv,
+                                   lambda: run_environments(config, jobs=jobs, scheduler=scheduler),
+                                   {"jobs": jobs, "scheduler": scheduler, "quick": quick})
     summary, written = _write(result, folder, "environments", "figure environments", started, extra)
     console.print(_environment_table(summary))
     console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")

@@ -17,7 +17,7 @@ from ..io import fit_log, predict_log, read_log, read_log_for_prediction, resolv
 from ..io._fit import DEFAULT_TEST_FRACTION, check_outputs, default_summary_path
 from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ..models import AdaptiveGaitModel
-from ..phase import load_phaser
+from ..phase import Phaser
 from ._app import app
 from ._common import comma_list, output_folder, versions
 
@@ -156,7 +156,7 @@ def predict(
     check_outputs({"--out": out, "--summary": summary_path}, inputs, "predict")
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
     fitted = AdaptiveGaitModel.load(model)
-    estimator = None if phaser is None else load_phaser(phaser)
+    estimator = None if phaser is None else Phaser.load(phaser)
     data, has_measured = read_log_for_prediction(
         log, mapping, measured=measured, time=time_column, shape=_names(shape, "--shape"),
         pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),

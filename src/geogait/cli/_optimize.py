@@ -14,9 +14,9 @@ import typer
 
 from .._files import dumps_json, write_text
 from .._validation import GeogaitError, check_float, check_int
-from ..experiments.optimization import OptimizationConfig, OptimizationResult, run_optimization
+from ..experiments.optimization import OptimizationConfig, OptimizationResult, default_budget, run_optimization
 from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
 from ..plotting import (
     plot_height_function,
@@ -31,9 +31,10 @@ from ..robots import ProcessRobot
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
-from ._common import comma_list, console, output_folder, progress_bar, write_manifest
+from ._common import comma_list, console, listed, output_folder, progress_bar, write_manifest
 
-DEFAULT_CYCLES = {3: 40, 5: 60, 9: 60}
+_FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
+_METHODS = ("adaptive", "shape", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 CHECKPOINT_FILE = "checkpoint.npz"
 
@@ -42,7 +43,8 @@ CHECKPOINT_FILE = "checkpoint.npz"
 def optimize(
     links: Annotated[int, typer.Option(min=2, max=200, help="Number of links N of the built-in Purcell swimmer.")] = 3,
     cycles: Annotated[int | None, typer.Option(
-        help="Cycle budget [default: 40 for 3 links, else 60; 100 with --robot]. With --resume: the new total.",
+        help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
+             "With --resume: the new total.",
     )] = None,
     seed: Annotated[int, typer.Option(min=0, help="Random seed of perturbations and sensor noise.")] = 0,
     noise: Annotated[float, typer.Option(min=0, help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
@@ -59,7 +61,13 @@ def optimize(
     settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
-    method: Annotated[str, typer.Option(help="adaptive (this paper) or batch (Bittner 2018).")] = "adaptive",
+    method: Annotated[str, typer.Option(
+        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space, degree 3) "
+             "or batch (Bittner 2018).")] = "adaptive",
+    family: Annotated[str, typer.Option(
+        help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
+             "symmetric.")] = "auto",
+    step_rule: Annotated[str, typer.Option(help="Step rule: linear (linearised, constrained) or sqp.")] = "linear",
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
@@ -79,7 +87,8 @@ def optimize(
                         period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
                         order=order, objective=objective, max_joint_angle=max_joint_angle,
                         max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
-                        max_tracking_error=max_tracking_error, method=method, robot=robot,
+                        max_tracking_error=max_tracking_error, method=method, family=family,
+                        step_rule=step_rule, robot=robot,
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
@@ -96,7 +105,7 @@ def optimize(
         result = _run(optimizer, robot_driver, settings, folder, ceiling, resume is not None)
     write_text(folder / "cycles.csv", result.log.to_csv(index=False))
     _figures(folder, system, result, ceiling)
-    summary = _summary(result, ceiling)
+    summary = result.summary(ceiling)
     write_manifest(folder / "summary.json", command="optimize", config={**settings,
                    "optimizer": optimizer.describe(), "resumed": resume is not None}, results=summary,
                    started=started)
@@ -105,8 +114,9 @@ def optimize(
 
 
 def _optimizer(settings) -> InSituOptimizer:
-    if settings["method"] not in ("adaptive", "batch"):
-        raise typer.BadParameter(f"expected 'adaptive' or 'batch', got {settings['method']!r}", param_hint="--method")
+    if settings["method"] not in _METHODS:
+        raise typer.BadParameter(f"expected one of {', '.join(_METHODS)}, got {settings['method']!r}",
+                                 param_hint="--method")
     tracking = settings["max_tracking_error"]
     if tracking not in ("auto", "off"):
         try:
@@ -118,12 +128,16 @@ def _optimizer(settings) -> InSituOptimizer:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
-    model = BatchGaitModel() if settings["method"] == "batch" else (
-        None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting))
+    model = {"batch": lambda: BatchGaitModel(),
+             "shape": lambda: ShapeSpaceModel(degree=3) if forgetting is None else ShapeSpaceModel(
+                 degree=3, forgetting_factor=forgetting),
+             "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
+             }[settings["method"]]()
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=settings["max_joint_angle"],
                            max_joint_velocity=settings["max_joint_velocity"],
-                           settle_cycles=settings["settle_cycles"],
+                           settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
+                           step_rule=settings.get("step_rule", "linear"),
                            max_tracking_error=None if tracking == "off" else tracking).validate()
 
 
@@ -146,7 +160,7 @@ def _target(settings):
 def _run(optimizer, robot, settings, folder, ceiling, resumed):
     cycles = settings["cycles"]
     if cycles is None:
-        cycles = 100 if settings["robot"] is not None else DEFAULT_CYCLES.get(settings["links"], 60)
+        cycles = 100 if settings["robot"] is not None else default_budget(settings["links"])
     name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
     with progress_bar() as progress:
         task = progress.add_task(f"{name} {settings['method']}", total=cycles, status="")
@@ -180,41 +194,6 @@ def _read_settings(folder: Path) -> dict:
         raise GeogaitError(f"{path} is not valid JSON: {error}") from None
 
 
-def _finite(value):
-    return None if value is None or not np.isfinite(value) else float(value)
-
-
-def _summary(result, ceiling) -> dict:
-    log = result.log
-    measured = log[~log["settling"] & ~log["rejected"]]
-    seed = measured.loc[measured["iteration"] == 0, "measured_objective"].mean()
-    final = measured.loc[measured["iteration"] == measured["iteration"].iloc[-1], "measured_objective"].mean()
-    summary = {
-        "seed_measured_objective": _finite(seed),
-        "final_measured_objective": _finite(final),
-        "final_measured_improvement": _finite(final / seed - 1),
-        "steps": result.n_steps,
-        "rejected_steps": result.n_rejected,
-        "max_tracking_error_rad": _finite(log["tracking_error"].max()),
-        "final_gait_params": result.final_gait.params.tolist(),
-    }
-    if "true_objective" in log:
-        first_90 = log.index[log["ceiling_fraction"] >= 0.9] if ceiling is not None else []
-        summary.update({
-            "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),
-            "final_displacement_per_cycle": _finite(log["true_objective"].iloc[-1]),
-            "final_improvement": _finite(log["improvement"].iloc[-1]),
-            "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
-        })
-    if ceiling is not None:
-        summary.update({
-            "ceiling_displacement_per_cycle": ceiling.value,
-            "final_ceiling_fraction": _finite(log["ceiling_fraction"].iloc[-1]),
-            "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
-        })
-    return summary
-
-
 def _figures(folder, system, result, ceiling) -> None:
     gaits = {"seed": result.initial_gait, "final": result.final_gait}
     if ceiling is not None:
@@ -244,16 +223,20 @@ def _figures(folder, system, result, ceiling) -> None:
 
 @figure_app.command("optimization")
 def figure_optimization(
-    trials: Annotated[int | None, typer.Option(min=1, help="In-situ trials per swimmer [default: 50].")] = None,
-    links: Annotated[str | None, typer.Option(help="Swimmers, comma-separated [default: 3,5,9].")] = None,
-    cycles: Annotated[str | None, typer.Option(help="Cycle budgets per swimmer [default: 40,60,60].")] = None,
+    trials: Annotated[int | None, typer.Option(
+        min=1, help=f"In-situ trials per swimmer [default: {_FIG5.n_trials}].")] = None,
+    links: Annotated[str | None, typer.Option(
+        help=f"Swimmers, comma-separated [default: {listed(_FIG5.links)}].")] = None,
+    cycles: Annotated[str | None, typer.Option(
+        help=f"Cycle budgets per swimmer [default: {listed(_FIG5.budgets)}].")] = None,
     baseline_trials: Annotated[int | None, typer.Option(
-        min=0, help="Batch-method trials per swimmer [default: 10].")] = None,
+        min=0, help=f"Batch-method trials per swimmer [default: {_FIG5.baseline_trials}].")] = None,
     baseline_iterations: Annotated[int | None, typer.Option(
-        min=1, help="Batch iterations of 30 cycles [default: 30].")] = None,
+        min=1, help=f"Batch iterations of {InSituOptimizer().cycles_per_iteration} cycles "
+             f"[default: {_FIG5.baseline_iterations}].")] = None,
     noise: Annotated[float | None, typer.Option(
-        min=0, help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help="Root random seed [default: 0].")] = None,
+        min=0, help=f"Sensor noise on ξ, fraction of RMS [default: {_FIG5.sensor_noise}].")] = None,
+    seed: Annotated[int | None, typer.Option(min=0, help=f"Root random seed [default: {_FIG5.seed}].")] = None,
     jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
     quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
@@ -272,7 +255,7 @@ def figure_optimization(
                        links=comma_list(links, "--links", int), budgets=comma_list(cycles, "--cycles", int))
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if links is not None and cycles is None:
-            config = dataclasses.replace(config, budgets=tuple(DEFAULT_CYCLES.get(n, 60) for n in config.links))
+            config = dataclasses.replace(config, budgets=tuple(map(default_budget, config.links)))
         result = run_optimization(config, jobs=jobs, scheduler=scheduler)
         result.to_csv(folder / "optimization.csv")
     result.plot(folder / "optimization.png")

@@ -20,7 +20,7 @@ import typer
 from ..io import CsvReader, JsonLinesReader, StreamLearner, load_stream_model, run_stream
 from ..io._fit import check_outputs
 from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
-from ..phase import load_phaser
+from ..phase import Phaser
 from ._app import app
 from ._common import write_manifest
 
@@ -78,7 +78,7 @@ def stream(
     config = model_or_config if model_or_config.suffix.lower() == ".json" else None
     check_outputs({"--out": target}, [phaser, config], "stream")
     model = load_stream_model(model_or_config)
-    estimator = None if phaser is None else load_phaser(phaser)
+    estimator = None if phaser is None else Phaser.load(phaser)
     learner = StreamLearner(model, phaser=estimator, phase_window=phase_window, derivative_window=derivative_window,
                             path=target, save_every=save_every, time_unit=time_unit,
                             outlier_limit=None if outlier_limit == 0 else outlier_limit)

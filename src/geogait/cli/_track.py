@@ -16,9 +16,11 @@ import typer
 from .._validation import GeogaitError
 from ..control import CONTROLLERS, PATH_KINDS, PathTracker, ReferencePath
 from ..experiments.tracking import (
+    TURN_SPACING,
     TrackingConfig,
     TrackingResult,
     drag_change_metrics,
+    feasible_turn_limit,
     plot_reference,
     plot_steering_family,
     run_tracking,
@@ -104,6 +106,8 @@ def track(
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
     perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
     horizon: Annotated[int, typer.Option(help="Cycles predicted per decision.")] = 4,
+    turn_limit: Annotated[float, typer.Option(
+        help="Largest turn per cycle (rad) of the steering family, cut to what the joint limits allow.")] = 1.0,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
 ) -> None:
@@ -124,6 +128,11 @@ def track(
     start_offset = offset if offset is not None else (3 * step if path == "line" else 0.0)
     if len(ratios) == 2 and not 1 <= change < n_cycles:
         raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
+    if not TURN_SPACING <= turn_limit <= np.pi:
+        raise GeogaitError(f"The '--turn-limit' option must be in [{TURN_SPACING:g}, π] rad. Got {turn_limit} instead.")
+    limit = feasible_turn_limit(links, turn_limit)
+    settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, turn_limit=limit,
+                    n_turns=2 * int(round(limit / TURN_SPACING)) + 1)
     results = {}
     with progress_bar() as progress:
         for name in names:
@@ -131,7 +140,7 @@ def track(
             schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
             robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
                                   sensor_noise=noise, environment=schedule, seed=seed)
-            tracker = PathTracker(controller=name, warmup_cycles=warmup_cycles, horizon=horizon)
+            tracker = PathTracker(controller=name, **settings)
             task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
 
             def show(row, task=task):
@@ -158,7 +167,7 @@ def track(
     summary["path_length"] = reference.length
     config = dict(links=links, path=path, drag_ratios=ratios, cycles=n_cycles, change_cycle=change,
                   controllers=names, warmup=warmup_cycles, scale=scale, offset=start_offset, seed=seed, noise=noise,
-                  perturbation=perturbation, horizon=horizon, quick=quick)
+                  perturbation=perturbation, horizon=horizon, turn_limit=limit, quick=quick)
     write_manifest(folder / "summary.json", command="track", config=config, results=_finite(summary),
                    started=started)
     console.print(json.dumps(_finite(summary), indent=1))

@@ -350,7 +350,7 @@ class SteeringFamily:
 
 def steering_family(motion, reference: FourierGait, turns, *, direction: float = 0.0, step: float | None = None,
                     previous: SteeringFamily | None = None, max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE,
-                    max_iterations: int = 20) -> SteeringFamily:
+                    max_iterations: int = 20, contiguous: bool = False) -> SteeringFamily:
     """Steering gaits for each commanded turn (nearest ``reference``, module docstring).
 
     Parameters
@@ -369,6 +369,11 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
         learning cycle by cycle); otherwise each member starts from its solved neighbour nearer zero.
     max_joint_angle : float
     max_iterations : int
+    contiguous : bool
+        Solve outwards from zero turn only up to the first infeasible member on each side; the
+        members beyond it (which :meth:`SteeringFamily.interpolate` never uses) are marked
+        infeasible and copy that member's gait and motion. Saves the slow failing solves when the
+        joint limits cut the family short.
 
     Returns
     -------
@@ -381,6 +386,10 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
     order = np.argsort(np.abs(turns), kind="stable")
     use_previous = previous is not None and np.array_equal(previous.turns, turns)
     for index in order:
+        inner = index + (1 if turns[index] < 0 else -1)  # the neighbour nearer zero turn
+        if contiguous and turns[index] != 0 and 0 <= inner < turns.size and not feasible[inner]:
+            gaits[index], poses[index] = gaits[inner], poses[inner]
+            continue
         if use_previous:
             start = previous.gaits[index]
         else:

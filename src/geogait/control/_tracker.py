@@ -15,7 +15,10 @@ and picks the sequence minimising
 
 with :math:`e` the cross-track error of the predicted position, :math:`\chi_i` the course of the
 chord :math:`g_{k+i-1} \to g_{k+i}`, :math:`\psi_i` the path tangent at the chord's midpoint,
-:math:`\ell` the straight gait's step per cycle and :math:`w_\chi` the heading weight. Only the first
+:math:`\ell` the straight gait's step per cycle as predicted now and :math:`w_\chi` the heading
+weight. Both terms scale with :math:`\ell`, so the chosen turns do not depend on how fast the
+swimmer is (per cycle, the same offset in steps gives the same correction): a swimmer that becomes
+1.9× faster (a drag change) is neither over- nor under-corrected by gains tuned at the old speed. Only the first
 turn is used: its steering gait is solved exactly (warm-started from the family) and commanded for
 one cycle; then the loop repeats with the newly measured pose.
 
@@ -157,7 +160,7 @@ class PathTracker:
     """
 
     def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float = 0.5,
-                 n_turns: int = 11, n_first_turns: int = 21, heading_weight: float = 2.0,
+                 n_turns: int = 11, n_first_turns: int = 21, heading_weight: float = 0.5,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10,
                  max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
                  family_every: int = 5):
@@ -262,7 +265,6 @@ class PathTracker:
         s, _, _ = path.project(pose[:2])
         s = float(s) if path.closed else 0.0
         motion, family, family_system = self._motion(model, oracle), None, None
-        step_length = None
         rows, chunks = [], []
         for cycle in range(n_cycles):
             system = oracle() if callable(oracle) else None
@@ -275,8 +277,7 @@ class PathTracker:
             elif self.controller == "adaptive":
                 motion = self._motion(model, oracle)
                 family = family.repredicted(motion)
-            if step_length is None:
-                step_length = float(np.hypot(*family.interpolate(0.0)[:2]))
+            step_length = float(np.hypot(*family.interpolate(0.0)[:2]))  # predicted now: the cost scales with it
             # search the path as far as the horizon can reach with the family's longest step
             window = 0.3 + 1.5 * self.horizon * float(np.hypot(family.poses[:, 0], family.poses[:, 1]).max())
             turn = self._plan(pose, s, family, path, step_length, window)
@@ -323,7 +324,8 @@ class PathTracker:
 
     def _family(self, motion, reference, direction, previous, iterations) -> SteeringFamily:
         family = steering_family(motion, reference, self.turns, direction=direction, previous=previous,
-                                 max_joint_angle=self.max_joint_angle, max_iterations=iterations)
+                                 max_joint_angle=self.max_joint_angle, max_iterations=iterations,
+                                 contiguous=True)
         if not family.feasible[self.n_turns // 2]:
             raise GeogaitError("No straight steering gait: the model's zero-turn gait is out of reach within "
                                "the joint limits (warm up for more cycles or relax max_joint_angle).")

@@ -20,6 +20,14 @@ from .optimization import (
     run_optimization,
 )
 from .runner import SweepFailedError, SweepResult, TrialFailure, run_trials
+from .tracking import (
+    TrackingConfig,
+    TrackingResult,
+    plot_tracking,
+    run_tracking,
+    tracking_summary,
+    tracking_trials,
+)
 
 __all__ = [
     "run_trials",
@@ -46,4 +54,10 @@ __all__ = [
     "optimization_trials",
     "plot_optimization",
     "run_optimization",
+    "TrackingConfig",
+    "TrackingResult",
+    "plot_tracking",
+    "run_tracking",
+    "tracking_summary",
+    "tracking_trials",
 ]

@@ -14,7 +14,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._docs import fill_doc
 from .._files import write_text
+from .._seeds import child_seed
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
@@ -62,10 +64,7 @@ def check_links(n_links, name: str, owner: str) -> int:
 
 
 def child_seeds(seeds, key: int) -> list[np.random.SeedSequence]:
-    """Child ``key`` of every trial seed, built without mutating the parents.
-
-    ``SeedSequence(s.entropy, spawn_key=s.spawn_key + (key,))`` is what ``s.spawn`` would hand out
-    as its ``key``-th child, but calling it twice gives the same sequence.
+    """Child ``key`` of every trial seed, built without mutating the parents (:func:`geogait._seeds.child_seed`).
 
     Parameters
     ----------
@@ -76,7 +75,7 @@ def child_seeds(seeds, key: int) -> list[np.random.SeedSequence]:
     -------
     list of numpy.random.SeedSequence
     """
-    return [np.random.SeedSequence(s.entropy, spawn_key=tuple(s.spawn_key) + (key,)) for s in seeds]
+    return [child_seed(s, key) for s in seeds]
 
 
 def cycle_block(run: Trajectory, start: int, stop: int, samples_per_cycle: int) -> tuple[np.ndarray, ...]:
@@ -189,25 +188,21 @@ def check_fraction(value, name: str, owner: str) -> float:
     return check_float(value, name, owner, low=0)
 
 
+@fill_doc
 @dataclass(frozen=True)
 class ExperimentResult:
     """Long-format results of one experiment, and how they were made.
 
     Subclasses set ``COLUMNS`` and add ``summary()`` and ``plot(path)``.
 
-    Attributes
+    Parameters
     ----------
-    frame : pandas.DataFrame
-        Long format, one row per trial × model × checkpoint.
-    config : dataclass or None
-        The experiment's configuration; None for results read back from a CSV.
-    wall_time_s : float or None
-        Wall-clock time of the sweep.
-    n_workers : int or None
-        Workers that ran the sweep.
+    %(result_fields)s
     """
 
     COLUMNS = ()
+    #: Prefix of further columns whose number varies (kept by :meth:`from_csv`); None: no such columns.
+    VARIABLE_COLUMNS = None
 
     frame: pd.DataFrame
     config: object = None
@@ -252,7 +247,8 @@ class ExperimentResult:
             if bad.size:
                 raise GeogaitError(f"{path} is not a valid {cls.__name__} CSV: column {column!r} must hold integers. "
                                    f"Got {str(frame[column].iloc[bad[0]])!r} in data row {bad[0]} instead.")
-        result = cls(frame=frame[list(cls.COLUMNS)])
+        extra = [c for c in frame.columns if cls.VARIABLE_COLUMNS and str(c).startswith(cls.VARIABLE_COLUMNS)]
+        result = cls(frame=frame[list(cls.COLUMNS) + extra])
         try:  # the columns are right; do the values form a result?
             result.summary()
         except (KeyError, ValueError, TypeError, IndexError, ZeroDivisionError, AttributeError) as error:

@@ -39,10 +39,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from matplotlib.patches import Patch
 
+from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..plotting import plt, save_figure
 from ..simulate import simulate
 from ._common import (
     PERCENTILES,
@@ -158,10 +161,14 @@ class AccuracyConfig:
         return {k: v for k, v in dataclasses.asdict(self).items() if k not in skip}
 
 
+@fill_doc
 def accuracy_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, checkpoint_every: int,
                     samples_per_cycle: int, sensor_noise: float, perturbation: float, forgetting_factor: float,
                     n_windows: int, online_points_per_cycle: int) -> pd.DataFrame:
     """Runner trial function: train/test pairs, vectorised across the pairs of a chunk.
+
+    The keyword arguments are the fields of :class:`AccuracyConfig` other than ``n_trials``, ``seed`` and
+    ``chunk_size``.
 
     Parameters
     ----------
@@ -169,8 +176,20 @@ def accuracy_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, checkp
         Pair indices of the chunk.
     seeds : list of n numpy.random.SeedSequence
         Pair seeds; child 0 drives the training trial, child 1 the test trial.
-    **options
-        The fields of :class:`AccuracyConfig` other than ``n_trials``, ``seed``, ``chunk_size``.
+    n_links : int
+        Links of the Purcell swimmer (3, 5 or 9); the seed gait is the paper's for that swimmer.
+    n_cycles : int
+        Cycles per trial (training and test trials alike).
+    checkpoint_every : int
+        Checkpoint spacing: every this many cycles the batch model re-solves on all training cycles so far
+        and both models are scored (held-out Γ) on the test trial.
+    %(simulation)s
+    forgetting_factor : float in (0, 1]
+        λ_RLS of the adaptive model.
+    n_windows : int
+        Phase windows of both models.
+    online_points_per_cycle : int
+        How many times per training cycle the adaptive model's online Γ is recorded.
 
     Returns
     -------
@@ -208,12 +227,17 @@ def _rows(trial_indices, model: str, metric: str, cycles, gamma: np.ndarray) -> 
                          "gamma": gamma.ravel()})
 
 
+@fill_doc
 @dataclass(frozen=True)
 class AccuracyResult(ExperimentResult):
     """Result of :func:`run_accuracy` (or of a CSV read back with :meth:`from_csv`).
 
     ``frame`` has one row per pair × model × checkpoint, columns ``trial, model, metric, cycles,
     gamma`` (see :func:`accuracy_trials`).
+
+    Parameters
+    ----------
+    %(result_fields)s
     """
 
     COLUMNS = ("trial", "model", "metric", "cycles", "gamma")
@@ -227,6 +251,7 @@ class AccuracyResult(ExperimentResult):
         return plot_accuracy(self.frame, path)
 
 
+@fill_doc
 def run_accuracy(config: AccuracyConfig | None = None, *, jobs: int = 1, scheduler=None,
                  progress: bool = True) -> AccuracyResult:
     """Run the accuracy experiment (Fig. 2).
@@ -235,12 +260,7 @@ def run_accuracy(config: AccuracyConfig | None = None, *, jobs: int = 1, schedul
     ----------
     config : AccuracyConfig, optional
         Default ``AccuracyConfig()``: the paper's 200 trials × 40 cycles, 3-link swimmer.
-    jobs : int
-        joblib workers (1 in-process, -1 all cores).
-    scheduler : str or distributed.Client, optional
-        Run on a Dask cluster instead.
-    progress : bool
-        Show a progress bar on stderr.
+    %(sweep)s
 
     Returns
     -------
@@ -356,25 +376,8 @@ def plot_online_gamma(ax, frame: pd.DataFrame):
 
 
 def plot_accuracy(frame: pd.DataFrame, path):
-    """Fig. 2: held-out Γ box plots of both models (top) and the adaptive model's online Γ (bottom).
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        Long-format results.
-    path : path-like
-        PNG to write.
-
-    Returns
-    -------
-    pathlib.Path
-    """
-    from pathlib import Path
-
-    from matplotlib.patches import Patch
-
-    from ..plotting import plt, save_figure
-
+    """Draw Fig. 2 from the long-format results ``frame`` to the PNG ``path`` (returned as a Path):
+    held-out Γ box plots of both models (top) and the adaptive model's online Γ (bottom)."""
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 8), sharex=True, height_ratios=(3, 2))
     plot_gamma_boxes(top, frame)
     top.axhline(PAPER_GAMMA_AT_5, color="0.4", lw=0.8, ls=":")
@@ -388,6 +391,4 @@ def plot_accuracy(frame: pd.DataFrame, path):
                title_fontsize=8)
     top.grid(axis="y", alpha=0.3)
     plot_online_gamma(bottom, frame)
-    path = Path(path)
-    save_figure(fig, path)
-    return path
+    return save_figure(fig, path)

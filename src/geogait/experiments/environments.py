@@ -54,10 +54,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from matplotlib.patches import Patch
 
+from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..plotting import plt, save_figure
 from ..simulate import DragRatioSchedule, simulate
 from ._common import (
     ExperimentResult,
@@ -168,17 +171,32 @@ def adaptive_name(forgetting_factor: float) -> str:
     return f"adaptive_{forgetting_factor:g}"
 
 
+@fill_doc
 def environment_trials(trial_indices, seeds, *, n_links: int, drag_ratios, cycles_per_environment: int,
                        samples_per_cycle: int, sensor_noise: float, perturbation: float, forgetting_factors,
                        n_windows: int) -> pd.DataFrame:
     """Runner trial function: one run through every environment per trial, trials vectorised.
 
+    The keyword arguments are the fields of :class:`EnvironmentConfig` other than ``n_trials``, ``seed`` and
+    ``chunk_size``.
+
     Parameters
     ----------
     trial_indices : int ndarray of shape (n,)
+        Trial indices of the chunk.
     seeds : list of n numpy.random.SeedSequence
-    **options
-        The fields of :class:`EnvironmentConfig` other than ``n_trials``, ``seed``, ``chunk_size``.
+        One seed per trial.
+    n_links : int
+        Links of the Purcell swimmer; the seed gait is the paper's for that swimmer.
+    drag_ratios : sequence of float
+        Drag ratio k of each environment, in order (:class:`~geogait.simulate.DragRatioSchedule`).
+    cycles_per_environment : int
+        Cycles spent in each environment.
+    %(simulation)s
+    forgetting_factors : sequence of float
+        λ_RLS of each adaptive model (one model per value).
+    n_windows : int
+        Phase windows of every model.
 
     Returns
     -------
@@ -220,12 +238,17 @@ def _rows(trial_indices, model: str, cycle: int, schedule: DragRatioSchedule, er
                          "error": error, "error_measured": error_measured})
 
 
+@fill_doc
 @dataclass(frozen=True)
 class EnvironmentResult(ExperimentResult):
     """Result of :func:`run_environments` (or of a CSV read back with :meth:`from_csv`).
 
     ``frame`` has one row per trial × model × cycle, columns ``trial, model, cycle, environment,
     drag_ratio, error, error_measured`` (see :func:`environment_trials`).
+
+    Parameters
+    ----------
+    %(result_fields)s
     """
 
     COLUMNS = ("trial", "model", "cycle", "environment", "drag_ratio", "error", "error_measured")
@@ -243,6 +266,7 @@ class EnvironmentResult(ExperimentResult):
         return plot_environments(self.frame, path)
 
 
+@fill_doc
 def run_environments(config: EnvironmentConfig | None = None, *, jobs: int = 1, scheduler=None,
                      progress: bool = True) -> EnvironmentResult:
     """Run the changing-environment experiment (Fig. 3).
@@ -251,12 +275,7 @@ def run_environments(config: EnvironmentConfig | None = None, *, jobs: int = 1, 
     ----------
     config : EnvironmentConfig, optional
         Default ``EnvironmentConfig()``: 100 trials, 40 cycles each at k = 2, 3, 4.
-    jobs : int
-        joblib workers (1 in-process, -1 all cores).
-    scheduler : str or distributed.Client, optional
-        Run on a Dask cluster instead.
-    progress : bool
-        Show a progress bar on stderr.
+    %(sweep)s
 
     Returns
     -------
@@ -444,25 +463,8 @@ def mark_switches(ax, frame: pd.DataFrame):
 
 
 def plot_environments(frame: pd.DataFrame, path):
-    """Fig. 3: log prediction error over time through the environment switches.
-
-    Parameters
-    ----------
-    frame : pandas.DataFrame
-        Long-format results.
-    path : path-like
-        PNG to write.
-
-    Returns
-    -------
-    pathlib.Path
-    """
-    from pathlib import Path
-
-    from matplotlib.patches import Patch
-
-    from ..plotting import plt, save_figure
-
+    """Draw Fig. 3 from the long-format results ``frame`` to the PNG ``path`` (returned as a Path): log
+    prediction error over time through the environment switches."""
     fig, ax = plt.subplots(figsize=(10, 5))
     plot_error_bands(ax, frame)
     mark_switches(ax, frame)
@@ -472,6 +474,4 @@ def plot_environments(frame: pd.DataFrame, path):
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, ncols=3)
     n_trials = frame["trial"].nunique()
     ax.set_title(f"Adaptation to changing environments ({n_trials} trials)", pad=18)
-    path = Path(path)
-    save_figure(fig, path)
-    return path
+    return save_figure(fig, path)

@@ -28,12 +28,13 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._docs import fill_doc
 from .._validation import check_choice, check_float, check_int, fail
-from ..gaits import Perturbation
+from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import InSituOptimizer, cached_ceiling
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
-from ..simulate import SwimmerStream
+from ..simulate import SwimmerStream, cycle_displacement
 from ._common import (
     PERCENTILES,
     ExperimentResult,
@@ -44,12 +45,21 @@ from ._common import (
     swimmer_and_gait,
 )
 
-__all__ = ["OptimizationConfig", "OptimizationResult", "optimization_trials", "run_optimization",
+__all__ = ["OptimizationConfig", "OptimizationResult", "default_budget", "optimization_trials", "run_optimization",
            "optimization_summary", "plot_optimization"]
 
 _OWNER = "OptimizationConfig"
 PAPER = {3: "≈ 50 % improvement in 40 cycles", 5: "(shown, no number in the text)",
          9: "top quartile > 80 % in 60 cycles; ≈ 10 cycles per link vs 900 cycles for the batch method"}
+
+
+def default_budget(n_links: int) -> int:
+    """The paper's cycle budget of an in-situ run: 40 cycles for the 3-link swimmer, 60 beyond."""
+    return 40 if n_links <= 3 else 60
+
+
+_LINKS = (3, 5, 9)
+_BATCH_CYCLES = InSituOptimizer().cycles_per_iteration  # cycles per batch-method iteration (Bittner 2018)
 
 
 @dataclass(frozen=True)
@@ -81,9 +91,9 @@ class OptimizationConfig:
         Trials per runner chunk.
     """
 
-    links: tuple[int, ...] = (3, 5, 9)
+    links: tuple[int, ...] = _LINKS
     n_trials: int = 50
-    budgets: tuple[int, ...] = (40, 60, 60)
+    budgets: tuple[int, ...] = tuple(map(default_budget, _LINKS))
     baseline_trials: int = 10
     baseline_iterations: int = 30
     sensor_noise: float = 0.1
@@ -131,12 +141,36 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
                         model: str = "auto") -> pd.DataFrame:
     """Runner trial function: one in-situ (or batch-method) optimisation per trial.
 
+    Parameters
+    ----------
+    trial_indices : sequence of int
+        Trial indices of the chunk.
+    seeds : sequence of numpy.random.SeedSequence
+        One seed per trial (drives the simulated swimmer's perturbations and noise).
+    n_links : int
+        Links of the Purcell swimmer; the run starts from the paper's seed gait.
+    n_cycles : int
+        Cycle budget of each run.
+    method : {"adaptive", "batch"}
+        ``"batch"`` runs the prior-work batch method (:class:`~geogait.models.BatchGaitModel`); anything
+        else the in-situ optimiser with the model chosen by ``model``.
+    sensor_noise : float
+        Std of the noise on measured ξ, as a fraction of its RMS.
+    perturbation : float
+        Stationary std (rad) of the shape perturbation δ of eq. 8.
+    gamma_threshold : float
+        Γ*: the optimiser steps only when the model's online Γ exceeds it.
+    ceiling : float
+        Ceiling objective value (the best gait with the true connection), for the log's ``ceiling_fraction``.
+    model : {"auto", "adaptive", "shape"}, default "auto"
+        Model of the in-situ runs (see :class:`OptimizationConfig`).
+
     Returns
     -------
     pandas.DataFrame
         One row per trial × cycle: ``trial``, ``links``, ``method``, ``cycle``, ``gamma``, ``step``,
-        ``true_objective``, ``true_heading``, ``improvement``, ``ceiling_fraction`` and ``params``
-        (the nominal gait's flat parameter vector, space separated).
+        ``true_objective``, ``true_heading``, ``improvement``, ``ceiling_fraction`` and ``param_0`` …
+        ``param_{p-1}`` (the nominal gait's flat parameter vector, one number per column).
     """
     system, gait = swimmer_and_gait(n_links, "optimization_trials")
     frames = []
@@ -146,19 +180,32 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
         optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
                                     gamma_threshold=gamma_threshold)
         log = optimizer.run(stream, n_cycles, ceiling=ceiling).log
-        params = log[[c for c in log.columns if c.startswith("param_")]].to_numpy()
-        log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction"]]
-        frames.append(log.assign(trial=int(trial), links=n_links, method=method,
-                                 params=[" ".join(f"{v:.10g}" for v in row) for row in params]))
+        params = [c for c in log.columns if c.startswith("param_")]
+        log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction",
+                   *params]]
+        frames.append(log.assign(trial=int(trial), links=n_links, method=method))
     return pd.concat(frames, ignore_index=True)
 
 
 @dataclass(frozen=True)
 class OptimizationResult(ExperimentResult):
-    """Long-format per-cycle logs of every trial (see :func:`optimization_trials`)."""
+    """Long-format per-cycle logs of every trial (see :func:`optimization_trials`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Long-format results, with the columns of ``COLUMNS`` and ``param_0`` … ``param_{p-1}``.
+    config : OptimizationConfig or None
+        The configuration that produced ``frame``; None for results read back from a CSV.
+    wall_time_s : float or None
+        Wall-clock time of the sweep, seconds.
+    n_workers : int or None
+        Number of workers that ran the sweep.
+    """
 
     COLUMNS = ("trial", "links", "method", "cycle", "gamma", "step", "true_objective", "true_heading",
-               "improvement", "ceiling_fraction", "params")
+               "improvement", "ceiling_fraction")
+    VARIABLE_COLUMNS = "param_"  # param_0 … param_{p-1}; empty where a swimmer has fewer parameters
 
     def summary(self) -> dict:
         """Headline numbers per swimmer (:func:`optimization_summary`)."""
@@ -170,16 +217,28 @@ class OptimizationResult(ExperimentResult):
         return path
 
 
+@fill_doc
 def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1, scheduler=None,
                      progress: bool = True) -> OptimizationResult:
-    """Run Experiment 3 for every swimmer of ``config``; see the module docstring."""
+    """Run Experiment 3 for every swimmer of ``config``; see the module docstring.
+
+    Parameters
+    ----------
+    config : OptimizationConfig, optional
+        Default ``OptimizationConfig()``: the paper's 3-, 5- and 9-link studies.
+    %(sweep)s
+
+    Returns
+    -------
+    OptimizationResult
+    """
     config = (config or OptimizationConfig()).validate()
     frames, wall, workers = [], 0.0, 1
     for index, (n_links, budget) in enumerate(zip(config.links, config.budgets, strict=True)):
         system, _ = swimmer_and_gait(n_links, "run_optimization")
         ceiling = cached_ceiling(system).value
         runs = [("adaptive", config.n_trials, budget),
-                ("batch", config.baseline_trials, 30 * config.baseline_iterations)]
+                ("batch", config.baseline_trials, _BATCH_CYCLES * config.baseline_iterations)]
         for offset, (method, n_trials, cycles) in enumerate(runs):
             if n_trials == 0:
                 continue
@@ -192,14 +251,18 @@ def run_optimization(config: OptimizationConfig | None = None, *, jobs: int = 1,
                                                 description=f"{n_links}-link {method}")
             frames.append(frame)
             wall += seconds
-    frame = pd.concat(frames, ignore_index=True)[list(OptimizationResult.COLUMNS)]
+    frame = pd.concat(frames, ignore_index=True)
+    frame = frame[list(OptimizationResult.COLUMNS) + _param_columns(frame)]
     return OptimizationResult(frame=frame, config=config, wall_time_s=wall, n_workers=workers)
+
+
+def _param_columns(frame: pd.DataFrame) -> list[str]:
+    """``param_0`` … in numeric order (the widest swimmer's count)."""
+    return sorted((c for c in frame.columns if c.startswith("param_")), key=lambda c: int(c.removeprefix("param_")))
 
 
 def _ceiling_improvement(n_links: int) -> float:
     system, gait = swimmer_and_gait(n_links, "optimization")
-    from ..simulate import cycle_displacement
-
     seed_value = float(np.hypot(*cycle_displacement(system, gait)[:2]))
     return cached_ceiling(system).value / seed_value - 1
 
@@ -212,7 +275,19 @@ def _cycles_to_reach(frame: pd.DataFrame, level: float) -> float:
 
 
 def optimization_summary(frame: pd.DataFrame) -> dict:
-    """Headline numbers per swimmer, next to the paper's."""
+    """Headline numbers per swimmer, next to the paper's.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Per-cycle logs of :func:`optimization_trials` (``OptimizationResult.frame``).
+
+    Returns
+    -------
+    dict
+        One entry per swimmer (``"3-link"`` …): improvement percentiles, ceiling fraction, rotation and,
+        when batch runs are present, the batch method's cycles to the same improvement.
+    """
     summary = {}
     for n_links, group in frame.groupby("links"):
         adaptive = group[group["method"] == "adaptive"]
@@ -278,15 +353,13 @@ def plot_bands(ax, frame: pd.DataFrame, n_links: int):
 
 def plot_gaits(ax, frame: pd.DataFrame):
     """Panel A: the 3-link seed gait, the median trial's final gait and the ceiling gait."""
-    from ..gaits import FourierGait
-
     system, seed = swimmer_and_gait(3, "plot_gaits")
     ceiling = cached_ceiling(system)
     gaits = {"seed": seed, "ceiling": ceiling.gait}
     final = frame[(frame["links"] == 3) & (frame["method"] == "adaptive")]
     final = final[final["cycle"] == final["cycle"].max()]
     median_trial = final.iloc[(final["improvement"] - final["improvement"].median()).abs().argmin()]
-    params = np.array(median_trial["params"].split(), dtype=float)
+    params = median_trial[_param_columns(frame)].dropna().to_numpy(float)
     gaits["optimised (median trial)"] = FourierGait.from_params(params, 2)
     limit = max(g.joint_limit().max() for g in gaits.values()) * 1.15
     direction = ceiling.displacement[:2] / np.hypot(*ceiling.displacement[:2])
@@ -297,7 +370,15 @@ def plot_gaits(ax, frame: pd.DataFrame):
 
 
 def plot_optimization(frame: pd.DataFrame, path):
-    """The whole figure: panel A (if 3-link results) and one band panel per swimmer."""
+    """The whole figure: panel A (if 3-link results) and one band panel per swimmer.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Per-cycle logs of :func:`optimization_trials` (``OptimizationResult.frame``).
+    path : path-like
+        Where the figure is saved; returned.
+    """
     links = sorted(frame["links"].unique())
     panels = len(links) + (3 in links)
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.4))

@@ -22,6 +22,7 @@ until it stays below the frozen model's.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import pandas as pd
@@ -38,13 +39,15 @@ from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
 
 __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
-           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR"]
+           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING"]
 
 _OWNER = "TrackingConfig"
 PATHS = ("line", "circle", "figure8", "waypoints")
 RECOVERY_FACTOR = 1.5
 """Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
 PRE_CHANGE_CYCLES = 10
+TURN_SPACING = 0.1
+"""Spacing of the steering family's turns (rad per cycle)."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +78,11 @@ class TrackingConfig:
         Circle radius, figure-eight size and rectangle height in steps ℓ of the straight gait.
     line_offset : float
         Initial offset from the line, in steps ℓ.
+    turn_limit : float
+        Largest |turn| per cycle (rad) of the steering family, cut per swimmer to what its joint limits
+        allow (:func:`feasible_turn_limit`): 0.5 rad for the 3-link, 1.0 for the 5-link swimmer.
+    heading_weight : float
+        Heading weight of :class:`~geogait.control.PathTracker`.
     controllers : tuple of str
     seed : int
         Root seed; swimmer i uses ``seed + 1000 i``.
@@ -94,6 +102,8 @@ class TrackingConfig:
     perturbation: float = 0.15
     path_scale: float = 10.0
     line_offset: float = 3.0
+    turn_limit: float = 1.0
+    heading_weight: float = 0.5
     controllers: tuple[str, ...] = CONTROLLERS
     seed: int = 0
     chunk_size: int = 1
@@ -130,6 +140,8 @@ class TrackingConfig:
         check_fraction(self.perturbation, "perturbation", _OWNER)
         check_float(self.path_scale, "path_scale", _OWNER, low=0, low_open=True)
         check_float(self.line_offset, "line_offset", _OWNER)
+        check_float(self.turn_limit, "turn_limit", _OWNER, low=TURN_SPACING, high=np.pi)
+        check_float(self.heading_weight, "heading_weight", _OWNER, low=0)
         if not self.controllers or any(c not in CONTROLLERS for c in self.controllers):
             raise fail("controllers", _OWNER, "controllers among " + ", ".join(CONTROLLERS), self.controllers)
         check_int(self.seed, "seed", _OWNER, minimum=0)
@@ -156,6 +168,21 @@ def straight_gait(n_links: int):
     return system, gait, float(np.hypot(*cycle_displacement(system, gait)[:2]))
 
 
+@lru_cache(maxsize=8)
+def feasible_turn_limit(n_links: int, upper: float = 1.0) -> float:
+    """Largest multiple of :data:`TURN_SPACING` up to ``upper`` that the straight swimmer (drag ratio
+    2, true connection) turns per cycle in both directions with a steering gait within the joint
+    limits; the tracker's families stop there (solves beyond the joint limits fail, slowly)."""
+    system, gait, _ = straight_gait(n_links)
+    upper = check_float(upper, "upper", "feasible_turn_limit", low=TURN_SPACING, high=np.pi)
+    pose = cycle_displacement(system, gait)
+    turns = TURN_SPACING * np.arange(-int(round(upper / TURN_SPACING)), int(round(upper / TURN_SPACING)) + 1)
+    family = steering_family(TrueMotion(system), gait, turns, direction=float(np.arctan2(pose[1], pose[0])),
+                             contiguous=True)
+    low, high = family.turn_range
+    return float(TURN_SPACING * np.floor(min(-low, high) / TURN_SPACING + 1e-9))
+
+
 def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
     """A built-in path scaled by the step ℓ: line, circle (radius ``scale ℓ``), figure-eight (size
     ``scale ℓ``) or waypoints (a ``1.5 scale ℓ × scale ℓ`` rectangle, counter-clockwise)."""
@@ -168,7 +195,7 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
 
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
-                    line_offset: float, controllers) -> pd.DataFrame:
+                    line_offset: float, turn_limit: float, heading_weight: float, controllers) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
     Returns
@@ -180,6 +207,9 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         ``drag_ratio``.
     """
     system, gait, step = straight_gait(n_links)
+    limit = feasible_turn_limit(n_links, turn_limit)
+    settings = dict(turn_limit=limit, n_turns=2 * int(round(limit / TURN_SPACING)) + 1, heading_weight=heading_weight,
+                    warmup_cycles=warmup_cycles)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
                "measured_turn", "gamma", "drag_ratio"]
     frames = []
@@ -192,7 +222,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
                             if environment == "change" else None)
                 robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                       sensor_noise=sensor_noise, environment=schedule, seed=seed)
-                tracker = PathTracker(controller=controller, warmup_cycles=warmup_cycles)
+                tracker = PathTracker(controller=controller, **settings)
                 log = tracker.run(robot, path, n_cycles, start_offset=offset).log
                 frames.append(log[columns].assign(trial=int(trial), links=n_links, path=kind,
                                                   environment=environment, controller=controller))
@@ -227,7 +257,8 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
                        n_cycles=config.n_cycles, change_cycle=config.change_cycle,
                        warmup_cycles=config.warmup_cycles, sensor_noise=config.sensor_noise,
                        perturbation=config.perturbation, path_scale=config.path_scale,
-                       line_offset=config.line_offset, controllers=config.controllers)
+                       line_offset=config.line_offset, turn_limit=config.turn_limit,
+                       heading_weight=config.heading_weight, controllers=config.controllers)
         frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
                                             chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
                                             progress=progress, description=f"{n_links}-link tracking")

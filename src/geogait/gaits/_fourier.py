@@ -22,6 +22,15 @@ def fourier_basis(phase, order: int, derivative: int = 0) -> np.ndarray:
     """Basis ``[1, cos kφ, sin kφ]`` (or its ``derivative``-th φ-derivative), shape ``(..., 2K+1)``.
 
     Columns are ordered ``[1, cos φ .. cos Kφ, sin φ .. sin Kφ]``.
+
+    Parameters
+    ----------
+    phase : float or array-like of shape (...,)
+        Gait phase φ in radians.
+    order : int
+        Fourier order K (number of harmonics).
+    derivative : int, default 0
+        Order of the φ-derivative of the basis (0 gives the basis itself).
     """
     phase = np.asarray(phase, dtype=float)
     k = np.arange(1, order + 1)
@@ -68,7 +77,15 @@ class FourierGait:
     # -- construction -------------------------------------------------------------------------
     @classmethod
     def from_params(cls, params, n_joints: int) -> FourierGait:
-        """Build from the flat parameter vector of length ``n_joints * (2K + 1)``."""
+        """Build from the flat parameter vector of length ``n_joints * (2K + 1)``.
+
+        Parameters
+        ----------
+        params : array-like of shape (n_joints * (2K + 1),)
+            Joint by joint ``[a_j0, a_j1..a_jK, b_j1..b_jK]`` (radians).
+        n_joints : int
+            Shape dimension d (≥ 1); K follows from the length of ``params``.
+        """
         n_joints = check_int(n_joints, "n_joints", "FourierGait.from_params", minimum=1)
         params = check_array(params, "params", "FourierGait.from_params", ndim=1)
         if params.size % n_joints or (params.size // n_joints) % 2 != 1:
@@ -81,7 +98,18 @@ class FourierGait:
 
     @classmethod
     def from_shapes(cls, phase, shape, order: int) -> FourierGait:
-        """Least-squares Fourier fit of sampled shapes ``(n, d)`` against phases ``(n,)``."""
+        """Least-squares Fourier fit of sampled shapes ``(n, d)`` against phases ``(n,)``.
+
+        Parameters
+        ----------
+        phase : array-like of shape (n,)
+            Gait phase φ of each sample, radians; must spread over the cycle enough to determine
+            ``2 * order + 1`` coefficients.
+        shape : array-like of shape (n, d)
+            Joint angles θ(φ) at each sample, radians.
+        order : int
+            Fourier order K (≥ 0) of the fitted gait.
+        """
         order = check_int(order, "order", "FourierGait.from_shapes", minimum=0)
         shape = check_array(shape, "shape", "FourierGait.from_shapes", ndim=2)
         phase = check_array(phase, "phase", "FourierGait.from_shapes", ndim=1)
@@ -107,7 +135,13 @@ class FourierGait:
         return FourierGait(coefficients)
 
     def with_params(self, params) -> FourierGait:
-        """Same family, new flat parameter vector."""
+        """Same family, new flat parameter vector.
+
+        Parameters
+        ----------
+        params : array-like of shape (d * (2K + 1),)
+            Flat Fourier parameters (see :meth:`from_params`) for this gait's number of joints.
+        """
         return FourierGait.from_params(params, self.n_joints)
 
     # -- properties ---------------------------------------------------------------------------
@@ -131,19 +165,44 @@ class FourierGait:
         """Fourier basis at ``phase`` ``(...,)`` → ``(..., 2K + 1)``; θ = basis @ coefficients.T.
 
         It is also ∂θ_j/∂(coefficients of joint j), since θ is linear in its parameters.
+
+        Parameters
+        ----------
+        phase : float or array-like of shape (...,)
+            Gait phase φ in radians.
+        derivative : int, default 0
+            Order of the φ-derivative of the basis.
         """
         return fourier_basis(phase, self.order, derivative)
 
     def shape(self, phase) -> np.ndarray:
-        """θ(φ): phases ``(...,)`` → shapes ``(..., d)``."""
+        """θ(φ): phases ``(...,)`` → shapes ``(..., d)``.
+
+        Parameters
+        ----------
+        phase : float or array-like of shape (...,)
+            Gait phase φ in radians.
+        """
         return self.basis(phase) @ self.coefficients.T
 
     def velocity(self, phase) -> np.ndarray:
-        """θ'(φ) = dθ/dφ: phases ``(...,)`` → ``(..., d)`` (multiply by φ̇ for a time rate)."""
+        """θ'(φ) = dθ/dφ: phases ``(...,)`` → ``(..., d)`` (multiply by φ̇ for a time rate).
+
+        Parameters
+        ----------
+        phase : float or array-like of shape (...,)
+            Gait phase φ in radians.
+        """
         return self.basis(phase, 1) @ self.coefficients.T
 
     def acceleration(self, phase) -> np.ndarray:
-        """θ''(φ) = d²θ/dφ²: phases ``(...,)`` → ``(..., d)``."""
+        """θ''(φ) = d²θ/dφ²: phases ``(...,)`` → ``(..., d)``.
+
+        Parameters
+        ----------
+        phase : float or array-like of shape (...,)
+            Gait phase φ in radians.
+        """
         return self.basis(phase, 2) @ self.coefficients.T
 
     def joint_limit(self, resolution: int = 1024) -> np.ndarray:
@@ -151,6 +210,11 @@ class FourierGait:
 
         A dense grid brackets each maximum; Newton steps on θ'(φ) = 0 refine it, so the result
         is exact to rounding for smooth gaits (closed form for order 1: |a_0| + √(a_1² + b_1²)).
+
+        Parameters
+        ----------
+        resolution : int, default 1024
+            Number of equally spaced phases of the grid that brackets each maximum.
         """
         phase = np.linspace(0, 2 * np.pi, resolution, endpoint=False)
         values = np.abs(self.shape(phase))  # (n, d)
@@ -181,6 +245,15 @@ def seed_gait(n_joints: int, amplitude: float = 1.0, order: int = 1) -> FourierG
 
     so Δ = π/2 for the 3- and 5-link swimmers and π/4 for the 9-link swimmer. ``order`` > 1
     embeds the same gait in a higher-order family (extra coefficients zero).
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d (≥ 1).
+    amplitude : float > 0, default 1.0
+        Joint amplitude a in radians.
+    order : int, default 1
+        Fourier order K (≥ 1) of the returned gait.
     """
     n_joints = check_int(n_joints, "n_joints", "seed_gait", minimum=1)
     amplitude = check_float(amplitude, "amplitude", "seed_gait", low=0, low_open=True)

@@ -115,6 +115,19 @@ class Perturbation:
 
         Only the initial state is drawn from ``rng``; the caller supplies the white noise to
         :meth:`PerturbationStream.run`, so many streams can draw from generators of their own.
+
+        Parameters
+        ----------
+        dt : float > 0
+            Step (in cycles).
+        n_joints : int
+            Shape dimension d (≥ 1).
+        rng : numpy.random.Generator
+            Draws the stationary initial state (unused when ``initial_state`` is given).
+        size : tuple, optional
+            Leading batch shape (e.g. ``(n_trials,)``).
+        initial_state : ndarray of shape size + (d, 2), optional
+            (δ, δ̇) per joint at the first sample; a stationary draw by default.
         """
         n_joints = check_int(n_joints, "n_joints", "Perturbation.stream", minimum=1)
         transition, noise_factor = self.discretize(dt)
@@ -130,7 +143,19 @@ class Perturbation:
 
 
 class PerturbationStream:
-    """Exact SDE integrator; ``state[..., j, :] = (δ_j, δ̇_j)`` at the current sample."""
+    """Exact SDE integrator; ``state[..., j, :] = (δ_j, δ̇_j)`` at the current sample.
+
+    Usually built by :meth:`Perturbation.stream`.
+
+    Parameters
+    ----------
+    transition : ndarray of shape (2, 2)
+        Exact one-step transition ``e^{F dt}`` of the state (δ, δ̇).
+    noise_factor : ndarray of shape (2, 2)
+        Cholesky factor of the one-step noise covariance ``Q`` (zeros for ``eta = 0``).
+    state : ndarray of shape batch + (d, 2)
+        (δ, δ̇) per joint at the current sample, radians and radians per cycle.
+    """
 
     def __init__(self, transition: np.ndarray, noise_factor: np.ndarray, state: np.ndarray):
         self.transition = transition

@@ -46,6 +46,13 @@ def shift_phase(gait: FourierGait, shift: float) -> FourierGait:
 
     Per harmonic the coefficients rotate:
     :math:`(a_k, b_k) \mapsto (a_k\cos ks + b_k\sin ks,\ b_k\cos ks - a_k\sin ks)`.
+
+    Parameters
+    ----------
+    gait : FourierGait
+        The gait to shift.
+    shift : float
+        Phase shift s in radians.
     """
     if not isinstance(gait, FourierGait):
         raise fail("gait", "shift_phase", "a FourierGait", type(gait).__name__)
@@ -141,7 +148,13 @@ class SymmetricGaitFamily:
         return params
 
     def fourier_params(self, params) -> np.ndarray:
-        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``."""
+        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``.
+
+        Parameters
+        ----------
+        params : array-like of shape (n_params,)
+            Free parameters q of the family.
+        """
         return self.matrix @ self._check_params(params, "SymmetricGaitFamily.fourier_params")
 
     def gait(self, params) -> FourierGait:
@@ -225,7 +238,13 @@ class FreeGaitFamily:
         return self.matrix.shape[1]
 
     def fourier_params(self, params) -> np.ndarray:
-        """The parameters themselves (checked)."""
+        """The parameters themselves (checked).
+
+        Parameters
+        ----------
+        params : array-like of shape (d (2K + 1),)
+            Flat Fourier parameters; returned as a copy.
+        """
         params = check_array(params, "params", "FreeGaitFamily.fourier_params", ndim=1)
         if params.size != self.n_params:
             raise fail("params", "FreeGaitFamily.fourier_params", f"a vector of length {self.n_params}",
@@ -242,7 +261,16 @@ class FreeGaitFamily:
         return 0.0
 
     def params_of(self, gait: FourierGait, tolerance: float = 0.0) -> np.ndarray:
-        """``gait`` written in this order."""
+        """``gait`` written in this order.
+
+        Parameters
+        ----------
+        gait : FourierGait
+            A gait with this family's number of joints and order ≤ K.
+        tolerance : float, default 0.0
+            Accepted for the interface of :meth:`SymmetricGaitFamily.params_of`; unused, since every such
+            gait is a member.
+        """
         if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
             raise fail("gait", "FreeGaitFamily.params_of",
                        f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)

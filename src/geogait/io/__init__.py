@@ -10,20 +10,10 @@ from ._fit import (
     read_log_for_prediction,
     resolve_mapping,
 )
-from ._logs import ColumnMapping, Log, body_velocity_from_poses, load_column_mapping, read_log
-from ._streaming import (
-    CsvReader,
-    JsonLinesReader,
-    OnlineDifferentiator,
-    StreamLearner,
-    StreamOutput,
-    StreamSample,
-    StreamSummary,
-    load_stream_model,
-    model_config,
-    model_from_config,
-    run_stream,
-)
+from ._learner import OnlineDifferentiator, StreamLearner, load_stream_model
+from ._logs import ColumnMapping, Log, load_column_mapping, read_log
+from ._records import CsvReader, JsonLinesReader, StreamOutput, StreamSample, StreamSummary
+from ._streaming import run_stream
 
 __all__ = [
     "ColumnMapping",
@@ -37,13 +27,10 @@ __all__ = [
     "StreamOutput",
     "StreamSample",
     "StreamSummary",
-    "body_velocity_from_poses",
     "fit_log",
     "load_column_mapping",
     "load_stream_model",
     "mapping_to_json",
-    "model_config",
-    "model_from_config",
     "predict_log",
     "read_log",
     "read_log_for_prediction",

@@ -42,20 +42,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._estimator import check_is_fitted
 from .._files import write_json, write_text
 from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
-from ._logs import ColumnMapping, Log, _load_frame, _resolve_mapping, load_column_mapping, read_log
-from ._streaming import PREDICTION_COLUMNS, model_config
+from ..simulate import BODY_VELOCITY_COLUMNS
+from ._logs import TIME_UNITS, ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
+from ._records import PREDICTION_COLUMNS
+from ._report import write_fit_figures
 
 __all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log", "read_log_for_prediction",
            "resolve_mapping"]
 
 MIN_TRAIN_CYCLES = 5
 DEFAULT_TEST_FRACTION = 0.25
-_MEASURED_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
 _PLACEHOLDER = ("__geogait_unmeasured_vx", "__geogait_unmeasured_vy", "__geogait_unmeasured_w")
 
 
@@ -74,7 +76,7 @@ def resolve_mapping(mapping=None, **columns) -> ColumnMapping:
     -------
     ColumnMapping
     """
-    return _resolve_mapping(mapping, columns)
+    return resolve_columns(mapping, columns)
 
 
 def read_log_for_prediction(source, mapping=None, *, measured: bool = True, **arguments) -> tuple[Log, bool]:
@@ -106,7 +108,7 @@ def read_log_for_prediction(source, mapping=None, *, measured: bool = True, **ar
         base["pose"] = base["body_velocity"] = None
     if base.get("pose") is not None or base.get("body_velocity") is not None:
         return read_log(source, ColumnMapping(**base), **options), True
-    frame = _load_frame(source).copy()
+    frame = load_frame(source).copy()
     for name in _PLACEHOLDER:
         frame[name] = 0.0
     base["body_velocity"] = _PLACEHOLDER
@@ -181,8 +183,6 @@ def check_phase_rate(rate: float, time_unit: str | None, owner: str) -> float:
     float
         ``rate``.
     """
-    from ._logs import TIME_UNITS
-
     frequency = rate / (2 * np.pi)
     low, high = PLAUSIBLE_FREQUENCY
     if low <= frequency <= high:
@@ -314,7 +314,7 @@ class LogFit:
             "saved_model": (f"refit on all {self.log.n_samples} samples (training and held-out cycles); "
                             "held-out scores are those of the same model trained on the training cycles only")
             if self.refit else "trained on the training cycles only (the model that was scored)",
-            "hyper_parameters": {k: v for k, v in self.model.get_params().items() if k != "gait"},
+            "hyper_parameters": {k: v for k, v in self.model.get_params(deep=False).items() if k != "gait"},
             "segments": self._segments(),
         }
 
@@ -346,14 +346,12 @@ class LogFit:
         -------
         dict of name to Path
         """
-        from ._report import write_fit_figures
-
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         paths = {"model": self.model.save(folder / "model.npz")}
         if self.phaser is not None:
             paths["phaser"] = self.phaser.save(folder / "phaser.npz")
-        paths["config"] = write_json(folder / "config.json", model_config(self.model))
+        paths["config"] = write_json(folder / "config.json", self.model.to_config())
         if mapping is not None:
             paths["mapping"] = write_text(folder / "mapping.json", mapping_to_json(mapping))
         paths.update(write_fit_figures(self, folder))
@@ -466,7 +464,7 @@ class LogPrediction:
                    "cycle": self.cycle}
         columns.update(zip(PREDICTION_COLUMNS, self.prediction.T, strict=True))
         if self.measured:
-            columns.update(zip(_MEASURED_COLUMNS, self.log.body_velocity.T, strict=True))
+            columns.update(zip(BODY_VELOCITY_COLUMNS, self.log.body_velocity.T, strict=True))
         return pd.DataFrame(columns)
 
     def summary(self) -> dict:
@@ -580,7 +578,7 @@ def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = N
     """
     if not isinstance(model, AdaptiveGaitModel):
         raise fail("model", "predict_log", "an AdaptiveGaitModel", type(model).__name__)
-    model._check_is_fitted()
+    check_is_fitted(model)
     if model.n_joints_ != log.n_joints:
         raise fail("log", "predict_log", f"a log with {model.n_joints_} shape columns (the model's joints)",
                    f"{log.n_joints} shape columns")

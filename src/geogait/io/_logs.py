@@ -70,12 +70,11 @@ import pyarrow as pa
 from scipy.signal import savgol_filter
 
 from .. import se2
-from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_choice, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float, check_int, fail
 from ..phase import cycle_index
-from ..simulate import Trajectory
-from ..simulate._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS
+from ..simulate import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
 
-__all__ = ["ColumnMapping", "Log", "body_velocity_from_poses", "load_column_mapping", "read_log"]
+__all__ = ["ColumnMapping", "Log", "load_column_mapping", "read_log"]
 
 _READ = "read_log"
 #: Seconds per unit of the ``time_unit`` argument.
@@ -155,7 +154,16 @@ class ColumnMapping:
 
     @classmethod
     def from_dict(cls, entries: dict, source: str = "mapping") -> ColumnMapping:
-        """From a dict with the field names as keys; unknown keys are an error."""
+        """From a dict with the field names as keys; unknown keys are an error.
+
+        Parameters
+        ----------
+        entries : dict
+            Field name → value, e.g. ``{"shape": ["q1", "q2"], "pose": ["x", "y", "yaw"]}`` (as read from a
+            JSON or TOML file).
+        source : str, default "mapping"
+            Name of where ``entries`` came from (e.g. the file), used in error messages.
+        """
         if not isinstance(entries, dict):
             raise fail(source, "ColumnMapping.from_dict", "a table of column names", entries)
         known = {f.name for f in fields(cls)}
@@ -325,56 +333,6 @@ def _integrate(part: Log, start_pose: np.ndarray) -> np.ndarray:
     return se2.integrate_body_velocity(part.body_velocity[:-1], dt, start_pose)
 
 
-# -- differentiation ----------------------------------------------------------------------------
-def body_velocity_from_poses(time, pose, *, scheme: str = "forward") -> np.ndarray:
-    r"""Body velocity from world poses of one uniformly or irregularly sampled segment.
-
-    .. math:: \xi_{n+1/2} = \log\bigl(g_n^{-1} g_{n+1}\bigr)^\vee / (t_{n+1} - t_n)
-
-    ``"forward"`` assigns :math:`\xi_{n+1/2}` to sample n (exact inverse of
-    :func:`geogait.se2.integrate_body_velocity`; the last sample repeats the previous twist);
-    ``"central"`` assigns the duration-weighted mean of :math:`\xi_{n-1/2}` and
-    :math:`\xi_{n+1/2}` (one-sided at the ends).
-
-    Parameters
-    ----------
-    time : array-like of shape (n,), strictly increasing, n >= 2
-    pose : array-like of shape (n, 3)
-        (x, y, heading); the heading may be wrapped (each step is taken modulo 2π).
-    scheme : {"forward", "central"}
-
-    Returns
-    -------
-    ndarray of shape (n, 3)
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from geogait import se2
-    >>> xi = np.tile([0.3, 0.1, 2.0], (50, 1))
-    >>> poses = se2.integrate_body_velocity(xi, 0.05)
-    >>> recovered = body_velocity_from_poses(0.05 * np.arange(51), poses)
-    >>> bool(np.allclose(recovered, [0.3, 0.1, 2.0]))
-    True
-    """
-    owner = "body_velocity_from_poses"
-    scheme = check_choice(scheme, "scheme", owner, _SCHEMES)
-    time = check_array(time, "time", owner, ndim=1)
-    pose = check_array(pose, "pose", owner, trailing=(None, 3), ndim=2)
-    if time.size < 2 or pose.shape != time.shape + (3,):
-        raise fail("pose", owner, "an array of shape (n, 3) with n = len(time) >= 2", f"shape {pose.shape}")
-    dt = np.diff(time)
-    if np.any(dt <= 0):
-        raise fail("time", owner, "strictly increasing",
-                   f"a step of {dt.min():g} at index {int(np.argmin(dt))}")
-    steps = se2.log(se2.between(pose[:-1], pose[1:])) / dt[:, None]
-    if scheme == "forward":
-        return np.concatenate([steps, steps[-1:]], axis=0)
-    weights = dt[:-1, None], dt[1:, None]
-    inner = (steps[:-1] * weights[0] + steps[1:] * weights[1]) / (weights[0] + weights[1])
-    return np.concatenate([steps[:1], inner, steps[-1:]], axis=0)
-
-
 # -- reading ------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Options:
@@ -418,7 +376,7 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     smooth_poses : bool
         Smooth poses before computing body velocities (see the module notes).
     scheme : {"forward", "central"}
-        Sample assignment of the pose-derived body velocity (:func:`body_velocity_from_poses`).
+        Sample assignment of the pose-derived body velocity (:func:`geogait.se2.body_velocity_from_poses`).
     time_unit : {"s", "ms", "us", "ns"}, optional
         Unit of the time column and of every rate column (shape velocity, body velocity): all are
         converted to seconds. None (default) keeps them in the log's own unit.
@@ -442,13 +400,13 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     >>> log.shape.shape, round(float(log.shape_velocity[100, 0]), 3)
     ((200, 1), 6.283)
     """
-    columns = _resolve_mapping(mapping, dict(time=time, shape=shape, body_velocity=body_velocity, pose=pose,
+    columns = resolve_columns(mapping, dict(time=time, shape=shape, body_velocity=body_velocity, pose=pose,
                                              shape_velocity=shape_velocity, phase=phase, degrees=degrees))
     options = _check_options(drop_nan, gap_factor, max_jitter, window, polyorder, smooth_poses, scheme)
     scale = _time_scale(time_unit)
     limit = None if outlier_limit is None else check_float(outlier_limit, "outlier_limit", _READ, low=0,
                                                            low_open=True)
-    frame = _load_frame(source)
+    frame = load_frame(source)
     data = _numeric_columns(frame, columns)
     keep = _finite_rows(data, columns, options.drop_nan)
     rows = np.flatnonzero(keep)
@@ -538,7 +496,7 @@ def _check_plausible(data: dict[str, np.ndarray], columns: ColumnMapping, rows: 
                        f"(the first of {bad.size} such value(s); median {np.median(values):.4g})")
 
 
-def _resolve_mapping(mapping, overrides: dict) -> ColumnMapping:
+def resolve_columns(mapping, overrides: dict) -> ColumnMapping:
     if mapping is None:
         base: dict = {}
     elif isinstance(mapping, ColumnMapping):
@@ -573,7 +531,7 @@ def _check_options(drop_nan, gap_factor, max_jitter, window, polyorder, smooth_p
                     scheme=check_choice(scheme, "scheme", _READ, _SCHEMES))
 
 
-def _load_frame(source) -> pd.DataFrame:
+def load_frame(source) -> pd.DataFrame:
     if isinstance(source, pd.DataFrame):
         return source
     if not isinstance(source, str | Path):
@@ -724,7 +682,7 @@ def _unwrap_heading(pose: np.ndarray, rows: np.ndarray, name: str) -> np.ndarray
 
 def _pose_velocity(stamps: np.ndarray, pose: np.ndarray, options: _Options) -> np.ndarray:
     smoothed = _savgol(stamps, pose, options, 0) if options.smooth_poses else pose
-    return body_velocity_from_poses(stamps, smoothed, scheme=options.scheme)
+    return se2.body_velocity_from_poses(stamps, smoothed, scheme=options.scheme)
 
 
 def _savgol(stamps: np.ndarray, values: np.ndarray, options: _Options, deriv: int) -> np.ndarray:

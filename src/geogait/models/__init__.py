@@ -2,7 +2,7 @@
 the batch baseline, the phase model and the Γ metric."""
 
 from ._adaptive import AdaptiveGaitModel
-from ._base import gamma, load_model, model_from_state
+from ._base import MAX_PHASE, gamma, load_model, model_from_state
 from ._batch import BatchGaitModel
 from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
@@ -12,6 +12,7 @@ from ._rls import RLSBank
 from ._shape_space import ShapeSpaceModel, monomial_exponents, monomials, symmetry_blocks
 
 __all__ = [
+    "MAX_PHASE",
     "AdaptiveGaitModel",
     "BatchGaitModel",
     "PerfectInformationModel",

@@ -4,17 +4,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_choice, check_float, fail, warn_if_degrees
+from .._docs import fill_doc
+from .._estimator import Real
+from .._validation import check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
-from ._base import GaitModelBase
-from ._estimator import OnlineGamma
+from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
 from ._features import n_regressors, regressors
-from ._phase import _assign_bank
+from ._online_gamma import OnlineGamma
+from ._phase import phase_baseline
 from ._rls import RLSBank
 
-__all__ = ["AdaptiveGaitModel"]
+__all__ = ["CONFIG_FORMAT", "AdaptiveGaitModel"]
+
+CONFIG_FORMAT = "geogait-model-config"
+CONFIG_VERSION = 1
 
 
+@fill_doc
 class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     r"""Local model of ξ = −A(r)ṙ around a nominal gait, learned sample by sample.
 
@@ -87,6 +93,13 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     True
     """
 
+    _parameter_constraints = {
+        **GAIT_MODEL_CONSTRAINTS,
+        "forgetting_factor": Real(low=0, high=1, low_open=True),
+        "initial_covariance": Real(low=0, low_open=True),
+        "gamma_forgetting": Real(low=0, high=1, low_open=True),
+    }
+
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, forgetting_factor: float = 0.99,
                  initial_covariance: float = 100.0, smoothing_order: int = 5,
@@ -103,26 +116,17 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
-        owner = "AdaptiveGaitModel"
+        self.validate()
         self.windows_ = self._windows()
-        lam = check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
-        delta0 = check_float(self.initial_covariance, "initial_covariance", owner, low=0, low_open=True)
-        check_float(self.gamma_forgetting, "gamma_forgetting", owner, low=0, high=1, low_open=True)
-        self._phase_rate()
         self._set_gait(gait)
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
         n = n_regressors(self.n_joints_, self.interaction)
-        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, lam, delta0)
-        self.phase_model_ = self._new_baseline(lam)
+        self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, self.forgetting_factor,
+                             self.initial_covariance)
+        self.phase_model_ = phase_baseline(self, self.forgetting_factor)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
-
-    def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
-        with self._unchanged_on_error():
-            self._forget()
-            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn from samples in time order (one sample or a batch; optional leading trial axes).
@@ -260,16 +264,59 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self._set_gait(new_gait)
         bank = self.phase_model_.bank_
         if baseline == "reset":
-            self.phase_model_._reset(self.batch_shape_)
+            self.phase_model_.start(self.batch_shape_)
         elif baseline == "reseed":
             bank.weights[..., 0, :] = self.bank_.weights[..., 0, :]
             bank.covariance[...] = 1.0
         return self
 
+    # -- configs: a fresh model's recipe as JSON ----------------------------------------------
+    def to_config(self) -> dict:
+        """A JSON-ready config that starts a fresh model with these hyper-parameters and nominal gait
+        (``geogait fit`` writes it as ``config.json``; ``geogait stream`` and :meth:`from_config` read it).
+
+        Returns
+        -------
+        dict with keys ``format``, ``format_version``, ``params`` and ``gait`` (coefficients ``(d, 2K+1)``).
+        """
+        gait = getattr(self, "gait_", None)
+        gait = self.gait if gait is None else gait
+        if gait is None:
+            raise fail("gait", "AdaptiveGaitModel.to_config", "known (a fitted model, or one built with a gait)", None)
+        params = {k: v for k, v in self.get_params(deep=False).items() if k != "gait"}
+        return {"format": CONFIG_FORMAT, "format_version": CONFIG_VERSION, "params": params,
+                "gait": gait.coefficients.tolist()}
+
+    @classmethod
+    def from_config(cls, config: dict, source: str = "config") -> AdaptiveGaitModel:
+        """A fresh model from a config of :meth:`to_config`; ``source`` names it in errors.
+
+        Only ``gait`` is required; ``params`` holds any hyper-parameters, and ``format`` /
+        ``format_version`` are checked when present. Unknown keys are errors. The hyper-parameters
+        are validated here, not at the first sample.
+        """
+        owner = f"the model config {source}"
+        if not isinstance(config, dict):
+            raise fail("config", owner, "a JSON object", type(config).__name__)
+        unknown = sorted(set(config) - {"format", "format_version", "params", "gait"})
+        if unknown:
+            raise fail("config", owner, "an object with keys among format, format_version, params, gait",
+                       f"unknown key(s) {unknown}")
+        if config.get("format", CONFIG_FORMAT) != CONFIG_FORMAT or config.get("format_version", 1) != 1:
+            raise fail("format", owner, f"{CONFIG_FORMAT!r} version {CONFIG_VERSION}",
+                       f"{config.get('format')!r} version {config.get('format_version')}")
+        if "gait" not in config:
+            raise fail("gait", owner, "given: the nominal gait's Fourier coefficients, a list of d lists "
+                       "[a_0, a_1..a_K, b_1..b_K]", None)
+        gait = FourierGait(check_array(config["gait"], "gait", owner, ndim=2))
+        params = config.get("params", {})
+        if not isinstance(params, dict):
+            raise fail("params", owner, "an object of AdaptiveGaitModel hyper-parameters", params)
+        return cls(gait=gait).set_params(**params).validate()
+
     # -- persistence --------------------------------------------------------------------------
     def _state(self) -> dict:
-        state = {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
-                 "n_updates": self.bank_.n_updates, "psi": self.psi_, "gait": self.gait_.coefficients,
+        state = {**self.bank_.state(), **self._gamma_state(), "gait": self.gait_.coefficients,
                  "n_samples_seen": self.n_samples_seen_,
                  **self._baseline_state()}
         if self.gait is not None:
@@ -283,10 +330,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
             raise ValueError(f"gait has {gait.n_joints} joints, metadata says {d}")
         self.gait = FourierGait(state["initial_gait"]) if "initial_gait" in state else None
         self._reset(batch, d, gait)
-        _assign_bank(self.bank_, state)
-        psi = np.asarray(state["psi"], dtype=float)
-        if psi.shape != self.psi_.shape:
-            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
-        self.psi_ = psi
+        self.bank_.assign(state)
+        self._set_gamma_state(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
         self._set_baseline_state(state)

@@ -10,20 +10,20 @@ in seconds at any cycle period gives the same gaits as one in cycles; at φ̇ = 
 
 from __future__ import annotations
 
-import contextlib
 import functools
-from pathlib import Path
 
 import numpy as np
 
-from .._files import read_state, write_state
-from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
+from .._docs import fill_doc
+from .._estimator import Estimator, InstanceOf, Integer, Real, estimator_from_state
+from .._files import read_state
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, fail
 from ..gaits import FourierGait, fourier_basis
-from ._estimator import Parameters
+from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
-__all__ = ["GaitModelBase", "gamma", "load_model", "model_from_state"]
+__all__ = ["GaitModelBase", "PhaseWindowModel", "gamma", "load_model", "model_from_state"]
 
 FORMAT = "geogait-model"
 _GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
@@ -32,30 +32,62 @@ _CYCLE_RATE = 2 * np.pi  # φ̇ in cycle time
 #: Largest |phase| (rad) accepted: beyond it, φ mod 2π loses the precision that the windows need.
 MAX_PHASE = 1e9
 
+#: Constraints of the hyper-parameters the phase-window models share.
+WINDOW_CONSTRAINTS = {
+    "n_windows": Integer(minimum=1),
+    "window_width": Real(low=0, high=2 * np.pi, low_open=True, none=True),
+    "smoothing_order": Integer(minimum=0),
+}
+GAIT_MODEL_CONSTRAINTS = {
+    **WINDOW_CONSTRAINTS,
+    "gait": InstanceOf(FourierGait, "a FourierGait"),
+    "phase_rate": Real(low=0, low_open=True),
+    "interaction": InstanceOf(bool, "a bool", none=False),
+}
+
 
 def gamma(error_model, error_baseline) -> np.ndarray:
-    r"""Γ = 1 − Σ‖ξ_D − ξ‖ / Σ‖ξ_T − ξ‖ (eq. 5) from per-sample error norms ``(..., n)``."""
+    r"""Γ = 1 − Σ‖ξ_D − ξ‖ / Σ‖ξ_T − ξ‖ (eq. 5) from per-sample error norms ``(..., n)``.
+
+    Parameters
+    ----------
+    error_model : array-like of shape (..., n)
+        ‖ξ_D − ξ‖ per sample: error norms of the gait model's predictions.
+    error_baseline : array-like of shape (..., n)
+        ‖ξ_T − ξ‖ per sample: error norms of the phase model's (baseline) predictions.
+
+    Returns
+    -------
+    ndarray of shape (...)
+        Γ, the sums running over the last (sample) axis: 1 is a perfect model, 0 no better than the
+        baseline, negative worse.
+    """
     return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
 
 
-class GaitModelBase(Parameters):
-    """Shared machinery; subclasses define ``_fit_samples`` and their learned state."""
+class PhaseWindowModel(Estimator):
+    """What every phase-window model shares: windows, sample checks, the RLS rounds across windows,
+    Fourier smoothing along φ and the model file format."""
 
-    _estimated_gait_order = 1
+    _format = FORMAT
+    _format_version = FORMAT_VERSION
+    _readable_versions = (1, FORMAT_VERSION)
+    _parameter_constraints = WINDOW_CONSTRAINTS
 
     # -- validation ---------------------------------------------------------------------------
+    def _check_param_combinations(self) -> None:
+        self._windows()
+
     def _windows(self) -> PhaseWindows:
         owner = type(self).__name__
-        n_windows = check_int(self.n_windows, "n_windows", owner, minimum=1)
-        width = 4 * np.pi / n_windows if self.window_width is None else self.window_width
-        width = check_float(width, "window_width", owner, low=0, high=2 * np.pi, low_open=True)
+        n_windows = self.n_windows
+        width = 4 * np.pi / n_windows if self.window_width is None else float(self.window_width)
         if width < 2 * np.pi / n_windows - 1e-12:
             raise fail("window_width", owner, f">= the window spacing 2π/{n_windows}", width)
-        order = check_int(self.smoothing_order, "smoothing_order", owner, minimum=0)
-        if 2 * order + 1 > n_windows:
-            raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}", order)
+        if 2 * self.smoothing_order + 1 > n_windows:
+            raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}",
+                       self.smoothing_order)
         return PhaseWindows(n_windows, width)
-
     def _check_samples(self, phase, *arrays, names, owner):
         """Validate time-ordered samples; returns arrays with a time axis (batch + (n, ...))."""
         phase = np.asarray(check_array(phase, "phase", owner, limit=MAX_PHASE))
@@ -95,42 +127,6 @@ class GaitModelBase(Parameters):
                        f"shape {phase.shape}")
         self._single = single
         return out
-
-    def _check_is_fitted(self):
-        if not hasattr(self, "batch_shape_"):
-            raise GeogaitError(f"This {type(self).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
-
-    # -- nominal gait and windows -------------------------------------------------------------
-    def _initial_gait(self, phase, shape) -> FourierGait:
-        owner = type(self).__name__
-        if self.gait is not None:
-            if not isinstance(self.gait, FourierGait):
-                raise fail("gait", owner, "a FourierGait or None", type(self.gait).__name__)
-            if self.gait.n_joints != shape.shape[-1]:
-                raise fail("gait", owner, f"a gait with {shape.shape[-1]} joints like 'shape'", self.gait.n_joints)
-            return self.gait
-        flat_phase, flat_shape = phase.reshape(-1), shape.reshape(-1, shape.shape[-1])
-        if np.unique(np.round(flat_phase, 6)).size < 4 * self._estimated_gait_order + 2:
-            raise fail("gait", owner, "given, or data spread over a cycle to estimate it from",
-                       f"None with {flat_phase.size} sample(s)")
-        return FourierGait.from_shapes(flat_phase, flat_shape, self._estimated_gait_order)
-
-    def _nominal(self, phase, gait=None):
-        """θ(φ) and θ̇(φ) = θ'(φ) · 2π (in cycle time) of the model's nominal gait."""
-        gait = self.gait_ if gait is None else gait
-        return gait.shape(phase), gait.velocity(phase) * _CYCLE_RATE
-
-    def _phase_rate(self) -> float:
-        return check_float(self.phase_rate, "phase_rate", type(self).__name__, low=0, low_open=True)
-
-    def _time_scale(self) -> float:
-        """s = φ̇ / 2π: velocities per unit of the data's time = s × velocities per cycle."""
-        return self._phase_rate() / _CYCLE_RATE
-
-    def _sample_regressors(self, phase, shape, shape_velocity, gait=None):
-        """Regressors about the nominal gait at each sample's own phase, ``(..., n, 1+2d+d²)``."""
-        nominal, nominal_rate = self._nominal(phase, gait)
-        return regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)
 
     def _run_rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
         """Feed time-ordered samples to the window filters of ``bank``, window by window in time
@@ -176,11 +172,74 @@ class GaitModelBase(Parameters):
         """Linear map from window values to their Fourier fit at ``phase``: ``(..., n_windows)``."""
         return fourier_basis(phase, self.smoothing_order) @ _fourier_fit(self.windows_.n_windows, self.smoothing_order)
 
-    def _weights_at(self, phase) -> np.ndarray:
-        """Fourier-smoothed weights ``batch + (n, 1+2d+d², 3)`` at phases ``batch + (n,)``."""
+    def smoothed_weights(self, phase) -> np.ndarray:
+        """Fourier-smoothed window weights ``batch + (n, 1+2d+d², 3)`` at phases ``batch + (n,)``, in cycle
+        time (the regression's own units; :meth:`coefficients` gives them in the data's units)."""
         return np.einsum("...nm,...mij->...nij", self._smoother(phase), self.window_weights_)
 
+    # -- fitting and persistence --------------------------------------------------------------
+    def _forget(self) -> None:
+        """Drop the learned state so the next ``partial_fit`` starts from scratch (``fit``)."""
+        for name in ("batch_shape_", "n_joints_"):
+            self.__dict__.pop(name, None)
+
+    def _metadata(self) -> dict:
+        return {"n_joints": getattr(self, "n_joints_", None), "batch_shape": list(self.batch_shape_)}
+
+    @classmethod
+    def _upgrade_state(cls, state: dict, metadata: dict) -> dict:
+        return _from_version_1(state, metadata) if metadata.get("format_version") == 1 else state
+
+@fill_doc
+class GaitModelBase(PhaseWindowModel):
+    """The gait models' shared API: nominal gait, prediction (eq. 3), coefficients, Γ score (eq. 5),
+    the phase-model baseline and predicted net motion per cycle."""
+
+    _parameter_constraints = GAIT_MODEL_CONSTRAINTS
+    _array_params = ("gait",)
+    _estimated_gait_order = 1
+
+    # -- nominal gait and windows -------------------------------------------------------------
+    def _initial_gait(self, phase, shape) -> FourierGait:
+        self.validate()  # before the gait is estimated from the data
+        owner = type(self).__name__
+        if self.gait is not None:
+            if self.gait.n_joints != shape.shape[-1]:
+                raise fail("gait", owner, f"a gait with {shape.shape[-1]} joints like 'shape'", self.gait.n_joints)
+            return self.gait
+        flat_phase, flat_shape = phase.reshape(-1), shape.reshape(-1, shape.shape[-1])
+        if np.unique(np.round(flat_phase, 6)).size < 4 * self._estimated_gait_order + 2:
+            raise fail("gait", owner, "given, or data spread over a cycle to estimate it from",
+                       f"None with {flat_phase.size} sample(s)")
+        return FourierGait.from_shapes(flat_phase, flat_shape, self._estimated_gait_order)
+
+    def _nominal(self, phase, gait=None):
+        """θ(φ) and θ̇(φ) = θ'(φ) · 2π (in cycle time) of the model's nominal gait."""
+        gait = self.gait_ if gait is None else gait
+        return gait.shape(phase), gait.velocity(phase) * _CYCLE_RATE
+
+    def _time_scale(self) -> float:
+        """s = φ̇ / 2π: velocities per unit of the data's time = s × velocities per cycle."""
+        return float(self.phase_rate) / _CYCLE_RATE
+
+    def _sample_regressors(self, phase, shape, shape_velocity, gait=None):
+        """Regressors about the nominal gait at each sample's own phase, ``(..., n, 1+2d+d²)``."""
+        nominal, nominal_rate = self._nominal(phase, gait)
+        return regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)
+
     # -- public API shared by the gait models -------------------------------------------------
+    def fit(self, phase, shape, shape_velocity, body_velocity):
+        """Forget everything, then :meth:`partial_fit` (for the batch model: least squares on exactly these
+        samples). Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
+        with self._unchanged_on_error():
+            self._forget()
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
         r"""Predicted body velocity ξ̂ = C + Bδ + Aδ̇ + δᵀ∂Aδ̇ (eq. 3) with smoothed coefficients.
 
@@ -199,7 +258,7 @@ class GaitModelBase(Parameters):
         scale = self._time_scale()
         x = self._sample_regressors(phase, shape, shape_velocity / scale)
         single = self._single
-        prediction = np.einsum("...ni,...nij->...nj", x, self._weights_at(phase)) * scale
+        prediction = np.einsum("...ni,...nij->...nj", x, self.smoothed_weights(phase)) * scale
         return prediction[..., 0, :] if single else prediction
 
     def coefficients(self, phase) -> dict[str, np.ndarray]:
@@ -214,7 +273,7 @@ class GaitModelBase(Parameters):
         phase = check_array(phase, "phase", f"{type(self).__name__}.coefficients")
         phase = np.broadcast_to(phase, self.batch_shape_ + phase.shape[len(self.batch_shape_):]) \
             if phase.ndim >= len(self.batch_shape_) else phase
-        parts = split_coefficients(self._weights_at(phase), self.n_joints_)
+        parts = split_coefficients(self.smoothed_weights(phase), self.n_joints_)
         scale = self._time_scale()  # C and B are velocities (cycle time inside); A and ∂A are rate-free
         return {**parts, "C": parts["C"] * scale, "B": parts["B"] * scale}
 
@@ -243,73 +302,22 @@ class GaitModelBase(Parameters):
         value = gamma(model_error, baseline_error)
         return float(value) if np.ndim(value) == 0 else value
 
-    # -- persistence --------------------------------------------------------------------------
-    def _metadata(self) -> dict:
-        params = {k: v for k, v in self.get_params().items() if k != "gait"}
-        return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
-                "params": params, "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
-
-    def _new_baseline(self, forgetting_factor: float):
-        """The phase model ξ_T learned alongside: same windows and smoothing, given forgetting."""
-        from ._phase import PhaseModel
-
-        baseline = PhaseModel(n_windows=self.n_windows, window_width=self.windows_.width,
-                              forgetting_factor=forgetting_factor, smoothing_order=self.smoothing_order)
-        baseline._reset(self.batch_shape_)
-        return baseline
-
-    @contextlib.contextmanager
-    def _unchanged_on_error(self):
-        """Restore every attribute when the block raises: a failed ``fit`` leaves the model as it was."""
-        saved = dict(self.__dict__)
-        try:
-            yield
-        except BaseException:
-            self.__dict__.clear()
-            self.__dict__.update(saved)
-            raise
-
-    def _forget(self) -> None:
-        """Drop the learned state so the next ``partial_fit`` starts from scratch (``fit``)."""
-        for name in ("batch_shape_", "n_joints_"):
-            self.__dict__.pop(name, None)
-
+    # -- the baseline and persistence ---------------------------------------------------------
     def _baseline_state(self) -> dict:
         """The phase model's arrays, prefixed for storage beside the gait model's own."""
-        return {f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}
+        return {f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}
 
     def _set_baseline_state(self, state: dict) -> None:
-        """Inverse of :meth:`_baseline_state`."""
+        """Inverse of :meth:`_baseline_state` (on a model whose ``phase_model_`` was just started)."""
         own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_._set_state(own, {"batch_shape": list(self.batch_shape_)})
+        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
 
     def predict_displacement(self, gait: FourierGait | None = None, *, jacobian: bool = False):
         """Net ``(x, y, heading)`` per cycle of ``gait`` predicted by the model (and its Jacobian).
 
         The interface the in-situ optimiser uses; see :func:`geogait.models.predicted_displacement`.
         """
-        from ._displacement import predicted_displacement
-
         return predicted_displacement(self, gait, jacobian=jacobian)
-
-    def get_state(self) -> tuple[dict, dict]:
-        """Learned state as ``(metadata, arrays)``: JSON-ready metadata and NumPy arrays.
-
-        What :meth:`save` writes; :func:`model_from_state` is the inverse (checkpoints embed it).
-        """
-        self._check_is_fitted()
-        return self._metadata(), dict(self._state())
-
-    def save(self, path) -> Path:
-        """Write the model to ``path`` (``.npz``: arrays + JSON metadata; no pickle), atomically.
-
-        The file is written to a temporary name in the same folder and renamed over ``path``, so
-        an interrupted save never leaves a truncated model behind; a model holding NaN or infinity
-        is refused (:class:`~geogait.GeogaitError`) and an existing file is kept.
-        """
-        self._check_is_fitted()
-        path = Path(path)
-        return write_state(path, self._metadata(), self._state(), require_finite=True)
 
     @classmethod
     def load(cls, path, n_joints: int | None = None):
@@ -318,7 +326,6 @@ class GaitModelBase(Parameters):
         if not isinstance(model, cls):
             raise GeogaitError(f"{path} holds a {type(model).__name__}, not a {cls.__name__}.")
         return model
-
 
 @functools.lru_cache(maxsize=32)
 def _fourier_fit(n_windows: int, order: int) -> np.ndarray:
@@ -349,27 +356,20 @@ def load_model(path, n_joints: int | None = None):
 
 
 def model_from_state(metadata: dict, state: dict):
-    """Rebuild a gait model from :meth:`GaitModelBase.get_state` output (checks class and arrays)."""
-    from ._adaptive import AdaptiveGaitModel
-    from ._batch import BatchGaitModel
-    from ._phase import PhaseModel
-    from ._shape_space import ShapeSpaceModel
+    """Rebuild a gait model from :meth:`GaitModelBase.get_state` output (checks class and arrays).
 
-    classes = {c.__name__: c for c in (AdaptiveGaitModel, BatchGaitModel, PhaseModel, ShapeSpaceModel)}
-    if metadata.get("class") not in classes:
-        raise GeogaitError(f"unknown model class {metadata.get('class')!r}.")
-    model = classes[metadata["class"]](**metadata["params"])
-    try:
-        if metadata.get("format_version", FORMAT_VERSION) == 1:
-            state = _from_version_1(state, metadata, model)
-        model._set_state(state, metadata)
-    except (KeyError, ValueError, IndexError) as error:
-        raise GeogaitError(f"inconsistent model state (corrupt model file): {error}") from None
-    return model
+    Parameters
+    ----------
+    metadata : dict
+        JSON-ready metadata (format, version, class name, hyper-parameters, shapes), the first item of
+        ``get_state()``.
+    state : dict of str to ndarray
+        The learned arrays, the second item of ``get_state()``.
+    """
+    return estimator_from_state(metadata, state, FORMAT)
 
 
-
-def _from_version_1(state: dict, metadata: dict, model) -> dict:
+def _from_version_1(state: dict, metadata: dict) -> dict:
     """Convert a version-1 model (regression in the data's own time unit) to cycle time.
 
     With s = φ̇ / 2π the cycle-time regressors are x' = S x, S = diag(1, 1_d, 1/s, 1/s) on the

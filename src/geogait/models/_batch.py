@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_float
+from .._docs import fill_doc
+from .._estimator import Real
 from ..gaits import FourierGait
-from ._base import GaitModelBase
+from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
 from ._features import n_regressors, regressors
+from ._phase import phase_baseline
 
 __all__ = ["BatchGaitModel"]
 
 _CHUNK = 512  # samples per normal-equation accumulation step (bounds memory for 9-link batches)
 
 
+@fill_doc
 class BatchGaitModel(GaitModelBase):
     """Same windows, regressors and smoothing as :class:`AdaptiveGaitModel`, but every window is an
     ordinary least-squares fit over all samples seen, with equal weights.
@@ -47,6 +50,8 @@ class BatchGaitModel(GaitModelBase):
     (20, 9, 3)
     """
 
+    _parameter_constraints = {**GAIT_MODEL_CONSTRAINTS, "rcond": Real(low=0)}
+
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, smoothing_order: int = 5,
                  phase_rate: float = 2 * np.pi, rcond: float = 1e-10, interaction: bool = True):
@@ -59,26 +64,23 @@ class BatchGaitModel(GaitModelBase):
         self.interaction = interaction
 
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
+        self.validate()
         self.windows_ = self._windows()
-        self._phase_rate()
-        check_float(self.rcond, "rcond", "BatchGaitModel", low=0)
         n = n_regressors(n_joints, self.interaction)
         self.gait_, self.n_joints_, self.batch_shape_ = gait, n_joints, batch
         self.gram_ = np.zeros(batch + (self.windows_.n_windows, n, n))
         self.moment_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
         self.window_weights_ = np.zeros(batch + (self.windows_.n_windows, n, 3))
-        self.phase_model_ = self._new_baseline(1.0)
+        self.phase_model_ = phase_baseline(self, 1.0)
         self.n_samples_seen_ = 0
 
-    def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Least squares on exactly these samples (forgets earlier data). Returns ``self``; on an error the
-        model is unchanged."""
-        with self._unchanged_on_error():
-            self._forget()
-            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
-
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``."""
+        """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
         phase, shape, shape_velocity, body_velocity = self._check_samples(
             phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
             owner="BatchGaitModel.partial_fit")

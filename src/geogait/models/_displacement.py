@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._estimator import check_is_fitted
 from .._validation import check_int, fail
 from ..gaits import FourierGait
-from ..simulate._oracle import gauss_phases, integrate_cycle
+from ..se2 import gauss_phases, integrate_cycle
 from ._features import regressors, split_coefficients
 
 __all__ = ["predicted_displacement"]
@@ -46,7 +47,7 @@ def predicted_displacement(model, gait: FourierGait | None = None, *, resolution
     jacobian : ndarray of shape batch + (3, p)
         Only when ``jacobian`` is true.
     """
-    model._check_is_fitted()
+    check_is_fitted(model)
     gait = model.gait_ if gait is None else gait
     if not isinstance(gait, FourierGait) or gait.n_joints != model.n_joints_:
         raise fail("gait", "predicted_displacement", f"a FourierGait with {model.n_joints_} joints", gait)
@@ -56,7 +57,7 @@ def predicted_displacement(model, gait: FourierGait | None = None, *, resolution
     rate = 2 * np.pi  # the models regress in cycle time (see geogait.models._base)
     delta = gait.shape(phase) - model.gait_.shape(phase)
     delta_rate = (gait.velocity(phase) - model.gait_.velocity(phase)) * rate
-    weights = model._weights_at(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)
+    weights = model.smoothed_weights(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)
     velocity = np.einsum("nr,...nrj->...nj", regressors(delta, delta_rate, model.interaction), weights) / rate
     velocity = velocity.reshape(velocity.shape[:-2] + nodes.shape + (3,))
     if not jacobian:

@@ -22,7 +22,15 @@ __all__ = ["PhaseWindows", "regressors", "n_regressors", "split_coefficients"]
 
 
 def n_regressors(n_joints: int, interaction: bool = True) -> int:
-    """1 + 2d + d² (or 1 + 2d without the bilinear term)."""
+    """1 + 2d + d² (or 1 + 2d without the bilinear term).
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d.
+    interaction : bool, default True
+        Count the bilinear δ ⊗ δ̇ block of eq. 3.
+    """
     return 1 + 2 * n_joints + (n_joints**2 if interaction else 0)
 
 
@@ -31,6 +39,15 @@ def regressors(delta, delta_rate, interaction: bool = True) -> np.ndarray:
 
     ``vec`` is row-major: entry ``1 + 2d + i d + j`` is ``δ_i δ̇_j``. ``interaction=False`` drops the
     bilinear block (the model is then linear in δ and δ̇, with ``1 + 2d`` weights per window).
+
+    Parameters
+    ----------
+    delta : array-like of shape (..., d)
+        Shape perturbation δ = r − θ(φ_m), radians.
+    delta_rate : array-like of shape (..., d)
+        Shape-velocity perturbation δ̇ = ṙ − θ̇(φ_m), radians per unit time.
+    interaction : bool, default True
+        Append the bilinear block vec(δ ⊗ δ̇).
     """
     delta = np.asarray(delta, dtype=float)
     delta_rate = np.asarray(delta_rate, dtype=float)
@@ -46,6 +63,13 @@ def split_coefficients(weights: np.ndarray, n_joints: int) -> dict[str, np.ndarr
     Returns ``C (..., 3)``, ``B (..., 3, d)``, ``A (..., 3, d)`` and ``dA (..., 3, d, d)`` with
     ``dA[k, i, j]`` the coefficient of ``δ_i δ̇_j`` in output k — the estimate of
     ``-∂A_kj/∂r_i`` (the fitted ``A`` estimates ``-A(θ)`` of ξ = -A ṙ).
+
+    Parameters
+    ----------
+    weights : ndarray of shape (..., 1 + 2d + d², 3) or (..., 1 + 2d, 3)
+        Regression weights, one column per output (v_x, v_y, ω); without the bilinear rows ``dA`` is zero.
+    n_joints : int
+        Shape dimension d.
     """
     d = n_joints
     w = np.swapaxes(weights, -1, -2)  # (..., 3, n)
@@ -89,7 +113,13 @@ class PhaseWindows:
         return 2 * np.pi * np.arange(self.n_windows) / self.n_windows
 
     def distance(self, phase) -> np.ndarray:
-        """Signed circular distance ``φ - φ_m`` in ``[-π, π)``, shape ``(..., n_windows)``."""
+        """Signed circular distance ``φ - φ_m`` in ``[-π, π)``, shape ``(..., n_windows)``.
+
+        Parameters
+        ----------
+        phase : float or array-like of shape (...,)
+            Gait phase φ in radians (any real value; taken modulo 2π).
+        """
         phase = np.asarray(phase, dtype=float)
         return (phase[..., None] - self.centres + np.pi) % (2 * np.pi) - np.pi
 

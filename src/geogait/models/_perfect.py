@@ -8,16 +8,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import GeogaitError, check_array, check_int, fail
+from .._docs import fill_doc
+from .._estimator import Estimator, InstanceOf, Integer
+from .._validation import check_array, fail
 from ..gaits import FourierGait
 from ..simulate import cycle_displacement
 from ..systems import System
-from ._estimator import Parameters
 
 __all__ = ["PerfectInformationModel"]
 
 
-class PerfectInformationModel(Parameters):
+@fill_doc
+class PerfectInformationModel(Estimator):
     r"""The model interface of the gait models, answered exactly by a known :class:`~geogait.systems.System`.
 
     ``partial_fit`` only records the data's shape dimension (there is nothing to learn),
@@ -50,23 +52,37 @@ class PerfectInformationModel(Parameters):
     True
     """
 
+    _parameter_constraints = {
+        "system": InstanceOf(System, "a System (an object with n_joints and connection)", none=False),
+        "resolution": Integer(minimum=4),
+    }
+
     def __init__(self, *, system: System | None = None, resolution: int = 128):
         self.system = system
         self.resolution = resolution
 
     def _check_system(self) -> System:
-        if not isinstance(self.system, System):
-            raise fail("system", type(self).__name__, "a System (an object with n_joints and connection)",
-                       self.system)
-        check_int(self.resolution, "resolution", type(self).__name__, minimum=4)
+        self.validate()
         return self.system
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Same as :meth:`partial_fit` (nothing is learned). Returns ``self``."""
+        """Same as :meth:`partial_fit` (nothing is learned). Returns ``self``.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
         return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Check the samples against the system; nothing is learned. Returns ``self``."""
+        """Check the samples against the system; nothing is learned. Returns ``self``.
+
+        ``prior_prediction_`` is set to −A(r)ṙ of the samples.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
         system = self._check_system()
         owner = f"{type(self).__name__}.partial_fit"
         phase = check_array(phase, "phase", owner)
@@ -83,7 +99,17 @@ class PerfectInformationModel(Parameters):
         return self
 
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
-        """ξ = −A(r)ṙ of samples ``(..., d)`` → ``(..., 3)`` (``phase`` only for the common interface)."""
+        """ξ = −A(r)ṙ of samples ``(..., d)`` → ``(..., 3)`` (``phase`` only for the common interface).
+
+        Parameters
+        ----------
+        phase : array-like
+            Ignored: the connection depends on the shape only.
+        shape : array-like of shape (..., d)
+            Joint angles r, radians.
+        shape_velocity : array-like of shape (..., d)
+            Joint angular velocities ṙ, radians per unit time; ξ comes back in the same time unit.
+        """
         system = self._check_system()
         owner = f"{type(self).__name__}.predict"
         shape = check_array(shape, "shape", owner, trailing=(system.n_joints,))
@@ -91,11 +117,27 @@ class PerfectInformationModel(Parameters):
         return -np.einsum("...kj,...j->...k", system.connection(shape), shape_velocity)
 
     def score(self, phase, shape, shape_velocity, body_velocity, baseline=None) -> float:
-        """Γ = 1: the model is the truth (not computed from noisy data)."""
+        """Γ = 1: the model is the truth (not computed from noisy data).
+
+        Parameters
+        ----------
+        phase, shape, shape_velocity, body_velocity : array-like
+            Held-out samples, as for :meth:`partial_fit`; ignored (not even checked).
+        baseline : PhaseModel, optional
+            Ignored: there is no phase-model baseline to compare with.
+        """
         return 1.0
 
     def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
-        """Exact net ``(x, y, heading)`` per cycle of ``gait`` (and its ``(3, p)`` Jacobian)."""
+        """Exact net ``(x, y, heading)`` per cycle of ``gait`` (and its ``(3, p)`` Jacobian).
+
+        Parameters
+        ----------
+        gait : FourierGait
+            The gait, with the system's number of joints.
+        jacobian : bool, default False
+            Also return the ``(3, p)`` derivative with respect to the gait's ``p`` flat Fourier parameters.
+        """
         system = self._check_system()
         if not isinstance(gait, FourierGait) or gait.n_joints != system.n_joints:
             raise fail("gait", f"{type(self).__name__}.predict_displacement",
@@ -103,14 +145,21 @@ class PerfectInformationModel(Parameters):
         return cycle_displacement(system, gait, resolution=self.resolution, jacobian=jacobian)
 
     def rebase(self, gait: FourierGait | None = None, **options):
-        """Nothing to re-centre; options are accepted and ignored. Returns ``self``."""
+        """Nothing to re-centre; options are accepted and ignored. Returns ``self``.
+
+        Parameters
+        ----------
+        gait : FourierGait, optional
+            The new nominal gait; ignored, since the system's connection holds for every gait.
+        """
         return self
+
+    def __sklearn_is_fitted__(self) -> bool:
+        return True  # stateless: the system is the model
 
     @property
     def gamma_(self) -> float:
         """1.0: perfect information."""
-        if not hasattr(self, "n_joints_"):
-            raise GeogaitError(f"This {type(self).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
         return 1.0
 
     def reset_gamma(self):

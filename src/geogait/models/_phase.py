@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_float
-from ._base import FORMAT, FORMAT_VERSION, GaitModelBase
+from .._docs import fill_doc
+from .._estimator import Real
+from ._base import WINDOW_CONSTRAINTS, PhaseWindowModel
 from ._rls import RLSBank
 
-__all__ = ["PhaseModel"]
+__all__ = ["PhaseModel", "phase_baseline"]
 
 
-class PhaseModel(GaitModelBase):
+@fill_doc
+class PhaseModel(PhaseWindowModel):
     """Body velocity as a function of phase only: the exponentially weighted mean of ξ per phase
     window, smoothed along φ by a Fourier series.
 
@@ -38,6 +40,8 @@ class PhaseModel(GaitModelBase):
     True
     """
 
+    _parameter_constraints = {**WINDOW_CONSTRAINTS, "forgetting_factor": Real(low=0, high=1, low_open=True)}
+
     def __init__(self, *, n_windows: int = 20, window_width: float | None = None,
                  forgetting_factor: float = 1.0, smoothing_order: int = 5):
         self.n_windows = n_windows
@@ -45,15 +49,27 @@ class PhaseModel(GaitModelBase):
         self.forgetting_factor = forgetting_factor
         self.smoothing_order = smoothing_order
 
-    def _reset(self, batch):
+    def start(self, batch_shape: tuple = ()):
+        """Start afresh, with no data seen, for trials of ``batch_shape``; returns ``self``.
+
+        The gait models restart their baseline this way when the gait changes (the old gait's
+        phase average no longer applies).
+        """
+        self.validate()
         self.windows_ = self._windows()
-        lam = check_float(self.forgetting_factor, "forgetting_factor", "PhaseModel", low=0, high=1, low_open=True)
-        self.bank_ = RLSBank(batch, self.windows_.n_windows, 1, 3, lam, initial_covariance=1e6)
-        self.batch_shape_ = batch
+        self.bank_ = RLSBank(tuple(batch_shape), self.windows_.n_windows, 1, 3, self.forgetting_factor,
+                             initial_covariance=1e6)
+        self.batch_shape_ = tuple(batch_shape)
         self.n_samples_seen_ = 0
+        return self
 
     def fit(self, phase, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        %(phase_samples)s
+        """
         with self._unchanged_on_error():
             for name in ("batch_shape_", "bank_"):
                 self.__dict__.pop(name, None)
@@ -65,18 +81,35 @@ class PhaseModel(GaitModelBase):
         return self
 
     def partial_fit_predict(self, phase, body_velocity) -> np.ndarray:
-        """Update and return each sample's a-priori prediction (before that sample was learned)."""
+        """Update and return each sample's a-priori prediction (before that sample was learned).
+
+        Parameters
+        ----------
+        %(phase_samples)s
+
+        Returns
+        -------
+        ndarray of shape batch + (n, 3)
+        """
         phase, body_velocity = self._check_samples(phase, body_velocity, names=("body_velocity",),
                                                    owner="PhaseModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
-            self._reset(phase.shape[:-1])
+            self.start(phase.shape[:-1])
         prior = self._run_rounds(self.bank_, phase, body_velocity, lambda sample, rows: np.ones(sample.shape + (1,)))
         self.n_samples_seen_ += phase.shape[-1]
         return prior
 
     def learn_one(self, valid, body_velocity) -> np.ndarray:
         """One sample of an unbatched model: ``valid`` ``(M,)`` are its covering windows; returns the
-        a-priori prediction ``(3,)`` (the fast path of :meth:`partial_fit_predict`)."""
+        a-priori prediction ``(3,)`` (the fast path of :meth:`partial_fit_predict`).
+
+        Parameters
+        ----------
+        valid : bool ndarray of shape (M,)
+            Which of the M windows cover the sample's phase (:meth:`PhaseWindows.cover`).
+        body_velocity : array-like of shape (3,)
+            The sample's body velocity ξ = (v_x, v_y, ω).
+        """
         ones = np.ones((valid.size, 1))
         prior = self.bank_.update(ones, np.broadcast_to(body_velocity, (valid.size, 3)), valid)[valid].mean(axis=0)
         self.n_samples_seen_ += 1
@@ -93,26 +126,18 @@ class PhaseModel(GaitModelBase):
         value = np.einsum("...nm,...mj->...nj", self._smoother(phase), self.bank_.weights[..., 0, :])
         return value[..., 0, :] if self._single else value
 
-    def _metadata(self) -> dict:
-        params = self.get_params()
-        return {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
-                "params": params, "n_joints": None, "batch_shape": list(self.batch_shape_)}
-
     def _state(self) -> dict:
-        return {"weights": self.bank_.weights, "covariance": self.bank_.covariance,
-                "n_updates": self.bank_.n_updates, "n_samples_seen": self.n_samples_seen_}
+        return {**self.bank_.state(), "n_samples_seen": self.n_samples_seen_}
 
     def _set_state(self, state, metadata):
-        self._reset(tuple(metadata["batch_shape"]))
-        _assign_bank(self.bank_, state)
+        self.start(tuple(metadata["batch_shape"]))
+        self.bank_.assign(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
 
 
-def _assign_bank(bank: RLSBank, state: dict, prefix: str = "") -> None:
-    """Copy saved bank arrays in place, checking their shapes."""
-    for name in ("weights", "covariance", "n_updates"):
-        saved = np.asarray(state[prefix + name])
-        current = getattr(bank, name)
-        if saved.shape != current.shape:
-            raise ValueError(f"array {prefix + name!r} has shape {saved.shape}, expected {current.shape}")
-        setattr(bank, name, saved.astype(current.dtype, copy=True))
+
+def phase_baseline(model, forgetting_factor: float) -> PhaseModel:
+    """The phase model ξ_T learned alongside a gait model: its windows and smoothing, the given
+    forgetting, started for its batch shape."""
+    return PhaseModel(n_windows=model.n_windows, window_width=model.windows_.width, forgetting_factor=forgetting_factor,
+                      smoothing_order=model.smoothing_order).start(model.batch_shape_)

@@ -50,6 +50,21 @@ def schedule_rounds(cover: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class RLSBank:
     """State of ``batch + (n_windows,)`` RLS filters with ``n`` regressors and ``n_outputs`` targets.
 
+    Parameters
+    ----------
+    batch : tuple of int
+        Leading trial axes; ``()`` for a single bank.
+    n_windows : int
+        Number M of phase windows (one filter per window and trial).
+    n : int
+        Number of regressors per filter.
+    n_outputs : int
+        Number of targets sharing each filter's covariance (3 for a body velocity).
+    forgetting_factor : float in (0, 1]
+        λ of eq. 4; 1 is ordinary recursive least squares.
+    initial_covariance : float > 0
+        δ₀: every covariance starts at δ₀·I, and the trace clamp keeps trace P ≤ n δ₀.
+
     Attributes
     ----------
     weights : ndarray of shape batch + (n_windows, n, n_outputs)
@@ -80,6 +95,27 @@ class RLSBank:
     @property
     def batch_shape(self) -> tuple:
         return self.n_updates.shape[:-1]
+
+    def state(self, prefix: str = "") -> dict:
+        """The bank's arrays, named ``prefix + name`` (what a model file stores)."""
+        return {prefix + name: getattr(self, name) for name in ("weights", "covariance", "n_updates")}
+
+    def assign(self, state: dict, prefix: str = "") -> None:
+        """Copy saved arrays (:meth:`state`) into this bank, checking their shapes (``ValueError``).
+
+        Parameters
+        ----------
+        state : dict of str to ndarray
+            Holds ``prefix + "weights"``, ``prefix + "covariance"`` and ``prefix + "n_updates"``.
+        prefix : str, default ""
+            Prefix the arrays were saved under (see :meth:`state`).
+        """
+        for name in ("weights", "covariance", "n_updates"):
+            saved = np.asarray(state[prefix + name])
+            current = getattr(self, name)
+            if saved.shape != current.shape:
+                raise ValueError(f"array {prefix + name!r} has shape {saved.shape}, expected {current.shape}")
+            setattr(self, name, saved.astype(current.dtype, copy=True))
 
     def inflate(self, factor: float) -> None:
         """Multiply every covariance by ``factor`` (≥ 1), then re-apply the trace clamp."""

@@ -52,11 +52,12 @@ import itertools
 
 import numpy as np
 
-from .._validation import GeogaitError, check_array, check_choice, check_float, check_int, fail
+from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
+from .._validation import check_array, fail
 from ..gaits import FourierGait
-from ..simulate._oracle import gauss_phases, integrate_cycle
-from ._base import gamma
-from ._estimator import OnlineGamma, Parameters
+from ..se2 import gauss_phases, integrate_cycle
+from ._base import FORMAT, FORMAT_VERSION, gamma
+from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
 
@@ -169,7 +170,7 @@ def symmetry_blocks(exponents: np.ndarray, symmetry: str | None) -> list[tuple[n
     return sorted(blocks, key=lambda block: block[0][0])
 
 
-class ShapeSpaceModel(Parameters, OnlineGamma):
+class ShapeSpaceModel(OnlineGamma, Estimator):
     r"""Polynomial connection model :math:`\hat\xi = W^T (f(r/s) \otimes \dot r)`, learned by RLS (module).
 
     Parameters
@@ -230,6 +231,21 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
     True
     """
 
+    _format = FORMAT
+    _format_version = FORMAT_VERSION
+    _parameter_constraints = {
+        "degree": Integer(minimum=0),
+        "symmetry": Options(SYMMETRIES),
+        "shape_scale": Real(low=0, low_open=True),
+        "forgetting_factor": Real(low=0, high=1, low_open=True),
+        "initial_covariance": Real(low=0, low_open=True),
+        "gamma_forgetting": Real(low=0, high=1, low_open=True),
+        "n_windows": Integer(minimum=1),
+        "smoothing_order": Integer(minimum=0),
+        "baseline_forgetting": Real(low=0, high=1, low_open=True),
+        "resolution": Integer(minimum=4),
+    }
+
     def __init__(self, *, degree: int = 2, symmetry: str | None = None, shape_scale: float = 1.0,
                  forgetting_factor: float = 0.999, initial_covariance: float = 100.0, gamma_forgetting: float = 0.995,
                  n_windows: int = 20, smoothing_order: int = 5, baseline_forgetting: float = 0.99,
@@ -246,22 +262,6 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         self.resolution = resolution
 
     # -- validation ---------------------------------------------------------------------------
-    def _validate(self):
-        owner = type(self).__name__
-        check_int(self.degree, "degree", owner, minimum=0)
-        check_choice(self.symmetry, "symmetry", owner, SYMMETRIES)
-        check_float(self.shape_scale, "shape_scale", owner, low=0, low_open=True)
-        lam = check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
-        delta0 = check_float(self.initial_covariance, "initial_covariance", owner, low=0, low_open=True)
-        check_float(self.gamma_forgetting, "gamma_forgetting", owner, low=0, high=1, low_open=True)
-        check_float(self.baseline_forgetting, "baseline_forgetting", owner, low=0, high=1, low_open=True)
-        check_int(self.resolution, "resolution", owner, minimum=4)
-        return lam, delta0
-
-    def _check_is_fitted(self):
-        if not hasattr(self, "batch_shape_"):
-            raise GeogaitError(f"This {type(self).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
-
     def _check_samples(self, owner, phase, *arrays, names):
         phase = check_array(phase, "phase", owner, min_ndim=1)
         out = [phase]
@@ -284,15 +284,15 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, batch: tuple, n_joints: int):
-        lam, delta0 = self._validate()
+        self.validate()
         self.exponents_ = monomial_exponents(n_joints, self.degree)
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
         self.blocks_ = symmetry_blocks(self.exponents_, self.symmetry)
-        self.banks_ = [RLSBank(batch, 1, basis.shape[1], len(outputs), lam, delta0) for outputs, basis in self.blocks_]
+        self.banks_ = [RLSBank(batch, 1, basis.shape[1], len(outputs), self.forgetting_factor, self.initial_covariance)
+                       for outputs, basis in self.blocks_]
         self.phase_model_ = PhaseModel(n_windows=self.n_windows, forgetting_factor=self.baseline_forgetting,
-                                       smoothing_order=self.smoothing_order)
-        self.phase_model_._reset(batch)
+                                       smoothing_order=self.smoothing_order).start(batch)
         self.psi_ = np.zeros(batch + (2,))
         self.n_samples_seen_ = 0
         self._flat = None
@@ -303,10 +303,12 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         return (f[..., :, None] * shape_velocity[..., None, :]).reshape(f.shape[:-1] + (-1,))
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``."""
-        for name in ("batch_shape_", "n_joints_"):
-            self.__dict__.pop(name, None)
-        return self.partial_fit(phase, shape, shape_velocity, body_velocity)
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        with self._unchanged_on_error():
+            self.validate()
+            for name in ("batch_shape_", "n_joints_"):
+                self.__dict__.pop(name, None)
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
@@ -352,7 +354,7 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         if baseline not in ("reset", "keep"):
             raise fail("baseline", f"{type(self).__name__}.rebase", "one of 'reset', 'keep'", baseline)
         if baseline == "reset":
-            self.phase_model_._reset(self.batch_shape_)
+            self.phase_model_.start(self.batch_shape_)
         return self
 
     def rotation_std(self, gait: FourierGait, residual_variance) -> np.ndarray:
@@ -393,35 +395,25 @@ class ShapeSpaceModel(Parameters, OnlineGamma):
         return [bank.covariance[..., 0, :, :] for bank in self.banks_]
 
     # -- persistence --------------------------------------------------------------------------
-    def get_state(self) -> tuple[dict, dict]:
-        """Learned state as ``(metadata, arrays)`` (the format of the gait models' files and of
-        optimiser checkpoints); :func:`~geogait.models.model_from_state` is the inverse."""
-        from ._base import FORMAT, FORMAT_VERSION
+    def _metadata(self) -> dict:
+        return {"n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
 
-        self._check_is_fitted()
-        metadata = {"format": FORMAT, "format_version": FORMAT_VERSION, "class": type(self).__name__,
-                    "params": self.get_params(), "n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
-        arrays = {"psi": self.psi_, "n_samples_seen": self.n_samples_seen_,
-                  **{f"phase_model/{k}": v for k, v in self.phase_model_._state().items()}}
+    def _state(self) -> dict:
+        arrays = {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_,
+                  **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
         for b, bank in enumerate(self.banks_):
-            arrays.update({_block_prefix(b) + name: getattr(bank, name)
-                           for name in ("weights", "covariance", "n_updates")})
-        return metadata, arrays
+            arrays.update(bank.state(_block_prefix(b)))
+        return arrays
 
     def _set_state(self, state: dict, metadata: dict) -> None:
-        from ._phase import _assign_bank
-
         self._reset(tuple(metadata["batch_shape"]), int(metadata["n_joints"]))
         for b, bank in enumerate(self.banks_):
-            _assign_bank(bank, state, _block_prefix(b))
+            bank.assign(state, _block_prefix(b))
         self._flat = None
-        psi = np.asarray(state["psi"], dtype=float)
-        if psi.shape != self.psi_.shape:
-            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
-        self.psi_ = psi
+        self._set_gamma_state(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
         own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_._set_state(own, {"batch_shape": list(self.batch_shape_)})
+        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
 
     # -- prediction ---------------------------------------------------------------------------
     def connection(self, shape) -> np.ndarray:

@@ -2,7 +2,7 @@
 prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
-from ._insitu import InSituOptimizer, OptimizationResult
+from ._insitu import InSituOptimizer, InSituResult
 from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, path_length, rms_speed
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
@@ -11,7 +11,7 @@ __all__ = [
     "STEP_RULES",
     "Ceiling",
     "InSituOptimizer",
-    "OptimizationResult",
+    "InSituResult",
     "Step",
     "StepProblem",
     "cached_ceiling",

@@ -46,7 +46,6 @@ Safety (the robot is not the model):
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,17 +53,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import __version__, se2
+from .. import __version__, models, se2
+from .._estimator import Estimator, Integer, Options, Real
 from .._files import read_state, write_state
-from .._validation import GeogaitError, check_choice, check_float, check_int, fail
+from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ..models import AdaptiveGaitModel, model_from_state
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
+from ..systems import PurcellSwimmer
 from ._objective import OBJECTIVES, joint_limit_constraints, objective
 from ._steps import STEP_RULES, StepProblem, take_step
 
-__all__ = ["InSituOptimizer", "OptimizationResult"]
+__all__ = ["InSituOptimizer", "InSituResult"]
 
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
 CHECKPOINT_VERSION = 1
@@ -72,7 +73,7 @@ _TRACKING_FLOOR = 0.05  # rad: the automatic tracking limit never falls below th
 
 
 @dataclass
-class OptimizationResult:
+class InSituResult:
     """Outcome of :meth:`InSituOptimizer.run`.
 
     Attributes
@@ -115,14 +116,56 @@ class OptimizationResult:
     def n_rejected(self) -> int:
         return int(self.log["rejected"].sum())
 
+    def summary(self, ceiling=None) -> dict:
+        """Headline numbers of the run (what ``geogait optimize`` writes to ``summary.json``).
 
-class InSituOptimizer:
+        Measured values average the learned cycles (no settle or rejected cycles) of the seed's
+        iteration and of the last one; with a simulator's truth also the true displacement per cycle
+        of the seed and final gaits and the largest |net rotation| of any commanded gait; with a
+        ``ceiling`` (:class:`~geogait.optimize.Ceiling`) its value, the final share of it and the
+        first cycle at 90 %. Non-finite values become ``None`` (valid JSON).
+        """
+        log = self.log
+        measured = log[~log["settling"] & ~log["rejected"]]
+        seed = measured.loc[measured["iteration"] == 0, "measured_objective"].mean()
+        final = measured.loc[measured["iteration"] == measured["iteration"].iloc[-1], "measured_objective"].mean()
+        summary = {
+            "seed_measured_objective": _finite(seed),
+            "final_measured_objective": _finite(final),
+            "final_measured_improvement": _finite(final / seed - 1),
+            "steps": self.n_steps,
+            "rejected_steps": self.n_rejected,
+            "max_tracking_error_rad": _finite(log["tracking_error"].max()),
+            "final_gait_params": self.final_gait.params.tolist(),
+        }
+        if "true_objective" in log:
+            summary.update({
+                "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),
+                "final_displacement_per_cycle": _finite(log["true_objective"].iloc[-1]),
+                "final_improvement": _finite(log["improvement"].iloc[-1]),
+                "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
+            })
+        if ceiling is not None:
+            first_90 = log.index[log["ceiling_fraction"] >= 0.9]
+            summary.update({
+                "ceiling_displacement_per_cycle": ceiling.value,
+                "final_ceiling_fraction": _finite(log["ceiling_fraction"].iloc[-1]),
+                "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
+            })
+        return summary
+
+
+def _finite(value):
+    return None if value is None or not np.isfinite(value) else float(value)
+
+
+class InSituOptimizer(Estimator):
     """The paper's in-situ optimiser for any robot; the prior-work baseline with a batch model.
 
     Parameters
     ----------
     model : estimator, optional
-        The model learned in situ; cloned (``type(model)(**model.get_params())``) with the seed gait
+        The model learned in situ; cloned (``type(model)(**model.get_params(deep=False))``) with the seed gait
         and the robot's phase rate at every run. It must offer ``partial_fit`` (or ``fit``),
         ``predict_displacement(gait, jacobian=...)`` and ``rebase``; with ``gamma_`` and
         ``reset_gamma`` it can use the Γ gate. Default: ``AdaptiveGaitModel`` with λ = 1 − 0.1 / d
@@ -185,6 +228,30 @@ class InSituOptimizer:
         its mean measured objective for the gate to open. ``None`` disables the check.
     """
 
+    _parameter_constraints = {
+        "gate": Options((None, "gamma", "cycles")),
+        "gamma_threshold": Real(high=1.0, high_open=True),
+        "order": Integer(minimum=1),
+        "objective": Options(tuple(OBJECTIVES)),
+        "direction_frame": Options(("world", "body")),
+        "family": Options(("auto", "free", "symmetric")),
+        "step_rule": Options(tuple(STEP_RULES)),
+        "max_joint_angle": Real(low=0, high=np.pi, low_open=True),
+        "max_joint_velocity": Real(low=0, low_open=True, none=True),
+        "trust_radius": Real(low=0, low_open=True),
+        "min_trust_radius": Real(low=0, low_open=True),
+        "max_trust_radius": Real(low=0, low_open=True),
+        "rotation_tolerance": Real(low=0, low_open=True),
+        "min_gain": Real(low=0),
+        "min_cycles_per_iteration": Integer(minimum=1),
+        "cycles_per_iteration": Integer(minimum=1),
+        "rebase": Options(("constant", "all", "none")),
+        "covariance_inflation": Real(low=1),
+        "constant_variance": Real(low=0),
+        "settle_cycles": Integer(minimum=0),
+        "prediction_tolerance": Real(low=0, low_open=True, none=True),
+    }
+
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
                  objective: str = "progress", direction=None, direction_frame: str = "world",
                  family: str = "auto", step_rule: str = "linear",
@@ -219,75 +286,35 @@ class InSituOptimizer:
         self.max_tracking_error = max_tracking_error
         self.prediction_tolerance = prediction_tolerance
 
-    # -- scikit-learn protocol ----------------------------------------------------------------
-    def get_params(self, deep: bool = True) -> dict:
-        """Hyper-parameters, as given to ``__init__``."""
-        return {name: getattr(self, name) for name in _PARAMS}
-
-    def set_params(self, **params):
-        """Set hyper-parameters; returns ``self``."""
-        for name, value in params.items():
-            if name not in _PARAMS:
-                raise fail(name, "InSituOptimizer", "one of " + ", ".join(_PARAMS), name)
-            setattr(self, name, value)
-        return self
-
-    def __repr__(self):
-        changed = {k: v for k, v in self.get_params().items() if not _same(v, _DEFAULTS[k])}
-        return "InSituOptimizer(" + ", ".join(f"{k}={v!r}" for k, v in changed.items()) + ")"
-
+    # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
     def describe(self) -> dict:
         """Hyper-parameters as JSON values (the model as its class name and parameters)."""
         return _params_to_json(self)
 
-    def validate(self) -> InSituOptimizer:
-        """Check every hyper-parameter (raises with the field's name); returns ``self``."""
+    def _check_param_combinations(self) -> None:
         owner = "InSituOptimizer"
-        if self.gate is not None:
-            check_choice(self.gate, "gate", owner, ("gamma", "cycles"))
-            if self.gate == "gamma" and not _has_online_gamma(self._model_template()):
-                raise fail("gate", owner, "'cycles' for a model without an online Γ (gamma_, reset_gamma)", self.gate)
+        if self.gate == "gamma" and not _has_online_gamma(self._model_template()):
+            raise fail("gate", owner, "'cycles' for a model without an online Γ (gamma_, reset_gamma)", self.gate)
         if self.model is not None:
             needs = ("get_params", "predict_displacement") + (
                 ("partial_fit", "rebase") if self._gate() == "gamma" else ("fit",))
             for member in needs:
                 if not hasattr(self.model, member):
                     raise fail("model", owner, f"a gait model with {member}() (e.g. AdaptiveGaitModel)", self.model)
-        check_float(self.gamma_threshold, "gamma_threshold", owner, high=1.0, high_open=True)
-        check_int(self.order, "order", owner, minimum=1)
-        check_choice(self.objective, "objective", owner, OBJECTIVES)
         if self.direction is not None:
             direction = np.asarray(self.direction, dtype=float) if _is_numeric(self.direction) else None
             if direction is None or direction.shape != (2,) or not np.all(np.isfinite(direction)) \
                     or np.hypot(*direction) == 0:
                 raise fail("direction", owner, "a non-zero finite 2-vector or None", self.direction)
-        check_choice(self.direction_frame, "direction_frame", owner, ("world", "body"))
-        check_choice(self.family, "family", owner, ("auto", "free", "symmetric"))
-        check_choice(self.step_rule, "step_rule", owner, STEP_RULES)
-        check_float(self.max_joint_angle, "max_joint_angle", owner, low=0, high=np.pi, low_open=True)
-        if self.max_joint_velocity is not None:
-            check_float(self.max_joint_velocity, "max_joint_velocity", owner, low=0, low_open=True)
-        low = check_float(self.min_trust_radius, "min_trust_radius", owner, low=0, low_open=True)
-        high = check_float(self.max_trust_radius, "max_trust_radius", owner, low=low)
-        check_float(self.trust_radius, "trust_radius", owner, low=low, high=high)
-        check_float(self.rotation_tolerance, "rotation_tolerance", owner, low=0, low_open=True)
-        check_float(self.min_gain, "min_gain", owner, low=0)
-        check_int(self.min_cycles_per_iteration, "min_cycles_per_iteration", owner, minimum=1)
-        check_int(self.cycles_per_iteration, "cycles_per_iteration", owner, minimum=1)
-        check_choice(self.rebase, "rebase", owner, ("constant", "all", "none"))
-        check_float(self.covariance_inflation, "covariance_inflation", owner, low=1)
-        check_float(self.constant_variance, "constant_variance", owner, low=0)
-        check_int(self.settle_cycles, "settle_cycles", owner, minimum=0)
+        check_float(self.max_trust_radius, "max_trust_radius", owner, low=self.min_trust_radius)
+        check_float(self.trust_radius, "trust_radius", owner, low=self.min_trust_radius, high=self.max_trust_radius)
         if self.max_tracking_error not in (None, "auto"):
             check_float(self.max_tracking_error, "max_tracking_error", owner, low=0, low_open=True)
-        if self.prediction_tolerance is not None:
-            check_float(self.prediction_tolerance, "prediction_tolerance", owner, low=0, low_open=True)
-        return self
 
     # -- running ------------------------------------------------------------------------------
     def run(self, robot, n_cycles: int, *, ceiling: float | None = None,
             callback: Callable[[dict], None] | None = None, record: bool = False,
-            checkpoint=None, checkpoint_every: int = 1) -> OptimizationResult:
+            checkpoint=None, checkpoint_every: int = 1) -> InSituResult:
         """Optimise in situ for ``n_cycles`` cycles of ``robot``.
 
         Parameters
@@ -316,6 +343,10 @@ class InSituOptimizer:
         if ceiling is not None:
             ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
         checkpoint = _checkpoint_path(checkpoint, owner)
+        template = self._model_template()
+        if checkpoint is not None and not getattr(template, "can_save", lambda: True)():
+            raise fail("checkpoint", owner, f"None for a {type(template).__name__}, which cannot be saved",
+                       str(checkpoint))
         check_robot(robot, owner)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
         gait = robot.gait.with_order(self.order)
@@ -336,13 +367,26 @@ class InSituOptimizer:
 
     @classmethod
     def resume(cls, checkpoint, robot, *, callback: Callable[[dict], None] | None = None,
-               record: bool = False, n_cycles: int | None = None) -> OptimizationResult:
+               record: bool = False, n_cycles: int | None = None) -> InSituResult:
         """Continue a run from its checkpoint file (written by :meth:`run`) to its cycle budget.
 
         A robot offering ``restore_robot_state`` (simulators: ``SwimmerStream``, ``MujocoRobot``) is
         put back exactly where the checkpoint left it, so the resumed run is bit-identical to an
         uninterrupted one. Any other robot simply continues from where it physically is, commanded
         the checkpoint's gait. ``n_cycles`` extends (or shortens) the total budget.
+
+        Parameters
+        ----------
+        checkpoint : path-like
+            ``.npz`` checkpoint written by :meth:`run`; it keeps being rewritten as the run goes on.
+        robot : Robot
+            The robot to continue on, with the checkpoint gait's number of joints.
+        callback : callable, optional
+            Called with each new log row (a dict) as it is produced, as in :meth:`run`.
+        record : bool, default False
+            Keep every sample of the resumed part (``result.trajectory``).
+        n_cycles : int, optional
+            New total cycle budget (counting the cycles already run); the checkpoint's by default.
         """
         path = Path(checkpoint)
         metadata, arrays = read_state(path, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
@@ -391,7 +435,7 @@ class InSituOptimizer:
         if self.model is None:
             return AdaptiveGaitModel(gait=gait, forgetting_factor=1 - 0.1 / gait.n_joints,
                                      phase_rate=2 * np.pi / period)
-        params = self.model.get_params()
+        params = self.model.get_params(deep=False)
         params.update({k: v for k, v in (("gait", gait), ("phase_rate", 2 * np.pi / period)) if k in params})
         return type(self.model)(**params)
 
@@ -471,18 +515,6 @@ class InSituOptimizer:
         state.settle_left = self.settle_cycles
 
 
-_DEFAULTS = {p.name: p.default for p in inspect.signature(InSituOptimizer.__init__).parameters.values()
-             if p.kind == p.KEYWORD_ONLY}
-_PARAMS = tuple(_DEFAULTS)
-
-
-def _same(a, b) -> bool:
-    try:
-        return bool(np.all(a == b)) if not (a is None or b is None) else a is b
-    except (TypeError, ValueError):
-        return False
-
-
 def _is_numeric(value) -> bool:
     try:
         np.asarray(value, dtype=float)
@@ -493,8 +525,6 @@ def _is_numeric(value) -> bool:
 
 def _declares_symmetry(robot) -> bool:
     """The robot says its chain is front–back symmetric, or simulates a symmetric Purcell swimmer."""
-    from ..systems import PurcellSwimmer
-
     declared = getattr(robot, "front_back_symmetric", None)
     if declared is not None:
         return bool(declared)
@@ -736,7 +766,7 @@ class _Loop:
                 direction = np.asarray(optimizer.direction, dtype=float)
                 state.direction = direction / np.hypot(*direction)
 
-    def run(self, callback, record) -> OptimizationResult:
+    def run(self, callback, record) -> InSituResult:
         state, chunks = self.state, []
         while state.cycle < state.n_cycles:
             chunk = self.robot.next_cycle()
@@ -750,7 +780,7 @@ class _Loop:
             due = state.cycle % self.checkpoint_every == 0 or state.cycle == state.n_cycles
             if self.checkpoint is not None and due:
                 self._save()
-        return OptimizationResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
+        return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
                                   gaits=list(state.gaits),
                                   trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
@@ -887,19 +917,17 @@ class _Loop:
 
 def _params_to_json(optimizer) -> dict:
     """Hyper-parameters as JSON values; the model template as its class name and parameters."""
-    params = optimizer.get_params()
+    params = optimizer.get_params(deep=False)
     if params["model"] is not None:
         model = params["model"]
         params["model"] = {"class": type(model).__name__,
-                           "params": {k: v for k, v in model.get_params().items() if k != "gait"}}
+                           "params": {k: v for k, v in model.get_params(deep=False).items() if k != "gait"}}
     if params["direction"] is not None:
         params["direction"] = [float(v) for v in np.asarray(params["direction"], dtype=float)]
     return params
 
 
 def _params_from_json(params: dict) -> dict:
-    from .. import models
-
     params = dict(params)
     if params.get("model") is not None:
         name = params["model"]["class"]

@@ -42,7 +42,26 @@ _PATH_NODES = 256
 
 
 def path_length(gait: FourierGait, params=None, jacobian: bool = False):
-    """Shape-space path length L = ∮‖θ'(φ)‖ dφ of a gait (and dL/dp)."""
+    """Shape-space path length L = ∮‖θ'(φ)‖ dφ of a gait (and dL/dp).
+
+    The integral is the mean over 256 equally spaced phases times 2π.
+
+    Parameters
+    ----------
+    gait : FourierGait
+        The gait (or, with ``params``, its Fourier family).
+    params : array-like of shape (d (2K + 1),), optional
+        Flat Fourier parameters p to use instead of the gait's own (:meth:`FourierGait.with_params`).
+    jacobian : bool, default False
+        Also return dL/dp.
+
+    Returns
+    -------
+    length : float
+        L in radians (of joint angle).
+    gradient : ndarray of shape (d (2K + 1),)
+        dL/dp; only when ``jacobian`` is true.
+    """
     gait = gait if params is None else gait.with_params(params)
     phase = np.linspace(0, 2 * np.pi, _PATH_NODES, endpoint=False)
     velocity = gait.velocity(phase)  # (n, d)
@@ -58,7 +77,22 @@ def path_length(gait: FourierGait, params=None, jacobian: bool = False):
 
 def rms_speed(gait: FourierGait, jacobian: bool = False):
     r"""RMS shape speed per unit phase, :math:`S = (\frac12\sum_{j,k} k^2 (a_{jk}^2 + b_{jk}^2))^{1/2}`
-    (and dS/dp), exact for Fourier gaits."""
+    (and dS/dp), exact for Fourier gaits.
+
+    Parameters
+    ----------
+    gait : FourierGait
+        The gait θ(φ).
+    jacobian : bool, default False
+        Also return dS/dp with respect to the flat Fourier parameters ``(d (2K + 1),)``.
+
+    Returns
+    -------
+    speed : float
+        S in radians per radian of phase.
+    gradient : ndarray of shape (d (2K + 1),)
+        dS/dp; only when ``jacobian`` is true.
+    """
     order = gait.order
     k2 = np.concatenate([[0.0], np.arange(1, order + 1) ** 2, np.arange(1, order + 1) ** 2]).astype(float)
     weighted = gait.coefficients * k2  # (d, 2K+1)
@@ -77,6 +111,24 @@ def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: Four
     """Objective value and gradient from net pose ``(3,)`` and its Jacobian ``(3, p)``.
 
     ``direction`` (unit 2-vector in the pose's frame) is required by ``"forward"`` only.
+
+    Parameters
+    ----------
+    kind : {"progress", "efficiency", "forward", "budget"}
+        Which objective (see the module docstring).
+    pose : ndarray of shape (3,)
+        Net (x, y, heading) per cycle: body lengths and radians.
+    pose_jacobian : ndarray of shape (3, p)
+        Derivative of ``pose`` with respect to the p flat Fourier parameters.
+    gait : FourierGait
+        The gait whose pose is given; ``"budget"`` needs its RMS speed, ``"efficiency"`` its path length.
+    direction : ndarray of shape (2,), optional
+        Unit direction u of ``"forward"``.
+
+    Returns
+    -------
+    value : float
+    gradient : ndarray of shape (p,)
     """
     check_choice(kind, "objective", "geogait.optimize", OBJECTIVES)
     if kind == "forward":
@@ -101,6 +153,22 @@ def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float, m
     With ``max_joint_speed`` (rad per unit phase, i.e. the joint-velocity limit times the cycle
     period / 2π) the rows |θ_j'(φ)| ≤ that bound are added the same way (θ' is a Fourier series of
     the same order, so the same grid tightening makes the continuous limit hold).
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d.
+    order : int
+        Fourier order K of the gait family.
+    max_joint_angle : float
+        r_max, radians.
+    max_joint_speed : float, optional
+        Bound on |θ_j'(φ)|, radians per radian of phase; no speed rows when omitted.
+
+    Returns
+    -------
+    G : ndarray of shape (m, d (2K + 1))
+    h : ndarray of shape (m,)
     """
     n_phases = max(64, 64 * order)
     phase = np.linspace(0, 2 * np.pi, n_phases, endpoint=False)

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
+from .._docs import fill_doc
 from .._validation import check_choice, check_float, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ._objective import OBJECTIVES, objective
@@ -145,11 +146,12 @@ class StepProblem:
         return result
 
     def length(self, direction) -> float:
-        """‖T Δq‖, the step's length in Fourier parameters (what the trust radius bounds)."""
+        """‖T Δq‖ of a step ``direction`` Δq ``(n_params,)``: its length in Fourier parameters (what the trust
+        radius bounds)."""
         return float(np.sqrt(direction @ self.metric @ direction))
 
     def slack(self, params) -> np.ndarray:
-        """h − G T q (joint limits hold where ≥ 0)."""
+        """h − G T q of free parameters ``params`` ``(n_params,)`` (joint limits hold where ≥ 0)."""
         return self._limit_bound - self._limit_matrix @ params
 
     def feasible(self, params) -> bool:
@@ -157,7 +159,8 @@ class StepProblem:
         return bool(np.all(self.slack(params) >= -1e-12))
 
     def correct_rotation(self, params, target: float):
-        """Minimum-norm Newton steps on the predicted rotation towards ``target``; None if stuck."""
+        """Minimum-norm Newton steps from free parameters ``params`` on the predicted rotation towards ``target``
+        (rad per cycle); the corrected parameters, or None if stuck."""
         if not self.rotation:
             return params
         for _ in range(3):
@@ -199,25 +202,14 @@ def _check(params, radius, owner):
     return params, radius
 
 
+@fill_doc
 def linear_step(problem: StepProblem, params, radius: float, *, rotation_target: float = 0.0,
                 min_gain: float = 0.005, restore: bool = False) -> Step:
     """The linearised trust-region step (module docstring).
 
     Parameters
     ----------
-    problem : StepProblem
-    params : array-like of shape (n_params,)
-        Current free parameters q₀ (within the joint limits).
-    radius : float
-        Trust radius R (rad): bound on ‖T Δq‖, the step's Euclidean length in Fourier parameters
-        (the same distance between gaits in every family).
-    rotation_target : float
-        c*: 0 restores zero rotation; the current predicted rotation keeps it (when it is within
-        the model's resolution).
-    min_gain : float
-        Smallest predicted relative gain accepted.
-    restore : bool
-        Accept a feasible step on the rotation target even without a gain.
+    %(step)s
 
     Returns
     -------
@@ -243,12 +235,16 @@ def linear_step(problem: StepProblem, params, radius: float, *, rotation_target:
     return _backtrack(problem, params, direction, radius, before, rotation_target, min_gain, restore)
 
 
+@fill_doc
 def sqp_step(problem: StepProblem, params, radius: float, *, rotation_target: float = 0.0,
              min_gain: float = 0.005, restore: bool = False, max_iterations: int = 60) -> Step:
     """Maximise the predictor's nonlinear objective inside the trust region by SQP (module docstring).
 
-    Parameters are those of :func:`linear_step`, plus ``max_iterations`` of the SQP solver (each
-    costs about one prediction with Jacobian).
+    Parameters
+    ----------
+    %(step)s
+    max_iterations : int
+        Iterations of the SQP solver (each costs about one prediction with Jacobian).
 
     Returns
     -------
@@ -287,6 +283,20 @@ def sqp_step(problem: StepProblem, params, radius: float, *, rotation_target: fl
 
 
 def take_step(rule: str, problem: StepProblem, params, radius: float, **options) -> Step:
-    """:func:`linear_step` or :func:`sqp_step` by name (``rule`` in :data:`STEP_RULES`)."""
+    """:func:`linear_step` or :func:`sqp_step` by name.
+
+    Parameters
+    ----------
+    rule : {"linear", "sqp"}
+        The step rule (:data:`STEP_RULES`).
+    problem, params, radius
+        As for :func:`linear_step`.
+    **options
+        ``rotation_target``, ``min_gain``, ``restore`` (and ``max_iterations`` for SQP).
+
+    Returns
+    -------
+    Step
+    """
     check_choice(rule, "step_rule", "take_step", STEP_RULES)
     return (linear_step if rule == "linear" else sqp_step)(problem, params, radius, **options)

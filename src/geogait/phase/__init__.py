@@ -1,10 +1,8 @@
 """Phase from data: the Phaser estimator (Revzen & Guckenheimer 2008), its causal per-sample form
-for streams, its persistence, and the nominal gait fitted against phase."""
+for streams, and the nominal gait fitted against phase."""
 
 from ._nominal import NominalGaitFit, cycle_index, fit_nominal_gait
 from ._online import OnlinePhaser
-from ._persistence import load_phaser, save_phaser
 from ._phaser import Phaser
 
-__all__ = ["NominalGaitFit", "OnlinePhaser", "Phaser", "cycle_index", "fit_nominal_gait", "load_phaser",
-           "save_phaser"]
+__all__ = ["NominalGaitFit", "OnlinePhaser", "Phaser", "cycle_index", "fit_nominal_gait"]

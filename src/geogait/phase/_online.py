@@ -36,8 +36,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._estimator import check_is_fitted
 from .._validation import check_array, check_int, check_magnitude, fail
-from ._phaser import Phaser
+from ._phaser import Phaser, combine_phases
 
 __all__ = ["OnlinePhaser"]
 
@@ -74,7 +75,7 @@ class OnlinePhaser:
     def __init__(self, phaser: Phaser, *, window: int | None = None, min_samples: int | None = None):
         if not isinstance(phaser, Phaser):
             raise fail("phaser", _OWNER, "a fitted Phaser", type(phaser).__name__)
-        phaser._check_is_fitted()
+        check_is_fitted(phaser)
         per_cycle = float(getattr(phaser, "samples_per_cycle_", 0.0))
         if window is None and per_cycle <= 0:
             raise fail("window", _OWNER, "given (the Phaser does not know its samples per cycle)", window)
@@ -105,7 +106,13 @@ class OnlinePhaser:
         return min(self._count, self.window)
 
     def update(self, shape) -> float | None:
-        """Add one sample ``(n_channels,)``; return its phase in ``[0, 2π)``, or None while warming up."""
+        """Add one sample ``(n_channels,)``; return its phase in ``[0, 2π)``, or None while warming up.
+
+        Parameters
+        ----------
+        shape : array-like of shape (n_channels,)
+            The newest sample of the channels the phaser was fitted on (e.g. joint angles, radians).
+        """
         sample = check_magnitude(check_array(shape, "shape", f"{_OWNER}.update", ndim=1), "shape", f"{_OWNER}.update")
         if sample.shape != (self.phaser.n_channels_,):
             raise fail("shape", f"{_OWNER}.update", f"an array of shape ({self.phaser.n_channels_},)",
@@ -137,10 +144,10 @@ class OnlinePhaser:
 
     def _phase(self, window: np.ndarray) -> float:
         phaser = self.phaser
-        analytic = self._kernel(window.shape[0]) @ phaser._zscore(window)  # (n_channels,)
+        analytic = self._kernel(window.shape[0]) @ ((window - phaser.mean_) / phaser.scale_)  # (n_channels,)
         theta = np.angle(analytic)
         channel = theta + self._series(theta, self._channel_series)
-        combined = phaser._combine(channel[None, :])[0]
+        combined = combine_phases(channel[None, :], phaser.offsets_, phaser.weights_)[0]
         phase = combined + self._series(combined, self._final_series) - phaser.zero_
         return float(np.mod(phase, 2 * np.pi))
 

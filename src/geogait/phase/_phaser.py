@@ -59,12 +59,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import hilbert
 
-from .._validation import check_array, check_float, check_int, check_magnitude, fail
+from .._estimator import Estimator, Integer, Real
+from .._validation import check_array, check_magnitude, fail
 from ..gaits import fourier_basis
 
 __all__ = ["Phaser"]
 
 _OWNER = "Phaser"
+#: Fitted arrays: real ones stored as they are, complex ones as ``name.real`` and ``name.imag``.
+_REAL = ("mean_", "scale_", "offsets_", "weights_", "zero_", "n_cycles_", "samples_per_cycle_")
+_COMPLEX = ("channel_coefficients_", "final_coefficients_")
 
 
 def _as_records(x, name: str, owner: str) -> tuple[list[np.ndarray], bool]:
@@ -108,7 +112,7 @@ def _correct(theta: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
     return theta + 2 * series
 
 
-class Phaser:
+class Phaser(Estimator):
     r"""Phase of a multichannel oscillation (Revzen & Guckenheimer 2008), scikit-learn style.
 
     Parameters
@@ -161,6 +165,16 @@ class Phaser:
     True
     """
 
+    _parameter_constraints = {
+        "order": Integer(minimum=1),
+        "min_cycles": Real(low=0, low_open=True),
+        "section_channel": Integer(minimum=0),
+        "section_level": Real(none=True),
+        "edge_cycles": Real(low=0),
+    }
+    _fitted_attribute = "final_coefficients_"
+    _format = "geogait-phaser"
+
     def __init__(self, *, order: int = 10, min_cycles: float = 5.0, section_channel: int = 0,
                  section_level: float | None = None, edge_cycles: float = 0.5):
         self.order = order
@@ -175,10 +189,16 @@ class Phaser:
 
         Records are independent trials or segments (no continuity is assumed between them).
         ``y`` is ignored. Returns ``self``.
+
+        Parameters
+        ----------
+        x : array-like of shape (n, n_channels), or a list of such arrays
+            Periodic signals (e.g. joint angles), each record covering several cycles.
+        y : None
+            Ignored (scikit-learn convention).
         """
-        order = check_int(self.order, "order", _OWNER, minimum=1)
-        min_cycles = check_float(self.min_cycles, "min_cycles", _OWNER, low=0, low_open=True)
-        edge = check_float(self.edge_cycles, "edge_cycles", _OWNER, low=0)
+        self.validate()
+        order, min_cycles, edge = self.order, self.min_cycles, self.edge_cycles
         records, _ = _as_records(x, "x", f"{_OWNER}.fit")
         self.n_channels_ = records[0].shape[1]
         self._fit_scaling(records)
@@ -236,17 +256,13 @@ class Phaser:
         self.weights_ = weights / weights.sum()
 
     def _combine(self, phi: np.ndarray) -> np.ndarray:
-        """Weighted circular mean of aligned channel phases, continuous along channel 0's phase."""
-        reference = phi[:, 0] - self.offsets_[0]
-        relative = np.exp(1j * (phi - self.offsets_ - reference[:, None])) @ self.weights_
-        return reference + np.angle(relative)
+        return combine_phases(phi, self.offsets_, self.weights_)
 
     def _fit_zero(self, records, final, keep) -> float:
-        channel = check_int(self.section_channel, "section_channel", _OWNER, minimum=0)
+        channel = self.section_channel
         if channel >= self.n_channels_:
             raise fail("section_channel", _OWNER, f"an int in [0, {self.n_channels_ - 1}]", channel)
-        level = self.mean_[channel] if self.section_level is None else check_float(
-            self.section_level, "section_level", _OWNER)
+        level = self.mean_[channel] if self.section_level is None else float(self.section_level)
         values = np.concatenate([r[m, channel] for r, m in zip(records, keep, strict=True)])
         phase = np.concatenate([f[m] for f, m in zip(final, keep, strict=True)])
         basis = fourier_basis(phase, self.order)
@@ -285,7 +301,21 @@ class Phaser:
         return phases[0] if single else phases
 
     def fit_transform(self, x, y=None, *, unwrap: bool = False):
-        """:meth:`fit` then :meth:`transform` on the same records."""
+        """:meth:`fit` then :meth:`transform` on the same records.
+
+        Parameters
+        ----------
+        x : array-like of shape (n, n_channels), or a list of such arrays
+            Records to fit on and to compute the phase of.
+        y : None
+            Ignored (scikit-learn convention).
+        unwrap : bool, default False
+            Return the continuous phase (growing by 2π per cycle) instead of ``[0, 2π)``.
+
+        Returns
+        -------
+        ndarray of shape (n,), or a list of them
+        """
         return self.fit(x).transform(x, unwrap=unwrap)
 
     def _phase(self, record: np.ndarray, unwrap: bool) -> np.ndarray:
@@ -294,26 +324,37 @@ class Phaser:
         phase = _correct(combined, self.final_coefficients_) - self.zero_
         return phase if unwrap else np.mod(phase, 2 * np.pi)
 
-    # -- persistence --------------------------------------------------------------------------
-    def save(self, path):
-        """Write the fitted Phaser to ``path`` (``.npz`` + JSON metadata, no pickle), atomically.
+    # -- persistence (Estimator.save / Phaser.load) ------------------------------------------
+    def _metadata(self) -> dict:
+        return {"n_channels": int(self.n_channels_)}
 
-        See :func:`~geogait.phase.save_phaser`. Returns the path.
-        """
-        from ._persistence import save_phaser
+    def _state(self) -> dict:
+        state = {name: np.asarray(getattr(self, name), dtype=float) for name in _REAL}
+        for name in _COMPLEX:
+            value = np.asarray(getattr(self, name))
+            state[f"{name}.real"], state[f"{name}.imag"] = value.real.copy(), value.imag.copy()
+        return state
 
-        return save_phaser(self, path)
+    def _set_state(self, state: dict, metadata: dict) -> None:
+        for name in _REAL:
+            value = np.asarray(state[name], dtype=float)
+            setattr(self, name, float(value) if value.ndim == 0 else value)
+        for name in _COMPLEX:
+            setattr(self, name, state[f"{name}.real"] + 1j * state[f"{name}.imag"])
+        self.n_channels_ = c = int(metadata["n_channels"])
+        expected = {"mean_": (c,), "scale_": (c,), "offsets_": (c,), "weights_": (c,),
+                    "channel_coefficients_": (self.order, c), "final_coefficients_": (self.order,)}
+        for name, shape in expected.items():
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"array {name!r} has shape {np.shape(getattr(self, name))}, expected {shape}")
 
-    @classmethod
-    def load(cls, path) -> Phaser:
-        """Read a Phaser written by :meth:`save` (:func:`~geogait.phase.load_phaser`)."""
-        from ._persistence import load_phaser
 
-        return load_phaser(path)
-
-    def _check_is_fitted(self) -> None:
-        if not hasattr(self, "final_coefficients_"):
-            raise fail("self", f"{_OWNER}.transform", "a fitted Phaser (call fit first)", "unfitted")
+def combine_phases(phi: np.ndarray, offsets: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Weighted circular mean of corrected channel phases ``(n, c)`` aligned by ``offsets``, continuous
+    along channel 0's phase (step 4 of the module docstring) → ``(n,)``."""
+    reference = phi[:, 0] - offsets[0]
+    relative = np.exp(1j * (phi - offsets - reference[:, None])) @ weights
+    return reference + np.angle(relative)
 
 
 def _stack(arrays: list[np.ndarray], masks: list[np.ndarray]) -> np.ndarray:

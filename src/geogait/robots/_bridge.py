@@ -46,7 +46,7 @@ import numpy as np
 
 from .._validation import GeogaitError, check_float, fail
 from ..gaits import FourierGait
-from ..io import body_velocity_from_poses
+from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "ProcessRobot"]

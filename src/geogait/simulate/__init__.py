@@ -2,6 +2,7 @@
 
 from ._oracle import cycle_displacement
 from ._stream import DragRatioSchedule, SwimmerStream, simulate
-from ._trajectory import Trajectory
+from ._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
 
-__all__ = ["DragRatioSchedule", "SwimmerStream", "Trajectory", "cycle_displacement", "simulate"]
+__all__ = ["BODY_VELOCITY_COLUMNS", "POSE_COLUMNS", "DragRatioSchedule", "SwimmerStream", "Trajectory",
+           "cycle_displacement", "simulate"]

@@ -16,53 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import se2
 from .._validation import check_int, fail
 from ..gaits import FourierGait
+from ..se2 import gauss_phases, integrate_cycle
 from ..systems import System
 
-__all__ = ["cycle_displacement", "gauss_phases", "magnus_steps"]
-
-_GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3) / 6
-
-
-def gauss_phases(resolution: int) -> tuple[np.ndarray, float]:
-    """The two Gauss–Legendre nodes of each of ``resolution`` equal phase steps, ``(n, 2)``."""
-    step = 2 * np.pi / resolution
-    starts = np.arange(resolution) * step
-    return starts[:, None] + step * _GAUSS, step
-
-
-def magnus_steps(velocity_at_nodes: np.ndarray, step: float) -> np.ndarray:
-    """Fourth-order Magnus twist per step from body velocities at the two Gauss nodes.
-
-    ``velocity_at_nodes`` has shape ``(..., n, 2, 3)``; returns ``(..., n, 3)``.
-    """
-    first, second = velocity_at_nodes[..., 0, :], velocity_at_nodes[..., 1, :]
-    return step / 2 * (first + second) + np.sqrt(3) / 12 * step**2 * se2.bracket(first, second)
-
-
-def magnus_step_jacobian(velocity_at_nodes: np.ndarray, velocity_jacobian: np.ndarray, step: float) -> np.ndarray:
-    """Derivative of :func:`magnus_steps` given ∂ξ/∂p at the nodes ``(..., n, 2, 3, p)`` → ``(..., n, 3, p)``.
-
-    The bracket is bilinear: d[ξ₁, ξ₂] = [dξ₁, ξ₂] + [ξ₁, dξ₂].
-    """
-    first, second = velocity_at_nodes[..., 0, None, :], velocity_at_nodes[..., 1, None, :]  # (..., n, 1, 3)
-    d_first = np.swapaxes(velocity_jacobian[..., 0, :, :], -1, -2)  # (..., n, p, 3)
-    d_second = np.swapaxes(velocity_jacobian[..., 1, :, :], -1, -2)
-    d_bracket = se2.bracket(d_first, second) + se2.bracket(first, d_second)
-    d_steps = step / 2 * (d_first + d_second) + np.sqrt(3) / 12 * step**2 * d_bracket
-    return np.swapaxes(d_steps, -1, -2)
-
-
-def integrate_cycle(velocity, step, velocity_jacobian=None):
-    """Net motion over a cycle from body velocities per unit phase at the Gauss nodes
-    ``(..., n, 2, 3)`` (and its Jacobian when ``velocity_jacobian`` ``(..., n, 2, 3, p)`` is given)."""
-    steps = magnus_steps(velocity, step)
-    if velocity_jacobian is None:
-        return se2.product_of_exponentials(steps)
-    return se2.product_of_exponentials(steps, magnus_step_jacobian(velocity, velocity_jacobian, step))
-
+__all__ = ["cycle_displacement"]
 
 def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256, jacobian: bool = False):
     """Net SE(2) motion ``(x, y, heading)`` over one cycle of ``gait`` on ``system``.

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import se2
+from .._seeds import child_seed
 from .._validation import check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..systems import PurcellSwimmer, System
@@ -31,6 +32,15 @@ class DragRatioSchedule:
 
     ``drag_ratios[i]`` holds for cycles ``[i * cycles_per_environment, (i + 1) * ...)``; the last
     value persists after the schedule ends. The paper's Fig. 3 uses (2, 3, 4) every 40 cycles.
+
+    Parameters
+    ----------
+    system : PurcellSwimmer
+        The swimmer whose drag ratio k changes (its other parameters stay).
+    drag_ratios : sequence of float > 0
+        k of each environment, in order.
+    cycles_per_environment : int >= 1
+        Cycles each environment lasts.
     """
 
     system: PurcellSwimmer
@@ -72,12 +82,8 @@ def _trial_generators(seed, n_trials):
         root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         batched = n_trials is not None
         sequences = root.spawn(n_trials) if batched else [root]
-    # Children built from (entropy, spawn_key) rather than .spawn(), which would mutate the caller's
-    # SeedSequence and make a second stream from the same seed differ.
-    def child(sequence, k):
-        return np.random.default_rng(np.random.SeedSequence(sequence.entropy, spawn_key=sequence.spawn_key + (k,)))
-
-    return [child(s, 0) for s in sequences], [child(s, 1) for s in sequences], batched
+    return ([np.random.default_rng(child_seed(s, 0)) for s in sequences],
+            [np.random.default_rng(child_seed(s, 1)) for s in sequences], batched)
 
 
 class SwimmerStream:

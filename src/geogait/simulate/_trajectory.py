@@ -13,6 +13,7 @@ from .._validation import fail
 
 __all__ = ["Trajectory"]
 
+#: Column names of body velocity and world pose in every table geogait writes or reads by default.
 BODY_VELOCITY_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
 POSE_COLUMNS = ("x", "y", "heading")
 
@@ -62,7 +63,13 @@ class Trajectory:
         return self.time.shape[-1]
 
     def trial(self, index: int) -> Trajectory:
-        """One trial of a batched trajectory."""
+        """One trial of a batched trajectory.
+
+        Parameters
+        ----------
+        index : int
+            Index along the leading (trial) axis of every array.
+        """
         return Trajectory(**{name: value[index] for name, value in self._arrays().items()})
 
     def cycles(self, start: int, stop: int) -> Trajectory:
@@ -75,7 +82,13 @@ class Trajectory:
 
     @classmethod
     def concatenate(cls, parts: list[Trajectory]) -> Trajectory:
-        """Join trajectories along time."""
+        """Join trajectories along time.
+
+        Parameters
+        ----------
+        parts : list of Trajectory
+            Non-empty, in time order, with equal batch shapes; optional arrays missing from any part are dropped.
+        """
         if not parts:
             raise fail("parts", "Trajectory.concatenate", "a non-empty list of Trajectory", parts)
         names = [f.name for f in fields(cls) if all(getattr(p, f.name) is not None for p in parts)]
@@ -105,7 +118,14 @@ class Trajectory:
 
     @classmethod
     def from_pandas(cls, frame: pd.DataFrame) -> Trajectory:
-        """Inverse of :meth:`to_pandas` for an unbatched table."""
+        """Inverse of :meth:`to_pandas` for an unbatched table.
+
+        Parameters
+        ----------
+        frame : pandas.DataFrame
+            One row per sample with the columns of :meth:`to_pandas` (``time``, ``phase``, ``cycle``,
+            ``shape_j``, ``shape_velocity_j``, body velocity and pose; ``commanded_shape_j`` optional).
+        """
         required = ["time", "phase", "cycle", *BODY_VELOCITY_COLUMNS, *POSE_COLUMNS]
         missing = [c for c in required + ["shape_0", "shape_velocity_0"] if c not in frame]
         if missing:

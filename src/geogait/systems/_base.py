@@ -78,3 +78,36 @@ class FunctionSystem:
             raise fail("connection_function", "FunctionSystem", "returning finite values",
                        "non-finite values")
         return value
+
+
+def height_function(system, direction, limit: float, resolution: int = 81):
+    """First-order height function of a 2-joint system along a body-frame ``direction`` ``(2,)``.
+
+    By Stokes, a small loop's net translation is ≈ ∬ −(∂A_2/∂r_1 − ∂A_1/∂r_2) dr (sign of ξ = −Aṙ),
+    projected on ``direction`` (the curvature of the connection, e.g. Hatton & Choset 2015).
+
+    Parameters
+    ----------
+    system : System
+        With two joints.
+    direction : array-like of shape (2,)
+        Body-frame direction of travel the translation is projected on.
+    limit : float
+        The grid spans [−limit, limit] on both joints (rad).
+    resolution : int
+        Grid points per axis.
+
+    Returns
+    -------
+    axis : ndarray of shape (m,)
+    values : ndarray of shape (m, m)
+        Indexed [r2, r1]; central differences (step 1e-5) of the connection.
+    """
+    axis = np.linspace(-limit, limit, resolution)
+    r1, r2 = np.meshgrid(axis, axis)
+    shapes = np.stack([r1, r2], axis=-1)
+    h = 1e-5
+    d_by_r1 = (system.connection(shapes + [h, 0]) - system.connection(shapes - [h, 0])) / (2 * h)
+    d_by_r2 = (system.connection(shapes + [0, h]) - system.connection(shapes - [0, h])) / (2 * h)
+    curl = d_by_r1[..., :2, 1] - d_by_r2[..., :2, 0]  # (m, m, 2): x and y rows
+    return axis, -(curl @ np.asarray(direction, dtype=float))

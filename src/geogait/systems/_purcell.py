@@ -109,7 +109,13 @@ class PurcellSwimmer:
         return f"purcell-{self.n_links}"
 
     def with_drag_ratio(self, drag_ratio: float) -> PurcellSwimmer:
-        """The same swimmer in a fluid of another drag ratio."""
+        """The same swimmer in a fluid of another drag ratio.
+
+        Parameters
+        ----------
+        drag_ratio : float in [1e-6, 1e6]
+            Lateral over longitudinal drag ``k`` of the new fluid (checked like the constructor's).
+        """
         return replace(self, drag_ratio=drag_ratio)
 
     def connection(self, shapes) -> np.ndarray:
@@ -119,7 +125,13 @@ class PurcellSwimmer:
         return _solve_connection(transform, jacobian, drag)
 
     def metric(self, shapes) -> np.ndarray:
-        """Dissipation metric M(r) ``(..., d, d)``: power = ṙᵀ M ṙ at ξ = -A ṙ."""
+        """Dissipation metric M(r) ``(..., d, d)``: power = ṙᵀ M ṙ at ξ = -A ṙ.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+            Joint angles r, radians.
+        """
         shapes = check_shapes(shapes, self.n_joints, "PurcellSwimmer.metric")
         transform, jacobian, drag = self._link_terms(shapes)
         connection = _solve_connection(transform, jacobian, drag)

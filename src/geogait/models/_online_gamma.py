@@ -1,40 +1,11 @@
-"""Pieces every geogait estimator shares: scikit-learn's parameter protocol and the online Γ."""
+"""The online confidence Γ of the models learned sample by sample (the adaptive and shape-space models)."""
 
 from __future__ import annotations
-
-import inspect
 
 import numpy as np
 from scipy.signal import lfilter
 
-from .._validation import fail
-
-__all__ = ["OnlineGamma", "Parameters"]
-
-
-class Parameters:
-    """``get_params`` / ``set_params`` / ``repr`` over the keyword-only arguments of ``__init__``."""
-
-    @classmethod
-    def _param_names(cls) -> list[str]:
-        signature = inspect.signature(cls.__init__)
-        return [p.name for p in signature.parameters.values() if p.kind == p.KEYWORD_ONLY]
-
-    def get_params(self, deep: bool = True) -> dict:
-        """Hyper-parameters, as given to ``__init__``."""
-        return {name: getattr(self, name) for name in self._param_names()}
-
-    def set_params(self, **params):
-        """Set hyper-parameters (takes effect at the next ``fit``); returns ``self``."""
-        for name, value in params.items():
-            if name not in self._param_names():
-                raise fail(name, type(self).__name__, "one of " + ", ".join(self._param_names()), name)
-            setattr(self, name, value)
-        return self
-
-    def __repr__(self):
-        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({params})"
+__all__ = ["OnlineGamma"]
 
 
 class OnlineGamma:
@@ -64,6 +35,15 @@ class OnlineGamma:
         with np.errstate(invalid="ignore", divide="ignore"):
             value = np.where(self.psi_[..., 1] > 0, 1 - self.psi_[..., 0] / self.psi_[..., 1], 0.0)
         return float(value) if value.ndim == 0 else value
+
+    def _gamma_state(self) -> dict:
+        return {"psi": self.psi_}
+
+    def _set_gamma_state(self, state: dict) -> None:
+        psi = np.asarray(state["psi"], dtype=float)
+        if psi.shape != self.psi_.shape:
+            raise ValueError(f"array 'psi' has shape {psi.shape}, expected {self.psi_.shape}")
+        self.psi_ = psi
 
     def reset_gamma(self):
         """Restart the online Γ accumulators (e.g. at the start of an optimisation iteration); returns ``self``."""

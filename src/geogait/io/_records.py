@@ -1,0 +1,293 @@
+"""The records of a live stream (:mod:`geogait.io._streaming`): input samples, output lines and the
+summary, the JSON-lines and CSV readers that validate every record, and the matching writers."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from .._files import dumps_json
+from .._validation import fail
+from ..simulate import BODY_VELOCITY_COLUMNS
+
+__all__ = ["PREDICTION_COLUMNS", "CsvReader", "JsonLinesReader", "StreamOutput", "StreamSample", "StreamSummary",
+           "FORMATS"]
+
+PREDICTION_COLUMNS = ("predicted_body_velocity_x", "predicted_body_velocity_y", "predicted_body_velocity_theta")
+_KEYS = ("time", "phase", "shape", "shape_velocity", "body_velocity")
+
+
+# -- records ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StreamSample:
+    """One input record.
+
+    Attributes
+    ----------
+    line : int
+        Line of the input it came from (1-based), for error messages.
+    shape : ndarray of shape (d,)
+    body_velocity : ndarray of shape (3,)
+    time, phase : float or None
+    shape_velocity : ndarray of shape (d,) or None
+    """
+
+    line: int
+    shape: np.ndarray
+    body_velocity: np.ndarray
+    time: float | None = None
+    phase: float | None = None
+    shape_velocity: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class StreamOutput:
+    """The result of one sample: its a-priori prediction and the online Γ after learning it.
+
+    Attributes
+    ----------
+    index : int
+        Sample index, from 0.
+    time, phase : float or None
+        The sample's time stamp and the phase used (None while warming up).
+    prediction : ndarray of shape (3,) or None
+        A-priori ξ̂ (before the sample was learned); None when the sample was not learned.
+    gamma : float or None
+        Online Γ after the sample (None before anything was learned).
+    learned : bool
+    rejected : str or None
+        Why the sample was quarantined (implausible values, see :class:`StreamLearner`); None otherwise.
+    """
+
+    index: int
+    time: float | None
+    phase: float | None
+    prediction: np.ndarray | None
+    gamma: float | None
+    learned: bool
+    rejected: str | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (floats are written exactly by :func:`json.dumps`; ``rejected`` only when set)."""
+        record = {"index": self.index, "time": self.time, "phase": self.phase,
+                  "prediction": None if self.prediction is None else self.prediction.tolist(),
+                  "gamma": self.gamma, "learned": self.learned}
+        if self.rejected is not None:
+            record["rejected"] = self.rejected
+        return record
+
+
+@dataclass(frozen=True)
+class StreamSummary:
+    """How a stream ended.
+
+    Attributes
+    ----------
+    n_samples : int
+        Records read and processed.
+    n_learned : int
+        Samples learned (not warming up).
+    gamma : float or None
+        Online Γ at the end.
+    reason : {"eof", "error", "SIGINT", "SIGTERM", "output closed"}
+    error : str or None
+        The error message when ``reason == "error"``.
+    saved : Path or None
+        Where the model was last written during the stream or at its end (None if nothing was
+        learned, or if the model could not be saved: see ``error``).
+    n_rejected : int
+        Samples quarantined as implausible (neither predicted nor learned).
+    first_rejection : str or None
+        Line and reason of the first of them.
+    """
+
+    n_samples: int
+    n_learned: int
+    gamma: float | None
+    reason: str
+    error: str | None
+    saved: Path | None
+    n_rejected: int = 0
+    first_rejection: str | None = None
+
+
+# -- readers and writers ------------------------------------------------------------------------
+def _vector(value, name: str, line: int, size: int, required: bool) -> np.ndarray | None:
+    if value is None:
+        if required:
+            raise fail(name, f"input line {line}", f"given: a list of {size} numbers", None)
+        return None
+    if not isinstance(value, list) or len(value) != size or not all(type(v) in (int, float) for v in value):
+        raise fail(name, f"input line {line}", f"a list of {size} numbers", value)
+    if not all(math.isfinite(v) for v in value):
+        raise fail(name, f"input line {line}", f"a list of {size} finite numbers", value)
+    return np.array(value, dtype=float)
+
+
+def _scalar(value, name: str, line: int) -> float | None:
+    if value is None:
+        return None
+    if type(value) not in (int, float) or not math.isfinite(value):
+        raise fail(name, f"input line {line}", "a finite number", value)
+    return float(value)
+
+
+class JsonLinesReader:
+    """Samples from JSON lines (one object per line; see the module notes).
+
+    Parameters
+    ----------
+    source : iterable of str
+        Lines, e.g. ``sys.stdin``.
+    n_joints : int
+    """
+
+    def __init__(self, source, n_joints: int):
+        self.source = source
+        self.n_joints = n_joints
+
+    def __iter__(self) -> Iterator[StreamSample]:
+        for line, text in enumerate(self.source, start=1):
+            if text.strip():
+                yield self.parse(text, line)
+
+    def parse(self, text: str, line: int) -> StreamSample:
+        """One record; errors name ``line`` and the field.
+
+        Parameters
+        ----------
+        text : str
+            One JSON object with keys among ``time``, ``phase``, ``shape``, ``shape_velocity`` and
+            ``body_velocity`` (``shape`` and ``body_velocity`` required).
+        line : int
+            Its line number in the input (1-based), for error messages.
+        """
+        try:
+            record = json.loads(text)
+        except json.JSONDecodeError as error:
+            raise fail("record", f"input line {line}", "a JSON object",
+                       f"invalid JSON ({error.msg} at column {error.colno})") from None
+        if not isinstance(record, dict):
+            raise fail("record", f"input line {line}", "a JSON object", record)
+        unknown = sorted(set(record) - set(_KEYS))
+        if unknown:
+            raise fail("record", f"input line {line}", f"an object with keys among {list(_KEYS)}",
+                       f"unknown key(s) {unknown}")
+        d = self.n_joints
+        return StreamSample(line=line, shape=_vector(record.get("shape"), "shape", line, d, True),
+                            body_velocity=_vector(record.get("body_velocity"), "body_velocity", line, 3, True),
+                            time=_scalar(record.get("time"), "time", line),
+                            phase=_scalar(record.get("phase"), "phase", line),
+                            shape_velocity=_vector(record.get("shape_velocity"), "shape_velocity", line, d, False))
+
+
+class CsvReader:
+    """Samples from CSV rows under a header line (see the module notes).
+
+    Parameters
+    ----------
+    source : iterable of str
+        Lines of CSV text, e.g. ``sys.stdin`` or an open file; the first is the header.
+    n_joints : int
+        Shape dimension d: the columns ``shape_0 .. shape_{d-1}`` (and optionally
+        ``shape_velocity_0 ..``) are read.
+
+    Attributes
+    ----------
+    ignored : list of str
+        Header columns that are not read (known after the header).
+    """
+
+    def __init__(self, source, n_joints: int):
+        self.source = source
+        self.n_joints = n_joints
+        self.ignored: list[str] = []
+
+    def __iter__(self) -> Iterator[StreamSample]:
+        reader = csv.reader(self.source)
+        header = next(reader, None)
+        if header is None:
+            return
+        columns = self._columns([name.strip() for name in header])
+        for row in reader:
+            if row and any(cell.strip() for cell in row):
+                yield self._sample(row, reader.line_num, columns, len(header))
+
+    def _columns(self, header: list[str]) -> dict[str, list[int] | None]:
+        d = self.n_joints
+        groups = {"time": ["time"], "phase": ["phase"], "shape": [f"shape_{j}" for j in range(d)],
+                  "shape_velocity": [f"shape_velocity_{j}" for j in range(d)],
+                  "body_velocity": list(BODY_VELOCITY_COLUMNS)}
+        index = {name: i for i, name in enumerate(header)}
+        found: dict[str, list[int] | None] = {}
+        for key, names in groups.items():
+            present = [name for name in names if name in index]
+            required = key in ("shape", "body_velocity")
+            if (required and len(present) < len(names)) or 0 < len(present) < len(names):
+                raise fail("header", "input line 1", f"a CSV header with the columns {names}",
+                           f"a header without {[n for n in names if n not in index]}")
+            found[key] = [index[name] for name in names] if present else None
+        used = {i for columns in found.values() if columns for i in columns}
+        self.ignored = [name for i, name in enumerate(header) if i not in used]
+        return found
+
+    def _sample(self, row: list[str], line: int, columns: dict, width: int) -> StreamSample:
+        if len(row) != width:
+            raise fail("row", f"input line {line}", f"{width} comma-separated values like the header",
+                       f"{len(row)} values")
+        values = {key: None if idx is None else self._cells(row, idx, key, line) for key, idx in columns.items()}
+        for key in ("shape", "body_velocity"):
+            if values[key] is None:
+                raise fail(key, f"input line {line}", "given (no empty cells)", None)
+        return StreamSample(line=line, shape=values["shape"], body_velocity=values["body_velocity"],
+                            time=None if values["time"] is None else float(values["time"][0]),
+                            phase=None if values["phase"] is None else float(values["phase"][0]),
+                            shape_velocity=values["shape_velocity"])
+
+    @staticmethod
+    def _cells(row: list[str], idx: list[int], key: str, line: int) -> np.ndarray | None:
+        cells = [row[i].strip() for i in idx]
+        if not any(cells):
+            return None
+        try:
+            array = np.array([float(cell) for cell in cells])
+        except ValueError:
+            raise fail(key, f"input line {line}", f"{len(cells)} number(s)", cells) from None
+        if not all(cells) or not np.all(np.isfinite(array)):
+            raise fail(key, f"input line {line}", f"{len(cells)} finite number(s), none empty", cells)
+        return array
+
+
+class _JsonLinesWriter:
+    def __init__(self, sink: TextIO):
+        self.sink = sink
+
+    def write(self, output: StreamOutput) -> None:
+        self.sink.write(dumps_json(output.to_dict()) + "\n")
+        self.sink.flush()
+
+
+class _CsvWriter:
+    def __init__(self, sink: TextIO):
+        self.sink = sink
+        self.sink.write(",".join(["index", "time", "phase", *PREDICTION_COLUMNS, "gamma", "learned"]) + "\n")
+        self.sink.flush()
+
+    def write(self, output: StreamOutput) -> None:
+        prediction = [None] * 3 if output.prediction is None else output.prediction.tolist()
+        cells = [output.index, output.time, output.phase, *prediction, output.gamma, int(output.learned)]
+        self.sink.write(",".join("" if c is None else repr(c) for c in cells) + "\n")
+        self.sink.flush()
+
+
+#: Reader and writer of each stream format.
+FORMATS = {"jsonl": (JsonLinesReader, _JsonLinesWriter), "csv": (CsvReader, _CsvWriter)}
+
+
