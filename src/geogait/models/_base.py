@@ -23,7 +23,8 @@ from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
-__all__ = ["GaitModelBase", "PhaseWindowModel", "gamma", "load_model", "model_from_state"]
+__all__ = ["GaitModelBase", "HeldOutScore", "PhaseWindowModel", "check_samples", "gamma", "load_model",
+           "model_from_state"]
 
 FORMAT = "geogait-model"
 _GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
@@ -88,44 +89,10 @@ class PhaseWindowModel(Estimator):
             raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}",
                        self.smoothing_order)
         return PhaseWindows(n_windows, width)
+
     def _check_samples(self, phase, *arrays, names, owner):
-        """Validate time-ordered samples; returns arrays with a time axis (batch + (n, ...))."""
-        phase = np.asarray(check_array(phase, "phase", owner, limit=MAX_PHASE))
-        single = phase.ndim == 0 or (hasattr(self, "batch_shape_") and phase.ndim == len(self.batch_shape_))
-        if single:
-            phase = phase[..., None]
-        if phase.shape[-1] == 0:
-            raise fail("phase", owner, "at least one sample (n >= 1)", f"shape {phase.shape}")
-        out = [phase]
-        for array, name in zip(arrays, names, strict=True):
-            width = 3 if name == "body_velocity" else None
-            value = check_array(array, name, owner, trailing=(width,), limit=MAX_MAGNITUDE)
-            if single:
-                value = value[..., None, :]
-            if value.shape[:-1] != phase.shape:
-                columns = "3" if width else "d"
-                hint = (" (transposed? samples go along the first axis)"
-                        if value.ndim >= 2 and value.shape[-1] == phase.shape[-1] else "")
-                raise fail(name, owner, f"an array of shape {phase.shape} + ({columns},) matching 'phase'{hint}",
-                           f"shape {value.shape}")
-            out.append(value)
-        widths = {name: value.shape[-1] for value, name in zip(out[1:], names, strict=True) if name != "body_velocity"}
-        d = getattr(self, "n_joints_", None)
-        if d is None and len(set(widths.values())) > 1:
-            first = next(iter(widths))
-            for name, width in widths.items():
-                if width != widths[first]:
-                    raise fail(name, owner, f"an array of shape (..., {widths[first]}) like '{first}'",
-                               f"shape {out[1 + names.index(name)].shape}")
-        for value, name in zip(out[1:], names, strict=True):
-            if name != "body_velocity" and d is not None and value.shape[-1] != d:
-                raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
-                           f"shape {value.shape}")
-        batch = getattr(self, "batch_shape_", None)
-        if batch is not None and phase.shape[:-1] != batch:
-            raise fail("phase", owner, f"batched like the data seen so far, shape {batch} + (n,)",
-                       f"shape {phase.shape}")
-        self._single = single
+        """:func:`check_samples` for this model; remembers whether one sample came without a time axis."""
+        *out, self._single = check_samples(self, phase, *arrays, names=names, owner=owner)
         return out
 
     def _run_rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
@@ -191,7 +158,36 @@ class PhaseWindowModel(Estimator):
         return _from_version_1(state, metadata) if metadata.get("format_version") == 1 else state
 
 @fill_doc
-class GaitModelBase(PhaseWindowModel):
+class HeldOutScore:
+    """``score``: Γ on held-out samples (eq. 5) for models with ``predict``, ``phase_model_`` and
+    ``_check_samples``."""
+
+    def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
+        """Γ on held-out samples (eq. 5) against the phase model of the training data.
+
+        Parameters
+        ----------
+        %(samples)s
+        baseline : PhaseModel, optional
+            Phase model ξ_T; by default the one fitted alongside this model on its training data.
+
+        Returns
+        -------
+        float, or ndarray of shape batch for batched models
+        """
+        self._check_is_fitted()
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
+            owner=f"{type(self).__name__}.score")
+        baseline = self.phase_model_ if baseline is None else baseline
+        model_error = np.linalg.norm(self.predict(phase, shape, shape_velocity) - body_velocity, axis=-1)
+        baseline_error = np.linalg.norm(baseline.predict(phase) - body_velocity, axis=-1)
+        value = gamma(model_error, baseline_error)
+        return float(value) if np.ndim(value) == 0 else value
+
+
+@fill_doc
+class GaitModelBase(HeldOutScore, PhaseWindowModel):
     """The gait models' shared API: nominal gait, prediction (eq. 3), coefficients, Γ score (eq. 5),
     the phase-model baseline and predicted net motion per cycle."""
 
@@ -277,31 +273,6 @@ class GaitModelBase(PhaseWindowModel):
         scale = self._time_scale()  # C and B are velocities (cycle time inside); A and ∂A are rate-free
         return {**parts, "C": parts["C"] * scale, "B": parts["B"] * scale}
 
-    def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
-        """Γ on held-out samples (eq. 5) against the phase model of the training data.
-
-        Parameters
-        ----------
-        phase : array-like of shape batch + (n,)
-        shape, shape_velocity : array-like of shape batch + (n, d)
-        body_velocity : array-like of shape batch + (n, 3)
-        baseline : PhaseModel, optional
-            Phase model ξ_T; by default the one fitted alongside this model on its training data.
-
-        Returns
-        -------
-        float, or ndarray of shape batch for batched models
-        """
-        self._check_is_fitted()
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner=f"{type(self).__name__}.score")
-        baseline = self.phase_model_ if baseline is None else baseline
-        model_error = np.linalg.norm(self.predict(phase, shape, shape_velocity) - body_velocity, axis=-1)
-        baseline_error = np.linalg.norm(baseline.predict(phase) - body_velocity, axis=-1)
-        value = gamma(model_error, baseline_error)
-        return float(value) if np.ndim(value) == 0 else value
-
     # -- the baseline and persistence ---------------------------------------------------------
     def _baseline_state(self) -> dict:
         """The phase model's arrays, prefixed for storage beside the gait model's own."""
@@ -327,6 +298,7 @@ class GaitModelBase(PhaseWindowModel):
             raise GeogaitError(f"{path} holds a {type(model).__name__}, not a {cls.__name__}.")
         return model
 
+
 @functools.lru_cache(maxsize=32)
 def _fourier_fit(n_windows: int, order: int) -> np.ndarray:
     """Least-squares map from values at the equally spaced window centres to Fourier coefficients."""
@@ -334,6 +306,64 @@ def _fourier_fit(n_windows: int, order: int) -> np.ndarray:
     fit = np.linalg.pinv(fourier_basis(centres, order))
     fit.setflags(write=False)
     return fit
+
+
+def check_samples(model, phase, *arrays, names, owner):
+    """Validate time-ordered samples for ``model`` (its ``n_joints_`` and ``batch_shape_`` once fitted).
+
+    Parameters
+    ----------
+    model : estimator
+        The model the samples are for.
+    phase : array-like of shape batch + (n,), or batch for one sample
+    *arrays : array-like of shape batch + (n, width)
+        Named by ``names``; ``body_velocity`` has width 3, the others the shape dimension d.
+    names : tuple of str
+    owner : str
+        The caller, for messages.
+
+    Returns
+    -------
+    list
+        ``phase`` and the arrays with a time axis (batch + (n, ...)), then whether one sample came
+        without one.
+    """
+    phase = np.asarray(check_array(phase, "phase", owner, limit=MAX_PHASE))
+    single = phase.ndim == 0 or (hasattr(model, "batch_shape_") and phase.ndim == len(model.batch_shape_))
+    if single:
+        phase = phase[..., None]
+    if phase.shape[-1] == 0:
+        raise fail("phase", owner, "at least one sample (n >= 1)", f"shape {phase.shape}")
+    out = [phase]
+    for array, name in zip(arrays, names, strict=True):
+        width = 3 if name == "body_velocity" else None
+        value = check_array(array, name, owner, trailing=(width,), limit=MAX_MAGNITUDE)
+        if single:
+            value = value[..., None, :]
+        if value.shape[:-1] != phase.shape:
+            columns = "3" if width else "d"
+            hint = (" (transposed? samples go along the first axis)"
+                    if value.ndim >= 2 and value.shape[-1] == phase.shape[-1] else "")
+            raise fail(name, owner, f"an array of shape {phase.shape} + ({columns},) matching 'phase'{hint}",
+                       f"shape {value.shape}")
+        out.append(value)
+    widths = {name: value.shape[-1] for value, name in zip(out[1:], names, strict=True) if name != "body_velocity"}
+    d = getattr(model, "n_joints_", None)
+    if d is None and len(set(widths.values())) > 1:
+        first = next(iter(widths))
+        for name, width in widths.items():
+            if width != widths[first]:
+                raise fail(name, owner, f"an array of shape (..., {widths[first]}) like '{first}'",
+                           f"shape {out[1 + names.index(name)].shape}")
+    for value, name in zip(out[1:], names, strict=True):
+        if name != "body_velocity" and d is not None and value.shape[-1] != d:
+            raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
+                       f"shape {value.shape}")
+    batch = getattr(model, "batch_shape_", None)
+    if batch is not None and phase.shape[:-1] != batch:
+        raise fail("phase", owner, f"batched like the data seen so far, shape {batch} + (n,)",
+                   f"shape {phase.shape}")
+    return [*out, single]
 
 
 def load_model(path, n_joints: int | None = None):

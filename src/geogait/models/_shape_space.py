@@ -52,11 +52,12 @@ import itertools
 
 import numpy as np
 
+from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
 from .._validation import check_array, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
-from ._base import FORMAT, FORMAT_VERSION, gamma
+from ._base import FORMAT, FORMAT_VERSION, HeldOutScore, check_samples
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
@@ -70,7 +71,8 @@ _REVERSAL_SIGN = np.array([-1, 1, -1])  # ξ(Pr, Pṙ) = diag(−1, 1, −1) ξ(
 
 
 def monomial_exponents(n_joints: int, degree: int) -> np.ndarray:
-    """Exponents ``(m, d)`` of the monomials of total degree ≤ ``degree`` in d variables, graded."""
+    """Exponents ``(m, d)`` of the monomials of total degree ≤ ``degree`` in ``n_joints`` = d variables, graded
+    (degree 0 first)."""
     rows = [np.zeros(n_joints, dtype=np.int64)]
     for total in range(1, degree + 1):
         for combination in itertools.combinations_with_replacement(range(n_joints), total):
@@ -95,7 +97,8 @@ def _lowering(key: bytes, m: int, d: int) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def monomials(shape, exponents: np.ndarray, derivative: bool = False):
-    r"""Monomials :math:`f_l(r) = \prod_i r_i^{E_{li}}` of shapes ``(..., d)`` → ``(..., m)``.
+    r"""Monomials :math:`f_l(r) = \prod_i r_i^{E_{li}}` of ``shape`` ``(..., d)`` → ``(..., m)``, with ``exponents``
+    E ``(m, d)``.
 
     The exponents must be closed under lowering (with every monomial, each of its divisors
     :math:`E_l - e_i`, like :func:`monomial_exponents`): then degree by degree
@@ -170,7 +173,8 @@ def symmetry_blocks(exponents: np.ndarray, symmetry: str | None) -> list[tuple[n
     return sorted(blocks, key=lambda block: block[0][0])
 
 
-class ShapeSpaceModel(OnlineGamma, Estimator):
+@fill_doc
+class ShapeSpaceModel(OnlineGamma, HeldOutScore, Estimator):
     r"""Polynomial connection model :math:`\hat\xi = W^T (f(r/s) \otimes \dot r)`, learned by RLS (module).
 
     Parameters
@@ -262,24 +266,8 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         self.resolution = resolution
 
     # -- validation ---------------------------------------------------------------------------
-    def _check_samples(self, owner, phase, *arrays, names):
-        phase = check_array(phase, "phase", owner, min_ndim=1)
-        out = [phase]
-        for array, name in zip(arrays, names, strict=True):
-            value = check_array(array, name, owner, trailing=(3 if name == "body_velocity" else None,))
-            if value.shape[:-1] != phase.shape:
-                raise fail(name, owner, f"an array of shape {phase.shape + (value.shape[-1],)} matching 'phase'",
-                           f"shape {value.shape}")
-            out.append(value)
-        d = getattr(self, "n_joints_", None)
-        for value, name in zip(out[1:], names, strict=True):
-            if name != "body_velocity" and d is not None and value.shape[-1] != d:
-                raise fail(name, owner, f"an array of shape (..., {d}) (the model's shape dimension)",
-                           f"shape {value.shape}")
-        batch = getattr(self, "batch_shape_", None)
-        if batch is not None and phase.shape[:-1] != batch:
-            raise fail("phase", owner, f"batched like the data seen so far, shape {batch} + (n,)",
-                       f"shape {phase.shape}")
+    def _check_samples(self, phase, *arrays, names, owner):
+        *out, self._single = check_samples(self, phase, *arrays, names=names, owner=owner)
         return out
 
     # -- fitting ------------------------------------------------------------------------------
@@ -303,7 +291,12 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         return (f[..., :, None] * shape_velocity[..., None, :]).reshape(f.shape[:-1] + (-1,))
 
     def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged."""
+        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
         with self._unchanged_on_error():
             self.validate()
             for name in ("batch_shape_", "n_joints_"):
@@ -324,8 +317,8 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         self
         """
         phase, shape, shape_velocity, body_velocity = self._check_samples(
-            f"{type(self).__name__}.partial_fit", phase, shape, shape_velocity, body_velocity,
-            names=("shape", "shape_velocity", "body_velocity"))
+            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
+            owner=f"{type(self).__name__}.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1])
         x = self._features(shape, shape_velocity)  # batch + (n, m d)
@@ -358,7 +351,8 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         return self
 
     def rotation_std(self, gait: FourierGait, residual_variance) -> np.ndarray:
-        r"""Standard error of the predicted net rotation per cycle of ``gait``.
+        r"""Standard error of the predicted net rotation per cycle of ``gait``, given the ``residual_variance``
+        σ²_ω of the measured ω (rad² per unit time², scalar or batch).
 
         The heading of the Magnus integration is exactly linear in the weights (the ω-component
         of an se(2) bracket vanishes): :math:`\hat\theta_{net} = g^T W_{\cdot\omega}` with
@@ -417,7 +411,7 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
 
     # -- prediction ---------------------------------------------------------------------------
     def connection(self, shape) -> np.ndarray:
-        """The learned local connection A(r) at shapes ``(..., d)`` → batch + (..., 3, d), ξ = −A ṙ."""
+        """The learned local connection A(r) at ``shape`` ``(..., d)`` (rad) → batch + (..., 3, d), ξ = −A ṙ."""
         self._check_is_fitted()
         shape = check_array(shape, "shape", f"{type(self).__name__}.connection", trailing=(self.n_joints_,))
         f = monomials(shape / self.shape_scale, self.exponents_)
@@ -425,24 +419,14 @@ class ShapeSpaceModel(OnlineGamma, Estimator):
         return -np.einsum(f"...l,{batch}ljk->{batch}...kj", f, self.weights_)
 
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
-        """Predicted body velocity ξ̂ = Wᵀ(f(r/s) ⊗ ṙ) of samples batch + (n, d) → batch + (n, 3)
-        (``phase`` is accepted for the common interface and only checked)."""
+        """Predicted body velocity ξ̂ = Wᵀ(f(r/s) ⊗ ṙ) of samples ``shape``, ``shape_velocity`` batch + (n, d)
+        (rad, rad per unit time) → batch + (n, 3); ``phase`` is accepted for the common interface and only
+        checked."""
         self._check_is_fitted()
-        _, shape, shape_velocity = self._check_samples(f"{type(self).__name__}.predict", phase, shape,
-                                                       shape_velocity, names=("shape", "shape_velocity"))
-        return np.einsum("...ni,...ij->...nj", self._features(shape, shape_velocity), self._flat_weights())
-
-    def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
-        """Γ on held-out samples (eq. 5) against ``baseline`` (default the phase model learned alongside)."""
-        self._check_is_fitted()
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            f"{type(self).__name__}.score", phase, shape, shape_velocity, body_velocity,
-            names=("shape", "shape_velocity", "body_velocity"))
-        baseline = self.phase_model_ if baseline is None else baseline
-        model_error = np.linalg.norm(self.predict(phase, shape, shape_velocity) - body_velocity, axis=-1)
-        baseline_error = np.linalg.norm(baseline.predict(phase) - body_velocity, axis=-1)
-        value = gamma(model_error, baseline_error)
-        return float(value) if np.ndim(value) == 0 else value
+        _, shape, shape_velocity = self._check_samples(phase, shape, shape_velocity, names=("shape", "shape_velocity"),
+                                                       owner=f"{type(self).__name__}.predict")
+        prediction = np.einsum("...ni,...ij->...nj", self._features(shape, shape_velocity), self._flat_weights())
+        return prediction[..., 0, :] if self._single else prediction
 
     def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
         r"""Net ``(x, y, heading)`` per cycle of ``gait`` under the learned connection.
