@@ -245,12 +245,9 @@ def test_symmetry_fits_the_purcell_connection_better_from_noise_free_data(rng):
 
 
 def test_symmetric_model_file_round_trip(tmp_path):
-    from geogait._files import write_state
-    from geogait.models import load_model
-
     run = simulate(PurcellSwimmer(4), seed_gait(3), n_cycles=2, seed=0, sensor_noise=0.1)
     model = ShapeSpaceModel(degree=2, symmetry="mirror+reversal").fit(*samples(run))
-    copy = load_model(write_state(tmp_path / "model.npz", *model.get_state()))
+    copy = ShapeSpaceModel.load(model.save(tmp_path / "model.npz"))
     assert isinstance(copy, ShapeSpaceModel) and copy.get_params() == model.get_params()
     gait = FourierGait(seed_gait(3).coefficients * 1.3)
     np.testing.assert_array_equal(copy.predict_displacement(gait), model.predict_displacement(gait))

@@ -12,9 +12,12 @@ with the true connection) and the batch baseline's median curve; panel A shows t
 shape space over the height function.
 
 Model (``model="auto"``): the shape-space connection model (:class:`~geogait.models.ShapeSpaceModel`,
-degree 3) for the 3- and 5-link swimmers and the local window model (:class:`~geogait.models.AdaptiveGaitModel`)
-for the 9-link swimmer — whichever won on that swimmer in ``studies/ceiling.py`` (README). The optimiser
-searches its default family: the rotation-free symmetric family on these symmetric swimmers.
+degree 3) with the swimmers' mirror and front–back symmetries built into its basis
+(``symmetry="mirror+reversal"``), forgetting factor 0.999 up to 5 links and 0.9999 beyond (808 weights
+on 9 links need a longer memory) — on every swimmer it won against, or tied with, both the
+unconstrained shape-space model and the local window model (:class:`~geogait.models.AdaptiveGaitModel`)
+in ``studies/ceiling.py`` (README, issue 10). The optimiser searches its default family: the
+rotation-free symmetric family on these symmetric swimmers.
 
 Why these defaults: sensor noise 0.1 of the signal RMS (with the 0.3 of the accuracy experiment the
 3-link model's Γ saturates near 0.4 and never reaches Γ* = 1/2, so no step would ever be taken);
@@ -83,8 +86,8 @@ class OptimizationConfig:
     gamma_threshold : float
         Γ*.
     model : {"auto", "adaptive", "shape"}
-        Model of the in-situ runs: ``"auto"`` is the shape-space model up to 5 links, the adaptive
-        window model beyond (module docstring).
+        Model of the in-situ runs: ``"auto"`` is the symmetric shape-space model, ``"shape"`` the
+        shape-space model without symmetry, ``"adaptive"`` the window model (module docstring).
     seed : int
         Root seed; swimmer i uses ``seed + 1000 i`` so adding a swimmer leaves the others unchanged.
     chunk_size : int
@@ -130,8 +133,11 @@ class OptimizationConfig:
 
 
 def in_situ_model(name: str, n_links: int):
-    """The model of an in-situ run: ``"adaptive"``, ``"shape"`` or ``"auto"`` (shape up to 5 links)."""
-    if name == "shape" or (name == "auto" and n_links <= 5):
+    """The model of an in-situ run: ``"adaptive"``, ``"shape"`` or ``"auto"`` (module docstring)."""
+    if name == "auto":
+        return ShapeSpaceModel(degree=3, symmetry="mirror+reversal",
+                               forgetting_factor=0.999 if n_links <= 5 else 0.9999)
+    if name == "shape":
         return ShapeSpaceModel(degree=3)
     return AdaptiveGaitModel(forgetting_factor=1 - 0.1 / (n_links - 1))
 
