@@ -71,6 +71,7 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
     assert result.exit_code == 0, result.output
     optimizer = json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]
     assert optimizer["model"]["class"] == "ShapeSpaceModel" and optimizer["model"]["params"]["degree"] == 3
+    assert optimizer["model"]["params"]["symmetry"] == "mirror+reversal"  # the built-in swimmer's symmetries
     assert optimizer["family"] == "free" and optimizer["step_rule"] == "sqp"
     log = pd.read_csv(tmp_path / "cycles.csv")
     assert log["step"].any() and log["param_0"].notna().all()  # it moved, in the free family's parameters
@@ -83,3 +84,17 @@ def test_bad_figure_options_are_reported(tmp_path):
     result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
                                       str(tmp_path)])
     assert result.exit_code == 1 and "error: " in result.stderr and "budgets" in result.stderr
+
+
+def test_fig5_models_per_swimmer():
+    """'auto' is the symmetric connection model (λ 0.999 up to 5 links, 0.9999 beyond); the others as named."""
+    from geogait.experiments.optimization import in_situ_model
+    from geogait.models import AdaptiveGaitModel, ShapeSpaceModel
+
+    for n_links, forgetting in ((3, 0.999), (5, 0.999), (9, 0.9999)):
+        model = in_situ_model("auto", n_links)
+        assert isinstance(model, ShapeSpaceModel) and model.symmetry == "mirror+reversal"
+        assert model.degree == 3 and model.forgetting_factor == forgetting
+    assert in_situ_model("shape", 5).symmetry is None
+    assert in_situ_model("adaptive", 5).get_params()["forgetting_factor"] == 1 - 0.1 / 4
+    assert isinstance(in_situ_model("adaptive", 9), AdaptiveGaitModel)

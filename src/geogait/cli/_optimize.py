@@ -62,8 +62,9 @@ def optimize(
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
     method: Annotated[str, typer.Option(
-        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space, degree 3) "
-             "or batch (Bittner 2018).")] = "adaptive",
+        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space, degree 3; "
+             "with the swimmer's mirror and front-back symmetries, none for --robot) or batch (Bittner 2018).",
+    )] = "adaptive",
     family: Annotated[str, typer.Option(
         help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
              "symmetric.")] = "auto",
@@ -128,9 +129,11 @@ def _optimizer(settings) -> InSituOptimizer:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
+    # The built-in Purcell swimmer has both symmetries of the chain; a robot's are not known.
+    symmetry = None if settings["robot"] is not None else "mirror+reversal"
     model = {"batch": lambda: BatchGaitModel(),
-             "shape": lambda: ShapeSpaceModel(degree=3) if forgetting is None else ShapeSpaceModel(
-                 degree=3, forgetting_factor=forgetting),
+             "shape": lambda: ShapeSpaceModel(degree=3, symmetry=symmetry, **(
+                 {} if forgetting is None else {"forgetting_factor": forgetting})),
              "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
              }[settings["method"]]()
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
