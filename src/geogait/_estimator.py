@@ -244,7 +244,7 @@ class Estimator:
     def load(cls, path):
         """Read an estimator written by :meth:`save`; checks format, version and class."""
         estimator = read_estimator(path, cls._format, cls._readable_versions or (cls._format_version,),
-                          kind=_kind(cls._format))
+                                   kind=_kind(cls._format))
         if not isinstance(estimator, cls):
             raise GeogaitError(f"{path} holds a {type(estimator).__name__}, not a {cls.__name__}.")
         return estimator

@@ -15,7 +15,7 @@ import functools
 import numpy as np
 
 from .._docs import fill_doc
-from .._estimator import Estimator, InstanceOf, Integer, Real, estimator_from_state
+from .._estimator import Boolean, Estimator, InstanceOf, Integer, Real, estimator_from_state
 from .._files import read_state
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, fail
 from ..gaits import FourierGait, fourier_basis
@@ -23,7 +23,7 @@ from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
-__all__ = ["GaitModelBase", "HeldOutScore", "PhaseWindowModel", "check_samples", "gamma", "load_model",
+__all__ = ["GaitModelBase", "SampleModel", "PhaseWindowModel", "check_samples", "gamma", "load_model",
            "model_from_state"]
 
 FORMAT = "geogait-model"
@@ -43,7 +43,7 @@ GAIT_MODEL_CONSTRAINTS = {
     **WINDOW_CONSTRAINTS,
     "gait": InstanceOf(FourierGait, "a FourierGait"),
     "phase_rate": Real(low=0, low_open=True),
-    "interaction": InstanceOf(bool, "a bool", none=False),
+    "interaction": Boolean(),
 }
 
 
@@ -144,12 +144,7 @@ class PhaseWindowModel(Estimator):
         time (the regression's own units; :meth:`coefficients` gives them in the data's units)."""
         return np.einsum("...nm,...mij->...nij", self._smoother(phase), self.window_weights_)
 
-    # -- fitting and persistence --------------------------------------------------------------
-    def _forget(self) -> None:
-        """Drop the learned state so the next ``partial_fit`` starts from scratch (``fit``)."""
-        for name in ("batch_shape_", "n_joints_"):
-            self.__dict__.pop(name, None)
-
+    # -- persistence --------------------------------------------------------------------------
     def _metadata(self) -> dict:
         return {"n_joints": getattr(self, "n_joints_", None), "batch_shape": list(self.batch_shape_)}
 
@@ -157,10 +152,24 @@ class PhaseWindowModel(Estimator):
     def _upgrade_state(cls, state: dict, metadata: dict) -> dict:
         return _from_version_1(state, metadata) if metadata.get("format_version") == 1 else state
 
+
 @fill_doc
-class HeldOutScore:
-    """``score``: Γ on held-out samples (eq. 5) for models with ``predict``, ``phase_model_`` and
-    ``_check_samples``."""
+class SampleModel:
+    """``fit`` from scratch and the held-out ``score`` (eq. 5) of the gait models learned from samples:
+    models with ``partial_fit``, ``predict``, ``phase_model_`` and ``_check_samples``."""
+
+    def fit(self, phase, shape, shape_velocity, body_velocity):
+        """Forget everything, then :meth:`partial_fit` (for the batch model: least squares on exactly these
+        samples). Returns ``self``; on an error the model is unchanged.
+
+        Parameters
+        ----------
+        %(samples)s
+        """
+        with self._unchanged_on_error():
+            for name in ("batch_shape_", "n_joints_"):
+                self.__dict__.pop(name, None)
+            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
         """Γ on held-out samples (eq. 5) against the phase model of the training data.
@@ -187,7 +196,7 @@ class HeldOutScore:
 
 
 @fill_doc
-class GaitModelBase(HeldOutScore, PhaseWindowModel):
+class GaitModelBase(SampleModel, PhaseWindowModel):
     """The gait models' shared API: nominal gait, prediction (eq. 3), coefficients, Γ score (eq. 5),
     the phase-model baseline and predicted net motion per cycle."""
 
@@ -224,18 +233,6 @@ class GaitModelBase(HeldOutScore, PhaseWindowModel):
         return regressors(shape - nominal, shape_velocity - nominal_rate, self.interaction)
 
     # -- public API shared by the gait models -------------------------------------------------
-    def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit` (for the batch model: least squares on exactly these
-        samples). Returns ``self``; on an error the model is unchanged.
-
-        Parameters
-        ----------
-        %(samples)s
-        """
-        with self._unchanged_on_error():
-            self._forget()
-            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
-
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
         r"""Predicted body velocity ξ̂ = C + Bδ + Aδ̇ + δᵀ∂Aδ̇ (eq. 3) with smoothed coefficients.
 

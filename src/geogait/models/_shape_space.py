@@ -57,7 +57,7 @@ from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
 from .._validation import check_array, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
-from ._base import FORMAT, FORMAT_VERSION, HeldOutScore, check_samples
+from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
@@ -174,7 +174,7 @@ def symmetry_blocks(exponents: np.ndarray, symmetry: str | None) -> list[tuple[n
 
 
 @fill_doc
-class ShapeSpaceModel(OnlineGamma, HeldOutScore, Estimator):
+class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
     r"""Polynomial connection model :math:`\hat\xi = W^T (f(r/s) \otimes \dot r)`, learned by RLS (module).
 
     Parameters
@@ -289,19 +289,6 @@ class ShapeSpaceModel(OnlineGamma, HeldOutScore, Estimator):
         """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
         f = monomials(shape / self.shape_scale, self.exponents_)
         return (f[..., :, None] * shape_velocity[..., None, :]).reshape(f.shape[:-1] + (-1,))
-
-    def fit(self, phase, shape, shape_velocity, body_velocity):
-        """Forget everything, then :meth:`partial_fit`. Returns ``self``; on an error the model is unchanged.
-
-        Parameters
-        ----------
-        %(samples)s
-        """
-        with self._unchanged_on_error():
-            self.validate()
-            for name in ("batch_shape_", "n_joints_"):
-                self.__dict__.pop(name, None)
-            return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
