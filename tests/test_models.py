@@ -109,11 +109,13 @@ def test_covariance_stays_bounded_without_excitation():
 
 
 @given(seed=st.integers(0, 2**32 - 1), lam=st.floats(0.5, 1.0), scale=st.floats(1e-3, 1e3),
-       rank=st.integers(0, 5))
+       rank=st.integers(0, 5), graded=st.booleans())
 @settings(max_examples=40, deadline=None)
-def test_covariance_stays_positive_definite_on_random_data(seed, lam, scale, rank):
+def test_covariance_stays_positive_definite_on_random_data(seed, lam, scale, rank, graded):
     rng = np.random.default_rng(seed)
-    bank = RLSBank((2,), 3, 6, 3, lam, initial_covariance=10.0)
+    prior = 10.0 * 0.3 ** np.arange(6) if graded else 10.0  # a prior variance per regressor, or δ₀ I
+    bank = RLSBank((2,), 3, 6, 3, lam, initial_covariance=prior)
+    assert bank.max_trace == pytest.approx(np.sum(np.broadcast_to(prior, 6)))
     basis = rng.normal(size=(rank, 6))  # regressors confined to a random subspace (poor excitation)
     for _ in range(60):
         x = scale * (rng.normal(size=(2, 3, rank)) @ basis if rank else np.zeros((2, 3, 6)))

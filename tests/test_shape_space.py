@@ -256,3 +256,30 @@ def test_symmetric_model_file_round_trip(tmp_path):
     np.testing.assert_array_equal(copy.partial_fit(*samples(more)).weights_, model.partial_fit(*samples(more)).weights_)
     with pytest.raises(ValueError, match="'symmetry' parameter of ShapeSpaceModel must be one of None, 'mirror'"):
         ShapeSpaceModel(symmetry="reversal").fit(*samples(run))
+
+
+@pytest.mark.parametrize("symmetry", [None, "mirror+reversal"])
+def test_degree_shrinkage_is_the_graded_ridge_solution(symmetry):
+    """With λ = 1 the weights are the closed-form ridge solution of each block, penalty b^q / δ₀ on the
+    weights of degree-q monomials (every block column has one degree), and b > 1 shrinks the high degrees."""
+    run = simulate(PurcellSwimmer(4), seed_gait(3), n_cycles=2, perturbation=Perturbation.from_std(0.3),
+                   sensor_noise=0.2, seed=2)
+    delta, shrinkage = 3.0, 10.0
+    model = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=1.0, initial_covariance=delta,
+                            degree_shrinkage=shrinkage).fit(*samples(run))
+    exponents = monomial_exponents(3, 3)
+    degree = np.repeat(exponents.sum(axis=1), 3)
+    features = monomials(run.shape, exponents)[:, :, None] * run.shape_velocity[:, None, :]
+    features = features.reshape(len(run.shape), -1)
+    expected = np.zeros((features.shape[1], 3))
+    for outputs, basis in symmetry_blocks(exponents, symmetry):
+        used = basis != 0
+        column_degree = np.array([np.unique(degree[used[:, c]]).item() for c in range(basis.shape[1])])
+        z = features @ basis
+        penalty = np.diag(shrinkage ** column_degree / delta)
+        expected[:, outputs] = basis @ np.linalg.solve(z.T @ z + penalty, z.T @ run.body_velocity[:, outputs])
+    np.testing.assert_allclose(model.weights_.reshape(-1, 3), expected, rtol=1e-6, atol=1e-9)
+    flat = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=1.0,
+                           initial_covariance=delta).fit(*samples(run)).weights_
+    cubic = exponents.sum(axis=1) == 3
+    assert np.linalg.norm(model.weights_[cubic]) < 0.5 * np.linalg.norm(flat[cubic])

@@ -11,8 +11,9 @@ target ``y``:
 The covariance update is written with the outer product of ``Px/√(λ + xᵀPx)`` with itself, so a
 symmetric ``P`` stays exactly symmetric in floating point. Under poor excitation exponential forgetting
 inflates ``P`` without bound ("wind-up"); we bound it by a **trace clamp**: whenever
-``trace P`` exceeds its initial value ``n δ₀`` the whole matrix is scaled back to it. Scaling by a
-positive number keeps ``P`` positive definite, every eigenvalue stays below ``n δ₀``, and with
+``trace P`` exceeds its initial value (``n δ₀``; the sum of the prior variances for a diagonal prior)
+the whole matrix is scaled back to it. Scaling by a positive number keeps ``P`` positive definite,
+every eigenvalue stays below that trace, and with
 λ = 1 (no forgetting) the clamp never acts, so the filter is exact recursive least squares.
 
 Updates are vectorised: all (trial, window) filters advance together in "rounds" — round j feeds
@@ -62,8 +63,10 @@ class RLSBank:
         Number of targets sharing each filter's covariance (3 for a body velocity).
     forgetting_factor : float in (0, 1]
         λ of eq. 4; 1 is ordinary recursive least squares.
-    initial_covariance : float > 0
-        δ₀: every covariance starts at δ₀·I, and the trace clamp keeps trace P ≤ n δ₀.
+    initial_covariance : float > 0 or ndarray of shape (n,)
+        δ₀: every covariance starts at δ₀·I, and the trace clamp keeps trace P ≤ n δ₀; a vector is
+        a prior variance per regressor, P₀ = diag(δ₀) (a ridge penalty 1/δ₀ᵢ on weight i), clamped at
+        trace P ≤ Σᵢ δ₀ᵢ.
 
     Attributes
     ----------
@@ -76,9 +79,10 @@ class RLSBank:
                  initial_covariance: float):
         self.forgetting_factor = forgetting_factor
         self.initial_covariance = initial_covariance
-        self.max_trace = n * initial_covariance
+        prior = np.broadcast_to(np.asarray(initial_covariance, dtype=float), (n,))
+        self.max_trace = float(prior.sum())
         self.weights = np.zeros(batch + (n_windows, n, n_outputs))
-        self.covariance = np.broadcast_to(initial_covariance * np.eye(n), batch + (n_windows, n, n)).copy()
+        self.covariance = np.broadcast_to(np.diag(prior), batch + (n_windows, n, n)).copy()
         self.n_updates = np.zeros(batch + (n_windows,), dtype=np.int64)
 
     def rows(self, part: slice) -> RLSBank:

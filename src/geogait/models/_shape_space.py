@@ -192,7 +192,12 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
     forgetting_factor : float in (0, 1]
         λ per sample; memory ≈ 1 / (1 − λ) samples. 1 keeps everything (exact least squares).
     initial_covariance : float > 0
-        δ₀: P starts at δ₀·I (a ridge prior 1/δ₀ on W); the trace clamp keeps trace P ≤ m d δ₀.
+        δ₀: P starts at δ₀·I (a ridge prior 1/δ₀ on W); the trace clamp keeps trace P ≤ trace P₀.
+    degree_shrinkage : float > 0
+        b: the prior variance of the weights of degree-q monomials is δ₀ b^{−q}, a ridge penalty
+        that grows by b per degree (b = 1: the same for all). With b > 1 a high degree can be afforded:
+        its weights stay near zero until the data demand them (the Taylor coefficients of an analytic
+        connection shrink with degree in the same way).
     gamma_forgetting : float in (0, 1]
         λ_Γ of the online Γ (eq. 6).
     n_windows, smoothing_order : int
@@ -243,6 +248,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         "shape_scale": Real(low=0, low_open=True),
         "forgetting_factor": Real(low=0, high=1, low_open=True),
         "initial_covariance": Real(low=0, low_open=True),
+        "degree_shrinkage": Real(low=0, low_open=True),
         "gamma_forgetting": Real(low=0, high=1, low_open=True),
         "n_windows": Integer(minimum=1),
         "smoothing_order": Integer(minimum=0),
@@ -251,14 +257,15 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
     }
 
     def __init__(self, *, degree: int = 2, symmetry: str | None = None, shape_scale: float = 1.0,
-                 forgetting_factor: float = 0.999, initial_covariance: float = 100.0, gamma_forgetting: float = 0.995,
-                 n_windows: int = 20, smoothing_order: int = 5, baseline_forgetting: float = 0.99,
-                 resolution: int = 128):
+                 forgetting_factor: float = 0.999, initial_covariance: float = 100.0, degree_shrinkage: float = 1.0,
+                 gamma_forgetting: float = 0.995, n_windows: int = 20, smoothing_order: int = 5,
+                 baseline_forgetting: float = 0.99, resolution: int = 128):
         self.degree = degree
         self.symmetry = symmetry
         self.shape_scale = shape_scale
         self.forgetting_factor = forgetting_factor
         self.initial_covariance = initial_covariance
+        self.degree_shrinkage = degree_shrinkage
         self.gamma_forgetting = gamma_forgetting
         self.n_windows = n_windows
         self.smoothing_order = smoothing_order
@@ -277,13 +284,20 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
         self.blocks_ = symmetry_blocks(self.exponents_, self.symmetry)
-        self.banks_ = [RLSBank(batch, 1, basis.shape[1], len(outputs), self.forgetting_factor, self.initial_covariance)
+        self.banks_ = [RLSBank(batch, 1, basis.shape[1], len(outputs), self.forgetting_factor, self._prior(basis))
                        for outputs, basis in self.blocks_]
         self.phase_model_ = PhaseModel(n_windows=self.n_windows, forgetting_factor=self.baseline_forgetting,
                                        smoothing_order=self.smoothing_order).start(batch)
         self.psi_ = np.zeros(batch + (2,))
         self.n_samples_seen_ = 0
         self._flat = None
+
+    def _prior(self, basis: np.ndarray) -> np.ndarray:
+        """Prior variance δ₀ b^{−q} of each column of a block's ``basis`` (every column combines monomials
+        of one degree q: the mirror and reversal keep the degree)."""
+        degree = np.repeat(self.exponents_.sum(axis=1), self.n_joints_)  # of feature l d + j
+        magnitude = np.abs(basis)
+        return self.initial_covariance * self.degree_shrinkage ** -(degree @ magnitude / magnitude.sum(axis=0))
 
     def _features(self, shape, shape_velocity) -> np.ndarray:
         """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
