@@ -10,6 +10,10 @@ repetitions of the final gait, :math:`\\|t\\|\\,\\sin(5\\omega) / (10 \\sin(\\om
 what a rotating gait actually gains along a straight line (equal to ‖t‖ at ω = 0).
 
     python studies/ceiling.py LINKS CYCLES TRIALS [CONFIG ...] [--jobs 1] [--checkpoints 30 40 60 200]
+                              [--perturbation 0.15]
+
+``--perturbation`` sets the std (rad) of the exploration perturbations δ (the stream's default: 0.15; its
+frequency and damping are kept).
 
 CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sqp, shape-linear,
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
@@ -27,7 +31,7 @@ import time
 import numpy as np
 from joblib import Parallel, delayed
 
-from geogait.gaits import seed_gait
+from geogait.gaits import Perturbation, seed_gait
 from geogait.models import PerfectInformationModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer, cached_ceiling
 from geogait.simulate import SwimmerStream
@@ -60,9 +64,13 @@ def optimizer(config, links):
     return InSituOptimizer(**options)
 
 
-def one(links, cycles, name, seed, ceiling):
+def one(links, cycles, name, seed, ceiling, perturbation):
     start = time.perf_counter()
-    stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=0.1, seed=seed)
+    default = Perturbation()  # the stream's: std 0.15 rad; keep its frequency and damping, scale its size
+    explore = None if perturbation is None else Perturbation(
+        alpha=default.alpha, beta=default.beta, eta=default.eta * perturbation / default.stationary_std[0])
+    stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=0.1, seed=seed,
+                           perturbation=explore)
     log = optimizer(name, links).run(stream, cycles, ceiling=ceiling).log
     fraction = log["ceiling_fraction"].to_numpy()
     omega = log["true_heading"].to_numpy()[-1]
@@ -72,14 +80,14 @@ def one(links, cycles, name, seed, ceiling):
         time.perf_counter() - start
 
 
-def main(links, cycles, trials, names, jobs, checkpoints):
+def main(links, cycles, trials, names, jobs, checkpoints, perturbation=None):
     ceiling = cached_ceiling(PurcellSwimmer(links)).value
     checkpoints = [c for c in checkpoints if c <= cycles]
     print(f"{links}-link, {cycles} cycles, {trials} trials; fraction of the ceiling median [25-75 %] at cycles "
           f"{checkpoints}", flush=True)
     for name in names:
         start = time.perf_counter()
-        runs = Parallel(n_jobs=jobs)(delayed(one)(links, cycles, name, s, ceiling) for s in range(trials))
+        runs = Parallel(n_jobs=jobs)(delayed(one)(links, cycles, name, s, ceiling, perturbation) for s in range(trials))
         fractions = np.array([r[0] for r in runs])
         cells = []
         for c in checkpoints:
@@ -101,6 +109,7 @@ if __name__ == "__main__":
     parser.add_argument("configs", nargs="*", default=list(CONFIGS))
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--checkpoints", type=int, nargs="+", default=[30, 40, 60, 200])
+    parser.add_argument("--perturbation", type=float, default=None)
     arguments = parser.parse_args()
     main(arguments.links, arguments.cycles, arguments.trials, arguments.configs, arguments.jobs,
-         arguments.checkpoints)
+         arguments.checkpoints, arguments.perturbation)
