@@ -126,6 +126,29 @@ def test_covariance_stays_positive_definite_on_random_data(seed, lam, scale, ran
     assert np.trace(p, axis1=-2, axis2=-1).max() <= bank.max_trace * (1 + 1e-12)
 
 
+@given(seed=st.integers(0, 2**32 - 1), lam=st.sampled_from([1.0, 0.999, 0.95, 0.6]), rank=st.integers(1, 6),
+       split=st.integers(1, 150))
+@settings(max_examples=30, deadline=None)
+def test_sequence_update_equals_sample_by_sample_updates(seed, lam, rank, split):
+    """update_sequence (blocks, module docstring) = one update per sample, trace clamp included, whatever the
+    split of the sequence into calls; regressors in a random subspace so the clamp acts for λ < 1."""
+    rng = np.random.default_rng(seed)
+    prior = 10.0 * 0.5 ** np.arange(6)
+    blocks, samples = RLSBank((2,), 1, 6, 3, lam, prior), RLSBank((2,), 1, 6, 3, lam, prior)
+    x = rng.normal(size=(2, 1, 200, rank)) @ rng.normal(size=(rank, 6))
+    y = rng.normal(size=(2, 1, 200, 3))
+    expected = np.stack([samples.update(x[:, :, i], y[:, :, i], np.ones((2, 1), bool)) for i in range(200)], -2)
+    prior_prediction = np.concatenate([blocks.update_sequence(x[:, :, s:s + split], y[:, :, s:s + split])
+                                       for s in range(0, 200, split)], axis=-2)
+    scale = np.linalg.cond(samples.covariance).max()  # rounding grows with the conditioning
+    np.testing.assert_allclose(prior_prediction, expected, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(blocks.weights, samples.weights, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(blocks.covariance, samples.covariance, rtol=1e-10, atol=1e-12 * scale)
+    assert np.array_equal(blocks.covariance, np.swapaxes(blocks.covariance, -1, -2))
+    assert np.trace(blocks.covariance, axis1=-2, axis2=-1).max() <= blocks.max_trace * (1 + 1e-12)
+    np.testing.assert_array_equal(blocks.n_updates, samples.n_updates)
+
+
 def test_online_gamma_does_not_depend_on_batching(runs):
     run = runs["train"].cycles(0, 3)
     whole = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run))

