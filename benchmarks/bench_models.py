@@ -1,12 +1,14 @@
 """RLS bank update throughput (issue 3): one sample at a time, and batched over 50 trials; against
-an equivalent bank of padasip ``FilterRLS`` filters (one per window per output)."""
+an equivalent bank of padasip ``FilterRLS`` filters (one per window per output). Shape-space model
+(issue 10): one cycle of learning on the 9-link swimmer with the symmetric degree-3 and degree-4 bases,
+and a filter's samples as one block (``RLSBank.update_sequence``) against one rank-one update each."""
 
 import numpy as np
 import padasip
 from run import best_time
 
 from geogait.gaits import seed_gait
-from geogait.models import AdaptiveGaitModel
+from geogait.models import AdaptiveGaitModel, RLSBank, ShapeSpaceModel
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
@@ -63,4 +65,34 @@ def run():
                          value=n_padasip / padasip_seconds, unit="samples/s"))
         rows.append(dict(benchmark="speed-up vs padasip", case=f"{links}-link, same {n_padasip} samples",
                          value=padasip_seconds / ours, unit="x"))
+    return rows + run_shape_space()
+
+
+def run_shape_space():
+    rows = []
+    swimmer, gait = PurcellSwimmer(9), seed_gait(8)
+    cycles = simulate(swimmer, gait, 2, seed=0, sensor_noise=0.1)
+    first, second = ((a[s] for a in (cycles.phase, cycles.shape, cycles.shape_velocity, cycles.body_velocity))
+                     for s in (slice(0, 100), slice(100, 200)))
+    first, second = tuple(first), tuple(second)
+    for degree in (3, 4):
+        model = ShapeSpaceModel(degree=degree, symmetry="mirror+reversal", forgetting_factor=0.9999)
+        model.partial_fit(*first)  # then learn the second cycle again and again: the cost does not change
+        rows.append(dict(benchmark="shape-space model", case=f"9-link, degree {degree}, symmetric, one cycle",
+                         value=1 / best_time(lambda m=model: m.partial_fit(*second), repeats=3), unit="cycles/s"))
+    rng = np.random.default_rng(0)
+    n = 1468  # the 9-link degree-4 model's even blocks
+    x, y = rng.normal(size=(1, 100, n)), rng.normal(size=(1, 100, 1))
+
+    def sample_by_sample():
+        bank = RLSBank((), 1, n, 1, 0.9999, 100.0)
+        for i in range(100):
+            bank.update(x[:, i], y[:, i], np.ones(1, bool))
+
+    block = best_time(lambda: RLSBank((), 1, n, 1, 0.9999, 100.0).update_sequence(x, y), repeats=3)
+    single = best_time(sample_by_sample, repeats=1, min_time=0.0)
+    rows.append(dict(benchmark="rls sequence", case=f"{n} regressors, 100 samples as one block",
+                     value=100 / block, unit="samples/s"))
+    rows.append(dict(benchmark="speed-up vs rank-one updates", case=f"{n} regressors, same 100 samples",
+                     value=single / block, unit="x"))
     return rows
