@@ -7,7 +7,10 @@ a step at the boundary delivers > 3/4 of its promise, ×½ below 1/4). Prints, p
 rule and radius, the steps to 90 % / 95 % of the ceiling (of the same family's objective, zero
 rotation) and the fraction after ``--steps`` steps.
 
-    python studies/steps.py [--links 3 5 9] [--steps 40]
+    python studies/steps.py [--links 3 5 9] [--steps 40] [--min-gain 0.005]
+
+``--min-gain`` is the smallest predicted relative gain of an accepted step (the optimiser's
+``min_gain``); with perfect information 0 is safe, and it decides whether the 9-link runs stall.
 """
 
 import argparse
@@ -54,7 +57,7 @@ def first(fractions, level):
     return int(hit[0]) + 1 if hit.size else None
 
 
-def main(links_list, n_steps):
+def main(links_list, n_steps, min_gain=0.005):
     print("links family     rule   R0/Rmax     →90%  →95%  final  time")
     for links in links_list:
         ceiling = cached_ceiling(PurcellSwimmer(links)).value
@@ -62,7 +65,7 @@ def main(links_list, n_steps):
             for rule, radius, max_radius in (("linear", 0.1, 0.15), ("linear", 0.1, 0.5), ("sqp", 0.1, 0.15),
                                              ("sqp", 0.1, 0.5)):
                 start = time.perf_counter()
-                fractions = run(links, family, rule, radius, max_radius, n_steps, ceiling)
+                fractions = run(links, family, rule, radius, max_radius, n_steps, ceiling, min_gain=min_gain)
                 print(f"{links:5d} {family:10s} {rule:6s} {radius:.2f}/{max_radius:.2f}  {first(fractions, 0.9)!s:>5} "
                       f"{first(fractions, 0.95)!s:>5}  {fractions[-1]:.3f}  {time.perf_counter() - start:.0f} s",
                       flush=True)
@@ -72,5 +75,6 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--links", type=int, nargs="+", default=[3, 5, 9])
     parser.add_argument("--steps", type=int, default=40)
+    parser.add_argument("--min-gain", type=float, default=0.005)
     arguments = parser.parse_args()
-    main(arguments.links, arguments.steps)
+    main(arguments.links, arguments.steps, arguments.min_gain)

@@ -455,13 +455,13 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         weights = self.weights_  # batch + (m, d, 3)
         if not jacobian:
             f = monomials(shape / self.shape_scale, self.exponents_)
-            velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights)
+            velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights, optimize=True)
             return integrate_cycle(velocity, step)
         f, df = monomials(shape / self.shape_scale, self.exponents_, derivative=True)  # (n,2,m), (n,2,m,d)
-        along = np.einsum("npj,...ljk->...nplk", rate, weights)  # Σ_j W_ljk θ_j': contract once, reuse
-        velocity = np.einsum("npl,...nplk->...npk", f, along)
-        u = np.einsum("npli,...nplk->...npki", df, along) / self.shape_scale  # batch+(n,2,3,d)
-        v = np.einsum("npl,...lik->...npki", f, weights)
+        along = np.einsum("npj,...ljk->...nplk", rate, weights, optimize=True)  # Σ_j W_ljk θ_j': contract once, reuse
+        velocity = np.einsum("npl,...nplk->...npk", f, along, optimize=True)
+        u = np.einsum("npli,...nplk->...npki", df, along, optimize=True) / self.shape_scale  # batch+(n,2,3,d)
+        v = np.einsum("npl,...lik->...npki", f, weights, optimize=True)
         basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
         velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
         velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
