@@ -5,9 +5,11 @@ noise ``--noise``), then compares its predicted objective's gradient in the symm
 seed with the true one (the perfect-information model). ``--model rls`` is ``ShapeSpaceModel(degree=D,
 symmetry="mirror+reversal", forgetting_factor=1)``; with it, each learned row of A(r) is also put alone into
 the true connection, which shows which row the error comes from. ``--model lstsq`` solves the same
-symmetric least-squares problem directly (ridge ``--ridge``), fast enough for degree 4.
+symmetric least-squares problem directly (ridge ``--ridge``). ``--shrinkage b`` multiplies the ridge of
+degree-q weights by b^q (the model's ``degree_shrinkage``: prior variance δ₀ b^-q, δ₀ = 100).
 
     python studies/shape_gradient.py CYCLES [--degree 3] [--noise 0.0] [--model rls|lstsq] [--ridge 0.01]
+                                     [--shrinkage 1]
 """
 
 import argparse
@@ -30,34 +32,36 @@ def gradient(connection, family, params):
     return value, slope
 
 
-def least_squares(run, degree, ridge):
-    """Connection of the symmetric polynomial model solved in one go (ridge ``ridge``)."""
+def least_squares(run, degree, ridge, shrinkage):
+    """Connection of the symmetric polynomial model solved in one go (ridge ``ridge`` b^q on degree q)."""
     exponents = monomial_exponents(SWIMMER.n_joints, degree)
     features = monomials(run.shape, exponents)[:, :, None] * run.shape_velocity[:, None, :]
     features = features.reshape(len(run.shape), -1)
+    penalty = ridge * shrinkage ** np.repeat(exponents.sum(axis=1), SWIMMER.n_joints)
     weights = np.zeros((features.shape[1], 3))
     for outputs, basis in symmetry_blocks(exponents, "mirror+reversal"):
         z = features @ basis
-        weights[:, outputs] = basis @ np.linalg.solve(z.T @ z + ridge * np.eye(z.shape[1]),
+        weights[:, outputs] = basis @ np.linalg.solve(z.T @ z + basis.T @ (penalty[:, None] * basis),
                                                       z.T @ run.body_velocity[:, outputs])
     weights = weights.reshape(len(exponents), SWIMMER.n_joints, 3)
     return lambda shape: -np.einsum("...l,ljk->...kj", monomials(shape, exponents), weights)
 
 
-def main(cycles, degree, noise, model, ridge):
+def main(cycles, degree, noise, model, ridge, shrinkage=1.0):
     seed = seed_gait(SWIMMER.n_joints)
     family = SymmetricGaitFamily.from_gait(seed)
     params = family.params_of(seed)
     run = simulate(SWIMMER, seed, n_cycles=cycles, perturbation=Perturbation.from_std(0.15), sensor_noise=noise, seed=3)
     true_value, true_slope = gradient(SWIMMER.connection, family, params)
     if model == "lstsq":
-        learned = least_squares(run, degree, ridge)
+        learned = least_squares(run, degree, ridge, shrinkage)
     else:
-        fitted = ShapeSpaceModel(degree=degree, symmetry="mirror+reversal", forgetting_factor=1.0)
+        fitted = ShapeSpaceModel(degree=degree, symmetry="mirror+reversal", forgetting_factor=1.0,
+                                 degree_shrinkage=shrinkage)
         learned = fitted.fit(run.phase, run.shape, run.shape_velocity, run.body_velocity).connection
     rows = {"all rows": [0, 1, 2]} if model == "lstsq" else {"x row": [0], "y row": [1], "θ row": [2],
                                                               "all rows": [0, 1, 2]}
-    solver = f"lstsq, ridge {ridge:g}" if model == "lstsq" else "rls"
+    solver = (f"lstsq, ridge {ridge:g}" if model == "lstsq" else "rls") + f", shrinkage {shrinkage:g}"
     print(f"9-link, degree {degree}, {solver}, {cycles} cycles, noise {noise}: true objective {true_value:.4f}, "
           f"|true gradient| {np.linalg.norm(true_slope):.4f}")
     for name, which in rows.items():
@@ -79,5 +83,6 @@ if __name__ == "__main__":
     parser.add_argument("--noise", type=float, default=0.0)
     parser.add_argument("--model", choices=("rls", "lstsq"), default="rls")
     parser.add_argument("--ridge", type=float, default=0.01)
+    parser.add_argument("--shrinkage", type=float, default=1.0)
     arguments = parser.parse_args()
-    main(arguments.cycles, arguments.degree, arguments.noise, arguments.model, arguments.ridge)
+    main(arguments.cycles, arguments.degree, arguments.noise, arguments.model, arguments.ridge, arguments.shrinkage)

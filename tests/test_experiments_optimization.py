@@ -70,8 +70,10 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
     result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "10", *options, "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
     optimizer = json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]
-    assert optimizer["model"]["class"] == "ShapeSpaceModel" and optimizer["model"]["params"]["degree"] == 3
-    assert optimizer["model"]["params"]["symmetry"] == "mirror+reversal"  # the built-in swimmer's symmetries
+    model = optimizer["model"]
+    assert model["class"] == "ShapeSpaceModel" and model["params"]["degree"] == 4  # Fig. 5's model
+    assert model["params"]["degree_shrinkage"] == 30 and model["params"]["forgetting_factor"] == 0.999
+    assert model["params"]["symmetry"] == "mirror+reversal"  # the built-in swimmer's symmetries
     assert optimizer["family"] == "free" and optimizer["step_rule"] == "sqp"
     log = pd.read_csv(tmp_path / "cycles.csv")
     assert log["step"].any() and log["param_0"].notna().all()  # it moved, in the free family's parameters
@@ -87,14 +89,26 @@ def test_bad_figure_options_are_reported(tmp_path):
 
 
 def test_fig5_models_per_swimmer():
-    """'auto' is the symmetric connection model (λ 0.999 up to 5 links, 0.9999 beyond); the others as named."""
+    """'auto' is the symmetric connection model of degree 4 with a graded prior (λ 0.999 up to 5 links, 0.9999
+    beyond); the others as named."""
     from geogait.experiments.optimization import in_situ_model
     from geogait.models import AdaptiveGaitModel, ShapeSpaceModel
 
     for n_links, forgetting in ((3, 0.999), (5, 0.999), (9, 0.9999)):
         model = in_situ_model("auto", n_links)
         assert isinstance(model, ShapeSpaceModel) and model.symmetry == "mirror+reversal"
-        assert model.degree == 3 and model.forgetting_factor == forgetting
+        assert model.degree == 4 and model.degree_shrinkage == 30 and model.forgetting_factor == forgetting
     assert in_situ_model("shape", 5).symmetry is None
     assert in_situ_model("adaptive", 5).get_params()["forgetting_factor"] == 1 - 0.1 / 4
     assert isinstance(in_situ_model("adaptive", 9), AdaptiveGaitModel)
+
+
+def test_shape_method_model_for_swimmer_and_robot():
+    """--method shape: Fig. 5's model on the built-in swimmer; degree 3 without symmetry for a robot, whose
+    symmetries are not known; --forgetting-factor overrides λ in both."""
+    from geogait.cli._optimize import _shape_model
+
+    swimmer = _shape_model(9, robot=False, forgetting=None)
+    assert (swimmer.degree, swimmer.symmetry, swimmer.forgetting_factor) == (4, "mirror+reversal", 0.9999)
+    robot = _shape_model(9, robot=True, forgetting=0.99)
+    assert (robot.degree, robot.symmetry, robot.degree_shrinkage, robot.forgetting_factor) == (3, None, 1.0, 0.99)

@@ -14,7 +14,13 @@ import typer
 
 from .._files import dumps_json, write_text
 from .._validation import GeogaitError, check_float, check_int
-from ..experiments.optimization import OptimizationConfig, OptimizationResult, default_budget, run_optimization
+from ..experiments.optimization import (
+    OptimizationConfig,
+    OptimizationResult,
+    default_budget,
+    in_situ_model,
+    run_optimization,
+)
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
@@ -62,8 +68,9 @@ def optimize(
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
     method: Annotated[str, typer.Option(
-        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space, degree 3; "
-             "with the swimmer's mirror and front-back symmetries, none for --robot) or batch (Bittner 2018).",
+        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space: Fig. 5's, "
+             "degree 4 with the swimmer's mirror and front-back symmetries; for --robot degree 3 without) or "
+             "batch (Bittner 2018).",
     )] = "adaptive",
     family: Annotated[str, typer.Option(
         help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
@@ -129,11 +136,8 @@ def _optimizer(settings) -> InSituOptimizer:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
-    # The built-in Purcell swimmer has both symmetries of the chain; a robot's are not known.
-    symmetry = None if settings["robot"] is not None else "mirror+reversal"
     model = {"batch": lambda: BatchGaitModel(),
-             "shape": lambda: ShapeSpaceModel(degree=3, symmetry=symmetry, **(
-                 {} if forgetting is None else {"forgetting_factor": forgetting})),
+             "shape": lambda: _shape_model(settings["links"], settings["robot"] is not None, forgetting),
              "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
              }[settings["method"]]()
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
@@ -142,6 +146,13 @@ def _optimizer(settings) -> InSituOptimizer:
                            settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
                            step_rule=settings.get("step_rule", "linear"),
                            max_tracking_error=None if tracking == "off" else tracking).validate()
+
+
+def _shape_model(links: int, robot: bool, forgetting: float | None) -> ShapeSpaceModel:
+    """Fig. 5's model on the built-in swimmer; for a robot, whose symmetries are not known, degree 3 without
+    symmetry (degree 4 without it would be 4 × the weights)."""
+    model = ShapeSpaceModel(degree=3) if robot else in_situ_model("auto", links)
+    return model if forgetting is None else model.set_params(forgetting_factor=forgetting)
 
 
 def _ceiling_kind(settings) -> str:

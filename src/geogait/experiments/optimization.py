@@ -11,13 +11,13 @@ final box plots (5/25/50/75/95), the ceiling (same gait family, objective and co
 with the true connection) and the batch baseline's median curve; panel A shows the 3-link gaits in
 shape space over the height function.
 
-Model (``model="auto"``): the shape-space connection model (:class:`~geogait.models.ShapeSpaceModel`,
-degree 3) with the swimmers' mirror and front–back symmetries built into its basis
-(``symmetry="mirror+reversal"``), forgetting factor 0.999 up to 5 links and 0.9999 beyond (808 weights
-on 9 links need a longer memory) — on every swimmer it won against, or tied with, both the
-unconstrained shape-space model and the local window model (:class:`~geogait.models.AdaptiveGaitModel`)
-in ``studies/ceiling.py`` (README, issue 10). The optimiser searches its default family: the
-rotation-free symmetric family on these symmetric swimmers.
+Model (``model="auto"``): the shape-space connection model (:class:`~geogait.models.ShapeSpaceModel`)
+of degree 4 with a prior that shrinks each higher degree 30× (``degree_shrinkage=30``) and the swimmers'
+mirror and front–back symmetries built into its basis (``symmetry="mirror+reversal"``), forgetting factor
+0.999 up to 5 links and 0.9999 beyond (3448 weights on 9 links need a longer memory) — on every swimmer it
+won against, or tied with, the degree-3 model, the unconstrained shape-space model and the local window
+model (:class:`~geogait.models.AdaptiveGaitModel`) in ``studies/ceiling.py`` (README, issue 10). The
+optimiser searches its default family: the rotation-free symmetric family on these symmetric swimmers.
 
 Why these defaults: sensor noise 0.1 of the signal RMS (with the 0.3 of the accuracy experiment the
 3-link model's Γ saturates near 0.4 and never reaches Γ* = 1/2, so no step would ever be taken);
@@ -135,7 +135,7 @@ class OptimizationConfig:
 def in_situ_model(name: str, n_links: int):
     """The model of an in-situ run: ``"adaptive"``, ``"shape"`` or ``"auto"`` (module docstring)."""
     if name == "auto":
-        return ShapeSpaceModel(degree=3, symmetry="mirror+reversal",
+        return ShapeSpaceModel(degree=4, degree_shrinkage=30.0, symmetry="mirror+reversal",
                                forgetting_factor=0.999 if n_links <= 5 else 0.9999)
     if name == "shape":
         return ShapeSpaceModel(degree=3)
