@@ -12,28 +12,33 @@
 
 from ._paths import PATH_KINDS, ReferencePath
 from ._steering import (
+    TURN_SPACING,
     ModelMotion,
     SteeringFamily,
     SteeringSolution,
     TrueMotion,
+    max_feasible_turn,
     max_step_family,
     solve_steering_gait,
     steering_family,
     travel_rows,
 )
-from ._tracker import CONTROLLERS, PathTracker, TrackingResult, end_pose
+from ._tracker import CONTROLLERS, DEFAULT_TURN_LIMIT, PathTracker, TrackingResult, end_pose
 
 __all__ = [
     "CONTROLLERS",
+    "DEFAULT_TURN_LIMIT",
     "PATH_KINDS",
     "ModelMotion",
     "PathTracker",
     "ReferencePath",
     "SteeringFamily",
     "SteeringSolution",
+    "TURN_SPACING",
     "TrackingResult",
     "TrueMotion",
     "end_pose",
+    "max_feasible_turn",
     "max_step_family",
     "solve_steering_gait",
     "steering_family",

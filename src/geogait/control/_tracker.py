@@ -49,16 +49,21 @@ from ..simulate import Trajectory, cycle_displacement
 from ._paths import ReferencePath
 from ._steering import (
     DEFAULT_MAX_JOINT_ANGLE,
+    TURN_SPACING,
     ModelMotion,
     SteeringFamily,
     TrueMotion,
+    max_feasible_turn,
     solve_steering_gait,
     steering_family,
 )
 
-__all__ = ["CONTROLLERS", "PathTracker", "TrackingResult", "end_pose"]
+__all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "PathTracker", "TrackingResult", "end_pose"]
 
 CONTROLLERS = ("adaptive", "frozen", "true")
+DEFAULT_TURN_LIMIT = 1.0
+"""Largest |turn| per cycle (rad) asked of the steering family when ``turn_limit`` is None, before the
+joint limits cut it."""
 
 
 def end_pose(chunk: Trajectory) -> np.ndarray:
@@ -135,11 +140,17 @@ class PathTracker:
         Source of the predicted motion per cycle.
     horizon : int
         Cycles H predicted per decision.
-    turn_limit : float
+    turn_limit : float or None
         Largest |turn| per cycle (rad) in the steering family; members the joint limits make
-        infeasible are dropped.
-    n_turns : int
-        Members of the steering family (odd, so that zero turn is one of them).
+        infeasible are dropped. None (default): :data:`DEFAULT_TURN_LIMIT` = 1 rad cut to what the
+        joint limits allow — after the warm-up, the largest multiple of 0.1 rad up to 1 rad that the
+        controller's own motion source (the warm-up model, or the true connection) turns in both
+        directions within ``max_joint_angle`` (:func:`~geogait.control.max_feasible_turn`); 0.5 rad for
+        the 3-link and 1.0 for the 5-link Purcell swimmer. The limit in use is ``turn_limit_`` after
+        :meth:`run`.
+    n_turns : int or None
+        Members of the steering family (odd, so that zero turn is one of them). None (default): turns
+        spaced 0.1 rad.
     n_first_turns : int
         Candidate first turns (fine grid between the family's extreme feasible turns).
     heading_weight : float
@@ -162,8 +173,8 @@ class PathTracker:
         gaits with the current model every cycle.
     """
 
-    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float = 0.5,
-                 n_turns: int = 11, n_first_turns: int = 21, heading_weight: float = 0.5,
+    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float | None = None,
+                 n_turns: int | None = None, n_first_turns: int = 21, heading_weight: float = 0.5,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10,
                  max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
                  family_every: int = 5):
@@ -184,10 +195,12 @@ class PathTracker:
         owner = "PathTracker"
         check_choice(self.controller, "controller", owner, CONTROLLERS)
         check_int(self.horizon, "horizon", owner, minimum=1)
-        check_float(self.turn_limit, "turn_limit", owner, low=0, high=np.pi, low_open=True)
-        n_turns = check_int(self.n_turns, "n_turns", owner, minimum=3)
-        if n_turns % 2 == 0:
-            raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member)", n_turns)
+        if self.turn_limit is not None:
+            check_float(self.turn_limit, "turn_limit", owner, low=0, high=np.pi, low_open=True)
+        if self.n_turns is not None:
+            n_turns = check_int(self.n_turns, "n_turns", owner, minimum=3)
+            if n_turns % 2 == 0:
+                raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member) or None", n_turns)
         check_int(self.n_first_turns, "n_first_turns", owner, minimum=3)
         check_float(self.heading_weight, "heading_weight", owner, low=0)
         check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
@@ -197,10 +210,18 @@ class PathTracker:
         check_int(self.resolution, "resolution", owner, minimum=8)
         check_int(self.family_every, "family_every", owner, minimum=1)
 
-    @property
-    def turns(self) -> np.ndarray:
-        """Turning rates of the steering family's members (rad per cycle)."""
-        return np.linspace(-self.turn_limit, self.turn_limit, self.n_turns)
+    def _resolve_turns(self, motion, reference, direction) -> np.ndarray:
+        """Turning rates of the steering family's members (rad per cycle); sets ``turn_limit_``."""
+        limit = self.turn_limit
+        if limit is None:
+            limit = max_feasible_turn(motion, reference, direction=direction, upper=DEFAULT_TURN_LIMIT,
+                                      max_joint_angle=self.max_joint_angle)
+            if limit == 0:
+                raise GeogaitError("No steering gait turns by 0.1 rad per cycle within the joint limits "
+                                   "(give turn_limit, or relax max_joint_angle).")
+        n_turns = 2 * int(round(limit / TURN_SPACING)) + 1 if self.n_turns is None else self.n_turns
+        self.turn_limit_ = float(limit)
+        return np.linspace(-limit, limit, n_turns)
 
     # -- the loop -----------------------------------------------------------------------------
     def run(self, robot, path: ReferencePath, n_cycles: int, *, gait: FourierGait | None = None,
@@ -268,15 +289,16 @@ class PathTracker:
         s, _, _ = path.project(pose[:2])
         s = float(s) if path.closed else 0.0
         motion, family, family_system = self._motion(model, oracle), None, None
+        turns = self._resolve_turns(motion, reference, direction)
         rows, chunks = [], []
         for cycle in range(n_cycles):
             system = oracle() if callable(oracle) else None
             if self.controller == "true" and system is not family_system:
                 motion, family_system = TrueMotion(system, self.resolution), system
-                family = self._family(motion, reference, direction, family, iterations=20)
+                family = self._family(motion, reference, direction, family, turns)
             elif family is None or (self.controller == "adaptive" and cycle % self.family_every == 0):
                 motion = self._motion(model, oracle)
-                family = self._family(motion, reference, direction, family, iterations=20)
+                family = self._family(motion, reference, direction, family, turns)
             elif self.controller == "adaptive":
                 motion = self._motion(model, oracle)
                 family = family.repredicted(motion)
@@ -325,11 +347,10 @@ class PathTracker:
             return TrueMotion(oracle(), self.resolution)
         return ModelMotion(model, self.resolution)
 
-    def _family(self, motion, reference, direction, previous, iterations) -> SteeringFamily:
-        family = steering_family(motion, reference, self.turns, direction=direction, previous=previous,
-                                 max_joint_angle=self.max_joint_angle, max_iterations=iterations,
-                                 contiguous=True)
-        if not family.feasible[self.n_turns // 2]:
+    def _family(self, motion, reference, direction, previous, turns) -> SteeringFamily:
+        family = steering_family(motion, reference, turns, direction=direction, previous=previous,
+                                 max_joint_angle=self.max_joint_angle, max_iterations=20, contiguous=True)
+        if not family.feasible[turns.size // 2]:
             raise GeogaitError("No straight steering gait: the model's zero-turn gait is out of reach within "
                                "the joint limits (warm up for more cycles or relax max_joint_angle).")
         return family

@@ -32,7 +32,17 @@ import pandas as pd
 
 from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
-from ..control import CONTROLLERS, ModelMotion, PathTracker, ReferencePath, TrueMotion, max_step_family, steering_family
+from ..control import (
+    CONTROLLERS,
+    TURN_SPACING,
+    ModelMotion,
+    PathTracker,
+    ReferencePath,
+    TrueMotion,
+    max_feasible_turn,
+    max_step_family,
+    steering_family,
+)
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel
 from ..optimize import cached_ceiling
@@ -50,8 +60,6 @@ PATHS = ("line", "circle", "figure8", "waypoints")
 RECOVERY_FACTOR = 1.5
 """Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
 PRE_CHANGE_CYCLES = 10
-TURN_SPACING = 0.1
-"""Spacing of the steering family's turns (rad per cycle)."""
 
 
 @dataclass(frozen=True)
@@ -176,15 +184,13 @@ def straight_gait(n_links: int):
 def feasible_turn_limit(n_links: int, upper: float = 1.0) -> float:
     """Largest multiple of :data:`TURN_SPACING` up to ``upper`` that the straight swimmer (drag ratio
     2, true connection) turns per cycle in both directions with a steering gait within the joint
-    limits; the tracker's families stop there (solves beyond the joint limits fail, slowly)."""
+    limits; the tracker's families stop there (solves beyond the joint limits fail, slowly). The same
+    rule as :class:`~geogait.control.PathTracker`'s default ``turn_limit=None``, here with the true
+    connection so that every controller gets the same limit."""
     system, gait, _ = straight_gait(n_links)
     upper = check_float(upper, "upper", "feasible_turn_limit", low=TURN_SPACING, high=np.pi)
     pose = cycle_displacement(system, gait)
-    turns = TURN_SPACING * np.arange(-int(round(upper / TURN_SPACING)), int(round(upper / TURN_SPACING)) + 1)
-    family = steering_family(TrueMotion(system), gait, turns, direction=float(np.arctan2(pose[1], pose[0])),
-                             contiguous=True)
-    low, high = family.turn_range
-    return float(TURN_SPACING * np.floor(min(-low, high) / TURN_SPACING + 1e-9))
+    return max_feasible_turn(TrueMotion(system), gait, direction=float(np.arctan2(pose[1], pose[0])), upper=upper)
 
 
 def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
