@@ -34,7 +34,10 @@ from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..control import (
     CONTROLLERS,
+    EXPLORATION,
     TURN_SPACING,
+    AdaptiveExploration,
+    ExplorationStream,
     ModelMotion,
     PathTracker,
     ReferencePath,
@@ -95,6 +98,14 @@ class TrackingConfig:
         allow (:func:`feasible_turn_limit`): 0.5 rad for the 3-link, 1.0 for the 5-link swimmer.
     heading_weight : float
         Heading weight of :class:`~geogait.control.PathTracker`.
+    exploration : {"fixed", "adaptive"}
+        ``"fixed"``: δ std ``perturbation`` throughout. ``"adaptive"``: sized every cycle by
+        :class:`~geogait.control.AdaptiveExploration` from σ_high = ``perturbation`` down to σ_low =
+        ``exploration_low``, driven by the adaptive controller's prediction residual; the frozen and
+        true controllers of the same trial replay the adaptive run's schedule, so all three run with
+        the same perturbations in every cycle (without an adaptive controller each sizes its own).
+    exploration_low : float
+        σ_low (rad) of the adaptive exploration.
     controllers : tuple of str
     seed : int
         Root seed; swimmer i uses ``seed + 1000 i``.
@@ -116,6 +127,8 @@ class TrackingConfig:
     line_offset: float = 3.0
     turn_limit: float = 1.0
     heading_weight: float = 0.5
+    exploration: str = "fixed"
+    exploration_low: float = 0.05
     controllers: tuple[str, ...] = CONTROLLERS
     seed: int = 0
     chunk_size: int = 1
@@ -154,6 +167,10 @@ class TrackingConfig:
         check_float(self.line_offset, "line_offset", _OWNER)
         check_float(self.turn_limit, "turn_limit", _OWNER, low=TURN_SPACING, high=np.pi)
         check_float(self.heading_weight, "heading_weight", _OWNER, low=0)
+        if self.exploration not in EXPLORATION:
+            raise fail("exploration", _OWNER, "one of " + ", ".join(EXPLORATION), self.exploration)
+        if self.exploration == "adaptive":
+            check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=self.perturbation, low_open=True)
         if not self.controllers or any(c not in CONTROLLERS for c in self.controllers):
             raise fail("controllers", _OWNER, "controllers among " + ", ".join(CONTROLLERS), self.controllers)
         check_int(self.seed, "seed", _OWNER, minimum=0)
@@ -205,7 +222,8 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
 
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
-                    line_offset: float, turn_limit: float, heading_weight: float, controllers) -> pd.DataFrame:
+                    line_offset: float, turn_limit: float, heading_weight: float, controllers,
+                    exploration: str = "fixed", exploration_low: float = 0.05) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
     Parameters
@@ -222,6 +240,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         As in :class:`TrackingConfig`.
     turn_limit, heading_weight, controllers
         As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
+    exploration, exploration_low
+        As in :class:`TrackingConfig`.
 
     Returns
     -------
@@ -229,28 +249,34 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         One row per trial × scenario × controller × cycle: ``trial``, ``links``, ``path``,
         ``environment``, ``controller``, ``cycle``, ``cross_track``, ``heading_error``, ``x``, ``y``,
         ``turn_command``, ``predicted_turn``, ``true_turn``, ``measured_turn``, ``gamma``,
-        ``drag_ratio``.
+        ``drag_ratio``, ``perturbation_std``, ``surprise``.
     """
     system, gait, step = straight_gait(n_links)
     limit = feasible_turn_limit(n_links, turn_limit)
     settings = dict(turn_limit=limit, n_turns=2 * int(round(limit / TURN_SPACING)) + 1, heading_weight=heading_weight,
                     warmup_cycles=warmup_cycles)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
-               "measured_turn", "gamma", "drag_ratio"]
+               "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
+    stream = SwimmerStream if exploration == "fixed" else ExplorationStream
+    rule = AdaptiveExploration(low=exploration_low, high=perturbation)
+    order = sorted(controllers, key=lambda c: c != "adaptive")  # the adaptive run sizes the exploration
     frames = []
     for index, (kind, environment) in enumerate(scenarios):
         path = tracking_path(kind, step, path_scale)
         offset = line_offset * step if kind == "line" else 0.0
         for trial, seed in zip(trial_indices, child_seeds(seeds, index), strict=True):
-            for controller in controllers:
+            sizes = "fixed" if exploration == "fixed" else rule
+            for controller in order:
                 schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
                             if environment == "change" else None)
-                robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
-                                      sensor_noise=sensor_noise, environment=schedule, seed=seed)
-                tracker = PathTracker(controller=controller, **settings)
-                log = tracker.run(robot, path, n_cycles, start_offset=offset).log
-                frames.append(log[columns].assign(trial=int(trial), links=n_links, path=kind,
-                                                  environment=environment, controller=controller))
+                robot = stream(system, gait, perturbation=Perturbation.from_std(perturbation),
+                               sensor_noise=sensor_noise, environment=schedule, seed=seed)
+                tracker = PathTracker(controller=controller, exploration=sizes, **settings)
+                result = tracker.run(robot, path, n_cycles, start_offset=offset)
+                if controller == "adaptive" and exploration != "fixed":
+                    sizes = result.perturbation_std  # replayed by the frozen and true controllers
+                frames.append(result.log[columns].assign(trial=int(trial), links=n_links, path=kind,
+                                                         environment=environment, controller=controller))
     return pd.concat(frames, ignore_index=True)
 
 
@@ -265,7 +291,8 @@ class TrackingResult(ExperimentResult):
     """
 
     COLUMNS = ("trial", "links", "path", "environment", "controller", "cycle", "cross_track", "heading_error", "x",
-               "y", "turn_command", "predicted_turn", "true_turn", "measured_turn", "gamma", "drag_ratio")
+               "y", "turn_command", "predicted_turn", "true_turn", "measured_turn", "gamma", "drag_ratio",
+               "perturbation_std", "surprise")
 
     def summary(self) -> dict:
         """Headline numbers (:func:`tracking_summary`)."""
@@ -301,7 +328,8 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
                        warmup_cycles=config.warmup_cycles, sensor_noise=config.sensor_noise,
                        perturbation=config.perturbation, path_scale=config.path_scale,
                        line_offset=config.line_offset, turn_limit=config.turn_limit,
-                       heading_weight=config.heading_weight, controllers=config.controllers)
+                       heading_weight=config.heading_weight, controllers=config.controllers,
+                       exploration=config.exploration, exploration_low=config.exploration_low)
         frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
                                             chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
                                             progress=progress, description=f"{n_links}-link tracking")
