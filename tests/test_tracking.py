@@ -71,6 +71,14 @@ def test_adaptive_exploration_is_replayed_by_the_other_controllers():
         TrackingConfig(exploration="adaptive", exploration_low=0.2).validate()
 
 
+def test_a_run_of_some_scenarios_repeats_the_full_runs_trials():
+    both = TrackingConfig.quick(n_trials=1, paths=("line",), n_cycles=5, change_cycle=2, warmup_cycles=3)
+    alone = TrackingConfig.quick(n_trials=1, paths=(), n_cycles=5, change_cycle=2, warmup_cycles=3)
+    frames = [run_tracking(c, progress=False).frame for c in (both, alone)]
+    change = [f[f["environment"] == "change"].reset_index(drop=True) for f in frames]
+    pd.testing.assert_frame_equal(change[0], change[1])
+
+
 def test_drag_change_metrics_on_known_curves():
     cycles = np.arange(30)
     level = np.where(cycles < 10, 0.1, np.where(cycles < 15, 0.5, 0.12))  # error jumps at 10, back at 15

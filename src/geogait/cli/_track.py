@@ -234,7 +234,8 @@ def figure_tracking(
     exploration_low: Annotated[float | None, typer.Option(
         help="Smallest δ std (rad) of --exploration adaptive [default: 0.05].")] = None,
     drag_only: Annotated[bool, typer.Option(
-        help="Only the paths through the drag change (line and circle).")] = False,
+        help="Only the paths through the drag change (line and circle), with the same trials as in the "
+             "full run.")] = False,
     seed: Annotated[int | None, typer.Option(help="Root random seed [default: 0].")] = None,
     jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,

@@ -261,10 +261,13 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
     rule = AdaptiveExploration(low=exploration_low, high=perturbation)
     order = sorted(controllers, key=lambda c: c != "adaptive")  # the adaptive run sizes the exploration
     frames = []
-    for index, (kind, environment) in enumerate(scenarios):
+    for kind, environment in scenarios:
+        # each scenario draws its trials from a key of its own, so a run of some scenarios repeats the
+        # trials of the full run (keys 0-3 at constant drag, 4-7 through the change, in PATHS order)
+        key = PATHS.index(kind) + (len(PATHS) if environment == "change" else 0)
         path = tracking_path(kind, step, path_scale)
         offset = line_offset * step if kind == "line" else 0.0
-        for trial, seed in zip(trial_indices, child_seeds(seeds, index), strict=True):
+        for trial, seed in zip(trial_indices, child_seeds(seeds, key), strict=True):
             sizes = "fixed" if exploration == "fixed" else rule
             for controller in order:
                 schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
