@@ -13,6 +13,7 @@ from geogait.experiments.tracking import (
     TrackingResult,
     drag_change_metrics,
     feasible_turn_limit,
+    plot_exploration,
     run_tracking,
     tracking_path,
 )
@@ -51,7 +52,7 @@ def test_quick_experiment_pairs_controllers_and_round_trips(tmp_path):
     assert again.plot(tmp_path / "t.png").stat().st_size > 10_000
 
 
-def test_adaptive_exploration_is_replayed_by_the_other_controllers():
+def test_adaptive_exploration_is_replayed_by_the_other_controllers(tmp_path):
     """Paired trials: the adaptive controller sizes δ; the frozen and true controllers run with its schedule,
     cycle by cycle, and so with the very same perturbations."""
     config = TrackingConfig.quick(n_trials=2, paths=(), n_cycles=10, change_cycle=5, warmup_cycles=4,
@@ -65,6 +66,8 @@ def test_adaptive_exploration_is_replayed_by_the_other_controllers():
     fixed = run_tracking(TrackingConfig.quick(n_trials=1, paths=(), n_cycles=4, change_cycle=2, warmup_cycles=3),
                          progress=False).frame
     assert fixed["perturbation_std"].eq(0.15).all()
+    figure = plot_exploration({"adaptive δ": frame, "δ 0.15": fixed}, tmp_path / "e.png", change_cycle=5)
+    assert figure.stat().st_size > 10_000
     with pytest.raises(ValueError, match="'exploration' parameter of TrackingConfig"):
         TrackingConfig(exploration="greedy").validate()
     with pytest.raises(ValueError, match="'exploration_low' parameter of TrackingConfig"):

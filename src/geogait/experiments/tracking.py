@@ -56,7 +56,8 @@ from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
 
 __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
-           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING"]
+           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING",
+           "plot_exploration", "plot_exploration_curves"]
 
 _OWNER = "TrackingConfig"
 PATHS = ("line", "circle", "figure8", "waypoints")
@@ -490,6 +491,43 @@ def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
             plot_paths(ax, frame, int(n_links), kind, "constant", trial)
         for ax, kind in zip(row[len(constant):], changed, strict=True):
             plot_error_curves(ax, frame, int(n_links), kind, change_cycle)
+    save_figure(fig, path)
+    return path
+
+
+def plot_exploration_curves(ax, frames: dict, n_links: int, kind: str, change_cycle: int):
+    """Trial-mean |cross-track error| per cycle through the drag change of the adaptive (solid) and frozen
+    (dashed) controllers, one colour per exploration setting in ``frames`` (label → long-format frame),
+    and the trial-mean δ std of each setting (thin, right axis)."""
+    sizes = ax.twinx()
+    for index, (label, frame) in enumerate(frames.items()):
+        group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == "change")]
+        color = f"C{index}"
+        for controller, style in (("adaptive", "-"), ("frozen", "--")):
+            curve = _mean_curve(group[group["controller"] == controller])
+            ax.plot(curve.index, curve.to_numpy(), style, color=color, lw=1.3, label=f"{label}: {controller}")
+        std = group[group["controller"] == "adaptive"].groupby("cycle")["perturbation_std"].mean()
+        sizes.plot(std.index, std.to_numpy(), color=color, lw=0.7, alpha=0.6)
+    ax.axvline(change_cycle, color="0.4", lw=0.8)
+    sizes.set_ylim(0, 0.6)
+    sizes.set_ylabel("δ std (rad), thin lines", fontsize=7)
+    ax.set_xlabel("tracking cycle", fontsize=8)
+    ax.set_ylabel("mean |cross-track| (body lengths)", fontsize=8)
+    ax.set_title(f"{n_links}-link {kind}, k 2→4 at cycle {change_cycle}", fontsize=9)
+    ax.legend(fontsize=6, loc="upper left")
+    return ax
+
+
+def plot_exploration(frames: dict, path, change_cycle: int = 30):
+    """Drag-change error curves of several exploration settings (``frames``: label → long-format frame
+    of :func:`run_tracking`), one panel per swimmer and path (:func:`plot_exploration_curves`)."""
+    first = next(iter(frames.values()))
+    links = sorted(first["links"].unique())
+    kinds = list(dict.fromkeys(first[first["environment"] == "change"]["path"]))
+    fig, axes = plt.subplots(len(links), len(kinds), figsize=(5 * len(kinds), 3.6 * len(links)), squeeze=False)
+    for row, n_links in zip(axes, links, strict=True):
+        for ax, kind in zip(row, kinds, strict=True):
+            plot_exploration_curves(ax, frames, int(n_links), kind, change_cycle)
     save_figure(fig, path)
     return path
 
