@@ -195,3 +195,7 @@ def test_readme_steering_example_runs(monkeypatch, tmp_path):
     exec(compile(block, "README steering example", "exec"), namespace)
     assert namespace["result"].summary()["cross_track_mean"] < 0.2
     assert namespace["family"].feasible.all()
+    adaptive, frozen = namespace["adaptive"], namespace["frozen"]
+    np.testing.assert_array_equal(frozen.perturbation_std, adaptive.perturbation_std)
+    stds = adaptive.log["perturbation_std"].to_numpy()
+    assert stds[19] < 0.07 and stds[21] == pytest.approx(0.15)  # k = 4 from tracking cycle 20: the alarm
