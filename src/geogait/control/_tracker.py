@@ -30,6 +30,11 @@ Three sources of the motion :math:`m`:
   the family is re-solved from the updated model every cycle (continuation);
 * ``"frozen"``: the same model after the warm-up, never updated again;
 * ``"true"``: the true connection of the system in force (:meth:`current_system`, simulators only).
+
+The perturbations δ the robot adds to each commanded gait are the adaptive model's excitation and the
+controller's noise; ``exploration="adaptive"`` sizes them every cycle from the controller's own
+prediction residual (:mod:`geogait.control._exploration`), and a logged schedule can be replayed so
+that other controllers run with the same perturbations.
 """
 
 from __future__ import annotations

@@ -498,17 +498,19 @@ def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
 def plot_exploration_curves(ax, frames: dict, n_links: int, kind: str, change_cycle: int):
     """Trial-mean |cross-track error| per cycle through the drag change of the adaptive (solid) and frozen
     (dashed) controllers, one colour per exploration setting in ``frames`` (label → long-format frame),
-    and the trial-mean δ std of each setting (thin, right axis)."""
-    sizes = ax.twinx()
+    and the trial-mean δ std of each setting (thin, right axis); the y range leaves out cycles 0–4."""
+    sizes, top = ax.twinx(), 0.0
     for index, (label, frame) in enumerate(frames.items()):
         group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == "change")]
         color = f"C{index}"
         for controller, style in (("adaptive", "-"), ("frozen", "--")):
             curve = _mean_curve(group[group["controller"] == controller])
             ax.plot(curve.index, curve.to_numpy(), style, color=color, lw=1.3, label=f"{label}: {controller}")
+            top = max(top, float(curve[curve.index >= 5].max()))
         std = group[group["controller"] == "adaptive"].groupby("cycle")["perturbation_std"].mean()
         sizes.plot(std.index, std.to_numpy(), color=color, lw=0.7, alpha=0.6)
     ax.axvline(change_cycle, color="0.4", lw=0.8)
+    ax.set_ylim(0, 1.3 * top)  # the initial offset's transient (cycles 0-4) runs off the top
     sizes.set_ylim(0, 0.6)
     sizes.set_ylabel("δ std (rad), thin lines", fontsize=7)
     ax.set_xlabel("tracking cycle", fontsize=8)
