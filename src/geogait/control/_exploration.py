@@ -138,9 +138,9 @@ class ExplorationStream:
     :class:`geogait.robots.Robot` and its simulator extras. :meth:`set_perturbation_std` keeps the
     perturbation's spectrum (its α, β) and scales η; the SDE state (δ, δ̇), the random generators,
     the pose and the gait carry over (the stream is rebuilt through ``robot_state`` /
-    ``restore_robot_state``), so δ stays continuous and relaxes to the new size within about
-    1 / α of a cycle, and two streams with the same seed and the same schedule of sizes give the
-    same samples.
+    ``restore_robot_state``), so δ stays continuous and relaxes to the new size with the time
+    constant 2 / α (0.11 cycle for ``Perturbation.from_std``'s spectrum), and two streams with the
+    same seed and the same schedule of sizes give the same samples.
 
     Parameters
     ----------
