@@ -12,6 +12,7 @@ from geogait.control import (
     ReferencePath,
     TrueMotion,
     end_pose,
+    max_feasible_turn,
     max_step_family,
     solve_steering_gait,
     steering_family,
@@ -186,6 +187,21 @@ def test_contiguous_family_stops_at_the_joint_limits(three_link):
     assert short.gaits[0] is short.gaits[1]  # beyond the first failure: a copy of it, never solved
 
 
+def test_max_feasible_turn_is_the_joint_limited_multiple_of_the_spacing(three_link):
+    """The 3-link swimmer turns ≈ 0.55 rad per cycle at most within the joint limits: 0.5 on the 0.1 grid."""
+    system, straight = three_link
+    truth = TrueMotion(system)
+    pose = truth(straight)
+    direction = float(np.arctan2(pose[1], pose[0]))
+    assert max_feasible_turn(truth, straight, direction=direction) == pytest.approx(0.5)
+    assert max_feasible_turn(truth, straight, direction=direction, upper=0.3) == pytest.approx(0.3)
+    assert max_feasible_turn(truth, straight, direction=direction, upper=0.35) == pytest.approx(0.3)
+    with pytest.raises(GeogaitError, match="'upper' parameter of max_feasible_turn"):
+        max_feasible_turn(truth, straight, upper=0.05)
+    with pytest.raises(GeogaitError, match="'spacing' parameter of max_feasible_turn"):
+        max_feasible_turn(truth, straight, spacing=0.0)
+
+
 # -- the controller ---------------------------------------------------------------------------
 def test_end_pose_matches_the_simulated_boundary(three_link):
     system, straight = three_link
@@ -217,8 +233,9 @@ def _line_run(system, straight, drag_ratios, offset_steps):
     step = float(np.hypot(*cycle_displacement(schedule(2), straight)[:2]))
     robot = SwimmerStream(system, straight, perturbation=Perturbation(eta=0.0), samples_per_cycle=1000,
                           environment=schedule, seed=0)
-    log = PathTracker(controller="true", warmup_cycles=1).run(robot, ReferencePath.line(), 25,
-                                                              start_offset=offset_steps * step).log
+    # the same turns in every environment (the default limit is cut by the joint limits of the first one)
+    tracker = PathTracker(controller="true", warmup_cycles=1, turn_limit=0.5)
+    log = tracker.run(robot, ReferencePath.line(), 25, start_offset=offset_steps * step).log
     return log, step
 
 
@@ -252,6 +269,24 @@ def test_adaptive_controller_runs_on_a_robot_that_is_not_simulated(three_link):
         PathTracker(controller="true").run(robot, ReferencePath.circle(1.0), 2)
 
 
+@pytest.mark.parametrize("controller", ["true", "adaptive"])
+def test_default_turn_limit_is_one_radian_cut_to_the_joint_limits(three_link, controller):
+    """Like the experiment and the CLI (1 rad cut by the joint limits: 0.5 rad for the 3-link swimmer),
+    from the controller's own motion source (the model after 10 noisy warm-up cycles: 0.4–0.6 rad over
+    seeds 0–3, 0.5 for seed 0); an explicit limit is kept."""
+    system, straight = three_link
+    robot = SwimmerStream(system, straight, sensor_noise=0.1, seed=0)
+    tracker = PathTracker(controller=controller)
+    result = tracker.run(robot, ReferencePath.circle(1.0), 2)
+    assert tracker.turn_limit_ == pytest.approx(0.5)
+    np.testing.assert_allclose(result.family.turns, np.linspace(-0.5, 0.5, 11), atol=1e-12)
+    assert np.abs(result.log["turn_command"]).max() <= 0.5 + 1e-9
+    explicit = PathTracker(controller=controller, warmup_cycles=3, turn_limit=0.3)
+    family = explicit.run(SwimmerStream(system, straight, seed=0), ReferencePath.circle(1.0), 1).family
+    assert explicit.turn_limit_ == 0.3
+    np.testing.assert_allclose(family.turns, np.linspace(-0.3, 0.3, 7), atol=1e-12)
+
+
 def test_tracker_rejects_bad_settings(three_link):
     system, straight = three_link
     robot = SwimmerStream(system, straight, seed=0)
@@ -259,6 +294,8 @@ def test_tracker_rejects_bad_settings(three_link):
         PathTracker(controller="magic").run(robot, ReferencePath.line(), 2)
     with pytest.raises(GeogaitError, match="'n_turns' parameter"):
         PathTracker(n_turns=4).run(robot, ReferencePath.line(), 2)
+    with pytest.raises(GeogaitError, match="'turn_limit' parameter of PathTracker"):
+        PathTracker(turn_limit=0.0).run(robot, ReferencePath.line(), 2)
     with pytest.raises(GeogaitError, match="'gait' parameter"):
         PathTracker().run(robot, ReferencePath.line(), 2, gait=seed_gait(2, amplitude=2.5))
     with pytest.raises(GeogaitError, match="'path' parameter"):

@@ -13,6 +13,7 @@ from geogait.experiments.tracking import (
     TrackingResult,
     drag_change_metrics,
     feasible_turn_limit,
+    plot_exploration,
     run_tracking,
     tracking_path,
 )
@@ -49,6 +50,36 @@ def test_quick_experiment_pairs_controllers_and_round_trips(tmp_path):
     again = TrackingResult.from_csv(tmp_path / "t.csv")
     pd.testing.assert_frame_equal(again.frame, frame, check_dtype=False)
     assert again.plot(tmp_path / "t.png").stat().st_size > 10_000
+
+
+def test_adaptive_exploration_is_replayed_by_the_other_controllers(tmp_path):
+    """Paired trials: the adaptive controller sizes δ; the frozen and true controllers run with its schedule,
+    cycle by cycle, and so with the very same perturbations."""
+    config = TrackingConfig.quick(n_trials=2, paths=(), n_cycles=10, change_cycle=5, warmup_cycles=4,
+                                  exploration="adaptive", exploration_low=0.05)
+    frame = run_tracking(config, progress=False).frame
+    stds = frame.pivot_table(index=["trial", "cycle"], columns="controller", values="perturbation_std")
+    np.testing.assert_array_equal(stds["frozen"], stds["adaptive"])
+    np.testing.assert_array_equal(stds["true"], stds["adaptive"])
+    assert stds["adaptive"].between(0.05, 0.15).all() and stds["adaptive"].min() < 0.1
+    assert frame["surprise"].notna().all()
+    fixed = run_tracking(TrackingConfig.quick(n_trials=1, paths=(), n_cycles=4, change_cycle=2, warmup_cycles=3),
+                         progress=False).frame
+    assert fixed["perturbation_std"].eq(0.15).all()
+    figure = plot_exploration({"adaptive δ": frame, "δ 0.15": fixed}, tmp_path / "e.png", change_cycle=5)
+    assert figure.stat().st_size > 10_000
+    with pytest.raises(ValueError, match="'exploration' parameter of TrackingConfig"):
+        TrackingConfig(exploration="greedy").validate()
+    with pytest.raises(ValueError, match="'exploration_low' parameter of TrackingConfig"):
+        TrackingConfig(exploration="adaptive", exploration_low=0.2).validate()
+
+
+def test_a_run_of_some_scenarios_repeats_the_full_runs_trials():
+    both = TrackingConfig.quick(n_trials=1, paths=("line",), n_cycles=5, change_cycle=2, warmup_cycles=3)
+    alone = TrackingConfig.quick(n_trials=1, paths=(), n_cycles=5, change_cycle=2, warmup_cycles=3)
+    frames = [run_tracking(c, progress=False).frame for c in (both, alone)]
+    change = [f[f["environment"] == "change"].reset_index(drop=True) for f in frames]
+    pd.testing.assert_frame_equal(change[0], change[1])
 
 
 def test_drag_change_metrics_on_known_curves():
@@ -109,6 +140,19 @@ def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
         assert (out / name).stat().st_size > 10_000
 
 
+def test_track_command_with_adaptive_exploration(tmp_path):
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["track", "--links", "3", "--path", "circle", "--drag-ratio", "2,4", "--quick",
+                                      "--cycles", "6", "--change-cycle", "3", "--exploration", "adaptive",
+                                      "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(out / "cycles.csv")
+    stds = log.pivot(index="cycle", columns="controller", values="perturbation_std")
+    assert stds.nunique(axis=1).eq(1).all() and stds["adaptive"].between(0.05, 0.15).all()
+    config = _strict_json(out / "summary.json")["config"]
+    assert config["exploration"] == "adaptive" and config["exploration_low"] == 0.05
+
+
 @pytest.mark.parametrize(("options", "message"), [
     (["--path", "spiral"], "The '--path' option"),
     (["--path", "missing.csv"], "does not exist"),
@@ -118,6 +162,8 @@ def test_track_command_writes_plot_csv_and_strict_json(tmp_path):
     (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "The '--change-cycle' option"),
     (["--links", "1"], "n_links"),
     (["--turn-limit", "0"], "The '--turn-limit' option"),
+    (["--exploration", "greedy"], "The '--exploration' option"),
+    (["--exploration", "adaptive", "--exploration-low", "0.3"], "The '--exploration-low' option"),
 ])
 def test_track_command_user_errors(tmp_path, options, message):
     result = CliRunner().invoke(app, ["track", "--quick", "--out", str(tmp_path / "x"), *options])
@@ -149,3 +195,7 @@ def test_readme_steering_example_runs(monkeypatch, tmp_path):
     exec(compile(block, "README steering example", "exec"), namespace)
     assert namespace["result"].summary()["cross_track_mean"] < 0.2
     assert namespace["family"].feasible.all()
+    adaptive, frozen = namespace["adaptive"], namespace["frozen"]
+    np.testing.assert_array_equal(frozen.perturbation_std, adaptive.perturbation_std)
+    stds = adaptive.log["perturbation_std"].to_numpy()
+    assert stds[19] < 0.07 and stds[21] == pytest.approx(0.15)  # k = 4 from tracking cycle 20: the alarm

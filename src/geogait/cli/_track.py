@@ -14,7 +14,15 @@ import pandas as pd
 import typer
 
 from .._validation import GeogaitError
-from ..control import CONTROLLERS, PATH_KINDS, PathTracker, ReferencePath
+from ..control import (
+    CONTROLLERS,
+    EXPLORATION,
+    PATH_KINDS,
+    AdaptiveExploration,
+    ExplorationStream,
+    PathTracker,
+    ReferencePath,
+)
 from ..experiments.tracking import (
     TURN_SPACING,
     TrackingConfig,
@@ -108,6 +116,12 @@ def track(
     horizon: Annotated[int, typer.Option(help="Cycles predicted per decision.")] = 4,
     turn_limit: Annotated[float, typer.Option(
         help="Largest turn per cycle (rad) of the steering family, cut to what the joint limits allow.")] = 1.0,
+    exploration: Annotated[str, typer.Option(
+        help="fixed: δ std --perturbation throughout; adaptive: sized every cycle between --exploration-low and "
+             "--perturbation from the adaptive controller's prediction residual (the other controllers replay "
+             "its schedule).")] = "fixed",
+    exploration_low: Annotated[float, typer.Option(
+        help="Smallest δ std (rad) of --exploration adaptive.")] = 0.05,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
 ) -> None:
@@ -130,27 +144,38 @@ def track(
         raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
     if not TURN_SPACING <= turn_limit <= np.pi:
         raise GeogaitError(f"The '--turn-limit' option must be in [{TURN_SPACING:g}, π] rad. Got {turn_limit} instead.")
+    if exploration not in EXPLORATION:
+        raise GeogaitError(f"The '--exploration' option must be one of {', '.join(EXPLORATION)}. "
+                           f"Got {exploration!r} instead.")
+    if exploration == "adaptive" and not 0 < exploration_low <= perturbation:
+        raise GeogaitError(f"The '--exploration-low' option must be in (0, --perturbation = {perturbation:g}]. "
+                           f"Got {exploration_low} instead.")
     limit = feasible_turn_limit(links, turn_limit)
     settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, turn_limit=limit,
                     n_turns=2 * int(round(limit / TURN_SPACING)) + 1)
     results = {}
+    stream = SwimmerStream if exploration == "fixed" else ExplorationStream
+    sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=perturbation)
     with progress_bar() as progress:
-        for name in names:
+        for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
             system_k = system.with_drag_ratio(ratios[0])
             schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
-            robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
-                                  sensor_noise=noise, environment=schedule, seed=seed)
-            tracker = PathTracker(controller=name, **settings)
+            robot = stream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
+                           sensor_noise=noise, environment=schedule, seed=seed)
+            tracker = PathTracker(controller=name, exploration=sizes, **settings)
             task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
 
             def show(row, task=task):
                 gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
+                gamma += "" if exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
                 drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
                 progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
                                 f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
 
             results[name] = tracker.run(robot, reference, n_cycles, start_offset=start_offset, callback=show,
                                         record=True)
+            if name == "adaptive" and exploration != "fixed":
+                sizes = results[name].perturbation_std  # the others replay it: the same perturbations
     folder = output_folder(out)
     log = pd.concat([r.log for r in results.values()], ignore_index=True)
     log.to_csv(folder / "cycles.csv", index=False)
@@ -167,7 +192,9 @@ def track(
     summary["path_length"] = reference.length
     config = dict(links=links, path=path, drag_ratios=ratios, cycles=n_cycles, change_cycle=change,
                   controllers=names, warmup=warmup_cycles, scale=scale, offset=start_offset, seed=seed, noise=noise,
-                  perturbation=perturbation, horizon=horizon, turn_limit=limit, quick=quick)
+                  perturbation=perturbation, exploration=exploration,
+                  exploration_low=exploration_low if exploration == "adaptive" else None, horizon=horizon,
+                  turn_limit=limit, quick=quick)
     write_manifest(folder / "summary.json", command="track", config=config, results=_finite(summary),
                    started=started)
     console.print(json.dumps(_finite(summary), indent=1))
@@ -201,6 +228,14 @@ def figure_tracking(
     cycles: Annotated[int | None, typer.Option(help="Tracking cycles per run [default: 60].")] = None,
     noise: Annotated[float | None, typer.Option(help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
     perturbation: Annotated[float | None, typer.Option(help="Perturbation std (rad) [default: 0.15].")] = None,
+    exploration: Annotated[str | None, typer.Option(
+        help="fixed or adaptive (δ std sized every cycle from --exploration-low up to --perturbation) "
+             "[default: fixed].")] = None,
+    exploration_low: Annotated[float | None, typer.Option(
+        help="Smallest δ std (rad) of --exploration adaptive [default: 0.05].")] = None,
+    drag_only: Annotated[bool, typer.Option(
+        help="Only the paths through the drag change (line and circle), with the same trials as in the "
+             "full run.")] = False,
     seed: Annotated[int | None, typer.Option(help="Root random seed [default: 0].")] = None,
     jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
@@ -216,7 +251,8 @@ def figure_tracking(
     else:
         base = TrackingConfig.quick() if quick else TrackingConfig()
         changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
-                       links=None if links is None else _links(links))
+                       links=None if links is None else _links(links), exploration=exploration,
+                       exploration_low=exploration_low, paths=() if drag_only else None)
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if cycles is not None:
             config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)

@@ -8,33 +8,45 @@
   (:class:`TrueMotion`).
 * :class:`PathTracker`: a receding-horizon controller that follows a path cycle by cycle on any
   :class:`geogait.robots.Robot` while the adaptive model keeps learning.
+* Exploration sized online (:class:`AdaptiveExploration`, :class:`ExplorationStream`): the
+  perturbation δ std of each cycle from the controller's prediction residual.
 """
 
+from ._exploration import AdaptiveExploration, ExplorationStream, prediction_surprise
 from ._paths import PATH_KINDS, ReferencePath
 from ._steering import (
+    TURN_SPACING,
     ModelMotion,
     SteeringFamily,
     SteeringSolution,
     TrueMotion,
+    max_feasible_turn,
     max_step_family,
     solve_steering_gait,
     steering_family,
     travel_rows,
 )
-from ._tracker import CONTROLLERS, PathTracker, TrackingResult, end_pose
+from ._tracker import CONTROLLERS, DEFAULT_TURN_LIMIT, EXPLORATION, PathTracker, TrackingResult, end_pose
 
 __all__ = [
+    "AdaptiveExploration",
     "CONTROLLERS",
+    "DEFAULT_TURN_LIMIT",
+    "EXPLORATION",
+    "ExplorationStream",
     "PATH_KINDS",
     "ModelMotion",
     "PathTracker",
     "ReferencePath",
     "SteeringFamily",
     "SteeringSolution",
+    "TURN_SPACING",
     "TrackingResult",
     "TrueMotion",
     "end_pose",
+    "max_feasible_turn",
     "max_step_family",
+    "prediction_surprise",
     "solve_steering_gait",
     "steering_family",
     "travel_rows",

@@ -33,9 +33,11 @@ from ..optimize import joint_limit_constraints
 from ..simulate import cycle_displacement
 
 __all__ = ["ModelMotion", "TrueMotion", "SteeringSolution", "SteeringFamily", "travel_rows",
-           "solve_steering_gait", "steering_family", "max_step_family"]
+           "solve_steering_gait", "steering_family", "max_step_family", "max_feasible_turn", "TURN_SPACING"]
 
 DEFAULT_MAX_JOINT_ANGLE = 2 * np.pi / 3
+TURN_SPACING = 0.1
+"""Spacing of a steering family's turns (rad per cycle) where none is given."""
 
 
 class ModelMotion:
@@ -399,6 +401,43 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
                                        max_joint_angle=max_joint_angle, max_iterations=max_iterations)
         gaits[index], poses[index], feasible[index] = solution.gait, solution.pose, solution.converged
     return SteeringFamily(turns=turns, gaits=tuple(gaits), poses=poses, feasible=feasible, direction=float(direction))
+
+
+def max_feasible_turn(motion, reference: FourierGait, *, direction: float = 0.0, upper: float = 1.0,
+                      spacing: float = TURN_SPACING, max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE) -> float:
+    """Largest multiple of ``spacing`` up to ``upper`` that ``motion`` turns per cycle in both directions
+    with a steering gait within the joint limits (a contiguous family, solved outwards from zero turn).
+
+    Parameters
+    ----------
+    motion : callable
+        :class:`ModelMotion` or :class:`TrueMotion`.
+    reference : FourierGait
+        The straight gait the steering gaits stay near.
+    direction : float
+        Travel direction α (rad, body frame).
+    upper : float
+        Largest turn (rad per cycle) asked for, at least ``spacing``.
+    spacing : float
+        Spacing of the turns tried (rad per cycle).
+    max_joint_angle : float
+        r_max (rad) of every steering gait.
+
+    Returns
+    -------
+    float
+        0 when the joint limits leave not even ``±spacing``.
+    """
+    owner = "max_feasible_turn"
+    spacing = check_float(spacing, "spacing", owner, low=0, high=np.pi, low_open=True)
+    upper = check_float(upper, "upper", owner, low=spacing, high=np.pi)
+    n = int(np.floor(upper / spacing + 1e-9))
+    family = steering_family(motion, reference, spacing * np.arange(-n, n + 1), direction=direction,
+                             max_joint_angle=max_joint_angle, contiguous=True)
+    if not family.feasible[n]:
+        return 0.0
+    low, high = family.turn_range
+    return float(spacing * np.floor(min(-low, high) / spacing + 1e-9))
 
 
 def _increasing_turns(turns, owner: str) -> np.ndarray:

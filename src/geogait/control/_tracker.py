@@ -30,6 +30,11 @@ Three sources of the motion :math:`m`:
   the family is re-solved from the updated model every cycle (continuation);
 * ``"frozen"``: the same model after the warm-up, never updated again;
 * ``"true"``: the true connection of the system in force (:meth:`current_system`, simulators only).
+
+The perturbations δ the robot adds to each commanded gait are the adaptive model's excitation and the
+controller's noise; ``exploration="adaptive"`` sizes them every cycle from the controller's own
+prediction residual (:mod:`geogait.control._exploration`), and a logged schedule can be replayed so
+that other controllers run with the same perturbations.
 """
 
 from __future__ import annotations
@@ -42,23 +47,30 @@ import pandas as pd
 
 from .. import se2
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
-from ..gaits import FourierGait
+from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
+from ._exploration import AdaptiveExploration, prediction_surprise
 from ._paths import ReferencePath
 from ._steering import (
     DEFAULT_MAX_JOINT_ANGLE,
+    TURN_SPACING,
     ModelMotion,
     SteeringFamily,
     TrueMotion,
+    max_feasible_turn,
     solve_steering_gait,
     steering_family,
 )
 
-__all__ = ["CONTROLLERS", "PathTracker", "TrackingResult", "end_pose"]
+__all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "EXPLORATION", "PathTracker", "TrackingResult", "end_pose"]
 
 CONTROLLERS = ("adaptive", "frozen", "true")
+EXPLORATION = ("fixed", "adaptive")
+DEFAULT_TURN_LIMIT = 1.0
+"""Largest |turn| per cycle (rad) asked of the steering family when ``turn_limit`` is None, before the
+joint limits cut it."""
 
 
 def end_pose(chunk: Trajectory) -> np.ndarray:
@@ -92,7 +104,9 @@ class TrackingResult:
         cycle's net motion), ``measured_x/y/turn`` (from the robot's poses), ``true_x/y/turn`` (oracle
         motion of the commanded nominal gait, simulators only, else NaN), ``gamma`` (online Γ of the
         adaptive model, NaN otherwise), ``drag_ratio`` (simulators with a drag ratio, else NaN),
-        ``solved`` (the steering gait met its command) and ``param_*``.
+        ``solved`` (the steering gait met its command), ``perturbation_std`` (δ std the cycle ran
+        with, rad; NaN when the robot does not say), ``surprise`` (the cycle's prediction residual in
+        steps per radian of δ std, :func:`~geogait.control.prediction_surprise`) and ``param_*``.
     path : ReferencePath
     start : ndarray of shape (3,)
         Pose at the start of tracking, path frame.
@@ -104,6 +118,9 @@ class TrackingResult:
         The steering family in use at the end.
     trajectory : Trajectory or None
         Tracking samples with poses in the path frame (``record=True``).
+    perturbation_std : ndarray of shape (warm-up + tracking cycles,) or None
+        δ std of every cycle run, warm-up first (``exploration`` other than ``"fixed"``): pass it as
+        another tracker's ``exploration`` to replay the schedule.
     """
 
     log: pd.DataFrame
@@ -113,6 +130,7 @@ class TrackingResult:
     reference: FourierGait
     family: SteeringFamily
     trajectory: Trajectory | None = None
+    perturbation_std: np.ndarray | None = None
 
     def summary(self, skip: int = 0) -> dict:
         """Mean and 95th percentile of |cross-track| (body lengths) and |heading error| (rad) over
@@ -135,11 +153,17 @@ class PathTracker:
         Source of the predicted motion per cycle.
     horizon : int
         Cycles H predicted per decision.
-    turn_limit : float
+    turn_limit : float or None
         Largest |turn| per cycle (rad) in the steering family; members the joint limits make
-        infeasible are dropped.
-    n_turns : int
-        Members of the steering family (odd, so that zero turn is one of them).
+        infeasible are dropped. None (default): :data:`DEFAULT_TURN_LIMIT` = 1 rad cut to what the
+        joint limits allow — after the warm-up, the largest multiple of 0.1 rad up to 1 rad that the
+        controller's own motion source (the warm-up model, or the true connection) turns in both
+        directions within ``max_joint_angle`` (:func:`~geogait.control.max_feasible_turn`); 0.5 rad for
+        the 3-link and 1.0 for the 5-link Purcell swimmer. The limit in use is ``turn_limit_`` after
+        :meth:`run`.
+    n_turns : int or None
+        Members of the steering family (odd, so that zero turn is one of them). None (default): turns
+        spaced 0.1 rad.
     n_first_turns : int
         Candidate first turns (fine grid between the family's extreme feasible turns).
     heading_weight : float
@@ -160,13 +184,22 @@ class PathTracker:
         The adaptive controller re-solves its steering family from the learning model every this many
         cycles (warm-started from the last one); in between it re-predicts the motion of the family's
         gaits with the current model every cycle.
+    exploration : {"fixed", "adaptive"}, AdaptiveExploration or array-like of float
+        Size of the perturbations δ. ``"fixed"`` (default): whatever the robot does. ``"adaptive"``:
+        sized every cycle by :class:`~geogait.control.AdaptiveExploration` with its defaults (δ std
+        0.15 rad through the warm-up and after a surprise in the controller's own prediction
+        residual, decaying to 0.05 while the predictions hold); an :class:`AdaptiveExploration`
+        for other settings. An array ``(n,)`` replays a schedule of δ stds, one per cycle, warm-up
+        first (e.g. ``result.perturbation_std`` of another controller's run, so that both run with
+        the same perturbations), its last value held beyond its end. All but ``"fixed"`` need a robot
+        with ``set_perturbation_std(std)`` (:class:`~geogait.control.ExplorationStream`).
     """
 
-    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float = 0.5,
-                 n_turns: int = 11, n_first_turns: int = 21, heading_weight: float = 0.5,
+    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float | None = None,
+                 n_turns: int | None = None, n_first_turns: int = 21, heading_weight: float = 0.5,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10,
                  max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
-                 family_every: int = 5):
+                 family_every: int = 5, exploration="fixed"):
         self.controller = controller
         self.horizon = horizon
         self.turn_limit = turn_limit
@@ -179,15 +212,18 @@ class PathTracker:
         self.n_windows = n_windows
         self.resolution = resolution
         self.family_every = family_every
+        self.exploration = exploration
 
     def _validate(self):
         owner = "PathTracker"
         check_choice(self.controller, "controller", owner, CONTROLLERS)
         check_int(self.horizon, "horizon", owner, minimum=1)
-        check_float(self.turn_limit, "turn_limit", owner, low=0, high=np.pi, low_open=True)
-        n_turns = check_int(self.n_turns, "n_turns", owner, minimum=3)
-        if n_turns % 2 == 0:
-            raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member)", n_turns)
+        if self.turn_limit is not None:
+            check_float(self.turn_limit, "turn_limit", owner, low=0, high=np.pi, low_open=True)
+        if self.n_turns is not None:
+            n_turns = check_int(self.n_turns, "n_turns", owner, minimum=3)
+            if n_turns % 2 == 0:
+                raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member) or None", n_turns)
         check_int(self.n_first_turns, "n_first_turns", owner, minimum=3)
         check_float(self.heading_weight, "heading_weight", owner, low=0)
         check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
@@ -196,11 +232,37 @@ class PathTracker:
         check_int(self.n_windows, "n_windows", owner, minimum=3)
         check_int(self.resolution, "resolution", owner, minimum=8)
         check_int(self.family_every, "family_every", owner, minimum=1)
+        self._exploration_plan()
 
-    @property
-    def turns(self) -> np.ndarray:
-        """Turning rates of the steering family's members (rad per cycle)."""
-        return np.linspace(-self.turn_limit, self.turn_limit, self.n_turns)
+    def _exploration_plan(self):
+        """``None`` (fixed), a fresh :class:`AdaptiveExploration`, or the schedule to replay ``(n,)``."""
+        value, owner = self.exploration, "PathTracker"
+        expected = "'fixed', 'adaptive', an AdaptiveExploration or a 1-D array of δ stds >= 0"
+        if isinstance(value, str):
+            check_choice(value, "exploration", owner, EXPLORATION)
+            return None if value == "fixed" else AdaptiveExploration()
+        if isinstance(value, AdaptiveExploration):
+            return AdaptiveExploration(**{k: getattr(value, k) for k in ("low", "high", "alarm", "decay", "window")})
+        try:
+            schedule = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise fail("exploration", owner, expected, value) from None
+        if schedule.ndim != 1 or schedule.size == 0 or not np.all(np.isfinite(schedule)) or np.any(schedule < 0):
+            raise fail("exploration", owner, expected, value)
+        return schedule
+
+    def _resolve_turns(self, motion, reference, direction) -> np.ndarray:
+        """Turning rates of the steering family's members (rad per cycle); sets ``turn_limit_``."""
+        limit = self.turn_limit
+        if limit is None:
+            limit = max_feasible_turn(motion, reference, direction=direction, upper=DEFAULT_TURN_LIMIT,
+                                      max_joint_angle=self.max_joint_angle)
+            if limit == 0:
+                raise GeogaitError("No steering gait turns by 0.1 rad per cycle within the joint limits "
+                                   "(give turn_limit, or relax max_joint_angle).")
+        n_turns = 2 * int(round(limit / TURN_SPACING)) + 1 if self.n_turns is None else self.n_turns
+        self.turn_limit_ = float(limit)
+        return np.linspace(-limit, limit, n_turns)
 
     # -- the loop -----------------------------------------------------------------------------
     def run(self, robot, path: ReferencePath, n_cycles: int, *, gait: FourierGait | None = None,
@@ -248,11 +310,18 @@ class PathTracker:
         if self.controller == "true" and not callable(oracle):
             raise GeogaitError(f"The 'true' controller of {owner} needs a simulated robot with current_system(); "
                                f"{type(robot).__name__} has none. Use controller='adaptive' or 'frozen'.")
+        plan = self._exploration_plan()
+        if plan is not None and not callable(getattr(robot, "set_perturbation_std", None)):
+            raise GeogaitError(f"exploration={self.exploration!r} of {owner} needs a robot with "
+                               f"set_perturbation_std(std); {type(robot).__name__} has none. Wrap the simulator in "
+                               "geogait.control.ExplorationStream, or use exploration='fixed'.")
+        sizes = _Sizes(robot, plan)
         model = AdaptiveGaitModel(gait=reference, forgetting_factor=self.forgetting_factor, n_windows=self.n_windows,
                                   phase_rate=2 * np.pi / float(robot.cycle_period))
         robot.set_gait(reference)
         chords = []
         for _ in range(self.warmup_cycles):
+            sizes.apply()
             chunk = robot.next_cycle()
             model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
             world = end_pose(chunk)
@@ -268,15 +337,16 @@ class PathTracker:
         s, _, _ = path.project(pose[:2])
         s = float(s) if path.closed else 0.0
         motion, family, family_system = self._motion(model, oracle), None, None
+        turns = self._resolve_turns(motion, reference, direction)
         rows, chunks = [], []
         for cycle in range(n_cycles):
             system = oracle() if callable(oracle) else None
             if self.controller == "true" and system is not family_system:
                 motion, family_system = TrueMotion(system, self.resolution), system
-                family = self._family(motion, reference, direction, family, iterations=20)
+                family = self._family(motion, reference, direction, family, turns)
             elif family is None or (self.controller == "adaptive" and cycle % self.family_every == 0):
                 motion = self._motion(model, oracle)
-                family = self._family(motion, reference, direction, family, iterations=20)
+                family = self._family(motion, reference, direction, family, turns)
             elif self.controller == "adaptive":
                 motion = self._motion(model, oracle)
                 family = family.repredicted(motion)
@@ -291,6 +361,7 @@ class PathTracker:
             truth = (cycle_displacement(system, command, resolution=self.resolution)
                      if system is not None else np.full(3, np.nan))
             robot.set_gait(command)
+            std = sizes.apply()
             chunk = robot.next_cycle()
             if self.controller == "adaptive":
                 model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
@@ -301,13 +372,15 @@ class PathTracker:
             _, _, tangent = path.project((begin[:2] + pose[:2]) / 2, near=s, window=window)
             course = np.arctan2(pose[1] - begin[1], pose[0] - begin[0])
             s = float(s_new)
+            surprise = sizes.update(predicted, measured, std)
             row = {"cycle": cycle, "controller": self.controller, "x": pose[0], "y": pose[1], "heading": pose[2],
                    "s": s, "cross_track": float(cross_track), "heading_error": float(se2.wrap_angle(course - tangent)),
                    "turn_command": turn, "solved": bool(solution.converged),
                    **_motion_columns("predicted", predicted), **_motion_columns("measured", measured),
                    **_motion_columns("true", truth),
                    "gamma": float(model.gamma_) if self.controller == "adaptive" else np.nan,
-                   "drag_ratio": float(getattr(system, "drag_ratio", np.nan)) if system is not None else np.nan}
+                   "drag_ratio": float(getattr(system, "drag_ratio", np.nan)) if system is not None else np.nan,
+                   "perturbation_std": std, "surprise": surprise}
             row.update({f"param_{k}": v for k, v in enumerate(command.params)})
             rows.append(row)
             if record:
@@ -318,18 +391,18 @@ class PathTracker:
                 break
         return TrackingResult(log=pd.DataFrame(rows), path=path, start=start, direction=direction,
                               reference=reference, family=family,
-                              trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
+                              trajectory=Trajectory.concatenate(chunks) if record and chunks else None,
+                              perturbation_std=sizes.history())
 
     def _motion(self, model, oracle):
         if self.controller == "true":
             return TrueMotion(oracle(), self.resolution)
         return ModelMotion(model, self.resolution)
 
-    def _family(self, motion, reference, direction, previous, iterations) -> SteeringFamily:
-        family = steering_family(motion, reference, self.turns, direction=direction, previous=previous,
-                                 max_joint_angle=self.max_joint_angle, max_iterations=iterations,
-                                 contiguous=True)
-        if not family.feasible[self.n_turns // 2]:
+    def _family(self, motion, reference, direction, previous, turns) -> SteeringFamily:
+        family = steering_family(motion, reference, turns, direction=direction, previous=previous,
+                                 max_joint_angle=self.max_joint_angle, max_iterations=20, contiguous=True)
+        if not family.feasible[turns.size // 2]:
             raise GeogaitError("No straight steering gait: the model's zero-turn gait is out of reach within "
                                "the joint limits (warm up for more cycles or relax max_joint_angle).")
         return family
@@ -368,6 +441,44 @@ class PathTracker:
             turn = float(local[np.argmin(cost(local).min(axis=1))])
             spacing /= 5
         return turn
+
+
+class _Sizes:
+    """The δ std of each cycle: set on the robot before the cycle (``apply``), the rule fed after it."""
+
+    def __init__(self, robot, plan):
+        self.robot, self.plan, self.used = robot, plan, []
+        if isinstance(plan, AdaptiveExploration):
+            plan.start()
+
+    def apply(self) -> float:
+        """Set the next cycle's δ std on the robot (not for ``"fixed"``); returns it (NaN if unknown)."""
+        if self.plan is None:
+            std = _robot_std(self.robot)
+        else:
+            std = (self.plan.std_ if isinstance(self.plan, AdaptiveExploration)
+                   else float(self.plan[min(len(self.used), self.plan.size - 1)]))
+            self.robot.set_perturbation_std(std)
+        self.used.append(std)
+        return std
+
+    def update(self, predicted, measured, std) -> float:
+        """Feed the rule the cycle just run; returns its surprise (NaN when the δ std is unknown or 0)."""
+        if isinstance(self.plan, AdaptiveExploration):
+            self.plan.update(predicted, measured)
+            return self.plan.surprises_[-1]
+        return prediction_surprise(predicted, measured, std) if std > 0 else np.nan
+
+    def history(self) -> np.ndarray | None:
+        return None if self.plan is None else np.array(self.used)
+
+
+def _robot_std(robot) -> float:
+    """δ std of a robot that says (``perturbation_std``, or a :class:`~geogait.gaits.Perturbation`), else NaN."""
+    std = getattr(robot, "perturbation_std", None)
+    if std is None and isinstance(getattr(robot, "perturbation", None), Perturbation):
+        std = robot.perturbation.stationary_std[0]
+    return float(std) if std is not None else np.nan
 
 
 def _motion_columns(prefix: str, pose) -> dict:

@@ -32,7 +32,20 @@ import pandas as pd
 
 from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
-from ..control import CONTROLLERS, ModelMotion, PathTracker, ReferencePath, TrueMotion, max_step_family, steering_family
+from ..control import (
+    CONTROLLERS,
+    EXPLORATION,
+    TURN_SPACING,
+    AdaptiveExploration,
+    ExplorationStream,
+    ModelMotion,
+    PathTracker,
+    ReferencePath,
+    TrueMotion,
+    max_feasible_turn,
+    max_step_family,
+    steering_family,
+)
 from ..gaits import Perturbation
 from ..models import AdaptiveGaitModel
 from ..optimize import cached_ceiling
@@ -43,15 +56,14 @@ from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
 
 __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
-           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING"]
+           "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING",
+           "plot_exploration", "plot_exploration_curves"]
 
 _OWNER = "TrackingConfig"
 PATHS = ("line", "circle", "figure8", "waypoints")
 RECOVERY_FACTOR = 1.5
 """Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
 PRE_CHANGE_CYCLES = 10
-TURN_SPACING = 0.1
-"""Spacing of the steering family's turns (rad per cycle)."""
 
 
 @dataclass(frozen=True)
@@ -87,6 +99,14 @@ class TrackingConfig:
         allow (:func:`feasible_turn_limit`): 0.5 rad for the 3-link, 1.0 for the 5-link swimmer.
     heading_weight : float
         Heading weight of :class:`~geogait.control.PathTracker`.
+    exploration : {"fixed", "adaptive"}
+        ``"fixed"``: δ std ``perturbation`` throughout. ``"adaptive"``: sized every cycle by
+        :class:`~geogait.control.AdaptiveExploration` from σ_high = ``perturbation`` down to σ_low =
+        ``exploration_low``, driven by the adaptive controller's prediction residual; the frozen and
+        true controllers of the same trial replay the adaptive run's schedule, so all three run with
+        the same perturbations in every cycle (without an adaptive controller each sizes its own).
+    exploration_low : float
+        σ_low (rad) of the adaptive exploration.
     controllers : tuple of str
     seed : int
         Root seed; swimmer i uses ``seed + 1000 i``.
@@ -108,6 +128,8 @@ class TrackingConfig:
     line_offset: float = 3.0
     turn_limit: float = 1.0
     heading_weight: float = 0.5
+    exploration: str = "fixed"
+    exploration_low: float = 0.05
     controllers: tuple[str, ...] = CONTROLLERS
     seed: int = 0
     chunk_size: int = 1
@@ -146,6 +168,10 @@ class TrackingConfig:
         check_float(self.line_offset, "line_offset", _OWNER)
         check_float(self.turn_limit, "turn_limit", _OWNER, low=TURN_SPACING, high=np.pi)
         check_float(self.heading_weight, "heading_weight", _OWNER, low=0)
+        if self.exploration not in EXPLORATION:
+            raise fail("exploration", _OWNER, "one of " + ", ".join(EXPLORATION), self.exploration)
+        if self.exploration == "adaptive":
+            check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=self.perturbation, low_open=True)
         if not self.controllers or any(c not in CONTROLLERS for c in self.controllers):
             raise fail("controllers", _OWNER, "controllers among " + ", ".join(CONTROLLERS), self.controllers)
         check_int(self.seed, "seed", _OWNER, minimum=0)
@@ -176,15 +202,13 @@ def straight_gait(n_links: int):
 def feasible_turn_limit(n_links: int, upper: float = 1.0) -> float:
     """Largest multiple of :data:`TURN_SPACING` up to ``upper`` that the straight swimmer (drag ratio
     2, true connection) turns per cycle in both directions with a steering gait within the joint
-    limits; the tracker's families stop there (solves beyond the joint limits fail, slowly)."""
+    limits; the tracker's families stop there (solves beyond the joint limits fail, slowly). The same
+    rule as :class:`~geogait.control.PathTracker`'s default ``turn_limit=None``, here with the true
+    connection so that every controller gets the same limit."""
     system, gait, _ = straight_gait(n_links)
     upper = check_float(upper, "upper", "feasible_turn_limit", low=TURN_SPACING, high=np.pi)
     pose = cycle_displacement(system, gait)
-    turns = TURN_SPACING * np.arange(-int(round(upper / TURN_SPACING)), int(round(upper / TURN_SPACING)) + 1)
-    family = steering_family(TrueMotion(system), gait, turns, direction=float(np.arctan2(pose[1], pose[0])),
-                             contiguous=True)
-    low, high = family.turn_range
-    return float(TURN_SPACING * np.floor(min(-low, high) / TURN_SPACING + 1e-9))
+    return max_feasible_turn(TrueMotion(system), gait, direction=float(np.arctan2(pose[1], pose[0])), upper=upper)
 
 
 def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
@@ -199,7 +223,8 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
 
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
-                    line_offset: float, turn_limit: float, heading_weight: float, controllers) -> pd.DataFrame:
+                    line_offset: float, turn_limit: float, heading_weight: float, controllers,
+                    exploration: str = "fixed", exploration_low: float = 0.05) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
     Parameters
@@ -216,6 +241,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         As in :class:`TrackingConfig`.
     turn_limit, heading_weight, controllers
         As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
+    exploration, exploration_low
+        As in :class:`TrackingConfig`.
 
     Returns
     -------
@@ -223,28 +250,37 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         One row per trial × scenario × controller × cycle: ``trial``, ``links``, ``path``,
         ``environment``, ``controller``, ``cycle``, ``cross_track``, ``heading_error``, ``x``, ``y``,
         ``turn_command``, ``predicted_turn``, ``true_turn``, ``measured_turn``, ``gamma``,
-        ``drag_ratio``.
+        ``drag_ratio``, ``perturbation_std``, ``surprise``.
     """
     system, gait, step = straight_gait(n_links)
     limit = feasible_turn_limit(n_links, turn_limit)
     settings = dict(turn_limit=limit, n_turns=2 * int(round(limit / TURN_SPACING)) + 1, heading_weight=heading_weight,
                     warmup_cycles=warmup_cycles)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
-               "measured_turn", "gamma", "drag_ratio"]
+               "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
+    stream = SwimmerStream if exploration == "fixed" else ExplorationStream
+    rule = AdaptiveExploration(low=exploration_low, high=perturbation)
+    order = sorted(controllers, key=lambda c: c != "adaptive")  # the adaptive run sizes the exploration
     frames = []
-    for index, (kind, environment) in enumerate(scenarios):
+    for kind, environment in scenarios:
+        # each scenario draws its trials from a key of its own, so a run of some scenarios repeats the
+        # trials of the full run (keys 0-3 at constant drag, 4-7 through the change, in PATHS order)
+        key = PATHS.index(kind) + (len(PATHS) if environment == "change" else 0)
         path = tracking_path(kind, step, path_scale)
         offset = line_offset * step if kind == "line" else 0.0
-        for trial, seed in zip(trial_indices, child_seeds(seeds, index), strict=True):
-            for controller in controllers:
+        for trial, seed in zip(trial_indices, child_seeds(seeds, key), strict=True):
+            sizes = "fixed" if exploration == "fixed" else rule
+            for controller in order:
                 schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
                             if environment == "change" else None)
-                robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
-                                      sensor_noise=sensor_noise, environment=schedule, seed=seed)
-                tracker = PathTracker(controller=controller, **settings)
-                log = tracker.run(robot, path, n_cycles, start_offset=offset).log
-                frames.append(log[columns].assign(trial=int(trial), links=n_links, path=kind,
-                                                  environment=environment, controller=controller))
+                robot = stream(system, gait, perturbation=Perturbation.from_std(perturbation),
+                               sensor_noise=sensor_noise, environment=schedule, seed=seed)
+                tracker = PathTracker(controller=controller, exploration=sizes, **settings)
+                result = tracker.run(robot, path, n_cycles, start_offset=offset)
+                if controller == "adaptive" and exploration != "fixed":
+                    sizes = result.perturbation_std  # replayed by the frozen and true controllers
+                frames.append(result.log[columns].assign(trial=int(trial), links=n_links, path=kind,
+                                                         environment=environment, controller=controller))
     return pd.concat(frames, ignore_index=True)
 
 
@@ -259,7 +295,8 @@ class TrackingResult(ExperimentResult):
     """
 
     COLUMNS = ("trial", "links", "path", "environment", "controller", "cycle", "cross_track", "heading_error", "x",
-               "y", "turn_command", "predicted_turn", "true_turn", "measured_turn", "gamma", "drag_ratio")
+               "y", "turn_command", "predicted_turn", "true_turn", "measured_turn", "gamma", "drag_ratio",
+               "perturbation_std", "surprise")
 
     def summary(self) -> dict:
         """Headline numbers (:func:`tracking_summary`)."""
@@ -295,7 +332,8 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
                        warmup_cycles=config.warmup_cycles, sensor_noise=config.sensor_noise,
                        perturbation=config.perturbation, path_scale=config.path_scale,
                        line_offset=config.line_offset, turn_limit=config.turn_limit,
-                       heading_weight=config.heading_weight, controllers=config.controllers)
+                       heading_weight=config.heading_weight, controllers=config.controllers,
+                       exploration=config.exploration, exploration_low=config.exploration_low)
         frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
                                             chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
                                             progress=progress, description=f"{n_links}-link tracking")
@@ -453,6 +491,45 @@ def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
             plot_paths(ax, frame, int(n_links), kind, "constant", trial)
         for ax, kind in zip(row[len(constant):], changed, strict=True):
             plot_error_curves(ax, frame, int(n_links), kind, change_cycle)
+    save_figure(fig, path)
+    return path
+
+
+def plot_exploration_curves(ax, frames: dict, n_links: int, kind: str, change_cycle: int):
+    """Trial-mean |cross-track error| per cycle through the drag change of the adaptive (solid) and frozen
+    (dashed) controllers, one colour per exploration setting in ``frames`` (label → long-format frame),
+    and the trial-mean δ std of each setting (thin, right axis); the y range leaves out cycles 0–4."""
+    sizes, top = ax.twinx(), 0.0
+    for index, (label, frame) in enumerate(frames.items()):
+        group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == "change")]
+        color = f"C{index}"
+        for controller, style in (("adaptive", "-"), ("frozen", "--")):
+            curve = _mean_curve(group[group["controller"] == controller])
+            ax.plot(curve.index, curve.to_numpy(), style, color=color, lw=1.3, label=f"{label}: {controller}")
+            top = max(top, float(curve[curve.index >= 5].max()))
+        std = group[group["controller"] == "adaptive"].groupby("cycle")["perturbation_std"].mean()
+        sizes.plot(std.index, std.to_numpy(), color=color, lw=0.7, alpha=0.6)
+    ax.axvline(change_cycle, color="0.4", lw=0.8)
+    ax.set_ylim(0, 1.3 * top)  # the initial offset's transient (cycles 0-4) runs off the top
+    sizes.set_ylim(0, 0.6)
+    sizes.set_ylabel("δ std (rad), thin lines", fontsize=7)
+    ax.set_xlabel("tracking cycle", fontsize=8)
+    ax.set_ylabel("mean |cross-track| (body lengths)", fontsize=8)
+    ax.set_title(f"{n_links}-link {kind}, k 2→4 at cycle {change_cycle}", fontsize=9)
+    ax.legend(fontsize=6, loc="upper left")
+    return ax
+
+
+def plot_exploration(frames: dict, path, change_cycle: int = 30):
+    """Drag-change error curves of several exploration settings (``frames``: label → long-format frame
+    of :func:`run_tracking`), one panel per swimmer and path (:func:`plot_exploration_curves`)."""
+    first = next(iter(frames.values()))
+    links = sorted(first["links"].unique())
+    kinds = list(dict.fromkeys(first[first["environment"] == "change"]["path"]))
+    fig, axes = plt.subplots(len(links), len(kinds), figsize=(5 * len(kinds), 3.6 * len(links)), squeeze=False)
+    for row, n_links in zip(axes, links, strict=True):
+        for ax, kind in zip(row, kinds, strict=True):
+            plot_exploration_curves(ax, frames, int(n_links), kind, change_cycle)
     save_figure(fig, path)
     return path
 
