@@ -191,7 +191,7 @@ class RLSBank:
         n, outputs = self.weights.shape[-2:]
         m = x.shape[-2]
         x, y = x.reshape(-1, m, n), y.reshape(-1, m, outputs)
-        weights, covariance = self.weights.reshape(-1, n, outputs), self.covariance.reshape(-1, n, n)  # views
+        weights, covariance = self.weights.reshape(-1, n, outputs), self.covariance.reshape(-1, n, n)
         prior = np.empty(y.shape)
         lam = self.forgetting_factor
         longest = _BLOCK if lam == 1 else int(min(_BLOCK, max(1, np.log(1e-8) / np.log(lam))))  # λ^block ≥ 1e-8
