@@ -1,4 +1,4 @@
-"""Exploration sized online: the stream that changes δ between cycles, the rule, and the tracker option."""
+"""Exploration sized online: the swimmer stream that changes δ between cycles, the rule, the tracker option."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,6 @@ from _robots import BareRobot
 from geogait._validation import GeogaitError
 from geogait.control import (
     AdaptiveExploration,
-    ExplorationStream,
     PathTracker,
     ReferencePath,
     prediction_surprise,
@@ -29,23 +28,23 @@ def _delta(chunk, gait):
 
 
 # -- the stream -------------------------------------------------------------------------------
-def test_stream_at_a_constant_size_is_the_swimmer_stream_bit_for_bit(three_link):
+def test_setting_the_size_in_force_changes_nothing_bit_for_bit(three_link):
     system, gait = three_link
     options = dict(perturbation=Perturbation.from_std(0.15), sensor_noise=0.1, seed=4)
-    plain, wrapped = SwimmerStream(system, gait, **options), ExplorationStream(system, gait, **options)
+    plain, sized = SwimmerStream(system, gait, **options), SwimmerStream(system, gait, **options)
     for _ in range(2):
-        a, b = plain.next_cycle(), wrapped.next_cycle()
-        wrapped.set_perturbation_std(0.15)  # the size in force: nothing is rebuilt
+        a, b = plain.next_cycle(), sized.next_cycle()
+        sized.set_perturbation_std(0.15)  # the size in force: nothing is rebuilt
         np.testing.assert_array_equal(a.body_velocity, b.body_velocity)
         np.testing.assert_array_equal(a.pose, b.pose)
-    assert wrapped.perturbation_std == pytest.approx(0.15)
+    assert sized.perturbation_std == pytest.approx(0.15)
 
 
 def test_stream_size_follows_the_command_and_delta_stays_continuous(three_link):
     """δ scales with the commanded std over many cycles (same spectrum); switching keeps δ continuous and
     the white noise shared, so 0 makes δ decay to nothing within a cycle."""
     system, gait = three_link
-    stream = ExplorationStream(system, gait, perturbation=Perturbation.from_std(0.15), seed=5)
+    stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(0.15), seed=5)
     sizes = {}
     for std in (0.15, 0.05, 0.3):
         stream.set_perturbation_std(std)
@@ -60,17 +59,35 @@ def test_stream_size_follows_the_command_and_delta_stays_continuous(three_link):
     assert np.abs(after[0] - before[-1]).max() < 0.1  # one sample apart, no jump
     assert np.abs(after[60:]).max() < 0.01 * np.abs(before).max()  # e^{-ζωt}: 0.005 after 0.6 cycles
     assert stream.perturbation.alpha == Perturbation.from_std(0.15).alpha
-    with pytest.raises(GeogaitError, match="'std' parameter of ExplorationStream.set_perturbation_std"):
+    with pytest.raises(GeogaitError, match="'std' parameter of SwimmerStream.set_perturbation_std"):
         stream.set_perturbation_std(-0.1)
-    with pytest.raises(GeogaitError, match="'n_trials' parameter of ExplorationStream"):
-        ExplorationStream(system, gait, n_trials=2)
+
+
+def test_the_size_is_part_of_the_robot_state(three_link):
+    """A stream restored from another's state (a checkpoint) continues with the δ std in force and the same
+    samples; a state saved before sizes could change (no size) keeps the size the stream has."""
+    system, gait = three_link
+    stream = SwimmerStream(system, gait, seed=7, n_trials=2)
+    stream.next_cycle()
+    stream.set_perturbation_std(0.05)
+    state = stream.robot_state()
+    copy = SwimmerStream(system, gait, seed=0, n_trials=2)
+    copy.restore_robot_state(state)
+    assert copy.perturbation_std == pytest.approx(0.05)
+    np.testing.assert_array_equal(copy.next_cycle().commanded_shape, stream.next_cycle().commanded_shape)
+    old = SwimmerStream(system, gait, seed=0, n_trials=2)
+    old.restore_robot_state({k: v for k, v in state.items() if k != "perturbation_std"})
+    assert old.perturbation_std == pytest.approx(0.15)
+    with pytest.raises(GeogaitError, match="'std' parameter of SwimmerStream.set_perturbation_std"):
+        old.restore_robot_state(state | {"perturbation_std": -1.0, "pose": np.ones((2, 3))})
+    np.testing.assert_array_equal(old.pose, state["pose"])  # refused before anything changed
 
 
 def test_same_schedule_gives_the_same_perturbations(three_link):
     """Paired runs: two streams with one seed and one schedule of sizes see identical δ, whatever gaits
     they command."""
     system, gait = three_link
-    streams = [ExplorationStream(system, gait, seed=6) for _ in range(2)]
+    streams = [SwimmerStream(system, gait, seed=6) for _ in range(2)]
     streams[1].set_gait(gait.with_params(gait.params * 0.9))
     for std in (0.15, 0.05, 0.1):
         chunks = []
@@ -147,7 +164,7 @@ def test_tracker_sizes_exploration_and_responds_to_a_drag_change(three_link):
 
     def robot():
         schedule = DragRatioSchedule(system, (2.0, 4.0), warmup + change)
-        return ExplorationStream(system, gait, sensor_noise=0.1, environment=schedule, seed=1)
+        return SwimmerStream(system, gait, sensor_noise=0.1, environment=schedule, seed=1)
 
     path = ReferencePath.circle(1.0)
     adaptive = PathTracker(controller="adaptive", warmup_cycles=warmup, exploration="adaptive")
@@ -170,11 +187,11 @@ def test_tracker_exploration_errors(three_link):
     system, gait = three_link
     path = ReferencePath.line()
     with pytest.raises(GeogaitError, match="'exploration' parameter of PathTracker"):
-        PathTracker(exploration="greedy").run(ExplorationStream(system, gait, seed=0), path, 1)
+        PathTracker(exploration="greedy").run(SwimmerStream(system, gait, seed=0), path, 1)
     for bad in ([], [0.1, -0.1], [[0.1]], [np.nan]):
         with pytest.raises(GeogaitError, match="'exploration' parameter of PathTracker"):
-            PathTracker(exploration=bad).run(ExplorationStream(system, gait, seed=0), path, 1)
+            PathTracker(exploration=bad).run(SwimmerStream(system, gait, seed=0), path, 1)
     with pytest.raises(GeogaitError, match="set_perturbation_std"):
         PathTracker(exploration="adaptive").run(BareRobot(SwimmerStream(system, gait, seed=0)), path, 1)
     with pytest.raises(GeogaitError, match="'low' parameter of AdaptiveExploration"):
-        PathTracker(exploration=AdaptiveExploration(low=-1)).run(ExplorationStream(system, gait, seed=0), path, 1)
+        PathTracker(exploration=AdaptiveExploration(low=-1)).run(SwimmerStream(system, gait, seed=0), path, 1)

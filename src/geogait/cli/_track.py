@@ -19,7 +19,6 @@ from ..control import (
     EXPLORATION,
     PATH_KINDS,
     AdaptiveExploration,
-    ExplorationStream,
     PathTracker,
     ReferencePath,
 )
@@ -154,14 +153,13 @@ def track(
     settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, turn_limit=limit,
                     n_turns=2 * int(round(limit / TURN_SPACING)) + 1)
     results = {}
-    stream = SwimmerStream if exploration == "fixed" else ExplorationStream
     sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=perturbation)
     with progress_bar() as progress:
         for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
             system_k = system.with_drag_ratio(ratios[0])
             schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
-            robot = stream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
-                           sensor_noise=noise, environment=schedule, seed=seed)
+            robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
+                                  sensor_noise=noise, environment=schedule, seed=seed)
             tracker = PathTracker(controller=name, exploration=sizes, **settings)
             task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
 

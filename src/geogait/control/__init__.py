@@ -8,11 +8,11 @@
   (:class:`TrueMotion`).
 * :class:`PathTracker`: a receding-horizon controller that follows a path cycle by cycle on any
   :class:`geogait.robots.Robot` while the adaptive model keeps learning.
-* Exploration sized online (:class:`AdaptiveExploration`, :class:`ExplorationStream`): the
-  perturbation δ std of each cycle from the controller's prediction residual.
+* Exploration sized online (:class:`AdaptiveExploration`): the perturbation δ std of each cycle from the
+  controller's prediction residual, set on robots with ``set_perturbation_std`` (the simulated swimmers).
 """
 
-from ._exploration import AdaptiveExploration, ExplorationStream, prediction_surprise
+from ._exploration import AdaptiveExploration, prediction_surprise
 from ._paths import PATH_KINDS, ReferencePath
 from ._steering import (
     TURN_SPACING,
@@ -33,7 +33,6 @@ __all__ = [
     "CONTROLLERS",
     "DEFAULT_TURN_LIMIT",
     "EXPLORATION",
-    "ExplorationStream",
     "PATH_KINDS",
     "ModelMotion",
     "PathTracker",

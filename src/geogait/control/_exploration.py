@@ -30,19 +30,17 @@ average misses exactly the part of ξ that δ causes, so Γ falls with δ at the
 δ std 0.15, 0.44–0.48 at 0.05 in the tracking experiment): a rule "explore more when Γ is low" would
 keep raising δ because it lowered it.
 
-A simulated robot takes a new δ std between cycles through :class:`ExplorationStream`; any robot with
-a ``set_perturbation_std(std)`` method can be driven the same way.
+A robot takes a new δ std between cycles through its ``set_perturbation_std(std)`` method
+(:meth:`geogait.simulate.SwimmerStream.set_perturbation_std` for the simulated swimmers).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .._validation import GeogaitError, check_float, check_int, fail
-from ..gaits import Perturbation
-from ..simulate import SwimmerStream
+from .._validation import GeogaitError, check_float, check_int
 
-__all__ = ["AdaptiveExploration", "ExplorationStream", "prediction_surprise"]
+__all__ = ["AdaptiveExploration", "prediction_surprise"]
 
 
 def prediction_surprise(predicted, measured, std: float) -> float:
@@ -129,89 +127,3 @@ class AdaptiveExploration:
         self.surprises_.append(surprise)
         self.std_ = float(self.low + (self.high - self.low) * self.level_)
         return self.std_
-
-
-class ExplorationStream:
-    """A :class:`~geogait.simulate.SwimmerStream` whose δ std can be changed between cycles.
-
-    Takes the arguments of :class:`~geogait.simulate.SwimmerStream` (one trial) and implements
-    :class:`geogait.robots.Robot` and its simulator extras. :meth:`set_perturbation_std` keeps the
-    perturbation's spectrum (its α, β) and scales η; the SDE state (δ, δ̇), the random generators,
-    the pose and the gait carry over (the stream is rebuilt through ``robot_state`` /
-    ``restore_robot_state``), so δ stays continuous and relaxes to the new size with the time
-    constant 2 / α (0.11 cycle for ``Perturbation.from_std``'s spectrum), and two streams with the
-    same seed and the same schedule of sizes give the same samples.
-
-    Parameters
-    ----------
-    system : System
-    gait : FourierGait
-    **options
-        Keywords of :class:`~geogait.simulate.SwimmerStream` except ``n_trials``; ``perturbation``
-        (default ``Perturbation()``, δ std 0.15) sets the spectrum and the starting size.
-    """
-
-    def __init__(self, system, gait, **options):
-        if "n_trials" in options:
-            raise fail("n_trials", "ExplorationStream", "absent (one trial per stream)", options["n_trials"])
-        self._options = dict(options)
-        self._stream = SwimmerStream(system, gait, **options)
-        self._system = system
-
-    @property
-    def n_joints(self) -> int:
-        """Shape dimension d."""
-        return self._stream.n_joints
-
-    @property
-    def cycle_period(self) -> float:
-        """Duration of a cycle."""
-        return self._stream.cycle_period
-
-    @property
-    def gait(self):
-        """Nominal gait of the next cycle."""
-        return self._stream.gait
-
-    @property
-    def perturbation(self) -> Perturbation:
-        """The perturbation in force."""
-        return self._stream.perturbation
-
-    @property
-    def perturbation_std(self) -> float:
-        """Stationary δ std (rad) in force."""
-        return float(self._stream.perturbation.stationary_std[0])
-
-    def set_gait(self, gait) -> None:
-        """Command ``gait`` from the next cycle boundary on."""
-        self._stream.set_gait(gait)
-
-    def next_cycle(self):
-        """Run one cycle (:meth:`geogait.simulate.SwimmerStream.next_cycle`)."""
-        return self._stream.next_cycle()
-
-    def current_system(self):
-        """The system in force for the current cycle."""
-        return self._stream.current_system()
-
-    def robot_state(self) -> dict:
-        """State of the stream (:meth:`geogait.simulate.SwimmerStream.robot_state`) and the δ std."""
-        return {**self._stream.robot_state(), "perturbation_std": self.perturbation_std}
-
-    def restore_robot_state(self, state: dict) -> None:
-        """Put back ``state`` from :meth:`robot_state` (δ std included)."""
-        if "perturbation_std" in state:
-            self.set_perturbation_std(state["perturbation_std"])
-        self._stream.restore_robot_state({k: v for k, v in state.items() if k != "perturbation_std"})
-
-    def set_perturbation_std(self, std: float) -> None:
-        """Run the following cycles with δ std ``std`` (rad, >= 0)."""
-        std = check_float(std, "std", "ExplorationStream.set_perturbation_std", low=0)
-        if np.isclose(std, self.perturbation_std, rtol=1e-12, atol=0):
-            return
-        base = self._stream.perturbation
-        perturbation = Perturbation(alpha=base.alpha, beta=base.beta, eta=std * np.sqrt(2 * base.alpha * base.beta))
-        stream = SwimmerStream(self._system, self._stream.gait, **(self._options | {"perturbation": perturbation}))
-        stream.restore_robot_state(self._stream.robot_state())
-        self._stream = stream

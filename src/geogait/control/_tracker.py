@@ -192,7 +192,7 @@ class PathTracker:
         for other settings. An array ``(n,)`` replays a schedule of δ stds, one per cycle, warm-up
         first (e.g. ``result.perturbation_std`` of another controller's run, so that both run with
         the same perturbations), its last value held beyond its end. All but ``"fixed"`` need a robot
-        with ``set_perturbation_std(std)`` (:class:`~geogait.control.ExplorationStream`).
+        with ``set_perturbation_std(std)`` (:meth:`geogait.simulate.SwimmerStream.set_perturbation_std`).
     """
 
     def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float | None = None,
@@ -313,8 +313,8 @@ class PathTracker:
         plan = self._exploration_plan()
         if plan is not None and not callable(getattr(robot, "set_perturbation_std", None)):
             raise GeogaitError(f"exploration={self.exploration!r} of {owner} needs a robot with "
-                               f"set_perturbation_std(std); {type(robot).__name__} has none. Wrap the simulator in "
-                               "geogait.control.ExplorationStream, or use exploration='fixed'.")
+                               f"set_perturbation_std(std); {type(robot).__name__} has none "
+                               "(geogait.simulate.SwimmerStream has one), or use exploration='fixed'.")
         sizes = _Sizes(robot, plan)
         model = AdaptiveGaitModel(gait=reference, forgetting_factor=self.forgetting_factor, n_windows=self.n_windows,
                                   phase_rate=2 * np.pi / float(robot.cycle_period))

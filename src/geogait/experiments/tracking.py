@@ -37,7 +37,6 @@ from ..control import (
     EXPLORATION,
     TURN_SPACING,
     AdaptiveExploration,
-    ExplorationStream,
     ModelMotion,
     PathTracker,
     ReferencePath,
@@ -258,7 +257,6 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
                     warmup_cycles=warmup_cycles)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
                "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
-    stream = SwimmerStream if exploration == "fixed" else ExplorationStream
     rule = AdaptiveExploration(low=exploration_low, high=perturbation)
     order = sorted(controllers, key=lambda c: c != "adaptive")  # the adaptive run sizes the exploration
     frames = []
@@ -273,8 +271,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
             for controller in order:
                 schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
                             if environment == "change" else None)
-                robot = stream(system, gait, perturbation=Perturbation.from_std(perturbation),
-                               sensor_noise=sensor_noise, environment=schedule, seed=seed)
+                robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
+                                      sensor_noise=sensor_noise, environment=schedule, seed=seed)
                 tracker = PathTracker(controller=controller, exploration=sizes, **settings)
                 result = tracker.run(robot, path, n_cycles, start_offset=offset)
                 if controller == "adaptive" and exploration != "fixed":

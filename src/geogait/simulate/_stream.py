@@ -172,8 +172,30 @@ class SwimmerStream:
         else:
             self._pending_gait = gait
 
+    @property
+    def perturbation_std(self) -> float:
+        """Stationary δ std (rad) of the perturbation in force."""
+        return float(self.perturbation.stationary_std[0])
+
+    def set_perturbation_std(self, std: float) -> None:
+        """Run the following samples with δ std ``std`` (rad, ≥ 0): exploration sized online.
+
+        Keeps the perturbation's spectrum (α, β of eq. 8) and scales η; the SDE state (δ, δ̇) and the
+        random generators carry over, so δ stays continuous, relaxes to the new size with the time
+        constant 2/α, and two streams with one seed and one schedule of sizes draw the same noise.
+        """
+        std = check_float(std, "std", "SwimmerStream.set_perturbation_std", low=0)
+        if np.isclose(std, self.perturbation_std, rtol=1e-12, atol=0):
+            return  # the size in force: nothing changes, to the last bit
+        base = self.perturbation
+        eta = std * np.sqrt(2 * base.alpha * base.beta)  # stationary std of δ: η / √(2αβ)
+        self.perturbation = Perturbation(alpha=base.alpha, beta=base.beta, eta=eta)
+        state = self._perturbation.state
+        self._perturbation = self.perturbation.stream(self.dt, self.n_joints, None, size=state.shape[:-2],
+                                                      initial_state=state)
+
     def robot_state(self) -> dict:
-        """Everything that determines the rest of the stream: generators, SDE state, pose, gait.
+        """Everything that determines the rest of the stream: generators, SDE state, δ std, pose, gait.
 
         JSON values and NumPy arrays (what an optimiser checkpoint stores);
         :meth:`restore_robot_state` puts a stream built with the same arguments back exactly.
@@ -181,8 +203,8 @@ class SwimmerStream:
         state = {"cycle": self.cycle, "position": self.position,
                  "perturbation_rngs": [rng.bit_generator.state for rng in self._perturbation_rngs],
                  "noise_rngs": [rng.bit_generator.state for rng in self._noise_rngs],
-                 "perturbation_state": self._perturbation.state.copy(), "pose": self.pose.copy(),
-                 "gait": self._gait.coefficients.copy()}
+                 "perturbation_state": self._perturbation.state.copy(), "perturbation_std": self.perturbation_std,
+                 "pose": self.pose.copy(), "gait": self._gait.coefficients.copy()}
         if self._pending_gait is not None:
             state["pending_gait"] = self._pending_gait.coefficients.copy()
         return state
@@ -204,6 +226,8 @@ class SwimmerStream:
         gait = FourierGait(arrays["gait"])
         if gait.n_joints != self._gait.n_joints:
             raise fail("state", owner, f"a gait with {self._gait.n_joints} joints", gait.n_joints)
+        if state.get("perturbation_std") is not None:  # states saved before sizes could change lack it
+            self.set_perturbation_std(state["perturbation_std"])  # checked before anything else changes
         for generator, saved in zip(self._perturbation_rngs + self._noise_rngs, rngs[0] + rngs[1], strict=True):
             generator.bit_generator.state = saved
         self._perturbation.state = arrays["perturbation_state"].copy()
