@@ -12,8 +12,8 @@ what a rotating gait actually gains along a straight line (equal to ‖t‖ at �
     python studies/ceiling.py LINKS CYCLES TRIALS [CONFIG ...] [--jobs 1] [--checkpoints 30 40 60 200]
                               [--perturbation 0.15]
 
-``--perturbation`` sets the std (rad) of the exploration perturbations δ (the stream's default: 0.15; its
-frequency and damping are kept).
+``--perturbation`` sets the std (rad) of the exploration perturbations δ from the first sample on
+(``SwimmerStream.set_perturbation_std``: the stream's default spectrum, std 0.15, scaled).
 
 CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sqp, shape-linear,
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
@@ -31,7 +31,7 @@ import time
 import numpy as np
 from joblib import Parallel, delayed
 
-from geogait.gaits import Perturbation, seed_gait
+from geogait.gaits import seed_gait
 from geogait.models import PerfectInformationModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer, cached_ceiling
 from geogait.simulate import SwimmerStream
@@ -66,11 +66,9 @@ def optimizer(config, links):
 
 def one(links, cycles, name, seed, ceiling, perturbation):
     start = time.perf_counter()
-    default = Perturbation()  # the stream's: std 0.15 rad; keep its frequency and damping, scale its size
-    explore = None if perturbation is None else Perturbation(
-        alpha=default.alpha, beta=default.beta, eta=default.eta * perturbation / default.stationary_std[0])
-    stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=0.1, seed=seed,
-                           perturbation=explore)
+    stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=0.1, seed=seed)
+    if perturbation is not None:  # the stream's spectrum kept, its size scaled
+        stream.set_perturbation_std(perturbation)
     log = optimizer(name, links).run(stream, cycles, ceiling=ceiling).log
     fraction = log["ceiling_fraction"].to_numpy()
     omega = log["true_heading"].to_numpy()[-1]

@@ -367,7 +367,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         nodes, step = gauss_phases(self.resolution)
         g = self._features(gait.shape(nodes), gait.velocity(nodes)).sum(axis=(0, 1)) * step / 2
         block = next(b for b, (outputs, _) in enumerate(self.blocks_) if 2 in outputs)
-        g = g @ self.blocks_[block][1]
+        g = _project(g, self._gathers[block])
         spread = np.einsum("i,...ij,j->...", g, self.covariances_[block], g)
         return np.sqrt(residual_variance * spread)
 
