@@ -7,11 +7,14 @@ from _robots import BareRobot
 from geogait._validation import GeogaitError
 from geogait.control import (
     AdaptiveExploration,
+    ModelMotion,
     PathTracker,
     ReferencePath,
     prediction_surprise,
+    surprise_alarm,
 )
 from geogait.gaits import Perturbation
+from geogait.models import ShapeSpaceModel
 from geogait.optimize import cached_ceiling
 from geogait.simulate import DragRatioSchedule, SwimmerStream
 from geogait.systems import PurcellSwimmer
@@ -195,3 +198,72 @@ def test_tracker_exploration_errors(three_link):
         PathTracker(exploration="adaptive").run(BareRobot(SwimmerStream(system, gait, seed=0)), path, 1)
     with pytest.raises(GeogaitError, match="'low' parameter of AdaptiveExploration"):
         PathTracker(exploration=AdaptiveExploration(low=-1)).run(SwimmerStream(system, gait, seed=0), path, 1)
+
+
+# -- the model and covariance resetting at a change ------------------------------------------
+def test_surprise_alarm_needs_three_references_and_compares_with_their_median():
+    assert not surprise_alarm(100.0, [1.0, 1.0])
+    assert surprise_alarm(5.1, [1.0, 1.0, 1.0]) and not surprise_alarm(4.9, [1.0, 1.0, 1.0])
+    assert not surprise_alarm(5.1, [1.0, 9.0, 1.0, 9.0, 9.0], alarm=5.0, window=3)  # only the last 3 count
+    assert surprise_alarm(2.1, [1.0, 1.0, 1.0], alarm=2.0)
+
+
+def test_change_forgetting_relearns_the_new_drag_faster_and_fires_once(three_link):
+    """3-link circle through k = 2 → 4 with the shape-space model and δ 0.05: the first cycle at k = 4
+    raises the alarm (and no cycle before it); forgetting by 100 there makes the predicted step of the
+    next cycles closer to the truth than without it (same seed, same perturbations)."""
+    system, gait = three_link
+    warmup, change, cycles = 6, 8, 16
+
+    def run(factor):
+        schedule = DragRatioSchedule(system, (2.0, 4.0), warmup + change)
+        robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(0.05), sensor_noise=0.1,
+                              environment=schedule, seed=2)
+        tracker = PathTracker(warmup_cycles=warmup, change_forgetting=factor,
+                              model=ShapeSpaceModel(degree=3, symmetry="mirror+reversal"))
+        return tracker.run(robot, ReferencePath.circle(1.0), cycles).log
+
+    forgetting, plain = run(100.0), run(1.0)
+    assert forgetting["alarm"].to_numpy().nonzero()[0].tolist()[:1] == [change]
+    assert forgetting["alarm"].sum() <= 2
+
+    def step_error(log):
+        part = log[(log.cycle > change) & (log.cycle <= change + 4)]
+        return float(np.mean(np.hypot(part.predicted_x - part.true_x, part.predicted_y - part.true_y)))
+
+    assert step_error(forgetting) < 0.5 * step_error(plain)
+    np.testing.assert_array_equal(forgetting["cross_track"][:change + 1], plain["cross_track"][:change + 1])
+
+
+def test_model_motion_of_a_shape_space_model_is_its_own_prediction(three_link):
+    system, gait = three_link
+    robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(0.1), seed=0)
+    chunk = robot.next_cycle()
+    model = ShapeSpaceModel(degree=2).fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
+    pose, jacobian = ModelMotion(model)(gait, jacobian=True)
+    expected, expected_jacobian = model.predict_displacement(gait, jacobian=True)
+    np.testing.assert_array_equal(pose, expected)
+    np.testing.assert_array_equal(jacobian, expected_jacobian)
+
+
+class _NoForget:
+    def get_params(self, deep=False):
+        return {}
+
+    def partial_fit(self, *arrays):
+        return self
+
+    def predict_displacement(self, gait, jacobian=False):
+        return np.zeros(3)
+
+
+def test_tracker_model_and_change_forgetting_errors(three_link):
+    system, gait = three_link
+    path = ReferencePath.line()
+    with pytest.raises(GeogaitError, match=r"'model' parameter of PathTracker.*'a object without get_params\(\)'"):
+        PathTracker(model=object()).run(SwimmerStream(system, gait, seed=0), path, 1)
+    with pytest.raises(GeogaitError, match="'model' parameter of PathTracker.*without forget"):
+        PathTracker(model=_NoForget(), change_forgetting=10.0).run(SwimmerStream(system, gait, seed=0), path, 1)
+    for bad in (0.5, np.nan, "x"):
+        with pytest.raises(GeogaitError, match="'change_forgetting' parameter of PathTracker"):
+            PathTracker(change_forgetting=bad).run(SwimmerStream(system, gait, seed=0), path, 1)

@@ -287,3 +287,52 @@ def test_degree_shrinkage_is_the_graded_ridge_solution(symmetry):
                            initial_covariance=delta).fit(*samples(run)).weights_
     cubic = exponents.sum(axis=1) == 3
     assert np.linalg.norm(model.weights_[cubic]) < 0.5 * np.linalg.norm(flat[cubic])
+
+
+def test_forget_is_weighted_least_squares_with_the_old_evidence_discounted():
+    """With λ = 1, learning run A, forgetting by F, then learning run B gives the closed-form ridge
+    solution in which A's samples and the prior weigh 1/F each and B's samples 1 (covariance resetting
+    rescales the information matrix; the weights are untouched by the forgetting itself)."""
+    system, gait = PurcellSwimmer(3), seed_gait(2)
+    first = simulate(system, gait, n_cycles=3, perturbation=Perturbation.from_std(0.2), sensor_noise=0.1, seed=3)
+    second = simulate(system.with_drag_ratio(4.0), gait, n_cycles=1, perturbation=Perturbation.from_std(0.2),
+                      sensor_noise=0.1, seed=4)
+    delta, factor = 10.0, 30.0
+    model = ShapeSpaceModel(degree=2, forgetting_factor=1.0, initial_covariance=delta).fit(*samples(first))
+    before = model.weights_.copy()
+    model.forget(factor)
+    np.testing.assert_array_equal(model.weights_, before)
+    model.partial_fit(*samples(second))
+    exponents = monomial_exponents(2, 2)
+
+    def features(run):
+        f = monomials(run.shape, exponents)[:, :, None] * run.shape_velocity[:, None, :]
+        return f.reshape(len(run.shape), -1)
+
+    za, zb = features(first), features(second)
+    information = (za.T @ za + np.eye(za.shape[1]) / delta) / factor + zb.T @ zb
+    expected = np.linalg.solve(information, za.T @ first.body_velocity / factor + zb.T @ second.body_velocity)
+    np.testing.assert_allclose(model.weights_.reshape(-1, 3), expected, rtol=1e-6, atol=1e-9)
+    # without forgetting, the old drag ratio keeps three times the weight of the new one
+    stale = ShapeSpaceModel(degree=2, forgetting_factor=1.0, initial_covariance=delta).fit(*samples(first))
+    stale.partial_fit(*samples(second))
+    truth = cycle_displacement(system.with_drag_ratio(4.0), gait)
+    assert np.abs(model.predict_displacement(gait) - truth).max() < 0.5 * np.abs(
+        stale.predict_displacement(gait) - truth).max()
+
+
+def test_forget_is_the_same_covariance_scaling_on_both_models_and_checks_its_factor():
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, perturbation=Perturbation.from_std(0.2), seed=0)
+    for model in (ShapeSpaceModel(degree=2), AdaptiveGaitModel(gait=seed_gait(2))):
+        with pytest.raises(Exception, match="fit"):
+            model.forget(10.0)
+        model.fit(*samples(run))
+        covariance = [c.copy() for c in model.covariances_] if hasattr(model, "covariances_") else [
+            model.covariance_.copy()]
+        model.forget(4.0)
+        after = model.covariances_ if hasattr(model, "covariances_") else [model.covariance_]
+        for old, new in zip(covariance, after, strict=True):
+            np.testing.assert_allclose(new, 4.0 * old)  # the trace clamp is far: the data shrank P
+        for bad in (0.5, np.nan, "2"):
+            with pytest.raises(ValueError, match="'factor'"):
+                model.forget(bad)

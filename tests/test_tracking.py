@@ -15,8 +15,10 @@ from geogait.experiments.tracking import (
     feasible_turn_limit,
     plot_exploration,
     run_tracking,
+    tracking_model,
     tracking_path,
 )
+from geogait.models import ShapeSpaceModel
 
 
 def _strict_json(path):
@@ -72,6 +74,28 @@ def test_adaptive_exploration_is_replayed_by_the_other_controllers(tmp_path):
         TrackingConfig(exploration="greedy").validate()
     with pytest.raises(ValueError, match="'exploration_low' parameter of TrackingConfig"):
         TrackingConfig(exploration="adaptive", exploration_low=0.2).validate()
+
+
+def test_shape_space_model_with_change_forgetting_runs_the_experiment():
+    """``model="shape"`` gives the adaptive and frozen controllers the shape-space model (with the
+    swimmers' symmetries), and the log shows it: Γ of the shape model, and the frozen controller's
+    predictions differ from the window model's run on the same trial; bad names are refused."""
+    assert tracking_model("window") is None
+    shape = tracking_model("shape")
+    assert isinstance(shape, ShapeSpaceModel) and shape.symmetry == "mirror+reversal"
+    assert tracking_model("shape", symmetric=False).symmetry is None
+    options = dict(n_trials=1, paths=(), n_cycles=6, change_cycle=3, warmup_cycles=3, controllers=("adaptive", "frozen"))
+    window = run_tracking(TrackingConfig.quick(**options), progress=False).frame
+    shaped = run_tracking(TrackingConfig.quick(model="shape", change_forgetting=100.0, **options), progress=False).frame
+    assert shaped.groupby("controller").size().eq(6).all()
+    assert shaped[shaped.controller == "adaptive"]["gamma"].notna().all()
+    assert not np.allclose(window["predicted_turn"], shaped["predicted_turn"])
+    with pytest.raises(ValueError, match="'model'"):
+        TrackingConfig(model="spline").validate()
+    with pytest.raises(ValueError, match="'change_forgetting'"):
+        TrackingConfig(change_forgetting=0.5).validate()
+    with pytest.raises(ValueError, match="'model'"):
+        tracking_model("spline")
 
 
 def test_a_run_of_some_scenarios_repeats_the_full_runs_trials():
@@ -153,6 +177,18 @@ def test_track_command_with_adaptive_exploration(tmp_path):
     assert config["exploration"] == "adaptive" and config["exploration_low"] == 0.05
 
 
+def test_track_command_with_the_shape_space_model(tmp_path):
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["track", "--links", "3", "--path", "line", "--drag-ratio", "2,4", "--quick",
+                                      "--cycles", "6", "--change-cycle", "3", "--controllers", "adaptive",
+                                      "--model", "shape", "--change-forgetting", "100", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(out / "cycles.csv")
+    assert len(log) == 6 and log["alarm"].dtype == bool
+    config = _strict_json(out / "summary.json")["config"]
+    assert config["model"] == "shape" and config["change_forgetting"] == 100
+
+
 @pytest.mark.parametrize(("options", "message"), [
     (["--path", "spiral"], "The '--path' option"),
     (["--path", "missing.csv"], "does not exist"),
@@ -164,6 +200,8 @@ def test_track_command_with_adaptive_exploration(tmp_path):
     (["--turn-limit", "0"], "The '--turn-limit' option"),
     (["--exploration", "greedy"], "The '--exploration' option"),
     (["--exploration", "adaptive", "--exploration-low", "0.3"], "The '--exploration-low' option"),
+    (["--model", "spline"], "The '--model' option"),
+    (["--change-forgetting", "0.5"], "The '--change-forgetting' option"),
 ])
 def test_track_command_user_errors(tmp_path, options, message):
     result = CliRunner().invoke(app, ["track", "--quick", "--out", str(tmp_path / "x"), *options])

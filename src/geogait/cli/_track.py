@@ -25,6 +25,7 @@ from ..control import (
 from ..experiments.tracking import (
     TURN_SPACING,
     TrackingConfig,
+    TRACKING_MODELS,
     TrackingResult,
     drag_change_metrics,
     feasible_turn_limit,
@@ -33,6 +34,7 @@ from ..experiments.tracking import (
     run_tracking,
     steering_families,
     straight_gait,
+    tracking_model,
     tracking_path,
 )
 from ..gaits import Perturbation
@@ -121,6 +123,11 @@ def track(
              "its schedule).")] = "fixed",
     exploration_low: Annotated[float, typer.Option(
         help="Smallest δ std (rad) of --exploration adaptive.")] = 0.05,
+    model: Annotated[str, typer.Option(
+        help="Learning model of the adaptive and frozen controllers: window (local model about the straight "
+             "gait) or shape (connection over shape space, degree 3).")] = "window",
+    change_forgetting: Annotated[float, typer.Option(
+        help="At a surprise alarm the adaptive model forgets its evidence by this factor (1: never).")] = 1.0,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
 ) -> None:
@@ -149,9 +156,14 @@ def track(
     if exploration == "adaptive" and not 0 < exploration_low <= perturbation:
         raise GeogaitError(f"The '--exploration-low' option must be in (0, --perturbation = {perturbation:g}]. "
                            f"Got {exploration_low} instead.")
+    if model not in TRACKING_MODELS:
+        raise GeogaitError(f"The '--model' option must be one of {', '.join(TRACKING_MODELS)}. Got {model!r} instead.")
+    if not change_forgetting >= 1:
+        raise GeogaitError(f"The '--change-forgetting' option must be a number >= 1. Got {change_forgetting} instead.")
     limit = feasible_turn_limit(links, turn_limit)
     settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, turn_limit=limit,
-                    n_turns=2 * int(round(limit / TURN_SPACING)) + 1)
+                    n_turns=2 * int(round(limit / TURN_SPACING)) + 1, model=tracking_model(model),
+                    change_forgetting=change_forgetting)
     results = {}
     sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=perturbation)
     with progress_bar() as progress:
@@ -192,7 +204,7 @@ def track(
                   controllers=names, warmup=warmup_cycles, scale=scale, offset=start_offset, seed=seed, noise=noise,
                   perturbation=perturbation, exploration=exploration,
                   exploration_low=exploration_low if exploration == "adaptive" else None, horizon=horizon,
-                  turn_limit=limit, quick=quick)
+                  turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick)
     write_manifest(folder / "summary.json", command="track", config=config, results=_finite(summary),
                    started=started)
     console.print(json.dumps(_finite(summary), indent=1))
@@ -231,6 +243,10 @@ def figure_tracking(
              "[default: fixed].")] = None,
     exploration_low: Annotated[float | None, typer.Option(
         help="Smallest δ std (rad) of --exploration adaptive [default: 0.05].")] = None,
+    model: Annotated[str | None, typer.Option(
+        help="window or shape: learning model of the adaptive and frozen controllers [default: window].")] = None,
+    change_forgetting: Annotated[float | None, typer.Option(
+        help="At a surprise alarm the adaptive model forgets its evidence by this factor [default: 1, never].")] = None,
     drag_only: Annotated[bool, typer.Option(
         help="Only the paths through the drag change (line and circle), with the same trials as in the "
              "full run.")] = False,
@@ -250,7 +266,8 @@ def figure_tracking(
         base = TrackingConfig.quick() if quick else TrackingConfig()
         changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
                        links=None if links is None else _links(links), exploration=exploration,
-                       exploration_low=exploration_low, paths=() if drag_only else None)
+                       exploration_low=exploration_low, model=model, change_forgetting=change_forgetting,
+                       paths=() if drag_only else None)
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if cycles is not None:
             config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)

@@ -12,7 +12,7 @@
   controller's prediction residual, set on robots with ``set_perturbation_std`` (the simulated swimmers).
 """
 
-from ._exploration import AdaptiveExploration, prediction_surprise
+from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import PATH_KINDS, ReferencePath
 from ._steering import (
     TURN_SPACING,
@@ -46,6 +46,7 @@ __all__ = [
     "max_feasible_turn",
     "max_step_family",
     "prediction_surprise",
+    "surprise_alarm",
     "solve_steering_gait",
     "steering_family",
     "travel_rows",

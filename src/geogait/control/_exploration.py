@@ -40,7 +40,7 @@ import numpy as np
 
 from .._validation import GeogaitError, check_float, check_int
 
-__all__ = ["AdaptiveExploration", "prediction_surprise"]
+__all__ = ["AdaptiveExploration", "prediction_surprise", "surprise_alarm"]
 
 
 def prediction_surprise(predicted, measured, std: float) -> float:
@@ -57,6 +57,13 @@ def prediction_surprise(predicted, measured, std: float) -> float:
     step = max(float(np.hypot(*predicted[:2])), 1e-12)
     error = measured - predicted
     return float(np.sqrt((error[0] ** 2 + error[1] ** 2) / step**2 + error[2] ** 2) / std)
+
+
+def surprise_alarm(surprise: float, past, alarm: float = 5.0, window: int = 10) -> bool:
+    """Whether ``surprise`` exceeds ``alarm`` × the median of the last ``window`` of the ``past``
+    surprises (never with fewer than 3): the change test of :class:`AdaptiveExploration`."""
+    past = list(past)[-window:]
+    return len(past) >= 3 and surprise > alarm * float(np.median(past))
 
 
 class AdaptiveExploration:
@@ -84,6 +91,8 @@ class AdaptiveExploration:
     ----------
     level_ : float
         h after the last update.
+    alarm_ : bool
+        Whether the last update raised the alarm.
     surprises_ : list of float
         Surprise of every cycle since :meth:`start`.
     std_ : float
@@ -111,7 +120,7 @@ class AdaptiveExploration:
     def start(self) -> float:
         """Forget the past; returns σ_high, the δ std of the warm-up and the first tracking cycle."""
         self.validate()
-        self.level_, self.surprises_ = 1.0, []
+        self.level_, self.surprises_, self.alarm_ = 1.0, [], False
         self.std_ = float(self.high)
         return self.std_
 
@@ -121,8 +130,8 @@ class AdaptiveExploration:
         if not hasattr(self, "std_"):
             raise GeogaitError("AdaptiveExploration.update needs a started rule: call start() first.")
         surprise = prediction_surprise(predicted, measured, self.std_)
-        past = self.surprises_[-self.window:]
-        alarm = len(past) >= 3 and surprise > self.alarm * float(np.median(past))
+        alarm = surprise_alarm(surprise, self.surprises_, self.alarm, self.window)
+        self.alarm_ = alarm
         self.level_ = 1.0 if alarm else self.decay * self.level_
         self.surprises_.append(surprise)
         self.std_ = float(self.low + (self.high - self.low) * self.level_)

@@ -45,8 +45,10 @@ class ModelMotion:
 
     Parameters
     ----------
-    model : AdaptiveGaitModel or BatchGaitModel
-        A fitted, unbatched model; it is read, never changed.
+    model : AdaptiveGaitModel, BatchGaitModel or ShapeSpaceModel
+        A fitted, unbatched model; it is read, never changed. A model of the connection over shape
+        space (:class:`~geogait.models.ShapeSpaceModel`, any model without a nominal gait) predicts
+        with its own ``predict_displacement`` and Magnus steps.
     resolution : int
         Magnus steps over the cycle (:func:`geogait.models.predicted_displacement`).
     """
@@ -57,6 +59,8 @@ class ModelMotion:
 
     def __call__(self, gait: FourierGait, jacobian: bool = False):
         """``(Δx, Δy, Δθ)`` ``(3,)`` of one cycle of ``gait`` (and ``(3, p)`` Jacobian)."""
+        if not hasattr(self.model, "gait_"):  # a connection over shape space: no nominal gait to expand about
+            return self.model.predict_displacement(gait, jacobian=jacobian)
         return predicted_displacement(self.model, gait, resolution=self.resolution, jacobian=jacobian)
 
 

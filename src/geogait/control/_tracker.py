@@ -51,7 +51,7 @@ from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
-from ._exploration import AdaptiveExploration, prediction_surprise
+from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
 from ._steering import (
     DEFAULT_MAX_JOINT_ANGLE,
@@ -106,7 +106,8 @@ class TrackingResult:
         adaptive model, NaN otherwise), ``drag_ratio`` (simulators with a drag ratio, else NaN),
         ``solved`` (the steering gait met its command), ``perturbation_std`` (δ std the cycle ran
         with, rad; NaN when the robot does not say), ``surprise`` (the cycle's prediction residual in
-        steps per radian of δ std, :func:`~geogait.control.prediction_surprise`) and ``param_*``.
+        steps per radian of δ std, :func:`~geogait.control.prediction_surprise`), ``alarm`` (the
+        cycle raised the change alarm of ``change_forgetting``) and ``param_*``.
     path : ReferencePath
     start : ndarray of shape (3,)
         Pose at the start of tracking, path frame.
@@ -193,13 +194,28 @@ class PathTracker:
         first (e.g. ``result.perturbation_std`` of another controller's run, so that both run with
         the same perturbations), its last value held beyond its end. All but ``"fixed"`` need a robot
         with ``set_perturbation_std(std)`` (:meth:`geogait.simulate.SwimmerStream.set_perturbation_std`).
+    model : estimator or None
+        The learning model of the adaptive and frozen controllers. None (default): the window model
+        (:class:`~geogait.models.AdaptiveGaitModel` of ``forgetting_factor`` and ``n_windows``, centred on
+        the straight gait). Otherwise an unfitted model with ``partial_fit`` and ``predict_displacement``,
+        cloned per run (given the straight gait and phase rate if it takes them), e.g. a connection over
+        shape space (:class:`~geogait.models.ShapeSpaceModel`), which learns A(r) from every sample of
+        every steering gait instead of a local expansion about the straight one.
+    change_forgetting : float >= 1
+        Covariance resetting after a change of the environment: when a cycle's prediction surprise
+        (:func:`~geogait.control.prediction_surprise`) raises the alarm of
+        :func:`~geogait.control.surprise_alarm` — with the alarm factor and window of ``exploration``
+        when it is an :class:`AdaptiveExploration`, else 5 and 10, against the surprises since the last
+        alarm only (the log's ``alarm`` column) — the adaptive model forgets all its evidence by this
+        factor (``model.forget``) before it learns that cycle, so that it re-learns within a few cycles
+        instead of the ``1 / (1 - λ)`` samples of its forgetting factor. 1 (default): never.
     """
 
     def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float | None = None,
                  n_turns: int | None = None, n_first_turns: int = 21, heading_weight: float = 0.5,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10,
                  max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
-                 family_every: int = 5, exploration="fixed"):
+                 family_every: int = 5, exploration="fixed", model=None, change_forgetting: float = 1.0):
         self.controller = controller
         self.horizon = horizon
         self.turn_limit = turn_limit
@@ -213,6 +229,8 @@ class PathTracker:
         self.resolution = resolution
         self.family_every = family_every
         self.exploration = exploration
+        self.model = model
+        self.change_forgetting = change_forgetting
 
     def _validate(self):
         owner = "PathTracker"
@@ -232,7 +250,27 @@ class PathTracker:
         check_int(self.n_windows, "n_windows", owner, minimum=3)
         check_int(self.resolution, "resolution", owner, minimum=8)
         check_int(self.family_every, "family_every", owner, minimum=1)
+        check_float(self.change_forgetting, "change_forgetting", owner, low=1)
         self._exploration_plan()
+        if self.model is not None:
+            needs = ("get_params", "partial_fit", "predict_displacement") + (("forget",) if self.change_forgetting > 1
+                                                                              else ())
+            for member in needs:
+                if not callable(getattr(self.model, member, None)):
+                    raise fail("model", owner, "None or an unfitted gait model with "
+                               + ", ".join(f"{m}()" for m in needs) + " (e.g. AdaptiveGaitModel, ShapeSpaceModel)",
+                               f"a {type(self.model).__name__} without {member}()")
+
+    def _new_model(self, reference: FourierGait, period: float):
+        """A fresh learning model: the window model of ``forgetting_factor`` and ``n_windows`` centred on
+        the straight gait, or a clone of ``model`` (given the straight gait and phase rate if it takes them)."""
+        rate = 2 * np.pi / period
+        if self.model is None:
+            return AdaptiveGaitModel(gait=reference, forgetting_factor=self.forgetting_factor,
+                                     n_windows=self.n_windows, phase_rate=rate)
+        params = self.model.get_params(deep=False)
+        params.update({k: v for k, v in (("gait", reference), ("phase_rate", rate)) if k in params})
+        return type(self.model)(**params)
 
     def _exploration_plan(self):
         """``None`` (fixed), a fresh :class:`AdaptiveExploration`, or the schedule to replay ``(n,)``."""
@@ -316,8 +354,8 @@ class PathTracker:
                                f"set_perturbation_std(std); {type(robot).__name__} has none "
                                "(geogait.simulate.SwimmerStream has one), or use exploration='fixed'.")
         sizes = _Sizes(robot, plan)
-        model = AdaptiveGaitModel(gait=reference, forgetting_factor=self.forgetting_factor, n_windows=self.n_windows,
-                                  phase_rate=2 * np.pi / float(robot.cycle_period))
+        change = _ChangeTest(*((plan.alarm, plan.window) if isinstance(plan, AdaptiveExploration) else ()))
+        model = self._new_model(reference, float(robot.cycle_period))
         robot.set_gait(reference)
         chords = []
         for _ in range(self.warmup_cycles):
@@ -363,24 +401,27 @@ class PathTracker:
             robot.set_gait(command)
             std = sizes.apply()
             chunk = robot.next_cycle()
-            if self.controller == "adaptive":
-                model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
             world_start, world = chunk.pose[0], end_pose(chunk)
             measured = se2.between(world_start, world)
+            surprise = sizes.update(predicted, measured, std)
+            alarm = change.update(prediction_surprise(predicted, measured, std if std > 0 else 1.0))
+            if self.controller == "adaptive":
+                if alarm and self.change_forgetting > 1:  # before the alarming cycle is learned
+                    model.forget(self.change_forgetting)
+                model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
             begin, pose = se2.compose(anchor, world_start), se2.compose(anchor, world)
             s_new, cross_track, _ = path.project(pose[:2], near=s, window=window)
             _, _, tangent = path.project((begin[:2] + pose[:2]) / 2, near=s, window=window)
             course = np.arctan2(pose[1] - begin[1], pose[0] - begin[0])
             s = float(s_new)
-            surprise = sizes.update(predicted, measured, std)
             row = {"cycle": cycle, "controller": self.controller, "x": pose[0], "y": pose[1], "heading": pose[2],
                    "s": s, "cross_track": float(cross_track), "heading_error": float(se2.wrap_angle(course - tangent)),
                    "turn_command": turn, "solved": bool(solution.converged),
                    **_motion_columns("predicted", predicted), **_motion_columns("measured", measured),
                    **_motion_columns("true", truth),
-                   "gamma": float(model.gamma_) if self.controller == "adaptive" else np.nan,
+                   "gamma": float(getattr(model, "gamma_", np.nan)) if self.controller == "adaptive" else np.nan,
                    "drag_ratio": float(getattr(system, "drag_ratio", np.nan)) if system is not None else np.nan,
-                   "perturbation_std": std, "surprise": surprise}
+                   "perturbation_std": std, "surprise": surprise, "alarm": alarm}
             row.update({f"param_{k}": v for k, v in enumerate(command.params)})
             rows.append(row)
             if record:
@@ -471,6 +512,20 @@ class _Sizes:
 
     def history(self) -> np.ndarray | None:
         return None if self.plan is None else np.array(self.used)
+
+
+class _ChangeTest:
+    """The alarm of ``change_forgetting``: :func:`~geogait.control.surprise_alarm` against the surprises
+    since the last alarm only — the model forgot at that alarm, and the surprises of its first cycles
+    of re-learning would otherwise raise it again and again, each time discarding what they taught."""
+
+    def __init__(self, alarm: float = 5.0, window: int = 10):
+        self.alarm, self.window, self.since = alarm, window, []
+
+    def update(self, surprise: float) -> bool:
+        alarm = surprise_alarm(surprise, self.since, self.alarm, self.window)
+        self.since = [] if alarm else self.since + [surprise]
+        return alarm
 
 
 def _robot_std(robot) -> float:

@@ -46,7 +46,7 @@ from ..control import (
     steering_family,
 )
 from ..gaits import Perturbation
-from ..models import AdaptiveGaitModel
+from ..models import AdaptiveGaitModel, ShapeSpaceModel
 from ..optimize import cached_ceiling
 from ..plotting import plt, save_figure
 from ..simulate import DragRatioSchedule, SwimmerStream, cycle_displacement, simulate
@@ -56,13 +56,14 @@ from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
 __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
            "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING",
-           "plot_exploration", "plot_exploration_curves"]
+           "plot_exploration", "plot_exploration_curves", "tracking_model", "TRACKING_MODELS"]
 
 _OWNER = "TrackingConfig"
 PATHS = ("line", "circle", "figure8", "waypoints")
 RECOVERY_FACTOR = 1.5
 """Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
 PRE_CHANGE_CYCLES = 10
+TRACKING_MODELS = ("window", "shape")
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,11 @@ class TrackingConfig:
         the same perturbations in every cycle (without an adaptive controller each sizes its own).
     exploration_low : float
         σ_low (rad) of the adaptive exploration.
+    model : {"window", "shape"}
+        Learning model of the adaptive and frozen controllers (:func:`tracking_model`): the local window
+        model about the straight gait, or the connection over shape space.
+    change_forgetting : float >= 1
+        :class:`~geogait.control.PathTracker`'s covariance resetting at a surprise alarm (1: none).
     controllers : tuple of str
     seed : int
         Root seed; swimmer i uses ``seed + 1000 i``.
@@ -129,6 +135,8 @@ class TrackingConfig:
     heading_weight: float = 0.5
     exploration: str = "fixed"
     exploration_low: float = 0.05
+    model: str = "window"
+    change_forgetting: float = 1.0
     controllers: tuple[str, ...] = CONTROLLERS
     seed: int = 0
     chunk_size: int = 1
@@ -171,6 +179,9 @@ class TrackingConfig:
             raise fail("exploration", _OWNER, "one of " + ", ".join(EXPLORATION), self.exploration)
         if self.exploration == "adaptive":
             check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=self.perturbation, low_open=True)
+        if self.model not in TRACKING_MODELS:
+            raise fail("model", _OWNER, "one of " + ", ".join(TRACKING_MODELS), self.model)
+        check_float(self.change_forgetting, "change_forgetting", _OWNER, low=1)
         if not self.controllers or any(c not in CONTROLLERS for c in self.controllers):
             raise fail("controllers", _OWNER, "controllers among " + ", ".join(CONTROLLERS), self.controllers)
         check_int(self.seed, "seed", _OWNER, minimum=0)
@@ -210,6 +221,19 @@ def feasible_turn_limit(n_links: int, upper: float = 1.0) -> float:
     return max_feasible_turn(TrueMotion(system), gait, direction=float(np.arctan2(pose[1], pose[0])), upper=upper)
 
 
+def tracking_model(name: str, *, symmetric: bool = True):
+    """The learning model of the tracking controllers by name: None for ``"window"`` (PathTracker's own
+    :class:`~geogait.models.AdaptiveGaitModel` about the straight gait, λ 0.99 per window update) or, for
+    ``"shape"``, a :class:`~geogait.models.ShapeSpaceModel` of degree 3 with λ 0.999 per sample (a memory
+    of about 10 cycles of 100 samples) and, when ``symmetric``, the mirror and front–back symmetries of
+    the built-in swimmers (``"mirror+reversal"``; a robot's are unknown: pass False)."""
+    if name not in TRACKING_MODELS:
+        raise fail("model", "tracking_model", "one of " + ", ".join(TRACKING_MODELS), name)
+    if name == "window":
+        return None
+    return ShapeSpaceModel(degree=3, symmetry="mirror+reversal" if symmetric else None, forgetting_factor=0.999)
+
+
 def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
     """A built-in path scaled by the step ℓ: line, circle (radius ``scale ℓ``), figure-eight (size
     ``scale ℓ``) or waypoints (a ``1.5 scale ℓ × scale ℓ`` rectangle, counter-clockwise)."""
@@ -223,7 +247,8 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
                     line_offset: float, turn_limit: float, heading_weight: float, controllers,
-                    exploration: str = "fixed", exploration_low: float = 0.05) -> pd.DataFrame:
+                    exploration: str = "fixed", exploration_low: float = 0.05, model: str = "window",
+                    change_forgetting: float = 1.0) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
     Parameters
@@ -240,7 +265,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         As in :class:`TrackingConfig`.
     turn_limit, heading_weight, controllers
         As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
-    exploration, exploration_low
+    exploration, exploration_low, model, change_forgetting
         As in :class:`TrackingConfig`.
 
     Returns
@@ -254,7 +279,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
     system, gait, step = straight_gait(n_links)
     limit = feasible_turn_limit(n_links, turn_limit)
     settings = dict(turn_limit=limit, n_turns=2 * int(round(limit / TURN_SPACING)) + 1, heading_weight=heading_weight,
-                    warmup_cycles=warmup_cycles)
+                    warmup_cycles=warmup_cycles, model=tracking_model(model), change_forgetting=change_forgetting)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
                "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
     rule = AdaptiveExploration(low=exploration_low, high=perturbation)
@@ -331,7 +356,8 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
                        perturbation=config.perturbation, path_scale=config.path_scale,
                        line_offset=config.line_offset, turn_limit=config.turn_limit,
                        heading_weight=config.heading_weight, controllers=config.controllers,
-                       exploration=config.exploration, exploration_low=config.exploration_low)
+                       exploration=config.exploration, exploration_low=config.exploration_low,
+                       model=config.model, change_forgetting=config.change_forgetting)
         frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
                                             chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
                                             progress=progress, description=f"{n_links}-link tracking")

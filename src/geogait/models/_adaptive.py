@@ -198,6 +198,27 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     def covariance_(self) -> np.ndarray:
         return self.bank_.covariance
 
+    def forget(self, factor: float):
+        r"""Discount all evidence so far by ``factor``, at once (covariance resetting).
+
+        RLS with forgetting weighs a sample ``i`` updates old by :math:`\lambda^i`; multiplying every
+        window covariance by ``factor`` (then the trace clamp) divides every past sample's weight by
+        ``factor`` in one go, the weights unchanged: the next samples correct the model as if the old
+        ones were ``log(factor) / (1 - λ)`` updates older. Used after an unannounced change of the
+        environment, so a slow λ need not be traded for fast re-learning.
+
+        Parameters
+        ----------
+        factor : float >= 1
+
+        Returns
+        -------
+        self
+        """
+        self._check_is_fitted()
+        self.bank_.inflate(check_float(factor, "factor", "AdaptiveGaitModel.forget", low=1))
+        return self
+
     # -- Taylor rebase (eq. 7) ----------------------------------------------------------------
     def rebase(self, new_gait: FourierGait, terms: str = "constant", covariance_inflation: float = 1.0,
                constant_variance: float = 0.0, baseline: str = "reset"):

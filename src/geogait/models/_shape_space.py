@@ -55,7 +55,7 @@ import numpy as np
 
 from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
-from .._validation import check_array, fail
+from .._validation import check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
@@ -336,6 +336,16 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
         self._flat = None
+        return self
+
+    def forget(self, factor: float):
+        """Discount all evidence so far by ``factor`` at once (:meth:`AdaptiveGaitModel.forget
+        <geogait.models.AdaptiveGaitModel.forget>`): every block covariance times ``factor``, then the trace
+        clamp. Returns ``self``."""
+        self._check_is_fitted()
+        factor = check_float(factor, "factor", f"{type(self).__name__}.forget", low=1)
+        for bank in self.banks_:
+            bank.inflate(factor)
         return self
 
     def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
