@@ -67,13 +67,15 @@ def test_adaptive_exploration_is_replayed_by_the_other_controllers(tmp_path):
     assert frame["surprise"].notna().all()
     fixed = run_tracking(TrackingConfig.quick(n_trials=1, paths=(), n_cycles=4, change_cycle=2, warmup_cycles=3),
                          progress=False).frame
-    assert fixed["perturbation_std"].eq(0.15).all()
-    figure = plot_exploration({"adaptive δ": frame, "δ 0.15": fixed}, tmp_path / "e.png", change_cycle=5)
+    assert fixed["perturbation_std"].eq(0.05).all()  # the default fixed δ std
+    figure = plot_exploration({"adaptive δ": frame, "δ 0.05": fixed}, tmp_path / "e.png", change_cycle=5)
     assert figure.stat().st_size > 10_000
     with pytest.raises(ValueError, match="'exploration' parameter of TrackingConfig"):
         TrackingConfig(exploration="greedy").validate()
     with pytest.raises(ValueError, match="'exploration_low' parameter of TrackingConfig"):
         TrackingConfig(exploration="adaptive", exploration_low=0.2).validate()
+    with pytest.raises(ValueError, match="'exploration_high' parameter of TrackingConfig"):
+        TrackingConfig(exploration="adaptive", exploration_high=-0.1).validate()
 
 
 def test_shape_space_model_with_change_forgetting_runs_the_experiment():
@@ -85,8 +87,9 @@ def test_shape_space_model_with_change_forgetting_runs_the_experiment():
     assert isinstance(shape, ShapeSpaceModel) and shape.symmetry == "mirror+reversal"
     assert tracking_model("shape", symmetric=False).symmetry is None
     options = dict(n_trials=1, paths=(), n_cycles=6, change_cycle=3, warmup_cycles=3, controllers=("adaptive", "frozen"))
-    window = run_tracking(TrackingConfig.quick(**options), progress=False).frame
-    shaped = run_tracking(TrackingConfig.quick(model="shape", change_forgetting=100.0, **options), progress=False).frame
+    window = run_tracking(TrackingConfig.quick(model="window", change_forgetting=1.0, **options), progress=False).frame
+    shaped = run_tracking(TrackingConfig.quick(**options), progress=False).frame  # the defaults
+    assert TrackingConfig().model == "shape" and TrackingConfig().change_forgetting == 100.0
     assert shaped.groupby("controller").size().eq(6).all()
     assert shaped[shaped.controller == "adaptive"]["gamma"].notna().all()
     assert not np.allclose(window["predicted_turn"], shaped["predicted_turn"])
@@ -200,6 +203,8 @@ def test_track_command_with_the_shape_space_model(tmp_path):
     (["--turn-limit", "0"], "The '--turn-limit' option"),
     (["--exploration", "greedy"], "The '--exploration' option"),
     (["--exploration", "adaptive", "--exploration-low", "0.3"], "The '--exploration-low' option"),
+    (["--exploration", "adaptive", "--exploration-high", "-1"], "The '--exploration-high' option"),
+    (["--perturbation", "nan"], "The '--perturbation' option"),
     (["--model", "spline"], "The '--model' option"),
     (["--change-forgetting", "0.5"], "The '--change-forgetting' option"),
 ])
@@ -237,3 +242,5 @@ def test_readme_steering_example_runs(monkeypatch, tmp_path):
     np.testing.assert_array_equal(frozen.perturbation_std, adaptive.perturbation_std)
     stds = adaptive.log["perturbation_std"].to_numpy()
     assert stds[19] < 0.07 and stds[21] == pytest.approx(0.15)  # k = 4 from tracking cycle 20: the alarm
+    shaped = namespace["shaped"].log
+    assert shaped["alarm"].to_numpy().nonzero()[0][0] == 20 and shaped["alarm"].sum() <= 2  # forgot at k = 4

@@ -113,21 +113,24 @@ def track(
         help="Initial offset to the left of the path (body lengths) [default: 3 steps on the line, else 0].")] = None,
     seed: Annotated[int, typer.Option(help="Random seed of perturbations and sensor noise.")] = 0,
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
-    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.")] = 0.15,
+    perturbation: Annotated[float, typer.Option(
+        help="Std (rad) of the shape perturbation δ (--exploration fixed).")] = 0.05,
     horizon: Annotated[int, typer.Option(help="Cycles predicted per decision.")] = 4,
     turn_limit: Annotated[float, typer.Option(
         help="Largest turn per cycle (rad) of the steering family, cut to what the joint limits allow.")] = 1.0,
     exploration: Annotated[str, typer.Option(
         help="fixed: δ std --perturbation throughout; adaptive: sized every cycle between --exploration-low and "
-             "--perturbation from the adaptive controller's prediction residual (the other controllers replay "
+             "--exploration-high from the adaptive controller's prediction residual (the other controllers replay "
              "its schedule).")] = "fixed",
     exploration_low: Annotated[float, typer.Option(
         help="Smallest δ std (rad) of --exploration adaptive.")] = 0.05,
+    exploration_high: Annotated[float, typer.Option(
+        help="Largest δ std (rad) of --exploration adaptive (warm-up and after an alarm).")] = 0.15,
     model: Annotated[str, typer.Option(
         help="Learning model of the adaptive and frozen controllers: window (local model about the straight "
-             "gait) or shape (connection over shape space, degree 3).")] = "window",
+             "gait) or shape (connection over shape space, degree 3).")] = "shape",
     change_forgetting: Annotated[float, typer.Option(
-        help="At a surprise alarm the adaptive model forgets its evidence by this factor (1: never).")] = 1.0,
+        help="At a surprise alarm the adaptive model forgets its evidence by this factor (1: never).")] = 100.0,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
 ) -> None:
@@ -153,8 +156,12 @@ def track(
     if exploration not in EXPLORATION:
         raise GeogaitError(f"The '--exploration' option must be one of {', '.join(EXPLORATION)}. "
                            f"Got {exploration!r} instead.")
-    if exploration == "adaptive" and not 0 < exploration_low <= perturbation:
-        raise GeogaitError(f"The '--exploration-low' option must be in (0, --perturbation = {perturbation:g}]. "
+    if not perturbation >= 0:
+        raise GeogaitError(f"The '--perturbation' option must be a std >= 0 (rad). Got {perturbation} instead.")
+    if exploration == "adaptive" and not exploration_high >= 0:
+        raise GeogaitError(f"The '--exploration-high' option must be a std >= 0 (rad). Got {exploration_high} instead.")
+    if exploration == "adaptive" and not 0 < exploration_low <= exploration_high:
+        raise GeogaitError(f"The '--exploration-low' option must be in (0, --exploration-high = {exploration_high:g}]. "
                            f"Got {exploration_low} instead.")
     if model not in TRACKING_MODELS:
         raise GeogaitError(f"The '--model' option must be one of {', '.join(TRACKING_MODELS)}. Got {model!r} instead.")
@@ -165,12 +172,13 @@ def track(
                     n_turns=2 * int(round(limit / TURN_SPACING)) + 1, model=tracking_model(model),
                     change_forgetting=change_forgetting)
     results = {}
-    sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=perturbation)
+    sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=exploration_high)
+    start_std = perturbation if exploration == "fixed" else exploration_high
     with progress_bar() as progress:
         for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
             system_k = system.with_drag_ratio(ratios[0])
             schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
-            robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(perturbation),
+            robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(start_std),
                                   sensor_noise=noise, environment=schedule, seed=seed)
             tracker = PathTracker(controller=name, exploration=sizes, **settings)
             task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
@@ -202,8 +210,9 @@ def track(
     summary["path_length"] = reference.length
     config = dict(links=links, path=path, drag_ratios=ratios, cycles=n_cycles, change_cycle=change,
                   controllers=names, warmup=warmup_cycles, scale=scale, offset=start_offset, seed=seed, noise=noise,
-                  perturbation=perturbation, exploration=exploration,
-                  exploration_low=exploration_low if exploration == "adaptive" else None, horizon=horizon,
+                  perturbation=perturbation if exploration == "fixed" else None, exploration=exploration,
+                  exploration_low=exploration_low if exploration == "adaptive" else None,
+                  exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
                   turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick)
     write_manifest(folder / "summary.json", command="track", config=config, results=_finite(summary),
                    started=started)
@@ -237,16 +246,20 @@ def figure_tracking(
     links: Annotated[str | None, typer.Option(help="Swimmers, comma-separated [default: 3,5].")] = None,
     cycles: Annotated[int | None, typer.Option(help="Tracking cycles per run [default: 60].")] = None,
     noise: Annotated[float | None, typer.Option(help="Sensor noise on ξ, fraction of RMS [default: 0.1].")] = None,
-    perturbation: Annotated[float | None, typer.Option(help="Perturbation std (rad) [default: 0.15].")] = None,
+    perturbation: Annotated[float | None, typer.Option(
+        help="Perturbation std (rad) of --exploration fixed [default: 0.05].")] = None,
     exploration: Annotated[str | None, typer.Option(
-        help="fixed or adaptive (δ std sized every cycle from --exploration-low up to --perturbation) "
+        help="fixed or adaptive (δ std sized every cycle from --exploration-low up to --exploration-high) "
              "[default: fixed].")] = None,
     exploration_low: Annotated[float | None, typer.Option(
         help="Smallest δ std (rad) of --exploration adaptive [default: 0.05].")] = None,
+    exploration_high: Annotated[float | None, typer.Option(
+        help="Largest δ std (rad) of --exploration adaptive [default: 0.15].")] = None,
     model: Annotated[str | None, typer.Option(
-        help="window or shape: learning model of the adaptive and frozen controllers [default: window].")] = None,
+        help="window or shape: learning model of the adaptive and frozen controllers [default: shape].")] = None,
     change_forgetting: Annotated[float | None, typer.Option(
-        help="At a surprise alarm the adaptive model forgets its evidence by this factor [default: 1, never].")] = None,
+        help="At a surprise alarm the adaptive model forgets its evidence by this factor (1: never) "
+             "[default: 100].")] = None,
     drag_only: Annotated[bool, typer.Option(
         help="Only the paths through the drag change (line and circle), with the same trials as in the "
              "full run.")] = False,
@@ -266,7 +279,7 @@ def figure_tracking(
         base = TrackingConfig.quick() if quick else TrackingConfig()
         changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
                        links=None if links is None else _links(links), exploration=exploration,
-                       exploration_low=exploration_low, model=model, change_forgetting=change_forgetting,
+                       exploration_low=exploration_low, exploration_high=exploration_high, model=model, change_forgetting=change_forgetting,
                        paths=() if drag_only else None)
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if cycles is not None:

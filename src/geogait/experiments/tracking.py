@@ -7,7 +7,11 @@ trials): 10 warm-up cycles on the straight gait (the ceiling gait, the optimum o
 :func:`~geogait.optimize.cached_ceiling`), then ``n_cycles`` cycles of path following. The
 controllers turn by at most 1 rad per cycle, cut to what the swimmer's joint limits allow
 (:func:`feasible_turn_limit`: 0.5 rad for the 3-link, 1.0 for the 5-link swimmer), with steering
-families spaced 0.1 rad and heading weight 0.5.
+families spaced 0.1 rad and heading weight 0.5. By default the adaptive and frozen controllers learn
+the connection over shape space (:func:`tracking_model`), the perturbations δ have std 0.05 rad, and
+the adaptive model forgets its evidence by 100 when a cycle's prediction surprise raises the alarm
+(covariance resetting, ``PathTracker(change_forgetting=100)``); ``model="window"``,
+``perturbation=0.15`` and ``change_forgetting=1`` are the first setting measured.
 
 Paths are scaled by the swimmer's own step ℓ (true net translation per cycle of the straight gait at
 drag ratio 2: 0.10 body lengths for the 3-link, 0.20 for the 5-link swimmer), so every swimmer gets
@@ -89,7 +93,7 @@ class TrackingConfig:
     warmup_cycles : int
         Straight-gait cycles before tracking (the frozen model's whole training).
     sensor_noise, perturbation : float
-        Measurement noise (fraction of RMS) and perturbation std (rad).
+        Measurement noise (fraction of RMS) and perturbation δ std (rad) of ``exploration="fixed"``.
     path_scale : float
         Circle radius, figure-eight size and rectangle height in steps ℓ of the straight gait.
     line_offset : float
@@ -101,12 +105,12 @@ class TrackingConfig:
         Heading weight of :class:`~geogait.control.PathTracker`.
     exploration : {"fixed", "adaptive"}
         ``"fixed"``: δ std ``perturbation`` throughout. ``"adaptive"``: sized every cycle by
-        :class:`~geogait.control.AdaptiveExploration` from σ_high = ``perturbation`` down to σ_low =
+        :class:`~geogait.control.AdaptiveExploration` from σ_high = ``exploration_high`` down to σ_low =
         ``exploration_low``, driven by the adaptive controller's prediction residual; the frozen and
         true controllers of the same trial replay the adaptive run's schedule, so all three run with
         the same perturbations in every cycle (without an adaptive controller each sizes its own).
-    exploration_low : float
-        σ_low (rad) of the adaptive exploration.
+    exploration_low, exploration_high : float
+        σ_low and σ_high (rad) of the adaptive exploration.
     model : {"window", "shape"}
         Learning model of the adaptive and frozen controllers (:func:`tracking_model`): the local window
         model about the straight gait, or the connection over shape space.
@@ -128,15 +132,16 @@ class TrackingConfig:
     change_cycle: int = 30
     warmup_cycles: int = 10
     sensor_noise: float = 0.1
-    perturbation: float = 0.15
+    perturbation: float = 0.05
     path_scale: float = 10.0
     line_offset: float = 3.0
     turn_limit: float = 1.0
     heading_weight: float = 0.5
     exploration: str = "fixed"
     exploration_low: float = 0.05
-    model: str = "window"
-    change_forgetting: float = 1.0
+    exploration_high: float = 0.15
+    model: str = "shape"
+    change_forgetting: float = 100.0
     controllers: tuple[str, ...] = CONTROLLERS
     seed: int = 0
     chunk_size: int = 1
@@ -178,7 +183,8 @@ class TrackingConfig:
         if self.exploration not in EXPLORATION:
             raise fail("exploration", _OWNER, "one of " + ", ".join(EXPLORATION), self.exploration)
         if self.exploration == "adaptive":
-            check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=self.perturbation, low_open=True)
+            high = check_fraction(self.exploration_high, "exploration_high", _OWNER)
+            check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=high, low_open=True)
         if self.model not in TRACKING_MODELS:
             raise fail("model", _OWNER, "one of " + ", ".join(TRACKING_MODELS), self.model)
         check_float(self.change_forgetting, "change_forgetting", _OWNER, low=1)
@@ -247,8 +253,8 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
                     line_offset: float, turn_limit: float, heading_weight: float, controllers,
-                    exploration: str = "fixed", exploration_low: float = 0.05, model: str = "window",
-                    change_forgetting: float = 1.0) -> pd.DataFrame:
+                    exploration: str = "fixed", exploration_low: float = 0.05, exploration_high: float = 0.15,
+                    model: str = "shape", change_forgetting: float = 100.0) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
     Parameters
@@ -265,7 +271,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         As in :class:`TrackingConfig`.
     turn_limit, heading_weight, controllers
         As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
-    exploration, exploration_low, model, change_forgetting
+    exploration, exploration_low, exploration_high, model, change_forgetting
         As in :class:`TrackingConfig`.
 
     Returns
@@ -282,7 +288,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
                     warmup_cycles=warmup_cycles, model=tracking_model(model), change_forgetting=change_forgetting)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
                "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
-    rule = AdaptiveExploration(low=exploration_low, high=perturbation)
+    rule = AdaptiveExploration(low=exploration_low, high=exploration_high)
+    start_std = perturbation if exploration == "fixed" else exploration_high
     order = sorted(controllers, key=lambda c: c != "adaptive")  # the adaptive run sizes the exploration
     frames = []
     for kind, environment in scenarios:
@@ -296,7 +303,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
             for controller in order:
                 schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
                             if environment == "change" else None)
-                robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
+                robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(start_std),
                                       sensor_noise=sensor_noise, environment=schedule, seed=seed)
                 tracker = PathTracker(controller=controller, exploration=sizes, **settings)
                 result = tracker.run(robot, path, n_cycles, start_offset=offset)
@@ -357,6 +364,7 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
                        line_offset=config.line_offset, turn_limit=config.turn_limit,
                        heading_weight=config.heading_weight, controllers=config.controllers,
                        exploration=config.exploration, exploration_low=config.exploration_low,
+                       exploration_high=config.exploration_high,
                        model=config.model, change_forgetting=config.change_forgetting)
         frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
                                             chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
