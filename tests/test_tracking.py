@@ -192,6 +192,46 @@ def test_track_command_with_the_shape_space_model(tmp_path):
     assert config["model"] == "shape" and config["change_forgetting"] == 100
 
 
+def test_track_command_follows_a_path_with_a_robot_behind_a_driver(tmp_path):
+    """``--robot``: each controller gets a fresh driver process (the JSON-lines bridge); the robot's own
+    gait is the straight gait and ``--step`` sizes the built-in path."""
+    import sys
+
+    driver = f"{sys.executable} -m geogait.robots.driver --links 3 --perturbation 0.05"
+    out = tmp_path / "robot"
+    result = CliRunner().invoke(app, ["track", "--robot", driver, "--path", "circle", "--step", "0.05",
+                                      "--warmup", "10", "--cycles", "3", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(out / "cycles.csv")
+    assert sorted(log["controller"].unique()) == ["adaptive", "frozen"] and len(log) == 6
+    assert log["true_turn"].isna().all()  # no oracle behind a driver
+    summary = _strict_json(out / "summary.json")
+    assert summary["config"]["robot"] == driver and summary["config"]["links"] is None
+    assert summary["results"]["path_length"] == pytest.approx(2 * np.pi * 0.5, rel=1e-3)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--controllers", "adaptive,true"], "The 'true' controller needs the built-in swimmer"),
+    (["--drag-ratio", "2,4"], "The '--drag-ratio' option changes the built-in swimmer"),
+    (["--exploration", "adaptive"], "'--exploration adaptive' needs a robot"),
+    (["--path", "circle"], "give '--step'"),
+    (["--path", "circle", "--step", "-1"], "The '--step' option"),
+])
+def test_track_command_robot_option_errors(tmp_path, options, message):
+    result = CliRunner().invoke(app, ["track", "--robot", "no-such-driver-is-started", "--out", str(tmp_path / "x"),
+                                      *options])
+    assert result.exit_code == 1
+    assert result.stderr.startswith("error: ") and message in result.stderr and len(result.stderr.splitlines()) == 1
+    assert not (tmp_path / "x").exists()  # refused before anything was written
+
+
+def test_track_command_reports_a_driver_that_cannot_start(tmp_path):
+    result = CliRunner().invoke(app, ["track", "--robot", "no-such-driver-xyz", "--path", "line", "--step", "0.05",
+                                      "--out", str(tmp_path / "x")])
+    assert result.exit_code == 1
+    assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
+
+
 @pytest.mark.parametrize(("options", "message"), [
     (["--path", "spiral"], "The '--path' option"),
     (["--path", "missing.csv"], "does not exist"),

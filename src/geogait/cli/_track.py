@@ -3,6 +3,7 @@ controllers), and ``geogait figure tracking``: the seeded multi-trial experiment
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import time
@@ -39,6 +40,7 @@ from ..experiments.tracking import (
 )
 from ..gaits import Perturbation
 from ..plotting import plt, save_figure
+from ..robots import ProcessRobot
 from ..simulate import DragRatioSchedule, SwimmerStream
 from ._app import app, figure_app
 from ._common import console, output_folder, progress_bar, write_manifest
@@ -83,6 +85,24 @@ def _path(text: str, step: float, scale: float) -> ReferencePath:
                        f"(columns x, y). Got {text!r} instead.")
 
 
+def _check_robot_options(names, ratios, path: str, step: float | None, exploration: str) -> None:
+    """The options that need the built-in swimmer, refused with --robot (nothing silently ignored)."""
+    if "true" in names:
+        raise GeogaitError("The 'true' controller needs the built-in swimmer's connection; with '--robot' use "
+                           "'--controllers adaptive,frozen'.")
+    if len(ratios) == 2:
+        raise GeogaitError("The '--drag-ratio' option changes the built-in swimmer's environment; a robot's "
+                           "environment is its own (drop '--drag-ratio' with '--robot').")
+    if exploration != "fixed":
+        raise GeogaitError("'--exploration adaptive' needs a robot whose δ size can be set between cycles; the "
+                           "JSON-lines bridge has no such message (use '--exploration fixed' with '--robot').")
+    if path in PATH_KINDS and step is None:
+        raise GeogaitError(f"The built-in path {path!r} is sized in steps of the straight gait: give '--step' (the "
+                           "robot's step per cycle, pose units) with '--robot', or a waypoints CSV as '--path'.")
+    if step is not None and not (np.isfinite(step) and step > 0):
+        raise GeogaitError(f"The '--step' option must be a positive number. Got {step} instead.")
+
+
 def _finite(value):
     """JSON-safe: NaN and inf become null."""
     if isinstance(value, dict):
@@ -104,20 +124,22 @@ def track(
     cycles: Annotated[int | None, typer.Option(help="Tracking cycles [default: 60; 12 with --quick].")] = None,
     change_cycle: Annotated[int | None, typer.Option(
         help="Tracking cycle of the drag-ratio change [default: half of --cycles].")] = None,
-    controllers: Annotated[str, typer.Option(help="Comma-separated controllers to run: adaptive, frozen, "
-                                                  "true.")] = ",".join(CONTROLLERS),
+    controllers: Annotated[str | None, typer.Option(
+        help="Comma-separated controllers to run: adaptive, frozen, true [default: all three; adaptive,frozen "
+             "with --robot].")] = None,
     warmup: Annotated[int | None, typer.Option(
         help="Straight-gait cycles before tracking [default: 10; 5 with --quick].")] = None,
     scale: Annotated[float, typer.Option(help="Built-in paths' size in steps of the straight gait.")] = 10.0,
     offset: Annotated[float | None, typer.Option(
         help="Initial offset to the left of the path (body lengths) [default: 3 steps on the line, else 0].")] = None,
-    seed: Annotated[int, typer.Option(help="Random seed of perturbations and sensor noise.")] = 0,
+    seed: Annotated[int, typer.Option(help="Random seed of perturbations and sensor noise (built-in swimmer).")] = 0,
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
     perturbation: Annotated[float, typer.Option(
         help="Std (rad) of the shape perturbation δ (--exploration fixed).")] = 0.05,
     horizon: Annotated[int, typer.Option(help="Cycles predicted per decision.")] = 4,
-    turn_limit: Annotated[float, typer.Option(
-        help="Largest turn per cycle (rad) of the steering family, cut to what the joint limits allow.")] = 1.0,
+    turn_limit: Annotated[float | None, typer.Option(
+        help="Largest turn per cycle (rad) of the steering family [default: 1 rad, cut to what the joint limits "
+             "allow].")] = None,
     exploration: Annotated[str, typer.Option(
         help="fixed: δ std --perturbation throughout; adaptive: sized every cycle between --exploration-low and "
              "--exploration-high from the adaptive controller's prediction residual (the other controllers replay "
@@ -131,27 +153,40 @@ def track(
              "gait) or shape (connection over shape space, degree 3).")] = "shape",
     change_forgetting: Annotated[float, typer.Option(
         help="At a surprise alarm the adaptive model forgets its evidence by this factor (1: never).")] = 100.0,
+    robot: Annotated[str | None, typer.Option(
+        help="Follow the path with the robot behind this driver command (JSON-lines bridge) instead of the "
+             "swimmer; each controller gets a fresh driver process. Its current gait is the straight gait.")] = None,
+    robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
+    step: Annotated[float | None, typer.Option(
+        help="With --robot: the straight gait's step per cycle (pose units) that sizes the built-in paths "
+             "(--scale steps); not needed for a waypoints CSV.")] = None,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
 ) -> None:
     """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json.
 
     Each controller runs on its own copy of the simulated swimmer with the same seed (same perturbations
-    and noise): the adaptive model keeps learning, the frozen one stops after the warm-up, and the true
-    controller uses the true connection of the environment in force.
+    and noise), or its own driver process of --robot: the adaptive model keeps learning, the frozen one
+    stops after the warm-up, and the true controller (swimmer only) uses the true connection of the
+    environment in force.
     """
     started = time.perf_counter()
     ratios = _ratios(drag_ratio)
-    names = _names(controllers, "--controllers", CONTROLLERS)
-    system, gait, step = straight_gait(links)
+    names = _names(controllers or ",".join(c for c in CONTROLLERS if robot is None or c != "true"),
+                   "--controllers", CONTROLLERS)
+    if robot is not None:
+        _check_robot_options(names, ratios, path, step, exploration)
+        system, gait = None, None
+    else:
+        system, gait, step = straight_gait(links)
     reference = _path(path, step, scale)
     n_cycles = cycles if cycles is not None else (QUICK["cycles"] if quick else 60)
     warmup_cycles = warmup if warmup is not None else (QUICK["warmup"] if quick else 10)
     change = change_cycle if change_cycle is not None else n_cycles // 2
-    start_offset = offset if offset is not None else (3 * step if path == "line" else 0.0)
+    start_offset = offset if offset is not None else (3 * step if path == "line" and step else 0.0)
     if len(ratios) == 2 and not 1 <= change < n_cycles:
         raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
-    if not TURN_SPACING <= turn_limit <= np.pi:
+    if turn_limit is not None and not TURN_SPACING <= turn_limit <= np.pi:
         raise GeogaitError(f"The '--turn-limit' option must be in [{TURN_SPACING:g}, π] rad. Got {turn_limit} instead.")
     if exploration not in EXPLORATION:
         raise GeogaitError(f"The '--exploration' option must be one of {', '.join(EXPLORATION)}. "
@@ -167,40 +202,54 @@ def track(
         raise GeogaitError(f"The '--model' option must be one of {', '.join(TRACKING_MODELS)}. Got {model!r} instead.")
     if not change_forgetting >= 1:
         raise GeogaitError(f"The '--change-forgetting' option must be a number >= 1. Got {change_forgetting} instead.")
-    limit = feasible_turn_limit(links, turn_limit)
-    settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, turn_limit=limit,
-                    n_turns=2 * int(round(limit / TURN_SPACING)) + 1, model=tracking_model(model),
-                    change_forgetting=change_forgetting)
+    # the swimmer's limit comes from its true connection (the same for every controller); a robot's from
+    # each controller's own warm-up model (PathTracker's turn_limit=None rule) unless given
+    limit = feasible_turn_limit(links, turn_limit or 1.0) if robot is None else turn_limit
+    turns = {"turn_limit": limit} if limit is None else {"turn_limit": limit,
+                                                          "n_turns": 2 * int(round(limit / TURN_SPACING)) + 1}
+    settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, model=tracking_model(model, symmetric=robot is None),
+                    change_forgetting=change_forgetting, **turns)
     results = {}
     sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=exploration_high)
     start_std = perturbation if exploration == "fixed" else exploration_high
-    with progress_bar() as progress:
+    def target():  # a fresh robot for every controller
+        if robot is not None:
+            return ProcessRobot(robot, timeout=robot_timeout)
+        system_k = system.with_drag_ratio(ratios[0])
+        schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
+        return contextlib.nullcontext(SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(start_std),
+                                                    sensor_noise=noise, environment=schedule, seed=seed))
+
+    label = "robot" if robot is not None else f"{links}-link"
+    progress = progress_bar()
+    try:
         for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
-            system_k = system.with_drag_ratio(ratios[0])
-            schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
-            robot = SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(start_std),
-                                  sensor_noise=noise, environment=schedule, seed=seed)
             tracker = PathTracker(controller=name, exploration=sizes, **settings)
-            task = progress.add_task(f"{links}-link {name:8s}", total=n_cycles, status="warming up")
+            with target() as device:  # a driver that cannot start fails here, before any progress display
+                progress.start()
+                task = progress.add_task(f"{label} {name:8s}", total=n_cycles, status="warming up")
 
-            def show(row, task=task):
-                gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
-                gamma += "" if exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
-                drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
-                progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
-                                f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
+                def show(row, task=task):
+                    gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
+                    gamma += "" if exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
+                    drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
+                    progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
+                                    f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
 
-            results[name] = tracker.run(robot, reference, n_cycles, start_offset=start_offset, callback=show,
-                                        record=True)
+                results[name] = tracker.run(device, reference, n_cycles, start_offset=start_offset, callback=show,
+                                            record=True)
             if name == "adaptive" and exploration != "fixed":
                 sizes = results[name].perturbation_std  # the others replay it: the same perturbations
+    finally:
+        if progress.live.is_started:
+            progress.stop()
     folder = output_folder(out)
     log = pd.concat([r.log for r in results.values()], ignore_index=True)
     log.to_csv(folder / "cycles.csv", index=False)
     _plot_paths(folder / "path.png", reference, results)
     fig, ax = plt.subplots(figsize=(6, 4.5))
     plot_steering_family(ax, {{"adaptive": "model", "frozen": "frozen model", "true": "true"}[n]: r.family
-                              for n, r in results.items()}, links)
+                              for n, r in results.items()}, links if robot is None else "robot")
     save_figure(fig, folder / "family.png")
     summary = {name: result.summary() | {"final_gamma": float(result.log["gamma"].iloc[-1])}
                for name, result in results.items()}
@@ -208,9 +257,12 @@ def track(
         summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
     summary["step_per_cycle"] = step
     summary["path_length"] = reference.length
-    config = dict(links=links, path=path, drag_ratios=ratios, cycles=n_cycles, change_cycle=change,
-                  controllers=names, warmup=warmup_cycles, scale=scale, offset=start_offset, seed=seed, noise=noise,
-                  perturbation=perturbation if exploration == "fixed" else None, exploration=exploration,
+    swimmer = robot is None  # the options of the built-in swimmer, recorded only where they acted
+    config = dict(links=links if swimmer else None, robot=robot, path=path, drag_ratios=ratios if swimmer else None,
+                  cycles=n_cycles, change_cycle=change if len(ratios) == 2 else None, controllers=names,
+                  warmup=warmup_cycles, scale=scale, step=step, offset=start_offset, seed=seed if swimmer else None,
+                  noise=noise if swimmer else None,
+                  perturbation=perturbation if exploration == "fixed" and swimmer else None, exploration=exploration,
                   exploration_low=exploration_low if exploration == "adaptive" else None,
                   exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
                   turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick)

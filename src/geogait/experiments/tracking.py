@@ -592,7 +592,7 @@ def steering_families(n_links: int, *, turns=None, warmup_cycles: int = 10, sens
             "max step": max_step_family(TrueMotion(system), gait, turns, direction=direction)}
 
 
-def plot_steering_family(ax, families: dict, n_links: int):
+def plot_steering_family(ax, families: dict, n_links: int | str):
     """Turning rate against step per cycle of each family (feasible members)."""
     styles = {"true": ("k", "-", "o"), "model": ("tab:red", "--", "s"), "true k=4": ("0.5", ":", "^"),
               "max step": ("tab:green", "-", "d")}

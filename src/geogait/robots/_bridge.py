@@ -36,6 +36,7 @@ kept and shown when it fails.
 from __future__ import annotations
 
 import collections
+import contextlib
 import json
 import queue
 import shlex
@@ -92,8 +93,10 @@ class ProcessRobot:
             raise GeogaitError(f"could not start the robot driver {argv[0]!r}: {error.strerror or error}") from None
         self._lines: queue.Queue = queue.Queue()
         self._stderr: collections.deque = collections.deque(maxlen=20)
-        threading.Thread(target=self._pump, args=(self._process.stdout, self._lines), daemon=True).start()
-        threading.Thread(target=self._pump, args=(self._process.stderr, self._stderr), daemon=True).start()
+        self._pumps = [threading.Thread(target=self._pump, args=(pipe, lines), daemon=True)
+                       for pipe, lines in ((self._process.stdout, self._lines), (self._process.stderr, self._stderr))]
+        for pump in self._pumps:
+            pump.start()
         self.line_number = 0
         self.cycle = 0
         try:
@@ -153,6 +156,12 @@ class ProcessRobot:
                 except subprocess.TimeoutExpired:
                     process.kill()
                     process.wait()
+        with contextlib.suppress(OSError):
+            process.stdin.close()
+        for pump, pipe in zip(self._pumps, (process.stdout, process.stderr), strict=True):
+            pump.join(timeout=1.0)  # the driver is gone: its pipe reaches end of file
+            if not pump.is_alive():  # (a grandchild may hold it open: then leave it to the daemon thread)
+                pipe.close()
 
     def __enter__(self):
         return self
