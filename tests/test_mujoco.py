@@ -426,3 +426,21 @@ def test_readme_mujoco_section_runs():
     namespace = {}
     exec(compile(block.replace(".run(robot, 100)", ".run(robot, 3)"), "README MuJoCo section", "exec"), namespace)
     assert len(namespace["result"].log) == 3 and namespace["robot"].cycle == 5
+
+
+def test_path_following_on_a_mujoco_swimmer():
+    """PathTracker on a physics engine geogait did not write: the MuJoCo 3-link swimmer follows a circle
+    of 10 steps' radius with the shape-space model (no symmetry assumed), on the path within a tenth of
+    the radius and advancing along it at its step."""
+    from geogait.control import PathTracker, ReferencePath
+    from geogait.experiments.tracking import tracking_model
+
+    robot = mujoco_swimmer(3, seed=0, perturbation=Perturbation.from_std(0.05))
+    robot.next_cycles(2)
+    step, cycles = 0.0514, 12  # the seed gait's step in MuJoCo (examples/mujoco_tracking.py)
+    tracker = PathTracker(model=tracking_model("shape", symmetric=False), change_forgetting=100.0, warmup_cycles=10)
+    log = tracker.run(robot, ReferencePath.circle(10 * step), cycles).log
+    assert len(log) == cycles and log["solved"].all() and not log["alarm"].any()
+    assert np.abs(log["cross_track"]).max() < step  # 0.1 × radius
+    assert log["s"].iloc[-1] > 0.8 * cycles * step
+    assert log["true_x"].isna().all()  # no oracle behind MuJoCo
