@@ -4,7 +4,7 @@ The shipped low-Reynolds-number Purcell swimmers ``geogait:purcell3`` / ``geogai
 (:func:`geogait.robots.mujoco_swimmer`, PD joint control, exploration δ std 0.05 rad) follow a circle
 of radius 10 steps of their seed gait — the step measured in MuJoCo, no oracle — and a line started 3
 steps to its left, with :class:`geogait.control.PathTracker`: the adaptive controller (shape-space
-model without symmetry assumptions, covariance resetting ×100 at a surprise alarm) and the frozen one
+model of degree 2 without symmetry assumptions, ``tracking_model("shape", symmetric=False)``, covariance resetting ×100 at a surprise alarm) and the frozen one
 (the same model after the 10 warm-up cycles). There is no true-connection controller: MuJoCo is the
 robot, and geogait does not know its connection.
 
@@ -28,6 +28,8 @@ from geogait.control import PathTracker, ReferencePath, end_pose
 from geogait.experiments.tracking import tracking_model
 from geogait.gaits import Perturbation
 from geogait.robots import mujoco_swimmer
+
+WARMUP = 10
 
 
 def robot(n_links: int, seed: int):
@@ -55,7 +57,7 @@ def run(links, seeds: int, cycles: int) -> dict:
             for seed in range(seeds):
                 for controller in errors:
                     tracker = PathTracker(controller=controller, model=tracking_model("shape", symmetric=False),
-                                          change_forgetting=100.0, warmup_cycles=10)
+                                          change_forgetting=100.0, warmup_cycles=WARMUP)
                     log = tracker.run(robot(n_links, seed), path, cycles, start_offset=offset).log
                     errors[controller].append(np.abs(log["cross_track"].to_numpy()))
             entry = {"step": step}
