@@ -25,9 +25,11 @@ loop repeats with the newly measured pose.
 
 Three sources of the motion :math:`m`:
 
-* ``"adaptive"``: the adaptive gait model (:class:`~geogait.models.AdaptiveGaitModel`, centred on the
-  straight gait) learns every sample of every cycle, warm-up and tracking, perturbations included;
-  the family is re-solved from the updated model every cycle (continuation);
+* ``"adaptive"``: a gait model (``model``: the window model :class:`~geogait.models.AdaptiveGaitModel`
+  centred on the straight gait by default, or e.g. the connection over shape space) learns every
+  sample of every cycle, warm-up and tracking, perturbations included, and forgets its evidence at a
+  surprise alarm if ``change_forgetting`` > 1; the family is re-solved from the updated model every
+  ``family_every`` cycles (continuation);
 * ``"frozen"``: the same model after the warm-up, never updated again;
 * ``"true"``: the true connection of the system in force (:meth:`current_system`, simulators only).
 
