@@ -4,7 +4,8 @@ The shipped low-Reynolds-number Purcell swimmers ``geogait:purcell3`` / ``geogai
 (:func:`geogait.robots.mujoco_swimmer`, PD joint control, exploration δ std 0.05 rad) follow a circle
 of radius 10 steps of their seed gait — the step measured in MuJoCo, no oracle — and a line started 3
 steps to its left, with :class:`geogait.control.PathTracker`: the adaptive controller (shape-space
-model of degree 2 without symmetry assumptions, ``tracking_model("shape", symmetric=False)``, covariance resetting ×100 at a surprise alarm) and the frozen one
+model of degree 2 without symmetry assumptions, ``tracking_model("shape", symmetric=False)``,
+covariance resetting ×100 at a surprise alarm) and the frozen one
 (the same model after the 10 warm-up cycles). There is no true-connection controller: MuJoCo is the
 robot, and geogait does not know its connection.
 

@@ -85,8 +85,10 @@ def test_shape_space_model_with_change_forgetting_runs_the_experiment():
     assert tracking_model("window") is None
     shape = tracking_model("shape")
     assert isinstance(shape, ShapeSpaceModel) and shape.symmetry == "mirror+reversal"
-    assert tracking_model("shape", symmetric=False).symmetry is None and tracking_model("shape", symmetric=False).degree == 2
-    options = dict(n_trials=1, paths=(), n_cycles=6, change_cycle=3, warmup_cycles=3, controllers=("adaptive", "frozen"))
+    robot_model = tracking_model("shape", symmetric=False)
+    assert robot_model.symmetry is None and robot_model.degree == 2
+    options = dict(n_trials=1, paths=(), n_cycles=6, change_cycle=3, warmup_cycles=3,
+                   controllers=("adaptive", "frozen"))
     window = run_tracking(TrackingConfig.quick(model="window", change_forgetting=1.0, **options), progress=False).frame
     shaped = run_tracking(TrackingConfig.quick(**options), progress=False).frame  # the defaults
     assert TrackingConfig().model == "shape" and TrackingConfig().change_forgetting == 100.0

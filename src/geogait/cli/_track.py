@@ -24,9 +24,9 @@ from ..control import (
     ReferencePath,
 )
 from ..experiments.tracking import (
+    TRACKING_MODELS,
     TURN_SPACING,
     TrackingConfig,
-    TRACKING_MODELS,
     TrackingResult,
     drag_change_metrics,
     feasible_turn_limit,
@@ -331,8 +331,8 @@ def figure_tracking(
         base = TrackingConfig.quick() if quick else TrackingConfig()
         changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
                        links=None if links is None else _links(links), exploration=exploration,
-                       exploration_low=exploration_low, exploration_high=exploration_high, model=model, change_forgetting=change_forgetting,
-                       paths=() if drag_only else None)
+                       exploration_low=exploration_low, exploration_high=exploration_high, model=model,
+                       change_forgetting=change_forgetting, paths=() if drag_only else None)
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if cycles is not None:
             config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
