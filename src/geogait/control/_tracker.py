@@ -182,7 +182,9 @@ class PathTracker:
     n_windows : int
         Phase windows of the gait model.
     resolution : int
-        Magnus steps of the motion predictions.
+        Magnus steps of the motion predictions of the window model and the true connection (a ``model``
+        that predicts with its own ``predict_displacement`` uses its own, e.g.
+        ``ShapeSpaceModel(resolution=...)``).
     family_every : int
         The adaptive controller re-solves its steering family from the learning model every this many
         cycles (warm-started from the last one); in between it re-predicts the motion of the family's
