@@ -204,11 +204,10 @@ def track(
         raise GeogaitError(f"The '--change-forgetting' option must be a number >= 1. Got {change_forgetting} instead.")
     # the swimmer's limit comes from its true connection (the same for every controller); a robot's from
     # each controller's own warm-up model (PathTracker's turn_limit=None rule) unless given
+    # (PathTracker's n_turns=None spaces the family's turns 0.1 rad up to the limit)
     limit = feasible_turn_limit(links, turn_limit or 1.0) if robot is None else turn_limit
-    turns = {"turn_limit": limit} if limit is None else {"turn_limit": limit,
-                                                          "n_turns": 2 * int(round(limit / TURN_SPACING)) + 1}
     settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, model=tracking_model(model, symmetric=robot is None),
-                    change_forgetting=change_forgetting, **turns)
+                    change_forgetting=change_forgetting, turn_limit=limit)
     results = {}
     sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=exploration_high)
     start_std = perturbation if exploration == "fixed" else exploration_high

@@ -291,7 +291,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
     """
     system, gait, step = straight_gait(n_links)
     limit = feasible_turn_limit(n_links, turn_limit)
-    settings = dict(turn_limit=limit, n_turns=2 * int(round(limit / TURN_SPACING)) + 1, heading_weight=heading_weight,
+    settings = dict(turn_limit=limit, heading_weight=heading_weight,  # turns spaced 0.1 rad (n_turns=None)
                     warmup_cycles=warmup_cycles, model=tracking_model(model), change_forgetting=change_forgetting)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
                "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
