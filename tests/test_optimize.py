@@ -104,6 +104,16 @@ def test_log_columns_and_gaits(noise_free_run):
     assert np.all(log.loc[log["step"], "gamma"] >= 0.5)
 
 
+def test_result_carries_the_model_the_run_learned(noise_free_run):
+    model = noise_free_run.model
+    assert model.gait_ == noise_free_run.final_gait  # re-centred on the last gait commanded
+    truth = cycle_displacement(PurcellSwimmer(3), noise_free_run.final_gait)[:2]
+    seed = cycle_displacement(PurcellSwimmer(3), noise_free_run.initial_gait)[:2]
+    predicted = model.predict_displacement()[:2]
+    assert np.linalg.norm(truth) > 1.5 * np.linalg.norm(seed)  # the run moved far from the seed ...
+    assert np.linalg.norm(predicted - truth) < 0.05 * np.linalg.norm(truth)  # ... and the model followed
+
+
 @pytest.mark.parametrize("r_max", [1.05, 1.3])
 def test_joint_limits_are_never_violated(r_max):
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),

@@ -100,6 +100,10 @@ class InSituResult:
         Every nominal gait commanded, in order (rejected ones included).
     trajectory : Trajectory or None
         Every sample of the run (when ``record=True``; after a resume only the resumed part).
+    model : object or None
+        The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
+        the last fit): what the next step would have used. Inspect it against a simulator's truth,
+        or save it.
     """
 
     log: pd.DataFrame
@@ -107,6 +111,7 @@ class InSituResult:
     final_gait: FourierGait
     gaits: list = field(default_factory=list)
     trajectory: Trajectory | None = None
+    model: object | None = None
 
     @property
     def n_steps(self) -> int:
@@ -781,8 +786,8 @@ class _Loop:
             if self.checkpoint is not None and due:
                 self._save()
         return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
-                                  gaits=list(state.gaits),
-                                  trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
+                            gaits=list(state.gaits), model=state.model,
+                            trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:
         optimizer, state = self.optimizer, self.state
