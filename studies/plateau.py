@@ -64,9 +64,9 @@ def fig5_model(forgetting_factor=0.9999):
                            forgetting_factor=forgetting_factor)
 
 
-def gradient_error(problem, truth, params):
-    """Norm of the error of ``problem``'s objective gradient at ``params`` and its cosine with the truth."""
-    slope, true_slope = problem.evaluate(params)[1], truth.evaluate(params)[1]
+def gradient_error(problem, true_slope, params):
+    """Norm of the error of ``problem``'s objective gradient at ``params`` and its cosine with ``true_slope``."""
+    slope = problem.evaluate(params)[1]
     cosine = slope @ true_slope / np.linalg.norm(slope) / np.linalg.norm(true_slope)
     return np.linalg.norm(slope - true_slope), cosine
 
@@ -83,7 +83,7 @@ def analyse(result, ceiling, radius, walk, refit):
     truth = StepProblem(PerfectInformationModel(system=system).predict_displacement, family, limits=limits)
     p = family.params_of(result.final_gait, tolerance=1e-8)
     true, true_gradient, _, _ = truth.evaluate(p)
-    error, cosine = gradient_error(learned, truth, p)
+    error, cosine = gradient_error(learned, true_gradient, p)
     row = {"true": true / ceiling, "predicted": value(learned, p) / ceiling,
            "true_gradient_norm": np.linalg.norm(true_gradient), "gradient_error": error, "cosine": cosine}
     local = fig5_model(forgetting_factor=1.0)
@@ -92,7 +92,7 @@ def analyse(result, ceiling, radius, walk, refit):
         cycle = stream.next_cycle()
         local.partial_fit(cycle.phase, cycle.shape, cycle.shape_velocity, cycle.body_velocity)
     row["local_error"], row["local_cosine"] = gradient_error(
-        StepProblem(local.predict_displacement, family, limits=limits), truth, p)
+        StepProblem(local.predict_displacement, family, limits=limits), true_gradient, p)
     for name, problem in (("model_step_gain", learned), ("perfect_step_gain", truth)):
         step = take_step("linear", problem, p, radius, min_gain=0)
         row[name] = (value(truth, step.params) - true) / ceiling if step.accepted else 0.0
