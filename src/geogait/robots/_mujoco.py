@@ -113,6 +113,14 @@ def load_mujoco_model(source):
     return mujoco.MjModel.from_xml_path(str(path))
 
 
+def _is_real_sequence(value) -> bool:
+    """A non-string sequence (or array) of real numbers, not booleans."""
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
+        return False
+    return all(isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool | np.bool_)
+               for v in np.asarray(value, dtype=object).ravel())
+
+
 def _name(model, kind, index) -> str:
     return _mujoco().mj_id2name(model, kind, index) or f"#{index}"
 
@@ -530,14 +538,15 @@ class MujocoRobot:
 
 
 # -- shipped models -----------------------------------------------------------------------------
-def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, radius: float = 0.025,
+def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, link_lengths=None,
+                        radius: float = 0.025,
                         drag_coefficient: float = 1.0, drag_ratio: float = 2.0, body_density: float | None = None,
                         fluid_density: float = 4000.0, viscosity: float = 0.0, timestep: float = 0.002,
                         armature: float = 1e-4, joint_range: float = 2 * np.pi / 3, actuator: str = "motor",
                         ctrl_limit: float | None = None, position_gain: float | None = None) -> str:
     r"""MJCF of an N-link Purcell swimmer (the models shipped as ``geogait:purcell3`` / ``geogait:purcell5``).
 
-    Equal capsule links along x, joined by hinge joints about z; ``joint{j}`` is the angle of link
+    Capsule links along x (equal, or of the given ``link_lengths``), joined by hinge joints about z; ``joint{j}`` is the angle of link
     j+1 relative to link j, link 0 the tail at −x (geogait's :class:`~geogait.systems.PurcellSwimmer`
     conventions). The middle link (index ``(n_links - 1) // 2``) is the root body with a planar base
     (slide x, slide y, hinge z) and its frame at the link's centre, so ``body`` defaults to it, as
@@ -564,7 +573,11 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
     n_links : int >= 2
     drag : {"rft", "fluid"}
     length : float > 0
-        Total length (m).
+        Total length (m) of equal links.
+    link_lengths : array-like of shape (n_links,), optional
+        Length of each link (m), tail (link 0) first; overrides ``length``. The links of
+        :class:`~geogait.systems.PurcellSwimmer` with the same ``link_lengths`` (and
+        ``body_frame="middle"``) are the same.
     radius : float > 0
         Capsule radius (m).
     drag_coefficient, drag_ratio : float > 0
@@ -609,7 +622,12 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
     check_float(viscosity, "viscosity", owner, low=0)
     check_float(armature, "armature", owner, low=0)
     check_choice(actuator, "actuator", owner, ("motor", "position"))
-    link = length / n
+    if link_lengths is None:
+        links = np.full(n, length / n)
+    else:
+        links = np.asarray(link_lengths, dtype=float) if _is_real_sequence(link_lengths) else None
+        if links is None or links.shape != (n,) or not np.all(np.isfinite(links)) or np.any(links <= 0):
+            raise fail("link_lengths", owner, f"{n} positive finite lengths (one per link)", link_lengths)
     middle = (n - 1) // 2
 
     def g(value):
@@ -628,11 +646,11 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
         """Links i, i + step, ... away from the middle link (step -1: towards link 0, the tail, at -x)."""
         if i < 0 or i >= n:
             return ""
-        offset = (link / 2 if abs(i - middle) == 1 else link) * step
+        offset = (links[middle] / 2 if abs(i - middle) == 1 else links[i - step]) * step
         j, axis = (i, -1) if step < 0 else (i - 1, 1)  # the hinge between links j and j + 1
         pad = "  " * indent
         return (f'{pad}<body name="link{i}" pos="{g(offset)} 0 0">\n{pad}  {joint(j, axis)}\n'
-                f'{pad}  {capsule(0, link * step).format(i=i)}\n{chain(i + step, step, indent + 1)}{pad}</body>\n')
+                f'{pad}  {capsule(0, links[i] * step).format(i=i)}\n{chain(i + step, step, indent + 1)}{pad}</body>\n')
 
     if actuator == "motor":
         actuators = "".join(f'    <motor name="motor{j}" joint="joint{j}" gear="1" ctrlrange="{g(-ctrl_limit)} '
@@ -643,19 +661,20 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
             f'ctrlrange="{g(-joint_range)} {g(joint_range)}" forcerange="{g(-ctrl_limit)} {g(ctrl_limit)}"/>\n'
             for j in range(n - 1))
     if rft:
-        resistance = {"x": (drag_coefficient * link, "1 0 0 0 0 0"),
-                      "y": (drag_coefficient * drag_ratio * link, "0 1 0 0 0 0"),
-                      "rz": (drag_coefficient * drag_ratio * link**3 / 12, "0 0 0 0 0 1")}
+        def resistance(link):
+            return {"x": (drag_coefficient * link, "1 0 0 0 0 0"),
+                    "y": (drag_coefficient * drag_ratio * link, "0 1 0 0 0 0"),
+                    "rz": (drag_coefficient * drag_ratio * link**3 / 12, "0 0 0 0 0 1")}
         actuators += "".join(
             f'    <general name="drag{i}_{axis}" site="centre{i}" gear="{gear}" gainprm="0" biastype="affine" '
-            f'biasprm="0 0 {g(-value)}"/>\n' for i in range(n) for axis, (value, gear) in resistance.items())
+            f'biasprm="0 0 {g(-value)}"/>\n' for i in range(n) for axis, (value, gear) in resistance(links[i]).items())
         option = f'timestep="{g(timestep)}" integrator="implicitfast"'
         comment = f"low Reynolds number: RFT drag c = {g(drag_coefficient)}, k = {g(drag_ratio)} on every link"
     else:
         option = (f'timestep="{g(timestep)}" density="{g(fluid_density)}" viscosity="{g(viscosity)}" '
                   f'integrator="implicitfast"')
         comment = "MuJoCo inertia-box fluid: quadratic drag"
-    root = capsule(-link / 2, link / 2).format(i=middle)
+    root = capsule(-links[middle] / 2, links[middle] / 2).format(i=middle)
     return (f'<mujoco model="purcell{n}">\n'
             f'  <!-- generated by geogait.robots.purcell_swimmer_xml({n}, drag={drag!r}); {comment} -->\n'
             f'  <compiler angle="radian"/>\n'
