@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from geogait import se2
+from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.models import AdaptiveGaitModel
 from geogait.robots import (

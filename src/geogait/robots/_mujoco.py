@@ -546,11 +546,12 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
                         ctrl_limit: float | None = None, position_gain: float | None = None) -> str:
     r"""MJCF of an N-link Purcell swimmer (the models shipped as ``geogait:purcell3`` / ``geogait:purcell5``).
 
-    Capsule links along x (equal, or of the given ``link_lengths``), joined by hinge joints about z; ``joint{j}`` is the angle of link
-    j+1 relative to link j, link 0 the tail at −x (geogait's :class:`~geogait.systems.PurcellSwimmer`
-    conventions). The middle link (index ``(n_links - 1) // 2``) is the root body with a planar base
-    (slide x, slide y, hinge z) and its frame at the link's centre, so ``body`` defaults to it, as
-    ``body_frame="middle"`` of ``PurcellSwimmer`` for odd N. Gravity is off.
+    Capsule links along x (equal, or of the given ``link_lengths``), joined by hinge joints about z;
+    ``joint{j}`` is the angle of link j+1 relative to link j, link 0 the tail at −x (geogait's
+    :class:`~geogait.systems.PurcellSwimmer` conventions). The middle link (index
+    ``(n_links - 1) // 2``) is the root body with a planar base (slide x, slide y, hinge z) and its
+    frame at the link's centre, so ``body`` defaults to it, as ``body_frame="middle"`` of
+    ``PurcellSwimmer`` for odd N. Gravity is off.
 
     ``drag="rft"`` (default): low Reynolds number. Each link carries resistive-force-theory drag at
     its centre, exactly the wrench of ``PurcellSwimmer``,
