@@ -2,7 +2,7 @@
 prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
-from ._insitu import InSituOptimizer, InSituResult
+from ._insitu import CycleMeasurement, InSituOptimizer, InSituResult, measure_cycle
 from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, path_length, rms_speed
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
@@ -10,6 +10,7 @@ __all__ = [
     "OBJECTIVES",
     "STEP_RULES",
     "Ceiling",
+    "CycleMeasurement",
     "InSituOptimizer",
     "InSituResult",
     "Step",
@@ -18,6 +19,7 @@ __all__ = [
     "default_objective",
     "joint_limit_constraints",
     "linear_step",
+    "measure_cycle",
     "objective",
     "optimize_ceiling",
     "path_length",

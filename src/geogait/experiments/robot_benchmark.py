@@ -1,0 +1,654 @@
+r"""Robot benchmark: geogait against black-box optimisers, on the same robots and the same cycles.
+
+Every method optimises the same gait family of the same robot, under the same joint limit, judged by
+the same **measured** objective (the net motion of a cycle from the robot's own poses, as
+:func:`~geogait.optimize.measure_cycle` computes it), and is charged for **every cycle it makes the
+robot run** — settling cycles included. Methods:
+
+* ``geogait`` — :class:`~geogait.optimize.InSituOptimizer` with its defaults (the case only declares
+  what a user must: objective, joint limit, settling cycles); the robot explores with its own
+  perturbation (eq. 8), which is how geogait learns;
+* ``geogait-batch`` — the prior-work batch method (Bittner et al. 2018): a
+  :class:`~geogait.models.BatchGaitModel` refit every 30 perturbed cycles;
+* ``cmaes`` / ``cmaes-tuned`` — CMA-ES (the ``cma`` package) from the seed gait: σ₀ = r_max / 3 and
+  the default population (4 + ⌊3 ln n⌋) / σ₀ = r_max / 8 and a population of 5;
+* ``tpe`` / ``tpe-tuned`` — Bayesian optimisation with optuna's tree-structured Parzen estimator:
+  defaults on the box [−r_max, r_max]ⁿ / multivariate TPE with 5 start-up trials on the box
+  seed ± r_max / 2, the seed gait as its first trial;
+* ``random`` — random search in [−r_max, r_max]ⁿ after the seed gait (the floor).
+
+A black-box method runs the robot **without exploration** (what a user of CMA-ES would do; sensor
+noise stays): each candidate costs the case's settling cycles plus one measured cycle. A candidate
+beyond the joint limit is scaled back onto it before it runs (the family is linear, so the scaled
+gait stays in the family), and the method is told the value of the gait that ran. Each black-box
+method is run twice: ``free`` (the objective alone, so a gait may turn), and ``held`` to the
+rotation limit with the penalty :math:`f - w \max(0, |\Delta\theta| - \omega_{max})`,
+:math:`w = 2 |f_{seed}| / \omega_{max}` (a gait turning 1.5 ω_max per cycle loses the seed's whole
+progress). geogait's gait family and rotation constraint are its own (rotation-free symmetric family
+on symmetric swimmers; zero predicted rotation otherwise).
+
+**What is reported**, at every ``checkpoint`` (cycles used): each method's current gait — geogait's
+commanded gait, CMA-ES's mean, the best candidate so far for TPE and random search — re-run on a
+clean robot (no exploration, no sensor noise: the case's settling cycles, then ``eval_cycles``
+measured cycles), with its objective, net rotation per cycle, share of the ceiling where one is known
+(the analytic swimmer's ceiling gait, re-run on the same clean robot) and a case's own score
+(Gymnasium Swimmer-v5: the episode return). One run per method and seed serves every budget: a
+method's state after ``c`` cycles does not depend on the budget beyond ``c``.
+
+Seeds are paired: trial ``s`` of every method drives a robot seeded with
+``SeedSequence(seed).spawn(n_seeds)[s]`` (same perturbation stream, same sensor noise); a black-box
+method's own random numbers come from the same child.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import platform
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .. import __version__
+from .._files import write_text
+from .._validation import GeogaitError, check_int, fail
+from ..gaits import FourierGait, FreeGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
+from ..models import BatchGaitModel
+from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle
+from ..plotting import plt, save_figure
+from ..simulate import SwimmerStream
+from ..systems import PurcellSwimmer
+from .runner import run_trials
+
+__all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials",
+           "run_robot_benchmark", "benchmark_table", "plot_benchmark", "evaluate_gait"]
+
+_OWNER = "run_robot_benchmark"
+#: Joint limit of geogait's design (rad), used by the built-in and MuJoCo Purcell swimmers.
+_R_MAX = 2 * np.pi / 3
+#: Link lengths (tail first) of the unequal MuJoCo Purcell swimmer: no front–back symmetry.
+UNEQUAL_LINKS = (0.3, 0.15, 0.2, 0.25, 0.1)
+#: Gymnasium's Swimmer-v5: 1000 steps of 4 × 0.01 s; reward x-velocity − 1e-4 |a|².
+_SWIMMER_V5_DT, _SWIMMER_V5_STEPS = 0.04, 1000
+
+
+class _CountingRobot:
+    """A robot that counts the cycles it runs (what every method is charged)."""
+
+    def __init__(self, robot):
+        self.robot = robot
+        self.cycles = 0
+
+    def __getattr__(self, name):
+        return getattr(self.robot, name)
+
+    @property
+    def gait(self):
+        return self.robot.gait
+
+    def set_gait(self, gait):
+        self.robot.set_gait(gait)
+
+    def next_cycle(self):
+        self.cycles += 1
+        return self.robot.next_cycle()
+
+
+# -- cases --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BenchmarkCase:
+    """A robot every method is run on.
+
+    Attributes
+    ----------
+    name, description : str
+    make_robot : callable
+        ``make_robot(seed, explore, noise, gait=None) -> Robot``: ``explore`` switches the
+        robot's own exploration perturbation, ``noise`` its sensor noise.
+    objective : {"progress", "forward"}
+        Distance per cycle (any direction), or signed progress along ``direction`` (body frame).
+    direction : tuple of 2 floats
+        Body-frame direction of ``"forward"``.
+    max_joint_angle : float
+        Joint limit r_max (rad) of every gait a method may command.
+    settle_cycles : int
+        Cycles after a gait change before one is measured (a body with momentum, PD lag).
+    family : {"free", "symmetric"}
+        Gait family every method searches (order 1).
+    rotation_limit : float
+        |net rotation| per cycle (rad) the ``held`` black-box variants are held to.
+    eval_cycles : int
+        Measured clean cycles per final-gait evaluation.
+    ceiling : callable, optional
+        ``() -> FourierGait``: the gait whose clean objective on this robot is the ceiling.
+    score : callable, optional
+        ``(gait) -> float``: the case's own judgement of a gait (e.g. an episode return).
+    score_name : str
+    requires : tuple of str
+        Optional modules the case needs (``"mujoco"``, ``"gymnasium"``).
+    """
+
+    name: str
+    description: str
+    make_robot: Callable
+    objective: str = "progress"
+    direction: tuple = (1.0, 0.0)
+    max_joint_angle: float = _R_MAX
+    settle_cycles: int = 0
+    family: str = "free"
+    rotation_limit: float = 0.02
+    eval_cycles: int = 1
+    ceiling: Callable | None = None
+    score: Callable | None = None
+    score_name: str = ""
+    requires: tuple = field(default_factory=tuple)
+
+    def missing(self) -> list[str]:
+        """Optional modules this case needs that are not installed."""
+        return [name for name in self.requires if importlib.util.find_spec(name) is None]
+
+
+def _builtin_robot(n_links, seed, explore, noise, gait=None):
+    swimmer = PurcellSwimmer(n_links)
+    return SwimmerStream(swimmer, seed_gait(n_links - 1) if gait is None else gait, seed=seed,
+                         sensor_noise=0.1 if noise else 0.0,
+                         perturbation=None if explore else Perturbation(eta=0))
+
+
+def _builtin_ceiling(n_links):
+    return cached_ceiling(PurcellSwimmer(n_links), family="symmetric").gait
+
+
+def _mujoco_unequal_robot(seed, explore, noise, gait=None):
+    from ..robots import MujocoRobot, purcell_swimmer_xml
+    options = {} if explore else {"perturbation": Perturbation(eta=0)}
+    if gait is not None:
+        options["gait"] = gait
+    return MujocoRobot(purcell_swimmer_xml(5, link_lengths=UNEQUAL_LINKS), seed=seed, **options)
+
+
+def _mujoco_unequal_ceiling():
+    return cached_ceiling(PurcellSwimmer(5, link_lengths=UNEQUAL_LINKS), family="free").gait
+
+
+def _gymnasium_robot(seed, explore, noise, gait=None):
+    from ..robots import gymnasium_swimmer
+    options = {} if explore else {"perturbation": Perturbation(eta=0)}
+    if gait is not None:
+        options["gait"] = gait
+    return gymnasium_swimmer(seed=seed, **options)
+
+
+def swimmer_v5_return(gait: FourierGait) -> float:
+    """Gymnasium Swimmer-v5's episode return of ``gait``, from rest, without exploration.
+
+    The episode's forward reward sums the torso's x-velocity over 1000 steps of 0.04 s, which is
+    (x(40 s) − x(0)) / 0.04 on the same MuJoCo model (``gymnasium:swimmer``) driven by
+    :class:`~geogait.robots.MujocoRobot`'s PD tracking of the gait. The control cost (weight 1e-4,
+    |a| ≤ 1 on two motors: at most 0.2 per episode) is left out.
+    """
+    robot = _gymnasium_robot(None, explore=False, noise=False, gait=gait)
+    duration = _SWIMMER_V5_DT * _SWIMMER_V5_STEPS
+    cycles = int(round(duration / robot.cycle_period))
+    start = robot.next_cycle().pose[0, 0]
+    for _ in range(cycles - 2):
+        robot.next_cycle()
+    last = robot.next_cycle()
+    end = last.pose[-1, 0] + (last.pose[-1, 0] - last.pose[-2, 0])
+    return float((end - start) / _SWIMMER_V5_DT)
+
+
+def _cases() -> dict[str, BenchmarkCase]:
+    cases = {}
+    for n in (3, 5, 9):
+        cases[f"swimmer{n}"] = BenchmarkCase(
+            name=f"swimmer{n}", description=f"built-in {n}-link Purcell swimmer (RFT), sensor noise 0.1",
+            make_robot=partial(_builtin_robot, n), family="symmetric", ceiling=partial(_builtin_ceiling, n))
+    cases["mujoco-purcell5-unequal"] = BenchmarkCase(
+        name="mujoco-purcell5-unequal",
+        description=f"MuJoCo 5-link Purcell swimmer, RFT drag, links {UNEQUAL_LINKS}, PD joints",
+        make_robot=_mujoco_unequal_robot, settle_cycles=1, eval_cycles=2, ceiling=_mujoco_unequal_ceiling,
+        requires=("mujoco",))
+    cases["gymnasium-swimmer"] = BenchmarkCase(
+        name="gymnasium-swimmer", description="Gymnasium Swimmer-v5 model (quadratic drag, inertia), PD joints, 2 s",
+        make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
+        settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return",
+        requires=("mujoco", "gymnasium"))
+    return cases
+
+
+#: Every case, by name.
+CASES = _cases()
+
+
+def available_cases(names: Sequence[str]) -> tuple[list[str], dict[str, str]]:
+    """The cases of ``names`` that can run here, and why each other one is skipped."""
+    run, skipped = [], {}
+    for name in names:
+        if name not in CASES:
+            raise fail("cases", _OWNER, "names among " + ", ".join(CASES), name)
+        missing = CASES[name].missing()
+        if missing:
+            skipped[name] = f"needs {', '.join(missing)} (pip install 'geogait[mujoco]')"
+        else:
+            run.append(name)
+    return run, skipped
+
+
+# -- measuring ----------------------------------------------------------------------------------
+def _value(case: BenchmarkCase, net: np.ndarray) -> float:
+    if case.objective == "forward":
+        return float(net[:2] @ np.asarray(case.direction, dtype=float) / np.hypot(*case.direction))
+    return float(np.hypot(net[0], net[1]))
+
+
+def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int) -> np.ndarray:
+    """Command ``gait``, run the settling cycles, return the net motion of ``n_measured`` cycles."""
+    robot.set_gait(gait)
+    for _ in range(case.settle_cycles):
+        robot.next_cycle()
+    return np.array([measure_cycle(robot.next_cycle(), gait, robot.cycle_period, _OWNER).net
+                     for _ in range(n_measured)])
+
+
+def evaluate_gait(case: BenchmarkCase, gait: FourierGait) -> dict:
+    """A gait re-run clean (no exploration, no sensor noise) on a fresh robot of ``case``.
+
+    Returns
+    -------
+    dict
+        ``objective`` (mean measured objective per cycle), ``rotation`` (mean net rotation per
+        cycle, rad) and, when the case has one, ``score``.
+    """
+    robot = case.make_robot(None, explore=False, noise=False, gait=gait)
+    nets = _run_measured(robot, case, gait, case.eval_cycles)
+    result = {"objective": float(np.mean([_value(case, net) for net in nets])),
+              "rotation": float(np.mean(nets[:, 2]))}
+    if case.score is not None:
+        result["score"] = case.score(gait)
+    return result
+
+
+# -- the gait family shared by every method -----------------------------------------------------
+class _Family:
+    """Order-1 gait family of a case, with the joint-limit repair every black-box method uses."""
+
+    def __init__(self, case: BenchmarkCase, seed: FourierGait):
+        self.family = (SymmetricGaitFamily.from_gait(seed, order=1) if case.family == "symmetric"
+                       else FreeGaitFamily(seed.n_joints, 1))
+        self.r_max = case.max_joint_angle
+        self.seed_params = self.family.params_of(seed.with_order(1))
+
+    def gait(self, params) -> FourierGait:
+        """The gait of ``params``, scaled back onto the joint limit when beyond it."""
+        params = np.asarray(params, dtype=float)
+        reach = float(self.family.gait(params).joint_limit().max())
+        scale = min(1.0, self.r_max * (1 - 1e-6) / reach) if reach > 0 else 1.0
+        return self.family.gait(params * scale)
+
+
+# -- methods ------------------------------------------------------------------------------------
+class _Trace:
+    """The gait a method would hand over after each number of cycles used."""
+
+    def __init__(self, robot: _CountingRobot, gait: FourierGait):
+        self.robot = robot
+        self.events = [(0, gait)]
+
+    def recommend(self, gait: FourierGait):
+        self.events.append((self.robot.cycles, gait))
+
+    def at(self, cycles: int) -> FourierGait:
+        return [gait for used, gait in self.events if used <= cycles][-1]
+
+
+class _Objective:
+    """Black-box evaluation of one candidate: charged cycles, measured (penalised) value."""
+
+    def __init__(self, case: BenchmarkCase, robot: _CountingRobot, family: _Family, budget: int,
+                 held: bool, seed_value: float):
+        self.case, self.robot, self.family, self.budget = case, robot, family, budget
+        self.weight = 2 * abs(seed_value) / case.rotation_limit if held else 0.0
+
+    def affordable(self) -> bool:
+        return self.robot.cycles + self.case.settle_cycles + 1 <= self.budget
+
+    def __call__(self, params) -> float:
+        gait = self.family.gait(params)
+        net = _run_measured(self.robot, self.case, gait, 1)[0]
+        excess = max(0.0, abs(net[2]) - self.case.rotation_limit)
+        return _value(self.case, net) - self.weight * excess
+
+
+def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):
+    import cma
+    family = objective.family
+    options = {"seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9, "tolfun": 0, "tolx": 0,
+               "tolflatfitness": 10**9, "tolstagnation": 10**9}
+    if tuned:
+        options["popsize"] = 5
+    sigma = family.r_max / (8 if tuned else 3)
+    strategy = cma.CMAEvolutionStrategy(family.seed_params, sigma, options)
+    while objective.affordable():
+        candidates = strategy.ask()
+        values = []
+        for candidate in candidates:
+            if not objective.affordable():
+                return
+            values.append(-objective(candidate))
+        strategy.tell(candidates, values)
+        trace.recommend(family.gait(strategy.mean))
+
+
+def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
+    import optuna
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    family = objective.family
+    seed = family.seed_params
+    half = family.r_max / 2 if tuned else family.r_max
+    low, high = (seed - half, seed + half) if tuned else (np.full(seed.size, -half), np.full(seed.size, half))
+    distributions = {f"p{i}": optuna.distributions.FloatDistribution(float(lo), float(hi))
+                     for i, (lo, hi) in enumerate(zip(low, high, strict=True))}
+    options = {"multivariate": True, "n_startup_trials": 5} if tuned else {}
+    sampler = optuna.samplers.TPESampler(seed=int(rng.integers(2**31 - 1)), **options)
+    study = optuna.create_study(direction="maximize", sampler=sampler)
+    if tuned:
+        study.enqueue_trial({f"p{i}": float(v) for i, v in enumerate(seed)})
+    best = -np.inf
+    while objective.affordable():
+        trial = study.ask(distributions)
+        params = np.array([trial.params[f"p{i}"] for i in range(seed.size)])
+        value = objective(params)
+        study.tell(trial, value)
+        if value > best:
+            best = value
+            trace.recommend(family.gait(params))
+
+
+def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
+    family = objective.family
+    best, params = -np.inf, family.seed_params
+    while objective.affordable():
+        value = objective(params)
+        if value > best:
+            best = value
+            trace.recommend(family.gait(params))
+        params = rng.uniform(-family.r_max, family.r_max, family.seed_params.size)
+
+
+BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmaes, tuned=True),
+             "tpe": partial(_tpe, tuned=False), "tpe-tuned": partial(_tpe, tuned=True),
+             "random": partial(_random, tuned=False)}
+#: Optional module each black-box method needs (``pip install 'geogait[baselines]'``).
+_METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
+#: Method names: geogait's two and each black-box method free and held to the rotation limit.
+METHODS = ("geogait", "geogait-batch", *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
+
+
+def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, batch: bool) -> _Trace:
+    options = {"model": BatchGaitModel(), "gate": "cycles"} if batch else {}
+    if case.objective == "forward":
+        options.update(objective="forward", direction=case.direction, direction_frame="body")
+    optimizer = InSituOptimizer(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
+                                family="auto" if case.family == "symmetric" else "free", **options)
+    seed = robot.gait
+    result = optimizer.run(robot, budget)
+    params = result.log.filter(like="param_").to_numpy()
+    trace = _Trace(robot, seed.with_order(1))
+    trace.events = [(0, seed.with_order(1))] + [
+        (c, FourierGait.from_params(params[c], seed.n_joints)) for c in range(1, len(params))]
+    trace.events.append((budget, result.final_gait))
+    return trace
+
+
+def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value: float) -> tuple[_Trace, int]:
+    """One method's run; returns its trace and the cycles the robot ran."""
+    if method.startswith("geogait"):
+        robot = _CountingRobot(case.make_robot(seed, explore=True, noise=True))
+        return _geogait(case, robot, budget, batch=method == "geogait-batch"), robot.cycles
+    held = method.endswith("-held")
+    robot = _CountingRobot(case.make_robot(seed, explore=False, noise=True))
+    family = _Family(case, robot.gait)
+    trace = _Trace(robot, family.gait(family.seed_params))
+    objective = _Objective(case, robot, family, budget, held, seed_value)
+    # the method's own random numbers: a grandchild of the robot's seed (spawn() would change the seed)
+    rng = np.random.default_rng(np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 1)))
+    BLACK_BOX[method.removesuffix("-held")](objective, trace, rng)
+    return trace, robot.cycles
+
+
+# -- the sweep ----------------------------------------------------------------------------------
+def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds: int, root_seed: int,
+                     budget: int, checkpoints: list, seed_value: float, ceiling_value: float | None) -> pd.DataFrame:
+    """Trial function of :func:`~geogait.experiments.run_trials`: trial i is method ``i % M`` on
+    paired seed ``i // M`` (the robot's seed is the seed's child, the same for every method)."""
+    spec = CASES[case]
+    children = np.random.SeedSequence(root_seed).spawn(n_seeds)
+    rows = []
+    for trial in trial_indices:
+        seed_index, method = divmod(int(trial), len(methods))
+        method = methods[method]
+        start = time.perf_counter()
+        trace, used = _run_method(spec, method, children[seed_index], budget, seed_value)
+        elapsed = time.perf_counter() - start
+        for cycles in checkpoints:
+            result = evaluate_gait(spec, trace.at(cycles))
+            rows.append({"trial": int(trial), "case": case, "method": method, "seed": seed_index,
+                         "cycles": cycles, "cycles_run": used, "seconds": elapsed,
+                         "objective": result["objective"], "rotation": result["rotation"],
+                         "improvement": result["objective"] / seed_value - 1,
+                         "ceiling_fraction": result["objective"] / ceiling_value if ceiling_value else np.nan,
+                         "score": result.get("score", np.nan)})
+    return pd.DataFrame(rows)
+
+
+def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, *, n_seeds: int = 8,
+                        budget: int = 100, checkpoints: Sequence[int] | None = None, seed: int = 0,
+                        jobs: int = 1, scheduler=None, progress: bool = True, log=print) -> dict:
+    """Run every method on every case over ``n_seeds`` paired seeds.
+
+    Parameters
+    ----------
+    cases : sequence of str
+        Names in :data:`CASES`; a case whose optional dependencies are missing is skipped with one
+        line through ``log``.
+    methods : sequence of str
+        Names in :data:`METHODS`.
+    n_seeds : int
+    budget : int
+        Cycles each method may make the robot run.
+    checkpoints : sequence of int, optional
+        Cycles used at which each method's gait is evaluated clean; default every 10 up to the
+        budget and 30, 60 (those within it).
+    seed : int
+        Root seed of the paired robot seeds.
+    jobs, scheduler
+        As :func:`~geogait.experiments.run_trials` (joblib processes or a Dask cluster).
+
+    Returns
+    -------
+    dict
+        ``records`` (DataFrame, one row per case, method, seed and checkpoint), ``cases`` (per case:
+        seed and ceiling objective, clean; description), ``skipped`` (case → reason), ``config``.
+    """
+    n_seeds = check_int(n_seeds, "n_seeds", _OWNER, minimum=1)
+    budget = check_int(budget, "budget", _OWNER, minimum=2)
+    for method in methods:
+        if method not in METHODS:
+            raise fail("methods", _OWNER, "names among " + ", ".join(METHODS), method)
+    missing = {m: module for m in methods for prefix, module in _METHOD_REQUIRES.items()
+               if m.startswith(prefix) and importlib.util.find_spec(module) is None}
+    for method, module in missing.items():
+        log(f"skipped method {method}: needs {module} (pip install 'geogait[baselines]')")
+    methods = [m for m in methods if m not in missing]
+    if checkpoints is None:
+        checkpoints = sorted({*range(10, budget + 1, 10), *(c for c in (30, 60) if c <= budget), budget})
+    checkpoints = [check_int(c, "checkpoints", _OWNER, minimum=0) for c in checkpoints]
+    if max(checkpoints) > budget:
+        raise fail("checkpoints", _OWNER, f"cycle counts within the budget ({budget})", max(checkpoints))
+    names, skipped = available_cases(cases)
+    for name, reason in skipped.items():
+        log(f"skipped case {name}: {reason}")
+    frames, described = [], {}
+    for name in names:
+        case = CASES[name]
+        # in a rotation-free family the held variants would repeat the free runs exactly
+        case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
+        seed_gait_ = case.make_robot(None, explore=False, noise=False).gait
+        seed_result = evaluate_gait(case, seed_gait_)
+        ceiling = evaluate_gait(case, case.ceiling()) if case.ceiling is not None else None
+        described[name] = {"description": case.description, "objective": case.objective,
+                           "seed": seed_result, "ceiling": ceiling, "settle_cycles": case.settle_cycles,
+                           "max_joint_angle": case.max_joint_angle, "rotation_limit": case.rotation_limit,
+                           "family": case.family, "score": case.score_name or None}
+        config = {"case": name, "methods": case_methods, "n_seeds": n_seeds, "root_seed": seed, "budget": budget,
+                  "checkpoints": checkpoints, "seed_value": seed_result["objective"],
+                  "ceiling_value": None if ceiling is None else ceiling["objective"]}
+        sweep = run_trials(benchmark_trials, n_seeds * len(case_methods), seed=seed, jobs=jobs, scheduler=scheduler,
+                           config=config, progress=progress, description=name)
+        sweep.raise_on_failure()
+        frames.append(sweep.frame)
+    records = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return {"records": records, "cases": described, "skipped": skipped,
+            "config": {"cases": list(cases), "methods": list(methods), "n_seeds": n_seeds, "budget": budget,
+                       "checkpoints": checkpoints, "seed": seed}}
+
+
+# -- reporting ----------------------------------------------------------------------------------
+def _summary(records: pd.DataFrame, budgets: Sequence[int]) -> pd.DataFrame:
+    records = records[records["cycles"].isin(budgets)].copy()
+    records["abs_rotation"] = records["rotation"].abs()
+    grouped = records.groupby(["case", "method", "cycles"], sort=False)
+    summary = grouped.agg(objective=("objective", "median"), q25=("objective", lambda v: v.quantile(0.25)),
+                          q75=("objective", lambda v: v.quantile(0.75)), improvement=("improvement", "median"),
+                          ceiling=("ceiling_fraction", "median"), rotation=("abs_rotation", "median"),
+                          score=("score", "median"), charged=("cycles_run", "max"), seeds=("seed", "nunique"))
+    return summary.reset_index()
+
+
+def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str:
+    """Markdown table: per case and method, the median clean objective of the gait after each budget.
+
+    Each cell is ``median share of the ceiling`` (or median improvement over the seed when no
+    ceiling is known), the case's score where it has one, and the median |net rotation| per cycle
+    (rad) of those gaits.
+    """
+    records = result["records"]
+    if records.empty:
+        return "No case ran.\n"
+    budgets = [b for b in budgets if b in set(records["cycles"])]
+    summary = _summary(records, budgets)
+    lines = []
+    for case, block in summary.groupby("case", sort=False):
+        info = result["cases"][case]
+        has_ceiling = info["ceiling"] is not None
+        has_score = info["score"] is not None
+        unit = "share of ceiling" if has_ceiling else ("improvement over seed")
+        lines += [f"**{case}** — {info['description']}; seed objective {info['seed']['objective']:.4g} per cycle"
+                  + (f", ceiling {info['ceiling']['objective']:.4g}" if has_ceiling else "")
+                  + (f", seed {info['score']} {info['seed']['score']:.1f}" if has_score else "") + ".", "",
+                  "| method | " + " | ".join(f"{b} cycles: {unit}" + (f" · {info['score']}" if has_score else "")
+                                            + " · rotation" for b in budgets) + " |",
+                  "|---" * (len(budgets) + 1) + "|"]
+        for method, rows in block.groupby("method", sort=False):
+            cells = []
+            for budget in budgets:
+                row = rows[rows["cycles"] == budget]
+                if row.empty:
+                    cells.append("—")
+                    continue
+                row = row.iloc[0]
+                value = row["ceiling"] if has_ceiling else row["improvement"]
+                cell = f"{100 * value:.1f} %" if has_ceiling else f"{100 * value:+.1f} %"
+                if has_score:
+                    cell += f" · {row['score']:.1f}"
+                cells.append(cell + f" · {row['rotation']:.3f}")
+            lines.append(f"| {method} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def plot_benchmark(result: dict, path) -> Path:
+    """Clean objective of each method's gait against cycles used: median and interquartile band per
+    method, one panel per case (share of the ceiling where known, else relative to the seed)."""
+    records = result["records"]
+    names = list(dict.fromkeys(records["case"]))
+    columns = min(3, len(names))
+    rows = -(-len(names) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(5.2 * columns, 3.8 * rows), squeeze=False)
+    colours = plt.get_cmap("tab20").colors
+    methods = list(dict.fromkeys(records["method"]))
+    for ax, case in zip(axes.flat, names, strict=False):
+        block = records[records["case"] == case]
+        has_ceiling = result["cases"][case]["ceiling"] is not None
+        column = "ceiling_fraction" if has_ceiling else "improvement"
+        for index, method in enumerate(methods):
+            data = block[block["method"] == method].groupby("cycles")[column]
+            if data.ngroups == 0:
+                continue
+            median, q25, q75 = data.median(), data.quantile(0.25), data.quantile(0.75)
+            style = "-" if method.startswith("geogait") else ("--" if method.endswith("-held") else ":")
+            width = 2.4 if method == "geogait" else 1.2
+            ax.plot(median.index, median.to_numpy(), style, color=colours[index % 20], lw=width, label=method)
+            ax.fill_between(median.index, q25.to_numpy(), q75.to_numpy(), color=colours[index % 20], alpha=0.12)
+        ax.set_title(case, fontsize=10)
+        ax.set_xlabel("cycles used (all charged)")
+        ax.set_ylabel("share of the ceiling" if has_ceiling else "improvement over the seed")
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[len(names):]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=7, ncol=2)
+    figure.suptitle("Clean re-run of each method's gait: median and interquartile band over paired seeds",
+                    fontsize=11)
+    return save_figure(figure, path)
+
+
+def manifest(result: dict, command: str, wall_time: float) -> dict:
+    """JSON manifest: versions, configuration, command, per-case seed/ceiling and every record."""
+    import importlib.metadata as metadata
+
+    def version(name):
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
+    records = result["records"]
+    return {"benchmark": "geogait robot benchmark", "command": command, "wall_time_s": round(wall_time, 1),
+            "versions": {"geogait": __version__, "numpy": np.__version__, "python": platform.python_version(),
+                         **{name: version(name) for name in ("cma", "optuna", "mujoco", "gymnasium")}},
+            "config": result["config"], "cases": result["cases"], "skipped": result["skipped"],
+            "records": json.loads(records.to_json(orient="records")) if not records.empty else []}
+
+
+def from_manifest(path) -> dict:
+    """The result stored in a manifest written by :func:`manifest` (to redraw table and figure)."""
+    try:
+        data = json.loads(Path(path).read_text())
+        return {"records": pd.DataFrame(data["records"]), "cases": data["cases"], "skipped": data["skipped"],
+                "config": data["config"], "command": data["command"]}
+    except (OSError, ValueError, KeyError) as error:
+        raise GeogaitError(f"{path} is not a robot benchmark manifest: {error}") from None
+
+
+def write_outputs(result: dict, folder, command: str, wall_time: float | None, budgets=(30, 60, 100)) -> dict:
+    """``robots.md`` (table), ``robots.json`` (manifest; not rewritten when ``wall_time`` is None, a
+    redraw), ``robots.csv`` and ``robots.png`` in ``folder``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    table = benchmark_table(result, budgets)
+    write_text(folder / "robots.md", f"<!-- {command} -->\n\n{table}")
+    paths = {"table": folder / "robots.md"}
+    if wall_time is not None:
+        write_text(folder / "robots.json", json.dumps(manifest(result, command, wall_time), indent=1, allow_nan=False))
+        paths["manifest"] = folder / "robots.json"
+    if not result["records"].empty:
+        result["records"].to_csv(folder / "robots.csv", index=False)
+        paths["csv"] = folder / "robots.csv"
+        paths["figure"] = plot_benchmark(result, folder / "robots.png")
+    return paths

@@ -1,0 +1,188 @@
+"""The robot benchmark: every method charged for every cycle, paired seeds, clean evaluation, outputs."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from geogait.experiments import robot_benchmark as bench
+from geogait.gaits import seed_gait
+
+ROOT = Path(__file__).resolve().parents[1]
+pytest.importorskip("cma", reason="the robot benchmark's baselines need cma (pip install 'geogait[baselines]')")
+pytest.importorskip("optuna", reason="the robot benchmark's baselines need optuna (pip install 'geogait[baselines]')")
+
+
+class _SelfCountingRobot:
+    """Wraps a case's robot and counts, on its own, every cycle it is asked to run."""
+
+    log: list = []
+
+    def __init__(self, robot, seed, explore):
+        self.robot, self.ran = robot, 0
+        _SelfCountingRobot.log.append((self, seed, explore))
+
+    def __getattr__(self, name):
+        return getattr(self.robot, name)
+
+    @property
+    def gait(self):
+        return self.robot.gait
+
+    def set_gait(self, gait):
+        self.robot.set_gait(gait)
+
+    def next_cycle(self):
+        self.ran += 1
+        return self.robot.next_cycle()
+
+
+def _counting_case(name="swimmer3", **changes):
+    case = bench.CASES[name]
+
+    def make(seed, explore, noise, gait=None):
+        return _SelfCountingRobot(case.make_robot(seed, explore=explore, noise=noise, gait=gait), seed, explore)
+
+    return dataclasses.replace(case, make_robot=make, **changes)
+
+
+@pytest.mark.parametrize("settle", [0, 2])
+def test_every_method_is_charged_for_every_cycle_the_robot_ran(monkeypatch, settle):
+    """The cycles a method is charged are the cycles its robot counted itself (settling included),
+    never more than the budget; a black-box method stops only when one more candidate (settle + 1
+    cycles) would exceed it."""
+    case = _counting_case(settle_cycles=settle)
+    monkeypatch.setitem(bench.CASES, "swimmer3", case)
+    budget = 13
+    for method in bench.METHODS:
+        _SelfCountingRobot.log.clear()
+        child = np.random.SeedSequence(5).spawn(1)[0]
+        trace, charged = bench._run_method(case, method, child, budget, seed_value=0.05)
+        (robot, seed, explore), = _SelfCountingRobot.log
+        assert charged == robot.ran <= budget, method
+        assert explore == method.startswith("geogait"), method
+        if method.startswith("geogait"):
+            assert charged == budget
+        else:
+            assert budget - charged < settle + 1, method
+        assert all(used <= charged for used, _ in trace.events)
+
+
+def test_all_methods_see_the_same_robot(monkeypatch):
+    """Trial s of every method drives a robot built from the same seed; two robots of that seed give
+    identical measurements (same sensor noise) for the same commands."""
+    case = _counting_case()
+    monkeypatch.setitem(bench.CASES, "swimmer3", case)
+    methods = ["geogait", "cmaes", "random"]
+    _SelfCountingRobot.log.clear()
+    frame = bench.benchmark_trials(np.arange(6), None, case="swimmer3", methods=methods, n_seeds=2, root_seed=3,
+                                   budget=4, checkpoints=[4], seed_value=0.05, ceiling_value=0.1)
+    seeds = [(s.entropy, s.spawn_key) for _, s, _ in _SelfCountingRobot.log if s is not None]
+    assert seeds == [(3, (0,))] * 3 + [(3, (1,))] * 3  # method i % 3 on paired seed i // 3
+    assert set(frame["method"]) == set(methods) and set(frame["seed"]) == {0, 1}
+    child = np.random.SeedSequence(3).spawn(2)[1]
+    first, second = (bench.CASES["swimmer3"].make_robot(child, explore=False, noise=True) for _ in range(2))
+    a, b = first.next_cycle(), second.next_cycle()
+    np.testing.assert_array_equal(a.body_velocity, b.body_velocity)
+    assert not np.array_equal(a.body_velocity, bench.CASES["swimmer3"].make_robot(
+        np.random.SeedSequence(3).spawn(2)[0], explore=False, noise=True).next_cycle().body_velocity)
+
+
+def test_clean_evaluation_matches_the_exact_displacement():
+    """A clean re-run on the built-in swimmer measures the gait's exact net motion per cycle (to the
+    simulator's zero-order hold, ≈ 1 %), and the swimmer's ceiling gait beats the seed."""
+    from geogait.simulate import cycle_displacement
+    from geogait.systems import PurcellSwimmer
+
+    case = bench.CASES["swimmer3"]
+    gait = seed_gait(2)
+    exact = cycle_displacement(PurcellSwimmer(3), gait)
+    result = bench.evaluate_gait(case, gait)
+    assert result["objective"] == pytest.approx(np.hypot(*exact[:2]), rel=0.02)
+    assert abs(result["rotation"]) < 1e-9
+    assert bench.evaluate_gait(case, case.ceiling())["objective"] > 1.5 * result["objective"]
+
+
+def test_black_box_candidates_respect_the_joint_limit_and_stay_in_the_family():
+    case = bench.CASES["swimmer5"]
+    family = bench._Family(case, seed_gait(4))
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        params = rng.normal(0, 3, family.seed_params.size)
+        gait = family.gait(params)
+        assert gait.joint_limit().max() <= case.max_joint_angle
+        assert family.family.residual(gait) < 1e-9  # still a symmetric (rotation-free) gait
+    inside = family.seed_params * 0.5
+    np.testing.assert_allclose(family.gait(inside).params, family.family.gait(inside).params)
+
+
+def test_held_variant_penalises_rotation_beyond_the_limit():
+    """The same turning gait scores its progress free, and loses the seed's progress for every
+    half limit beyond the limit when held."""
+    case = bench.CASES["swimmer3"]
+    values = {}
+    for held in (False, True):
+        robot = bench._CountingRobot(case.make_robot(None, explore=False, noise=False))
+        family = bench._Family(dataclasses.replace(case, family="free"), robot.gait)
+        params = family.seed_params.copy()
+        params[0] = 0.5  # an offset on the first joint makes the gait turn
+        objective = bench._Objective(case, robot, family, 10, held, seed_value=0.05)
+        values[held] = objective(params)
+    net = bench.evaluate_gait(case, family.gait(params))
+    assert abs(net["rotation"]) > case.rotation_limit
+    assert values[False] == pytest.approx(net["objective"], rel=1e-6)
+    expected = values[False] - 2 * 0.05 / case.rotation_limit * (abs(net["rotation"]) - case.rotation_limit)
+    assert values[True] == pytest.approx(expected, rel=1e-6)
+
+
+def test_missing_extras_skip_their_case_with_one_line(monkeypatch):
+    case = dataclasses.replace(bench.CASES["swimmer3"], requires=("no_such_module_geogait",))
+    monkeypatch.setitem(bench.CASES, "swimmer3", case)
+    lines = []
+    result = bench.run_robot_benchmark(["swimmer3"], ["random"], n_seeds=1, budget=2, progress=False, log=lines.append)
+    assert lines == ["skipped case swimmer3: needs no_such_module_geogait (pip install 'geogait[mujoco]')"]
+    assert result["records"].empty and "swimmer3" in result["skipped"]
+    assert bench.benchmark_table(result) == "No case ran.\n"
+
+
+def test_bad_arguments_are_refused_with_the_field_named():
+    from geogait._validation import GeogaitError
+
+    with pytest.raises(GeogaitError, match="cases"):
+        bench.run_robot_benchmark(["no-such-robot"], progress=False)
+    with pytest.raises(GeogaitError, match="methods"):
+        bench.run_robot_benchmark(["swimmer3"], ["annealing"], progress=False)
+    with pytest.raises(GeogaitError, match="checkpoints"):
+        bench.run_robot_benchmark(["swimmer3"], ["random"], budget=10, checkpoints=[20], progress=False)
+
+
+def test_quick_benchmark_writes_table_manifest_and_figure_and_redraws(tmp_path):
+    """``benchmarks/robots.py --quick`` end to end (CI's path); the manifest is strict JSON with
+    versions, the command and every record, and redrawing from it gives the same table."""
+    out = tmp_path / "robots"
+    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "robots.py"), "--quick",
+                          "--methods", "geogait,cmaes-tuned,tpe-held,random", "--out", str(out)],
+                         capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert run.returncode == 0, run.stderr
+    manifest = json.loads((out / "robots.json").read_text(), parse_constant=lambda c: pytest.fail(c))
+    assert manifest["versions"]["cma"] and manifest["versions"]["optuna"]
+    assert "--quick" in manifest["command"]
+    records = manifest["records"]
+    ran = {r["case"] for r in records}
+    assert "swimmer3" in ran and ran | set(manifest["skipped"]) == {"swimmer3", "mujoco-purcell5-unequal"}
+    assert {r["method"] for r in records if r["case"] == "swimmer3"} == {"geogait", "cmaes-tuned", "random"}
+    assert all(r["cycles_run"] <= 20 for r in records)
+    assert (out / "robots.png").stat().st_size > 10_000
+    table = (out / "robots.md").read_text()
+    redraw = tmp_path / "redraw"
+    again = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "robots.py"), "--from-json",
+                            str(out / "robots.json"), "--out", str(redraw)], capture_output=True, text=True, cwd=ROOT)
+    assert again.returncode == 0, again.stderr
+    assert (redraw / "robots.md").read_text() == table
+    assert not (redraw / "robots.json").exists()
