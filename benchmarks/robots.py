@@ -51,7 +51,8 @@ def main(argv=None) -> int:
     parser.add_argument("--from-json", default=None, help="redraw table and figure from a manifest")
     parser.add_argument("--out", default="benchmarks/results/robots", help="output folder")
     args = parser.parse_args(argv)
-    command = "python benchmarks/robots.py " + " ".join(shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+    arguments = sys.argv[1:] if argv is None else argv
+    command = "python benchmarks/robots.py " + " ".join(shlex.quote(a) for a in arguments)
     try:
         if args.from_json:
             result = bench.from_manifest(args.from_json)
