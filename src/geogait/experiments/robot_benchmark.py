@@ -575,36 +575,46 @@ def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str
 
 def plot_benchmark(result: dict, path) -> Path:
     """Clean objective of each method's gait against cycles used: median and interquartile band per
-    method, one panel per case (share of the ceiling where known, else relative to the seed)."""
+    method, one panel per case (share of the ceiling where known, else relative to the seed).
+
+    One colour per method; geogait solid, black-box methods dotted when free and dashed when held to
+    the rotation limit.
+    """
     records = result["records"]
     names = list(dict.fromkeys(records["case"]))
     columns = min(3, len(names))
     rows = -(-len(names) // columns)
-    figure, axes = plt.subplots(rows, columns, figsize=(5.2 * columns, 3.8 * rows), squeeze=False)
-    colours = plt.get_cmap("tab20").colors
-    methods = list(dict.fromkeys(records["method"]))
+    spare = rows * columns > len(names)  # an empty panel holds the legend
+    figure, axes = plt.subplots(rows + (not spare), columns, figsize=(5.2 * columns, 3.6 * rows + 1.2 * (not spare)),
+                                squeeze=False, height_ratios=[1] * rows + ([0.3] if not spare else []))
+    bases = list(dict.fromkeys(m.removesuffix("-held") for m in records["method"]))
+    colours = dict(zip(bases, plt.get_cmap("tab10").colors, strict=False))
+    handles = {}
     for ax, case in zip(axes.flat, names, strict=False):
         block = records[records["case"] == case]
         has_ceiling = result["cases"][case]["ceiling"] is not None
         column = "ceiling_fraction" if has_ceiling else "improvement"
-        for index, method in enumerate(methods):
+        for method in dict.fromkeys(block["method"]):
             data = block[block["method"] == method].groupby("cycles")[column]
-            if data.ngroups == 0:
-                continue
             median, q25, q75 = data.median(), data.quantile(0.25), data.quantile(0.75)
             style = "-" if method.startswith("geogait") else ("--" if method.endswith("-held") else ":")
-            width = 2.4 if method == "geogait" else 1.2
-            ax.plot(median.index, median.to_numpy(), style, color=colours[index % 20], lw=width, label=method)
-            ax.fill_between(median.index, q25.to_numpy(), q75.to_numpy(), color=colours[index % 20], alpha=0.12)
+            colour = colours[method.removesuffix("-held")]
+            (line,) = ax.plot(median.index, median.to_numpy(), style, color=colour,
+                              lw=2.4 if method == "geogait" else 1.3, label=method)
+            ax.fill_between(median.index, q25.to_numpy(), q75.to_numpy(), color=colour, alpha=0.1)
+            handles.setdefault(method, line)
+        ax.axhline(1.0 if has_ceiling else 0.0, color="0.3", lw=0.8)
         ax.set_title(case, fontsize=10)
         ax.set_xlabel("cycles used (all charged)")
         ax.set_ylabel("share of the ceiling" if has_ceiling else "improvement over the seed")
         ax.grid(alpha=0.3)
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
-    axes.flat[0].legend(fontsize=7, ncol=2)
-    figure.suptitle("Clean re-run of each method's gait: median and interquartile band over paired seeds",
-                    fontsize=11)
+    order = [m for m in METHODS if m in handles]
+    axes.flat[len(names)].legend([handles[m] for m in order], order, loc="center", ncol=2 if spare else 6,
+                                 fontsize=9, title="dotted: free · dashed: held to the rotation limit")
+    figure.suptitle("Each method's gait re-run clean: median and interquartile band over paired seeds "
+                    "(free black-box gaits may turn: see the rotation in the table)", fontsize=10)
     return save_figure(figure, path)
 
 
@@ -648,7 +658,8 @@ def write_outputs(result: dict, folder, command: str, wall_time: float | None, b
         write_text(folder / "robots.json", json.dumps(manifest(result, command, wall_time), indent=1, allow_nan=False))
         paths["manifest"] = folder / "robots.json"
     if not result["records"].empty:
-        result["records"].to_csv(folder / "robots.csv", index=False)
-        paths["csv"] = folder / "robots.csv"
+        if wall_time is not None:
+            result["records"].to_csv(folder / "robots.csv", index=False)
+            paths["csv"] = folder / "robots.csv"
         paths["figure"] = plot_benchmark(result, folder / "robots.png")
     return paths
