@@ -8,7 +8,7 @@ import pytest
 from geogait import se2
 from geogait.gaits import FourierGait, Perturbation
 from geogait.optimize import InSituOptimizer
-from geogait.robots import ElasticaSnake, Robot, check_robot, elastica_snake, snake_seed_gait
+from geogait.robots import ElasticaSnake, ProcessRobot, Robot, check_robot, elastica_snake, snake_seed_gait
 
 STILL = Perturbation(eta=0)
 
@@ -123,3 +123,18 @@ def test_in_situ_optimiser_runs_on_the_snake():
     result = optimizer.run(snake, 4)
     assert len(result.log) == 4
     assert np.all(result.log["measured_progress"] > 0)
+
+
+def test_the_reference_driver_serves_the_snake_through_the_bridge():
+    """``geogait optimize --robot "python -m geogait.robots.driver --robot elastica"`` needs no user glue."""
+    needs_elastica()
+    driver = [sys.executable, "-m", "geogait.robots.driver", "--robot", "elastica", "--seed", "4"]
+    with ProcessRobot(driver + ["--period", "0.5", "--samples-per-cycle", "50"], timeout=120) as robot:
+        check_robot(robot, "test")
+        assert robot.n_joints == 4 and robot.cycle_period == 0.5 and not robot.front_back_symmetric
+        bridged = robot.next_cycle()
+    direct = elastica_snake(seed=4, cycle_period=0.5, samples_per_cycle=50).next_cycle()
+    np.testing.assert_allclose(bridged.pose, direct.pose, atol=1e-12)
+    with pytest.raises(ValueError, match="--links applies to the swimmer"):
+        with ProcessRobot(driver + ["--links", "5"], timeout=60) as robot:
+            robot.next_cycle()

@@ -4,9 +4,9 @@ The body is the Cosserat rod of PyElastica's classic continuum snake (``examples
 after Zhang et al., Nat. Commun. 2021): a rod of length 0.35 m and density 1000 kg/m³, Young's
 modulus 1 MPa, Poisson ratio 0.5, lying on a plane under gravity with anisotropic kinetic friction
 (forward : backward : lateral = 1 : 1.5 : 2, set by a Froude number 0.1) and PyElastica's analytical
-linear damping (2e-3). What differs is the actuation, which is geogait's: instead of the example's
-travelling wave of muscle torques, the rod's **rest curvature** follows a commanded modal shape at
-every physics step,
+linear damping (2e-3), held in the ground plane by default (``planar``: no rolling or lifting). What
+differs is the actuation, which is geogait's: instead of the example's travelling wave of muscle
+torques, the rod's **rest curvature** follows a commanded modal shape at every physics step,
 
 .. math::
     \phi = 2\pi t / T,\qquad r_{cmd} = \theta(\phi) + \delta,\qquad \kappa^0(s) = B(s)\, r_{cmd}
@@ -125,10 +125,18 @@ class ElasticaSnake:
         ``Perturbation(eta=0)`` for none.
     max_joint_angle : float > 0
         Largest modal amplitude a gait may command (rad of tangent-angle wave); gives
-        ``joint_ranges`` and is what an optimiser's ``max_joint_angle`` should be set to.
+        ``joint_ranges``. The default 2π/3 is :class:`~geogait.optimize.InSituOptimizer`'s default
+        r_max (a one-wavelength wave of that amplitude does not yet cross itself; the rod has no
+        self-contact).
     warmup_cycles : int >= 0
         Cycles run (not returned) before cycle 0, with the commanded shape ramped up from the straight
         rod over the first of them.
+    planar : bool
+        Hold the rod in the ground plane (default): every node keeps its height and every element
+        turns about the vertical only (PyElastica's ``GeneralConstraint``). Without it the rod is free
+        in 3-D, as in the classic example, and under large curvature commands (0.25 rad exploration)
+        it can roll over and lift off the ground, after which a planar body frame and curvature
+        mean nothing.
     seed : int or numpy.random.SeedSequence, optional
         Seed of the perturbation.
 
@@ -157,8 +165,8 @@ class ElasticaSnake:
                  cycle_period: float = 1.0, samples_per_cycle: int = 100, timestep: float = 2.5e-4,
                  n_elements: int = 20, length: float = 0.35, radius: float | None = None, density: float = 1000.0,
                  youngs_modulus: float = 1e6, poisson_ratio: float = 0.5, friction=None, damping: float = 2e-3,
-                 perturbation: Perturbation | None = None, max_joint_angle: float = 2.0, warmup_cycles: int = 1,
-                 seed=None):
+                 perturbation: Perturbation | None = None, max_joint_angle: float = 2 * np.pi / 3,
+                 warmup_cycles: int = 1, planar: bool = True, seed=None):
         owner = "ElasticaSnake"
         d = check_int(n_modes, "n_modes", owner, minimum=2)
         kind = check_choice(modes, "modes", owner, ("fourier", "legendre"))
@@ -175,6 +183,9 @@ class ElasticaSnake:
         self.damping = check_float(damping, "damping", owner, low=0)
         self.max_joint_angle = check_float(max_joint_angle, "max_joint_angle", owner, low=0, low_open=True)
         self.warmup_cycles = check_int(warmup_cycles, "warmup_cycles", owner, minimum=0)
+        if not isinstance(planar, bool | np.bool_):
+            raise fail("planar", owner, "a bool", planar)
+        self.planar = bool(planar)
         if friction is None:
             mu = self.length / (_GRAVITY * 0.1 * 1.0**2)
             self.friction = np.array([mu, 1.5 * mu, 2.0 * mu])
@@ -249,7 +260,7 @@ class ElasticaSnake:
     def _build(self) -> None:
         ea = _elastica()
 
-        class Simulator(ea.BaseSystemCollection, ea.Forcing, ea.Damping, ea.Contact):
+        class Simulator(ea.BaseSystemCollection, ea.Constraints, ea.Forcing, ea.Damping, ea.Contact):
             pass
 
         simulator = Simulator()
@@ -258,6 +269,12 @@ class ElasticaSnake:
             self.n_elements, np.zeros(3), np.array([0.0, 0.0, 1.0]), up, self.length, self.radius, self.density,
             youngs_modulus=self.youngs_modulus, shear_modulus=self.shear_modulus)
         simulator.append(rod)
+        if self.planar:  # nodes stay on the ground, elements turn about the vertical only (no roll, no lift)
+            simulator.constrain(rod).using(
+                ea.GeneralConstraint, constrained_position_idx=tuple(range(self.n_elements + 1)),
+                constrained_director_idx=tuple(range(self.n_elements)),
+                translational_constraint_selector=np.array([False, True, False]),
+                rotational_constraint_selector=np.array([True, False, True]))
         simulator.add_forcing_to(rod).using(ea.GravityForces, acc_gravity=-_GRAVITY * up)
         ground = ea.Plane(plane_origin=-self.radius * up, plane_normal=up)
         simulator.append(ground)
