@@ -138,3 +138,42 @@ def test_the_reference_driver_serves_the_snake_through_the_bridge():
     with pytest.raises(ValueError, match="--links applies to the swimmer"):
         with ProcessRobot(driver + ["--links", "5"], timeout=60) as robot:
             robot.next_cycle()
+
+
+@pytest.mark.slow
+def test_optimiser_resumes_a_snake_run_bit_identically(tmp_path):
+    needs_elastica()
+    path = tmp_path / "run.npz"
+
+    def make(seed):
+        return elastica_snake(seed=seed, samples_per_cycle=50)
+
+    def stop(row):
+        if row["cycle"] == 4:
+            raise KeyboardInterrupt
+
+    optimizer = InSituOptimizer(objective="forward", direction_frame="body", min_cycles_per_iteration=1)
+    whole = optimizer.run(make(6), 8)
+    with pytest.raises(KeyboardInterrupt):
+        optimizer.run(make(6), 8, checkpoint=path, callback=stop)
+    resumed = InSituOptimizer.resume(path, make(123))
+    assert whole.n_steps >= 1
+    np.testing.assert_array_equal(resumed.final_gait.params, whole.final_gait.params)
+    assert resumed.log.equals(whole.log)
+
+
+@pytest.mark.slow
+def test_example_runs_quick(tmp_path):
+    needs_elastica()
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "elastica_snake.py"
+    spec = importlib.util.spec_from_file_location("elastica_snake_example", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    summary = example.main(["--quick", "--out", str(tmp_path)])
+    row = summary["optimisation"]
+    assert row["seed"]["forward_speed"] > 0.04  # m/s; measured 0.048
+    assert row["final"]["forward_speed"] > row["seed"]["forward_speed"]  # measured +24 % in 6 cycles
+    assert (tmp_path / "summary.json").is_file()
