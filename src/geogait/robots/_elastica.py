@@ -294,7 +294,7 @@ class ElasticaSnake:
         """From the straight rod, ramp the commanded shape up over the first warm-up cycle."""
         steps = self.steps_per_sample * self.samples_per_cycle
         for cycle in range(self.warmup_cycles):
-            phase, command = self._cycle_commands()
+            _, command = self._cycle_commands()
             ramp = np.minimum(1.0, (cycle * steps + np.arange(steps)) / steps)
             self._run(command * ramp[:, None], record=False)
         self._heading = float(body_pose(self._nodes()[0])[2])
