@@ -6,7 +6,8 @@ import inspect
 import pytest
 
 PACKAGES = ["geogait.se2", "geogait.systems", "geogait.gaits", "geogait.simulate", "geogait.models",
-            "geogait.optimize", "geogait.experiments", "geogait.io", "geogait.phase", "geogait.control"]
+            "geogait.optimize", "geogait.experiments", "geogait.io", "geogait.phase", "geogait.control",
+            "geogait.robots"]
 
 
 @pytest.mark.parametrize("name", PACKAGES)

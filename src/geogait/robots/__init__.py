@@ -4,9 +4,13 @@
 (``python -m geogait.robots.driver`` is the reference driver). :class:`MujocoRobot` turns any MuJoCo
 model with hinge joints into a :class:`Robot`; it needs the optional extra
 ``pip install 'geogait[mujoco]'`` (imported only when a MuJoCo model is loaded).
+:class:`ElasticaSnake` is PyElastica's continuum snake on rest-curvature control
+(``pip install 'geogait[elastica]'``, imported only when a snake is built), built on the numpy-only
+helpers of :mod:`geogait.robots.continuum` (body frame, curvature, modal shape coordinates).
 """
 
 from ._bridge import PROTOCOL, PROTOCOL_VERSION, ProcessRobot
+from ._elastica import ElasticaSnake, elastica_snake, snake_seed_gait
 from ._mujoco import (
     MODELS_DIRECTORY,
     MujocoRobot,
@@ -16,6 +20,17 @@ from ._mujoco import (
     purcell_swimmer_xml,
 )
 from ._protocol import ROBOT_EXTRAS, Robot, check_robot
+from .continuum import (
+    CurvatureModes,
+    body_pose,
+    body_velocity,
+    curvature_profile,
+    curvature_rate,
+    rod_from_curvature,
+    tangent_angles,
+)
 
-__all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "MujocoRobot", "ProcessRobot", "Robot",
-           "check_robot", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer", "purcell_swimmer_xml"]
+__all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "CurvatureModes", "ElasticaSnake",
+           "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "check_robot", "curvature_profile",
+           "curvature_rate", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer",
+           "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles"]

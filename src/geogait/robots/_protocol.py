@@ -69,7 +69,15 @@ class Robot(Protocol):
 
 
 def check_robot(robot, owner: str) -> None:
-    """Raise a clear error naming what ``robot`` lacks of the :class:`Robot` protocol."""
+    """Raise a clear error naming what ``robot`` lacks of the :class:`Robot` protocol.
+
+    Parameters
+    ----------
+    robot : object
+        The robot to check.
+    owner : str
+        Who asks (the function or method named in the error message).
+    """
     required = ("n_joints", "cycle_period", "gait", "set_gait", "next_cycle")
     missing = [name for name in required if not hasattr(robot, name)]
     if missing:

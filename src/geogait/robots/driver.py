@@ -4,6 +4,10 @@
 (:mod:`geogait.robots._bridge`) on stdin / stdout, so ``geogait optimize --robot "python -m
 geogait.robots.driver"`` optimises a robot that lives in another process. Copy its loop for a
 driver in any language: read a line, act on its ``type``, write lines, flush.
+
+``--robot elastica`` serves PyElastica's continuum snake (:class:`~geogait.robots.ElasticaSnake`,
+``pip install 'geogait[elastica]'``) instead, so ``geogait optimize --robot "python -m
+geogait.robots.driver --robot elastica" --objective forward`` optimises it with no glue of one's own.
 """
 
 from __future__ import annotations
@@ -20,31 +24,50 @@ from ._bridge import PROTOCOL, PROTOCOL_VERSION
 
 def _arguments(argv):
     parser = argparse.ArgumentParser(prog="python -m geogait.robots.driver", description=__doc__.splitlines()[0])
-    parser.add_argument("--links", type=int, default=3, help="links of the Purcell swimmer (default 3)")
+    parser.add_argument("--robot", choices=("swimmer", "elastica"), default="swimmer",
+                        help="the built-in Purcell swimmer (default) or PyElastica's continuum snake")
+    parser.add_argument("--links", type=int, default=None, help="links of the Purcell swimmer (default 3)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--noise", type=float, default=0.1, help="sensor noise on ξ, fraction of RMS (default 0.1)")
-    parser.add_argument("--perturbation", type=float, default=0.15, help="std of δ in rad (default 0.15)")
+    parser.add_argument("--noise", type=float, default=None,
+                        help="swimmer: sensor noise on ξ, fraction of RMS (default 0.1)")
+    parser.add_argument("--perturbation", type=float, default=None,
+                        help="std of δ in rad (default 0.15; the snake: 15 %% of its seed amplitude)")
     parser.add_argument("--period", type=float, default=1.0, help="seconds per cycle (default 1)")
     parser.add_argument("--samples-per-cycle", type=int, default=100, help="samples per cycle (default 100)")
     parser.add_argument("--poses-only", action="store_true", help="send poses but no body velocities")
     return parser.parse_args(argv)
 
 
+def _robot(args):
+    """(robot, front–back symmetric) for the parsed options."""
+    # eq. 8 at the same number of oscillations per cycle whatever the period
+    perturbation = (None if args.perturbation is None
+                    else Perturbation.from_std(args.perturbation, frequency=2.0 / args.period))
+    if args.robot == "elastica":
+        for name, value in (("--links", args.links), ("--noise", args.noise)):
+            if value is not None:
+                raise SystemExit(f"error: {name} applies to the swimmer, not to --robot elastica")
+        from ._elastica import ElasticaSnake
+
+        return ElasticaSnake(cycle_period=args.period, samples_per_cycle=args.samples_per_cycle,
+                             perturbation=perturbation, seed=args.seed), False
+    swimmer = PurcellSwimmer(3 if args.links is None else args.links)
+    perturbation = Perturbation.from_std(0.15, frequency=2.0 / args.period) if perturbation is None else perturbation
+    return SwimmerStream(swimmer, seed_gait(swimmer.n_joints), perturbation=perturbation,
+                         sensor_noise=0.1 if args.noise is None else args.noise, seed=args.seed,
+                         cycle_period=args.period, samples_per_cycle=args.samples_per_cycle), True
+
+
 def main(argv=None) -> int:
     args = _arguments(argv)
-    swimmer = PurcellSwimmer(args.links)
-    # eq. 8 at the same number of oscillations per cycle whatever the period
-    perturbation = Perturbation.from_std(args.perturbation, frequency=2.0 / args.period)
-    stream = SwimmerStream(swimmer, seed_gait(swimmer.n_joints), perturbation=perturbation,
-                           sensor_noise=args.noise, seed=args.seed, cycle_period=args.period,
-                           samples_per_cycle=args.samples_per_cycle)
+    stream, symmetric = _robot(args)
     out = sys.stdout
 
     def send(message):
         out.write(json.dumps(message) + "\n")
 
-    send({"type": "hello", "protocol": PROTOCOL, "version": PROTOCOL_VERSION, "n_joints": swimmer.n_joints,
-          "cycle_period": args.period, "front_back_symmetric": True,
+    send({"type": "hello", "protocol": PROTOCOL, "version": PROTOCOL_VERSION, "n_joints": stream.n_joints,
+          "cycle_period": args.period, "front_back_symmetric": symmetric,
           "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}})
     out.flush()
     for line in sys.stdin:
@@ -53,7 +76,7 @@ def main(argv=None) -> int:
         if kind == "stop":
             break
         if kind == "set_gait":
-            stream.set_gait(FourierGait.from_params(message["params"], swimmer.n_joints))
+            stream.set_gait(FourierGait.from_params(message["params"], stream.n_joints))
         elif kind == "run_cycle":
             cycle = stream.next_cycle()
             for k in range(cycle.n_samples):

@@ -1,0 +1,191 @@
+"""ElasticaSnake: the Robot contract on PyElastica's continuum snake, forward motion, tracking, state."""
+
+import sys
+
+import numpy as np
+import pytest
+
+from geogait import se2
+from geogait.gaits import FourierGait, Perturbation
+from geogait.optimize import InSituOptimizer
+from geogait.robots import ElasticaSnake, ProcessRobot, Robot, check_robot, elastica_snake, snake_seed_gait
+
+STILL = Perturbation(eta=0)
+
+
+def needs_elastica():
+    pytest.importorskip("elastica", reason="PyElastica not installed: pip install 'geogait[elastica]'")
+
+
+@pytest.fixture(scope="module")
+def still_cycles():
+    """Three clean cycles of the seed gait (one snake for the whole module: PyElastica builds are slow)."""
+    needs_elastica()
+    snake = elastica_snake(perturbation=STILL, seed=0)
+    return snake, [snake.next_cycle() for _ in range(3)]
+
+
+def test_missing_pyelastica_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "elastica", None)
+    with pytest.raises(ImportError, match=r"pip install 'geogait\[elastica\]'"):
+        ElasticaSnake()
+
+
+def test_snake_is_a_robot(still_cycles):
+    snake, cycles = still_cycles
+    assert isinstance(snake, Robot)
+    check_robot(snake, "test")
+    assert snake.n_joints == 4 and snake.cycle_period == 1.0
+    assert snake.joint_ranges.shape == (4, 2) and snake.gait.joint_limit().max() <= snake.max_joint_angle
+    for index, cycle in enumerate(cycles):
+        n = snake.samples_per_cycle
+        assert cycle.shape.shape == cycle.shape_velocity.shape == cycle.commanded_shape.shape == (n, 4)
+        assert cycle.body_velocity.shape == cycle.pose.shape == (n, 3)
+        for array in (cycle.time, cycle.phase, cycle.shape, cycle.shape_velocity, cycle.body_velocity, cycle.pose):
+            assert np.all(np.isfinite(array))
+        np.testing.assert_allclose(cycle.time, index + np.arange(n) / n)
+        np.testing.assert_allclose(cycle.phase, 2 * np.pi * np.arange(n) / n)
+        assert np.all(cycle.cycle == index)
+
+
+def test_seed_gait_moves_the_snake_forward_and_straight(still_cycles):
+    _, cycles = still_cycles
+    for cycle in cycles[1:]:
+        net = se2.between(cycle.pose[0], cycle.pose[-1])
+        assert net[0] > 0.1 * 0.35 * (1 - 1 / 100)  # more than 0.1 body length per cycle, head first
+        assert abs(net[2]) < 0.05
+        assert np.mean(cycle.body_velocity[:, 0]) > 0.035
+
+
+def test_realised_shape_tracks_the_commanded_one(still_cycles):
+    _, cycles = still_cycles
+    error = np.sqrt(np.mean((cycles[-1].shape - cycles[-1].commanded_shape) ** 2))
+    assert error < 0.05  # rad, against a 1 rad seed amplitude (measured 0.022)
+
+
+def test_measured_rates_are_the_derivatives_of_the_measured_samples(still_cycles):
+    snake, cycles = still_cycles
+    cycle = cycles[-1]
+    dt = snake.cycle_period / snake.samples_per_cycle
+    numeric = np.gradient(cycle.shape, dt, axis=0)[1:-1]
+    scale = np.abs(cycle.shape_velocity).max()
+    assert np.abs(numeric - cycle.shape_velocity[1:-1]).max() < 0.05 * scale
+    heading_rate = np.gradient(cycle.pose[:, 2], dt)[1:-1]
+    assert np.abs(heading_rate - cycle.body_velocity[1:-1, 2]).max() < 0.05 * np.abs(heading_rate).max()
+
+
+def test_exploration_perturbs_the_command_and_restore_is_bit_identical():
+    needs_elastica()
+    snake = elastica_snake(seed=1, warmup_cycles=0, samples_per_cycle=50, cycle_period=0.5)
+    state = snake.robot_state()
+    first = snake.next_cycle()
+    delta = first.commanded_shape - snake.gait.shape(first.phase)
+    assert 0.03 < np.std(delta) < 0.5  # 15 % of the 1 rad seed amplitude
+    snake.restore_robot_state(state)
+    again = snake.next_cycle()
+    for name in ("shape", "shape_velocity", "body_velocity", "pose", "commanded_shape"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(again, name))
+
+
+def test_set_gait_takes_effect_at_the_next_cycle_and_is_checked():
+    needs_elastica()
+    snake = elastica_snake(perturbation=STILL, warmup_cycles=0, samples_per_cycle=20, cycle_period=0.2)
+    gait = snake_seed_gait(4, 0.5)
+    snake.set_gait(gait)
+    cycle = snake.next_cycle()
+    np.testing.assert_allclose(cycle.commanded_shape, gait.shape(cycle.phase))
+    with pytest.raises(ValueError, match="'gait' parameter of ElasticaSnake.set_gait must be a FourierGait with 4"):
+        snake.set_gait(snake_seed_gait(3))
+    with pytest.raises(ValueError, match="within max_joint_angle"):
+        snake.set_gait(FourierGait(np.full((4, 3), 1.0)))
+    snake.close()
+    with pytest.raises(ValueError, match="closed"):
+        snake.next_cycle()
+
+
+def test_legendre_modes_track_too():
+    needs_elastica()
+    coefficients = np.zeros((3, 3))
+    coefficients[1, 1] = coefficients[2, 2] = 1.5  # rad per body length of P1 and P2 curvature
+    snake = elastica_snake(n_modes=3, modes="legendre", gait=FourierGait(coefficients), perturbation=STILL,
+                           samples_per_cycle=50)
+    cycle = snake.next_cycle()
+    assert snake.modes.kind == "legendre"
+    # measured 0.25 rad: standing polynomial bends drag the body sideways, unlike the sliding seed wave (0.022)
+    assert np.sqrt(np.mean((cycle.shape - cycle.commanded_shape) ** 2)) < 0.3 * 1.5
+
+
+def test_bad_options_are_named():
+    needs_elastica()
+    with pytest.raises(ValueError, match="'cycle_period' parameter of ElasticaSnake must be a positive multiple"):
+        ElasticaSnake(cycle_period=1.00001)
+    with pytest.raises(ValueError, match="'timestep' parameter of ElasticaSnake must be at most"):
+        ElasticaSnake(timestep=1e-3, cycle_period=1.0)
+    with pytest.raises(ValueError, match="'gait' parameter of ElasticaSnake must be given when modes='legendre'"):
+        ElasticaSnake(modes="legendre")
+    with pytest.raises(ValueError, match="'friction' parameter of ElasticaSnake"):
+        ElasticaSnake(friction=[0.1, 0.2])
+
+
+def test_in_situ_optimiser_runs_on_the_snake():
+    needs_elastica()
+    snake = elastica_snake(seed=2)
+    optimizer = InSituOptimizer(objective="forward", direction_frame="body", max_joint_angle=snake.max_joint_angle,
+                                min_cycles_per_iteration=1)
+    result = optimizer.run(snake, 4)
+    assert len(result.log) == 4
+    assert np.all(result.log["measured_progress"] > 0)
+
+
+def test_the_reference_driver_serves_the_snake_through_the_bridge():
+    """``geogait optimize --robot "python -m geogait.robots.driver --robot elastica"`` needs no user glue."""
+    needs_elastica()
+    driver = [sys.executable, "-m", "geogait.robots.driver", "--robot", "elastica", "--seed", "4"]
+    with ProcessRobot(driver + ["--period", "0.5", "--samples-per-cycle", "50"], timeout=120) as robot:
+        check_robot(robot, "test")
+        assert robot.n_joints == 4 and robot.cycle_period == 0.5 and not robot.front_back_symmetric
+        bridged = robot.next_cycle()
+    direct = elastica_snake(seed=4, cycle_period=0.5, samples_per_cycle=50).next_cycle()
+    np.testing.assert_allclose(bridged.pose, direct.pose, atol=1e-12)
+    with pytest.raises(ValueError, match="--links applies to the swimmer"):
+        with ProcessRobot(driver + ["--links", "5"], timeout=60) as robot:
+            robot.next_cycle()
+
+
+@pytest.mark.slow
+def test_optimiser_resumes_a_snake_run_bit_identically(tmp_path):
+    needs_elastica()
+    path = tmp_path / "run.npz"
+
+    def make(seed):
+        return elastica_snake(seed=seed, samples_per_cycle=50)
+
+    def stop(row):
+        if row["cycle"] == 4:
+            raise KeyboardInterrupt
+
+    optimizer = InSituOptimizer(objective="forward", direction_frame="body", min_cycles_per_iteration=1)
+    whole = optimizer.run(make(6), 8)
+    with pytest.raises(KeyboardInterrupt):
+        optimizer.run(make(6), 8, checkpoint=path, callback=stop)
+    resumed = InSituOptimizer.resume(path, make(123))
+    assert whole.n_steps >= 1
+    np.testing.assert_array_equal(resumed.final_gait.params, whole.final_gait.params)
+    assert resumed.log.equals(whole.log)
+
+
+@pytest.mark.slow
+def test_example_runs_quick(tmp_path):
+    needs_elastica()
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "elastica_snake.py"
+    spec = importlib.util.spec_from_file_location("elastica_snake_example", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    summary = example.main(["--quick", "--out", str(tmp_path)])
+    row = summary["optimisation"]
+    assert row["seed"]["forward_speed"] > 0.04  # m/s; measured 0.048
+    assert row["final"]["forward_speed"] > row["seed"]["forward_speed"]  # measured +24 % in 6 cycles
+    assert (tmp_path / "summary.json").is_file()
