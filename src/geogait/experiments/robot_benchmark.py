@@ -42,6 +42,7 @@ method's own random numbers come from the same child.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import platform
@@ -112,8 +113,9 @@ class BenchmarkCase:
         robot's own exploration perturbation, ``noise`` its sensor noise.
     objective : {"progress", "forward"}
         Distance per cycle (any direction), or signed progress along ``direction`` (body frame).
-    direction : tuple of 2 floats
-        Body-frame direction of ``"forward"``.
+    direction : tuple of 2 floats or None
+        Body-frame direction of ``"forward"``; None: the direction the seed gait moves in its clean
+        run (what a user would declare as the robot's forward), measured once per benchmark.
     max_joint_angle : float
         Joint limit r_max (rad) of every gait a method may command.
     settle_cycles : int
@@ -130,14 +132,16 @@ class BenchmarkCase:
         ``(gait) -> float``: the case's own judgement of a gait (e.g. an episode return).
     score_name : str
     requires : tuple of str
-        Optional modules the case needs (``"mujoco"``, ``"gymnasium"``).
+        Optional modules the case needs (``"mujoco"``, ``"gymnasium"``, ``"elastica"``).
+    checkpoints : tuple of int, optional
+        Cycles at which gaits are evaluated (default every 10 cycles, 30 and 60); fewer for slow robots.
     """
 
     name: str
     description: str
     make_robot: Callable
     objective: str = "progress"
-    direction: tuple = (1.0, 0.0)
+    direction: tuple | None = (1.0, 0.0)
     max_joint_angle: float = _R_MAX
     settle_cycles: int = 0
     family: str = "free"
@@ -147,6 +151,7 @@ class BenchmarkCase:
     score: Callable | None = None
     score_name: str = ""
     requires: tuple = field(default_factory=tuple)
+    checkpoints: tuple | None = None
 
     def missing(self) -> list[str]:
         """Optional modules this case needs that are not installed."""
@@ -184,6 +189,11 @@ def _gymnasium_robot(seed, explore, noise, gait=None):
     return gymnasium_swimmer(seed=seed, **options)
 
 
+def _elastica_robot(seed, explore, noise, gait=None):
+    from ..robots import ElasticaSnake
+    return ElasticaSnake(gait=gait, seed=seed, perturbation=None if explore else Perturbation(eta=0))
+
+
 def swimmer_v5_return(gait: FourierGait) -> float:
     """Gymnasium Swimmer-v5's episode return of ``gait``, from rest, without exploration.
 
@@ -219,6 +229,10 @@ def _cases() -> dict[str, BenchmarkCase]:
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
         settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return",
         requires=("mujoco", "gymnasium"))
+    cases["elastica-snake"] = BenchmarkCase(
+        name="elastica-snake", description="PyElastica continuum snake (Cosserat rod, anisotropic friction), "
+        "4 curvature modes, 1 s", make_robot=_elastica_robot, objective="forward", direction=None,
+        settle_cycles=1, eval_cycles=2, rotation_limit=0.05, requires=("elastica",), checkpoints=(30, 60, 100))
     return cases
 
 
@@ -234,7 +248,8 @@ def available_cases(names: Sequence[str]) -> tuple[list[str], dict[str, str]]:
             raise fail("cases", _OWNER, "names among " + ", ".join(CASES), name)
         missing = CASES[name].missing()
         if missing:
-            skipped[name] = f"needs {', '.join(missing)} (pip install 'geogait[mujoco]')"
+            extra = "elastica" if "elastica" in missing else "mujoco"
+            skipped[name] = f"needs {', '.join(missing)} (pip install 'geogait[{extra}]')"
         else:
             run.append(name)
     return run, skipped
@@ -254,6 +269,16 @@ def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int
         robot.next_cycle()
     return np.array([measure_cycle(robot.next_cycle(), gait, robot.cycle_period, _OWNER).net
                      for _ in range(n_measured)])
+
+
+def seed_direction(case: BenchmarkCase) -> tuple:
+    """Unit body-frame direction of the seed gait's clean motion per cycle."""
+    robot = case.make_robot(None, explore=False, noise=False)
+    net = _run_measured(robot, case, robot.gait, case.eval_cycles).mean(axis=0)
+    norm = np.hypot(net[0], net[1])
+    if not norm > 0:
+        raise GeogaitError(f"case {case.name}: the seed gait does not move, so it has no forward direction")
+    return float(net[0] / norm), float(net[1] / norm)
 
 
 def evaluate_gait(case: BenchmarkCase, gait: FourierGait) -> dict:
@@ -424,10 +449,13 @@ def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value:
 
 # -- the sweep ----------------------------------------------------------------------------------
 def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds: int, root_seed: int,
-                     budget: int, checkpoints: list, seed_value: float, ceiling_value: float | None) -> pd.DataFrame:
+                     budget: int, checkpoints: list, seed_value: float, ceiling_value: float | None,
+                     direction: list | None = None) -> pd.DataFrame:
     """Trial function of :func:`~geogait.experiments.run_trials`: trial i is method ``i % M`` on
     paired seed ``i // M`` (the robot's seed is the seed's child, the same for every method)."""
     spec = CASES[case]
+    if direction is not None:
+        spec = dataclasses.replace(spec, direction=tuple(direction))
     children = np.random.SeedSequence(root_seed).spawn(n_seeds)
     rows = []
     for trial in trial_indices:
@@ -497,6 +525,8 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
     frames, described = [], {}
     for name in names:
         case = CASES[name]
+        if case.direction is None:
+            case = dataclasses.replace(case, direction=seed_direction(case))
         # in a rotation-free family the held variants would repeat the free runs exactly
         case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
         seed_gait_ = case.make_robot(None, explore=False, noise=False).gait
@@ -505,10 +535,13 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         described[name] = {"description": case.description, "objective": case.objective,
                            "seed": seed_result, "ceiling": ceiling, "settle_cycles": case.settle_cycles,
                            "max_joint_angle": case.max_joint_angle, "rotation_limit": case.rotation_limit,
-                           "family": case.family, "score": case.score_name or None}
+                           "family": case.family, "score": case.score_name or None,
+                           "direction": list(case.direction)}
+        case_checkpoints = [c for c in (case.checkpoints or checkpoints) if c <= budget] or [budget]
         config = {"case": name, "methods": case_methods, "n_seeds": n_seeds, "root_seed": seed, "budget": budget,
-                  "checkpoints": checkpoints, "seed_value": seed_result["objective"],
-                  "ceiling_value": None if ceiling is None else ceiling["objective"]}
+                  "checkpoints": case_checkpoints, "seed_value": seed_result["objective"],
+                  "ceiling_value": None if ceiling is None else ceiling["objective"],
+                  "direction": list(case.direction)}
         sweep = run_trials(benchmark_trials, n_seeds * len(case_methods), seed=seed, jobs=jobs, scheduler=scheduler,
                            config=config, progress=progress, description=name)
         sweep.raise_on_failure()
