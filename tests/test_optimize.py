@@ -5,7 +5,7 @@ import pytest
 
 from geogait import se2
 from geogait.gaits import FourierGait, Perturbation, fourier_basis, seed_gait
-from geogait.models import BatchGaitModel
+from geogait.models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import (
     InSituOptimizer,
     default_objective,
@@ -105,13 +105,23 @@ def test_log_columns_and_gaits(noise_free_run):
 
 
 def test_result_carries_the_model_the_run_learned(noise_free_run):
+    """In the symmetric family the default model is the symmetric shape-space model, and the model
+    the run leaves predicts the final gait's motion."""
     model = noise_free_run.model
-    assert model.gait_ == noise_free_run.final_gait  # re-centred on the last gait commanded
+    assert isinstance(model, ShapeSpaceModel) and model.symmetry == "mirror+reversal"
     truth = cycle_displacement(PurcellSwimmer(3), noise_free_run.final_gait)[:2]
     seed = cycle_displacement(PurcellSwimmer(3), noise_free_run.initial_gait)[:2]
-    predicted = model.predict_displacement()[:2]
+    predicted = model.predict_displacement(noise_free_run.final_gait)[:2]
     assert np.linalg.norm(truth) > 1.5 * np.linalg.norm(seed)  # the run moved far from the seed ...
     assert np.linalg.norm(predicted - truth) < 0.05 * np.linalg.norm(truth)  # ... and the model followed
+
+
+def test_free_family_default_model_is_the_window_model_recentred_on_the_last_gait():
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=0)
+    result = InSituOptimizer(family="free").run(stream, 12)
+    assert isinstance(result.model, AdaptiveGaitModel)
+    assert result.model.forgetting_factor == pytest.approx(0.95)  # 1 − 0.1 / d for d = 2
+    assert result.n_steps >= 1 and result.model.gait_ == result.final_gait  # re-centred on the last gait
 
 
 @pytest.mark.parametrize("r_max", [1.05, 1.3])

@@ -35,7 +35,7 @@ from .._docs import fill_doc
 from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
-from ..optimize import InSituOptimizer, cached_ceiling
+from ..optimize import InSituOptimizer, cached_ceiling, symmetric_chain_model
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
 from ..simulate import SwimmerStream, cycle_displacement
 from ._common import (
@@ -135,8 +135,7 @@ class OptimizationConfig:
 def in_situ_model(name: str, n_links: int):
     """The model of an in-situ run: ``"adaptive"``, ``"shape"`` or ``"auto"`` (module docstring)."""
     if name == "auto":
-        return ShapeSpaceModel(degree=4, degree_shrinkage=30.0, symmetry="mirror+reversal",
-                               forgetting_factor=0.999 if n_links <= 5 else 0.9999)
+        return symmetric_chain_model(n_links - 1)
     if name == "shape":
         return ShapeSpaceModel(degree=3)
     return AdaptiveGaitModel(forgetting_factor=1 - 0.1 / (n_links - 1))

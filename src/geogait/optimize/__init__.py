@@ -2,7 +2,7 @@
 prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
-from ._insitu import CycleMeasurement, InSituOptimizer, InSituResult, measure_cycle
+from ._insitu import CycleMeasurement, InSituOptimizer, InSituResult, measure_cycle, symmetric_chain_model
 from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, path_length, rms_speed
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
@@ -25,5 +25,6 @@ __all__ = [
     "path_length",
     "rms_speed",
     "sqp_step",
+    "symmetric_chain_model",
     "take_step",
 ]
