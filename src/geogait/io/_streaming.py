@@ -27,9 +27,9 @@ The loop behind ``geogait stream`` and ``examples/robot_stream.py``. For every s
 
 Warm-up: a sample without a usable phase (the OnlinePhaser has seen fewer than ``min_samples``
 samples, one training cycle by default) or shape velocity (the first sample of a differentiated
-stream) is neither predicted nor learned; its output says ``learned: false``. The same happens after a gap: a time step
-longer than ``gap_factor`` times the median of the recent steps restarts the differentiator and
-the phase tracker (no differentiation and no phase line across a gap).
+stream) is neither predicted nor learned; its output says ``learned: false``. The same happens
+after a gap: a time step longer than ``gap_factor`` times the median of the recent steps restarts
+the differentiator and the phase tracker (no differentiation and no phase line across a gap).
 
 Input records (:func:`run_stream`): JSON lines with the keys ``time``, ``phase``, ``shape``,
 ``shape_velocity``, ``body_velocity`` (lists for the vectors; unknown keys are errors), or CSV
