@@ -54,16 +54,18 @@ Until ``min_samples`` samples have arrived (after the start or a :meth:`OnlinePh
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._estimator import check_is_fitted
 from .._validation import check_array, check_int, check_magnitude, fail
-from ._phaser import Phaser, nearest_phase
+from ._phaser import Phaser, _nearest_on_curve, limit_cycle_grid
 
 __all__ = ["OnlinePhaser"]
 
 _OWNER = "OnlinePhaser"
-_MAX_RATE = np.pi / 2  # rad per sample: at least 4 samples per cycle
+_MAX_RATE = math.pi / 2  # rad per sample: at least 4 samples per cycle
 
 
 class OnlinePhaser:
@@ -124,6 +126,7 @@ class OnlinePhaser:
             raise fail("min_samples", _OWNER, f"an int <= window = {self.window}", self.min_samples)
         discount = 1.0 - 4.0 / self.window
         self._fading = (1.0 - discount**2, (1.0 - discount) ** 2)
+        self._cycle = limit_cycle_grid(phaser.waveform_, phaser.residual_std_, phaser.order)
         self.reset()
 
     def reset(self) -> OnlinePhaser:
@@ -171,8 +174,7 @@ class OnlinePhaser:
         return self._nearest(x)
 
     def _nearest(self, x: np.ndarray) -> np.ndarray:
-        phaser = self.phaser
-        return nearest_phase((x - phaser.mean_) / phaser.scale_, phaser.waveform_, phaser.residual_std_, phaser.order)
+        return _nearest_on_curve((x - self.phaser.mean_) / self.phaser.scale_, *self._cycle)
 
     def _track(self, measured: float) -> None:
         n = self._count
@@ -184,6 +186,6 @@ class OnlinePhaser:
         gain = max(growing * (2 * n + 1) / 3, self._fading[0])
         rate_gain = max(growing, self._fading[1])
         predicted = self.phase + self.rate
-        innovation = float(np.angle(np.exp(1j * (measured - predicted))))
-        self.phase = float(np.mod(predicted + gain * innovation, 2 * np.pi))
-        self.rate = float(np.clip(self.rate + rate_gain * innovation, -_MAX_RATE, _MAX_RATE))
+        innovation = (measured - predicted + math.pi) % (2 * math.pi) - math.pi
+        self.phase = (predicted + gain * innovation) % (2 * math.pi)
+        self.rate = min(max(self.rate + rate_gain * innovation, -_MAX_RATE), _MAX_RATE)

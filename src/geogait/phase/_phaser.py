@@ -468,17 +468,24 @@ def nearest_phase(z: np.ndarray, waveform: np.ndarray, residual_std: np.ndarray,
     ``(c,)``: on a grid of ``max(256, 32 K)`` phases, refined by the parabola through the best grid
     point and its two neighbours.
     """
+    return _nearest_on_curve(z, *limit_cycle_grid(waveform, residual_std, order))
+
+
+def limit_cycle_grid(waveform: np.ndarray, residual_std: np.ndarray, order: int):
+    """The grid ``(G,)``, the curve on it ``(G, c)`` and the channel precisions ``(c,)`` of :func:`nearest_phase`."""
     n_grid = max(256, 32 * order)
     grid = 2 * np.pi * np.arange(n_grid) / n_grid
-    curve = fourier_basis(grid, order) @ waveform  # (n_grid, c)
-    precision = 1.0 / np.asarray(residual_std) ** 2
+    return grid, fourier_basis(grid, order) @ waveform, 1.0 / np.asarray(residual_std) ** 2
+
+
+def _nearest_on_curve(z: np.ndarray, grid: np.ndarray, curve: np.ndarray, precision: np.ndarray) -> np.ndarray:
     out = np.empty(len(z))
     for start in range(0, len(z), _CHUNK):  # bound the (chunk, n_grid, c) distances
         block = z[start:start + _CHUNK]
         distance = ((block[:, None, :] - curve) ** 2 * precision).sum(axis=-1)
         best = np.argmin(distance, axis=1)
         rows = np.arange(len(block))
-        before, here, after = (distance[rows, (best + k) % n_grid] for k in (-1, 0, 1))
+        before, here, after = (distance[rows, (best + k) % grid.size] for k in (-1, 0, 1))
         curvature = before - 2 * here + after
         safe = np.where(curvature > 0, curvature, 1.0)
         shift = np.where(curvature > 0, 0.5 * (before - after) / safe, 0.0)
