@@ -378,15 +378,17 @@ class Phaser(Estimator):
         n = len(phase)
         step = float(np.median(np.diff(phase)))
         width = n if step <= 0 else min(n, int(np.ceil(self.edge_cycles * 2 * np.pi / step)))
-        nearest = nearest_phase(self._zscore(record), self.waveform_, self.residual_std_, self.order)
+        def nearest(samples):
+            return nearest_phase(self._zscore(samples), self.waveform_, self.residual_std_, self.order)
+
         if 2 * width >= n:
-            return np.unwrap(nearest)
-        weight = 1.0 - np.arange(width) / width  # outermost sample first
+            return np.unwrap(nearest(record))
+        inward = np.arange(1, width + 1) / width  # blend weight of the nearest-point phase, innermost first
         mended = phase.copy()
-        head = np.unwrap(np.r_[phase[width], nearest[width - 1::-1]])[1:]  # samples width-1, ..., 0
-        mended[width - 1::-1] = (1 - weight[::-1]) * phase[width - 1::-1] + weight[::-1] * head
-        tail = np.unwrap(np.r_[phase[n - width - 1], nearest[n - width:]])[1:]  # samples n-width, ..., n-1
-        mended[n - width:] = (1 - weight[::-1]) * phase[n - width:] + weight[::-1] * tail
+        head = np.unwrap(np.r_[phase[width], nearest(record[width - 1::-1])])[1:]  # samples width-1, ..., 0
+        mended[width - 1::-1] = (1 - inward) * phase[width - 1::-1] + inward * head
+        tail = np.unwrap(np.r_[phase[n - width - 1], nearest(record[n - width:])])[1:]  # samples n-width, ..., n-1
+        mended[n - width:] = (1 - inward) * phase[n - width:] + inward * tail
         return mended
 
     def waveform(self, phase) -> np.ndarray:
