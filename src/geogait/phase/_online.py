@@ -144,6 +144,8 @@ class OnlinePhaser:
             raise fail("min_samples", _OWNER, f"an int <= window = {self.window}", self.min_samples)
         discount = 1.0 - 4.0 / self.window
         self._fading = (1.0 - discount**2, (1.0 - discount) ** 2)
+        # first rate guess (replaced by the line through the first two samples)
+        self._initial_rate = min(2 * math.pi / per_cycle, _MAX_RATE) if per_cycle > 0 else 0.0
         self._cycle = limit_cycle_grid(phaser.waveform_, phaser.residual_std_, phaser.order)
         self.reset()
 
@@ -166,6 +168,12 @@ class OnlinePhaser:
         ----------
         shape : array-like of shape (n_channels,)
             The newest sample of the channels the phaser was fitted on (e.g. joint angles, radians).
+
+        Returns
+        -------
+        float or None
+            The tracked phase of this sample in ``[0, 2π)``; None for the first ``min_samples - 1``
+            samples after the start or a :meth:`reset`.
         """
         sample = check_magnitude(check_array(shape, "shape", f"{_OWNER}.update", ndim=1), "shape", f"{_OWNER}.update")
         if sample.shape != (self.phaser.n_channels_,):
@@ -198,7 +206,7 @@ class OnlinePhaser:
         n = self._count
         self._count += 1
         if n == 0:
-            self.phase, self.rate = measured, 2 * np.pi / self.phaser.samples_per_cycle_
+            self.phase, self.rate = measured, self._initial_rate
             return
         growing = 6.0 / ((n + 1) * (n + 2))
         gain = max(growing * (2 * n + 1) / 3, self._fading[0])
