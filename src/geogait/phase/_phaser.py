@@ -10,8 +10,8 @@ training data and then frozen:
 1. **z-score** every channel with the training mean and standard deviation.
 2. **Protophase** per channel from the analytic signal,
    :math:`\theta_c(t) = \arg\bigl(z_c(t) + i\,\mathcal{H}[z_c](t)\bigr)`, unwrapped in time.
-3. **Per-channel correction** toward a uniformly advancing phase (*differs*: the paper fits a
-   Fourier series of the protophase against time; this one is computed from the protophase's
+3. **Per-channel correction** toward a uniformly advancing phase (*differs*: the paper fits its
+   Fourier series in the protophase by regression; this one is computed from the protophase's
    distribution). A protophase advances non-uniformly over the cycle (a non-sinusoidal
    waveform), so its distribution over :math:`[0, 2\pi)` is not uniform. The phase-density
    correction of Kralemann et al. removes this: with :math:`S_k = \langle e^{-ik\theta}\rangle`
@@ -81,10 +81,9 @@ __all__ = ["Phaser"]
 
 _OWNER = "Phaser"
 #: Fitted arrays: real ones stored as they are, complex ones as ``name.real`` and ``name.imag``.
+#: ``waveform_`` and ``residual_std_`` are new in format version 2 (rebuilt for version-1 files).
 _REAL = ("mean_", "scale_", "offsets_", "weights_", "zero_", "n_cycles_", "samples_per_cycle_", "waveform_",
          "residual_std_")
-#: Added in format version 2 (rebuilt from the correction series when a version-1 file is read).
-_WAVEFORM = ("waveform_", "residual_std_")
 #: z-score residuals below this fraction of a unit-variance channel count as this (noise-free training data).
 _MIN_RESIDUAL_STD = 1e-2
 _CHUNK = 2048  # samples per block of nearest_phase
