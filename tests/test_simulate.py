@@ -3,7 +3,7 @@ import pandas as pd
 import pytest
 
 from geogait.gaits import FourierGait, Perturbation, seed_gait
-from geogait.simulate import DragRatioSchedule, SwimmerStream, Trajectory, cycle_displacement, simulate
+from geogait.simulate import DragRatioSchedule, SwimmerStream, Trajectory, cycle_displacement, simulate, simulate_rate
 from geogait.systems import PurcellSwimmer
 
 
@@ -131,3 +131,56 @@ def test_bad_stream_options_name_the_field(options, match):
         SwimmerStream(PurcellSwimmer(3), seed_gait(2), **options)
     with pytest.raises(ValueError, match="'gait'"):
         SwimmerStream(PurcellSwimmer(3), seed_gait(4))
+
+
+# -- any samples per cycle, drifting rates (simulate_rate) ---------------------------------------------
+@pytest.mark.parametrize("noise", [0.0, 0.1])
+def test_simulate_rate_at_a_whole_period_and_constant_rate_is_simulate(noise):
+    # Same generators, same draws: at 100 samples per cycle and a constant rate both simulators agree.
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    options = dict(shape_noise=noise, sensor_noise=noise, seed=4, cycle_period=2.0)
+    reference = simulate(swimmer, gait, 3, **options)
+    run = simulate_rate(swimmer, gait, 3, samples_per_cycle=100.0, **options)
+    for name in ("time", "phase", "cycle", "shape", "shape_velocity", "body_velocity", "pose", "commanded_shape"):
+        np.testing.assert_allclose(getattr(run, name), getattr(reference, name), rtol=1e-9, atol=1e-12,
+                                   err_msg=name)
+
+
+def test_simulate_rate_follows_the_ramped_phase_law():
+    swimmer, gait = PurcellSwimmer(3), seed_gait(2)
+    run = simulate_rate(swimmer, gait, 12, samples_per_cycle=86.7, rate_ramp=(0.8, 1.2), cycle_period=0.5,
+                        perturbation=Perturbation(eta=0), seed=1)
+    dt = 0.5 / 86.7
+    np.testing.assert_allclose(np.diff(run.time), dt, rtol=1e-12)
+    # φ̇ ramps linearly in time from 0.8 ω0 to 1.2 ω0 over the duration D of 12 cycles, D = 2·12·T / 2.0.
+    omega, duration = 2 * np.pi / 0.5, 12 * 0.5
+    phase = run.phase + 2 * np.pi * run.cycle
+    np.testing.assert_allclose(phase, omega * (0.8 * run.time + 0.4 * run.time**2 / (2 * duration)), atol=1e-9)
+    assert run.n_samples == int(np.ceil(duration / dt)) and phase[-1] < 24 * np.pi <= phase[-1] + 1.2 * omega * dt
+    assert np.all((run.phase >= 0) & (run.phase < 2 * np.pi)) and run.cycle[-1] == 11
+    # No perturbation: r = θ(φ), and ṙ = θ'(φ) φ̇ is the time derivative of the sampled shapes.
+    np.testing.assert_allclose(run.shape, gait.shape(phase), atol=1e-12)
+    central = (run.shape[2:] - run.shape[:-2]) / (2 * dt)
+    np.testing.assert_allclose(central, run.shape_velocity[1:-1], atol=2e-3 * np.abs(run.shape_velocity).max())
+    body = -np.einsum("nij,nj->ni", swimmer.connection(run.shape), run.shape_velocity)
+    np.testing.assert_allclose(run.body_velocity, body, atol=1e-12)
+
+
+@pytest.mark.parametrize(("options", "match"), [
+    (dict(samples_per_cycle=3.5), "'samples_per_cycle' parameter of simulate_rate must be a finite float in \\[4, "),
+    (dict(samples_per_cycle=float("nan")), "'samples_per_cycle'.*finite float"),
+    (dict(rate_ramp=(0.8,)), "'rate_ramp'.*pair \\(start, end\\)"),
+    (dict(rate_ramp="fast"), "'rate_ramp'.*pair"),
+    (dict(rate_ramp=(0.8, -1.0)), "'rate_ramp'.*\\[0.1, 10\\]. Got -1.0"),
+    (dict(samples_per_cycle=10.0, rate_ramp=(1.0, 3.0)), "'rate_ramp'.*at most samples_per_cycle / 4 = 2.5"),
+    (dict(n_cycles=0), "'n_cycles'.*\\(0, inf\\)"),
+    (dict(cycle_period=0.0), "'cycle_period'"),
+    (dict(shape_noise=-0.1), "'shape_noise'"),
+    (dict(perturbation=0.15), "'perturbation'.*a Perturbation. Got 'float'"),
+    (dict(gait=seed_gait(4)), "'gait'.*2 joints"),
+])
+def test_simulate_rate_names_bad_options(options, match):
+    arguments = dict(system=PurcellSwimmer(3), gait=seed_gait(2), n_cycles=2)
+    arguments.update({k: options.pop(k) for k in list(options) if k in arguments})
+    with pytest.raises(ValueError, match=match):
+        simulate_rate(**arguments, **options)

@@ -221,24 +221,27 @@ def phaser(run):
     return Phaser().fit(run.shape[:3000])
 
 
-def test_online_phaser_equals_the_last_sample_of_a_sliding_window(run, phaser):
-    online = OnlinePhaser(phaser, window=150, min_samples=60)
-    estimates = [online.update(shape) for shape in run.shape[:700]]
-    assert estimates[:59] == [None] * 59 and online.n_buffered == 150
-    for end in (60, 100, 150, 151, 400, 700):
-        reference = phaser.transform(run.shape[max(0, end - 150):end])[-1]
-        assert abs(np.angle(np.exp(1j * (estimates[end - 1] - reference)))) < 1e-9
-    default = OnlinePhaser(phaser)
-    assert default.window == 200 and default.min_samples == 100
-    phases = np.array([default.update(shape) for shape in run.shape[3000:]][100:], dtype=float)
-    truth = run.phase[3100:]
-    difference = np.exp(1j * (phases - truth))
+def test_online_phaser_defaults_warm_up_and_errors(run, phaser):
+    online = OnlinePhaser(phaser)
+    assert online.window == 200 and online.min_samples == 100
+    estimates = [online.update(shape) for shape in run.shape[3000:]]
+    assert estimates[:99] == [None] * 99 and None not in estimates[99:] and online.n_buffered == 200
+    phases = np.array(estimates[100:], dtype=float)
+    difference = np.exp(1j * (phases - run.phase[3100:]))
     error = np.abs(np.angle(difference * np.conj(difference.mean())))
-    assert np.median(error) < 0.15  # measured 0.09 rad (two-cycle window, data not fitted on)
+    assert np.median(error) < 0.07  # measured 0.045 rad (data not fitted on)
+    assert abs(online.rate - 2 * np.pi / 100) < 0.002  # the stream's own rate, rad per sample
+    assert online.reset().n_buffered == 0 and online.update(run.shape[0]) is None
     with pytest.raises(ValueError, match="'shape' parameter of OnlinePhaser.update"):
-        default.update([1.0, 2.0, 3.0])
+        online.update([1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match="'min_samples' parameter of OnlinePhaser"):
         OnlinePhaser(phaser, window=10, min_samples=11)
+    with pytest.raises(ValueError, match="'window' parameter of OnlinePhaser must be an int >= 4"):
+        OnlinePhaser(phaser, window=3)
+    with pytest.raises(ValueError, match="'phaser' parameter of OnlinePhaser must be a fitted Phaser"):
+        OnlinePhaser(AdaptiveGaitModel(gait=GAIT))
+    with pytest.raises(ValueError, match="Phaser is not fitted yet"):
+        OnlinePhaser(Phaser())
 
 
 def test_stream_with_a_phaser_and_a_gap(run, phaser, tmp_path):

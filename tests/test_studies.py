@@ -1,4 +1,5 @@
-"""The issue-10 plateau study runs end to end on a tiny budget (it leans on private optimiser hooks)."""
+"""Studies run end to end on a tiny budget: the issue-10 plateau study (it leans on private optimiser hooks)
+and the issue-25 online phase study."""
 
 import re
 import subprocess
@@ -18,3 +19,15 @@ def test_plateau_study_reports_finite_medians(flags):
     assert {"true", "predicted", "gradient_error", "local_error", "walk_best", "path_to_ceiling"} <= set(medians)
     assert 0.3 < float(medians["true"]) < 1.0  # 6 cycles of the 9-link seed: 55-70 % of the ceiling
     assert float(medians["path_to_ceiling"]) > 0
+
+
+def test_online_phase_study_quick_meets_the_acceptance_bars():
+    output = subprocess.run([sys.executable, str(STUDIES / "online_phase.py"), "--quick"], capture_output=True,
+                            text=True, check=True, timeout=300).stdout.splitlines()
+    rows = [line[22:].replace(" / ", " ").split() for line in output[1:-1]]  # after the setting's label
+    assert len(rows) == 16  # 6 window/period ratios and 2 drifts, without and with noise
+    for row in rows:
+        noise, offline_median, _, online_median, online_p95, _, delay = map(float, row[:7])
+        assert noise in (0.0, 0.1) and online_median <= 2 * offline_median and online_p95 <= 0.3
+        assert abs(delay) < 3  # samples (8-cycle records: the ±20 % ramp is steep)
+    assert output[-1].endswith("met in every setting")

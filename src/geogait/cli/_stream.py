@@ -48,7 +48,8 @@ def stream(
     out: Annotated[Path | None, typer.Option(
         help="Where to save the model (default: the model file itself; for a config, <config>.npz).")] = None,
     phase_window: Annotated[int | None, typer.Option(
-        help="Samples in the online Phaser's window [default: two cycles].", min=2)] = None,
+        help="Memory of the online phase tracker in samples (time constant: a quarter of it) [default: two "
+             "training cycles].", min=4)] = None,
     derivative_window: Annotated[int, typer.Option(
         help="Samples of the causal differentiator used when samples have no shape_velocity.", min=2,
         max=1000)] = 5,

@@ -148,7 +148,8 @@ class StreamLearner:
         Estimate the phase with an :class:`~geogait.phase.OnlinePhaser`; samples' own phases are
         then ignored.
     phase_window : int, optional
-        Window of the OnlinePhaser in samples (default two cycles).
+        Memory of the OnlinePhaser in samples (its phase line's time constant is a quarter of it;
+        default two training cycles).
     derivative_window : int >= 2
         Samples of the :class:`OnlineDifferentiator` (polynomial order ``min(2, window - 1)``).
     gap_factor : float > 1

@@ -3,8 +3,9 @@ r"""Live streams: learn an :class:`~geogait.models.AdaptiveGaitModel` sample by 
 The loop behind ``geogait stream`` and ``examples/robot_stream.py``. For every sample, in order:
 
 1. **Phase**: the sample's own ``phase``, or — with a fitted :class:`~geogait.phase.Phaser` — the
-   causal estimate of :class:`~geogait.phase.OnlinePhaser` (last sample of a sliding window of
-   the last two cycles by default; latency/accuracy trade-off in :mod:`geogait.phase._online`).
+   causal estimate of :class:`~geogait.phase.OnlinePhaser` (the sample's nearest point on the
+   Phaser's limit cycle, tracked by a line fitted to the recent samples; no look-ahead, accurate
+   at any period and under drifting rates: :mod:`geogait.phase._online`).
 2. **Shape velocity**: the sample's own ``shape_velocity``, or the derivative of a polynomial
    fitted by least squares to the newest ``derivative_window`` shapes against their time stamps,
    evaluated at the newest sample (:class:`OnlineDifferentiator`: a one-sided, causal
@@ -24,11 +25,11 @@ The loop behind ``geogait stream`` and ``examples/robot_stream.py``. For every s
    :meth:`~geogait.models.AdaptiveGaitModel.save` (temporary file + rename: a crash during a
    save leaves the previous file intact).
 
-Warm-up: a sample without a usable phase (the Phaser window holds fewer than ``min_samples``
-samples) or shape velocity (the first sample of a differentiated stream) is neither predicted
-nor learned; its output says ``learned: false``. The same happens after a gap: a time step
-longer than ``gap_factor`` times the median of the recent steps restarts the differentiator and
-the phase window (no differentiation and no Hilbert window across a gap).
+Warm-up: a sample without a usable phase (the OnlinePhaser has seen fewer than ``min_samples``
+samples, one training cycle by default) or shape velocity (the first sample of a differentiated
+stream) is neither predicted nor learned; its output says ``learned: false``. The same happens
+after a gap: a time step longer than ``gap_factor`` times the median of the recent steps restarts
+the differentiator and the phase tracker (no differentiation and no phase line across a gap).
 
 Input records (:func:`run_stream`): JSON lines with the keys ``time``, ``phase``, ``shape``,
 ``shape_velocity``, ``body_velocity`` (lists for the vectors; unknown keys are errors), or CSV

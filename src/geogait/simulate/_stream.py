@@ -23,7 +23,7 @@ from ..gaits import FourierGait, Perturbation
 from ..systems import PurcellSwimmer, System
 from ._trajectory import Trajectory
 
-__all__ = ["DragRatioSchedule", "SwimmerStream", "simulate"]
+__all__ = ["DragRatioSchedule", "SwimmerStream", "simulate", "simulate_rate"]
 
 
 @dataclass(frozen=True)
@@ -258,10 +258,8 @@ class SwimmerStream:
         key = (id(system), self._gait)
         if self._rms_key != key:
             phase = 2 * np.pi * np.arange(self.samples_per_cycle) / self.samples_per_cycle
-            shape = self._gait.shape(phase)
-            rate = self._gait.velocity(phase) * self.phase_rate
-            body = -np.einsum("nij,nj->ni", system.connection(shape), rate)
-            rms = [np.sqrt(np.mean(v**2, axis=0)) for v in (body, shape, rate)]
+            signals = _nominal_signals(system, self._gait, phase, self.phase_rate)
+            rms = [np.sqrt(np.mean(v**2, axis=0)) for v in signals]
             self._rms_key, self._rms = key, rms
         return self._rms
 
@@ -339,3 +337,120 @@ def simulate(system: System, gait: FourierGait, n_cycles: int, **options) -> Tra
     ((200, 2), (200, 3))
     """
     return SwimmerStream(system, gait, **options).next_cycles(n_cycles)
+
+
+def simulate_rate(system: System, gait: FourierGait, n_cycles: float, *, samples_per_cycle: float = 100.0,
+                  rate_ramp: tuple[float, float] = (1.0, 1.0), cycle_period: float = 1.0,
+                  perturbation: Perturbation | None = None, sensor_noise: float = 0.0, shape_noise: float = 0.0,
+                  seed=None) -> Trajectory:
+    r"""Simulate ``gait`` on ``system`` at any (non-integer) samples per cycle and a drifting phase rate.
+
+    :func:`simulate` always puts exactly ``samples_per_cycle`` (an int) samples in every cycle, at
+    a constant phase rate. A robot does neither; this simulator samples uniformly in time with
+    step :math:`\Delta t = T / s` (:math:`T` = ``cycle_period``, :math:`s` = ``samples_per_cycle``,
+    any real) while the commanded phase rate ramps linearly in time from :math:`m_0 \omega_0` to
+    :math:`m_1 \omega_0` (:math:`\omega_0 = 2\pi / T`, :math:`(m_0, m_1)` = ``rate_ramp``) over the
+    duration :math:`D` that makes ``n_cycles`` cycles:
+
+    .. math::
+        \dot\phi(t) = \omega_0 \bigl(m_0 + (m_1 - m_0)\, t / D\bigr), \qquad
+        \phi(t) = \omega_0 \bigl(m_0 t + (m_1 - m_0)\, t^2 / (2 D)\bigr), \qquad
+        D = \frac{2 n T}{m_0 + m_1}.
+
+    Shapes, rates and body velocities follow the model of :class:`SwimmerStream` (module notes),
+    with :math:`\dot r = \theta'(\phi)\dot\phi + \dot\delta`; the perturbation SDE runs in time.
+
+    Parameters
+    ----------
+    system : System
+    gait : FourierGait
+    n_cycles : float > 0
+        Commanded cycles (need not be whole); samples are taken while :math:`\phi < 2\pi n`.
+    samples_per_cycle : float
+        Samples per cycle at the nominal rate (:math:`m = 1`), any real in [4, 100000].
+    rate_ramp : (float, float)
+        Phase-rate multipliers :math:`(m_0, m_1)` at the start and the end, each in [0.1, 10];
+        every cycle must keep at least 4 samples (:math:`s / \max m \ge 4`). ``(0.8, 1.2)`` is a
+        rate drifting by ±20 % about the nominal one.
+    cycle_period : float > 0
+        Nominal cycle duration :math:`T`.
+    perturbation : Perturbation, optional
+        SDE of eq. 8; default ``Perturbation()``. ``Perturbation(eta=0)`` for none.
+    sensor_noise, shape_noise : float
+        Noise on measured ξ, and on r and ṙ, as fractions of their RMS along the nominal gait at the
+        nominal rate (as in :class:`SwimmerStream`).
+    seed : int or SeedSequence, optional
+
+    Returns
+    -------
+    Trajectory
+        One trial; ``phase`` is the commanded phase wrapped to ``[0, 2π)`` and ``cycle`` its cycle
+        index, so the continuous phase is ``phase + 2π cycle``.
+
+    Examples
+    --------
+    >>> from geogait.systems import PurcellSwimmer
+    >>> from geogait.gaits import seed_gait
+    >>> run = simulate_rate(PurcellSwimmer(3), seed_gait(2), 3, samples_per_cycle=86.5, seed=0)
+    >>> run.n_samples, int(run.cycle[-1])
+    (260, 2)
+    >>> drift = simulate_rate(PurcellSwimmer(3), seed_gait(2), 10, rate_ramp=(0.8, 1.2), seed=0)
+    >>> steps = np.diff(drift.phase + 2 * np.pi * drift.cycle)  # phase per sample: 0.8 → 1.2 times nominal
+    >>> round(float(steps[-1] / steps[0]), 2)
+    1.5
+    """
+    owner = "simulate_rate"
+    if not isinstance(gait, FourierGait):
+        raise fail("gait", owner, "a FourierGait", type(gait).__name__)
+    if gait.n_joints != system.n_joints:
+        raise fail("gait", owner, f"a gait with {system.n_joints} joints", gait.n_joints)
+    n_cycles = check_float(n_cycles, "n_cycles", owner, low=0, low_open=True)
+    per_cycle = check_float(samples_per_cycle, "samples_per_cycle", owner, low=4, high=100_000)
+    period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
+    sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=100)
+    shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=100)
+    if isinstance(rate_ramp, str) or not isinstance(rate_ramp, Sequence) or len(rate_ramp) != 2:
+        raise fail("rate_ramp", owner, "a pair (start, end) of rate multipliers", rate_ramp)
+    start, end = (check_float(m, "rate_ramp", owner, low=0.1, high=10) for m in rate_ramp)
+    if per_cycle / max(start, end) < 4:
+        raise fail("rate_ramp", owner, f"at most samples_per_cycle / 4 = {per_cycle / 4:g} (every cycle needs "
+                   "at least 4 samples)", tuple(rate_ramp))
+    perturbation = Perturbation() if perturbation is None else perturbation
+    if not isinstance(perturbation, Perturbation):
+        raise fail("perturbation", owner, "a Perturbation", type(perturbation).__name__)
+    dt, omega = period / per_cycle, 2 * np.pi / period
+    duration = 2 * n_cycles * period / (start + end)
+    n_samples = int(np.ceil(duration / dt - 1e-9))
+    if n_samples * gait.n_joints > 10**7:
+        raise fail("n_cycles", owner, "small enough for at most 10^7 sample values",
+                   f"{n_samples} samples of {gait.n_joints} joints")
+    (perturbation_rng,), (noise_rng,), _ = _trial_generators(seed, None)
+    time = np.arange(n_samples) * dt
+    rate = omega * (start + (end - start) * time / duration)
+    unwrapped = omega * (start * time + (end - start) * time**2 / (2 * duration))
+    stream = perturbation.stream(dt, gait.n_joints, perturbation_rng)
+    state = stream.run(perturbation_rng.standard_normal((n_samples, gait.n_joints, 2)))
+    shape = gait.shape(unwrapped) + state[..., 0]
+    shape_velocity = gait.velocity(unwrapped) * rate[:, None] + state[..., 1]
+    body_velocity = -np.einsum("nij,nj->ni", system.connection(shape), shape_velocity)
+    pose = se2.integrate_body_velocity(body_velocity, dt, np.zeros(3))[:-1]
+    measured = (shape, shape_velocity, body_velocity)
+    if sensor_noise or shape_noise:
+        nominal = 2 * np.pi * np.arange(4096) / 4096
+        rms = [np.sqrt(np.mean(v**2, axis=0)) for v in _nominal_signals(system, gait, nominal, omega)]
+        noise = noise_rng.standard_normal((n_samples, 3 + 2 * gait.n_joints))
+        d = gait.n_joints
+        measured = (shape + shape_noise * rms[1] * noise[:, 3:3 + d],
+                    shape_velocity + shape_noise * rms[2] * noise[:, 3 + d:],
+                    body_velocity + sensor_noise * rms[0] * noise[:, :3])
+    cycle = np.floor(unwrapped / (2 * np.pi))
+    return Trajectory(time=time, phase=unwrapped - 2 * np.pi * cycle, cycle=cycle.astype(int),
+                      shape=measured[0], shape_velocity=measured[1], body_velocity=measured[2], pose=pose,
+                      commanded_shape=shape)
+
+
+def _nominal_signals(system: System, gait: FourierGait, phase: np.ndarray, rate: float):
+    """ξ, r and ṙ ``(n, ·)`` along the nominal gait at ``phase`` ``(n,)`` and a constant phase ``rate``."""
+    shape = gait.shape(phase)
+    velocity = gait.velocity(phase) * rate
+    return -np.einsum("nij,nj->ni", system.connection(shape), velocity), shape, velocity
