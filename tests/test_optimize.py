@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from geogait import se2
+from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, Perturbation, fourier_basis, seed_gait
 from geogait.models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import (
@@ -17,7 +18,7 @@ from geogait.optimize import (
 )
 from geogait.se2 import gauss_phases, magnus_steps
 from geogait.simulate import SwimmerStream, cycle_displacement
-from geogait.systems import PurcellSwimmer
+from geogait.systems import FunctionSystem, PurcellSwimmer
 
 
 def batched_displacement(system, coefficients, resolution=48):
@@ -208,3 +209,56 @@ def test_higher_orders_are_not_won_by_repeating_the_loop():
     assert single.value * (1 - 1e-6) <= order2.value <= 1.01 * single.value
     harmonics = np.hypot(order2.gait.coefficients[:, 1:3], order2.gait.coefficients[:, 3:5])  # (d, k)
     assert harmonics[:, 0].max() > 10 * harmonics[:, 1].max()
+
+
+class _DeclaredRanges:
+    """A built-in swimmer stream that declares joint ranges, as MujocoRobot does from its model."""
+
+    def __init__(self, stream, joint_ranges):
+        self.stream, self.joint_ranges = stream, joint_ranges
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+    @property
+    def gait(self):
+        return self.stream.gait
+
+
+def test_joint_limit_auto_comes_from_the_robots_declared_ranges():
+    ranges = np.array([[-1.2, 1.5], [-1.3, 1.1]])
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=4)
+    result = InSituOptimizer(family="free", trust_radius=0.15).run(_DeclaredRanges(stream, ranges), 12)
+    assert result.max_joint_angle == pytest.approx(1.1)  # the tightest side of any joint
+    assert result.n_steps >= 2 and all(g.joint_limit().max() <= 1.1 + 1e-9 for g in result.gaits)
+    assert result.summary()["max_joint_angle"] == pytest.approx(1.1)
+    plain = InSituOptimizer(family="free").run(SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=4), 2)
+    assert plain.max_joint_angle == pytest.approx(2 * np.pi / 3)  # nothing declared: the design's default
+    for bad in ([[-1.0, 1.0]], [[0.2, 1.0], [-1.0, 1.0]], "wide"):
+        with pytest.raises(GeogaitError, match="robot.joint_ranges"):
+            InSituOptimizer().run(_DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2)), bad), 1)
+    with pytest.raises(GeogaitError, match="max_joint_angle"):
+        InSituOptimizer(max_joint_angle="tight").validate()
+
+
+@pytest.mark.filterwarnings("ignore:.*more than a full turn")
+def test_shape_scale_makes_the_defaults_work_in_any_shape_unit():
+    """The same swimmer with its shape measured in units 7× smaller than radians (a curvature-mode
+    robot, say): with shape_scale='auto' (the seed's amplitude) the default run improves the gait as
+    it does in radians; with the radian defaults (shape_scale=1) its steps are 7× too short."""
+    unit = 7.0
+    swimmer = PurcellSwimmer(3)
+    scaled = FunctionSystem(lambda r: swimmer.connection(r / unit) / unit, n_joints=2, name="scaled")
+
+    def improvement(system, gait, std, **options):
+        stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(std), sensor_noise=0.05, seed=2)
+        log = InSituOptimizer(family="free", **options).run(stream, 20).log
+        return log["improvement"].iloc[-1]
+
+    radians = improvement(swimmer, seed_gait(2), 0.15)
+    in_units = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit, max_joint_angle=unit * 2 * np.pi / 3)
+    unscaled = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit, max_joint_angle=unit * 2 * np.pi / 3,
+                           shape_scale=1.0)
+    assert radians > 0.3
+    assert in_units > 0.8 * radians
+    assert unscaled < 0.5 * in_units

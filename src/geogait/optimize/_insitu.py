@@ -69,7 +69,9 @@ __all__ = ["InSituOptimizer", "InSituResult"]
 
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
 CHECKPOINT_VERSION = 1
-_TRACKING_FLOOR = 0.05  # rad: the automatic tracking limit never falls below this
+_TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never falls below this
+#: r_max of a robot that declares no joint ranges (the design's 2π/3).
+DEFAULT_MAX_JOINT_ANGLE = 2 * np.pi / 3
 
 
 @dataclass
@@ -100,6 +102,8 @@ class InSituResult:
         Every nominal gait commanded, in order (rejected ones included).
     trajectory : Trajectory or None
         Every sample of the run (when ``record=True``; after a resume only the resumed part).
+    max_joint_angle, shape_scale : float or None
+        The joint limit and unit of shape the run used (resolved from the robot for ``"auto"``).
     model : object or None
         The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
         the last fit): what the next step would have used. Inspect it against a simulator's truth,
@@ -112,6 +116,8 @@ class InSituResult:
     gaits: list = field(default_factory=list)
     trajectory: Trajectory | None = None
     model: object | None = None
+    max_joint_angle: float | None = None
+    shape_scale: float | None = None
 
     @property
     def n_steps(self) -> int:
@@ -141,6 +147,8 @@ class InSituResult:
             "steps": self.n_steps,
             "rejected_steps": self.n_rejected,
             "max_tracking_error_rad": _finite(log["tracking_error"].max()),
+            "max_joint_angle": _finite(self.max_joint_angle),
+            "shape_scale": _finite(self.shape_scale),
             "final_gait_params": self.final_gait.params.tolist(),
         }
         if "true_objective" in log:
@@ -203,12 +211,21 @@ class InSituOptimizer(Estimator):
     direction_frame : {"world", "body"}
         ``direction`` is fixed in the world (a heading to follow; the objective uses the measured
         heading at the start of the latest cycle) or in the body frame at the start of a cycle.
-    max_joint_angle : float
-        r_max (rad); every commanded gait satisfies |θ_j(φ)| ≤ r_max.
+    max_joint_angle : float or "auto"
+        r_max (the robot's shape units, rad for joint angles); every commanded gait satisfies
+        |θ_j(φ)| ≤ r_max. ``"auto"`` (default): from the joint ranges the robot declares (a
+        ``joint_ranges`` array of shape (d, 2), as :class:`~geogait.robots.MujocoRobot` reads them
+        from its model): the smallest ``min(|low|, |high|)`` over the joints; 2π/3 for a robot that
+        declares none (or only unlimited joints).
     max_joint_velocity : float, optional
         Largest commanded joint speed |θ̇_j| (rad per second at the robot's cycle period).
     trust_radius, min_trust_radius, max_trust_radius : float
-        Initial, smallest and largest step length in parameter space (rad).
+        Initial, smallest and largest step length in parameter space, in units of ``shape_scale``.
+    shape_scale : float or "auto"
+        The robot's unit of shape: trust radii and the automatic tracking limit's floor are multiples
+        of it, so the same defaults serve joints in radians, curvature modes or metres. ``"auto"``
+        (default): the seed gait's largest joint amplitude (√(Σ_k a_jk² + b_jk²) over its harmonics;
+        1 for ``seed_gait``, so radians on the built-in swimmers).
     rotation_tolerance : float
         Largest model-predicted |net rotation| per cycle of an accepted gait.
     min_cycles_per_iteration : int
@@ -242,7 +259,6 @@ class InSituOptimizer(Estimator):
         "direction_frame": Options(("world", "body")),
         "family": Options(("auto", "free", "symmetric")),
         "step_rule": Options(tuple(STEP_RULES)),
-        "max_joint_angle": Real(low=0, high=np.pi, low_open=True),
         "max_joint_velocity": Real(low=0, low_open=True, none=True),
         "trust_radius": Real(low=0, low_open=True),
         "min_trust_radius": Real(low=0, low_open=True),
@@ -261,12 +277,12 @@ class InSituOptimizer(Estimator):
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
                  objective: str = "progress", direction=None, direction_frame: str = "world",
                  family: str = "auto", step_rule: str = "linear",
-                 max_joint_angle: float = 2 * np.pi / 3, max_joint_velocity: float | None = None,
+                 max_joint_angle="auto", max_joint_velocity: float | None = None,
                  trust_radius: float = 0.1, min_trust_radius: float = 0.02, max_trust_radius: float = 0.15,
                  rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2, cycles_per_iteration: int = 30,
                  rebase: str = "all", covariance_inflation: float = 1.0, constant_variance: float = 0.0,
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
-                 prediction_tolerance: float | None = 0.5):
+                 prediction_tolerance: float | None = 0.5, shape_scale="auto"):
         self.model = model
         self.gate = gate
         self.gamma_threshold = gamma_threshold
@@ -291,6 +307,7 @@ class InSituOptimizer(Estimator):
         self.settle_cycles = settle_cycles
         self.max_tracking_error = max_tracking_error
         self.prediction_tolerance = prediction_tolerance
+        self.shape_scale = shape_scale
 
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
     def describe(self) -> dict:
@@ -314,6 +331,13 @@ class InSituOptimizer(Estimator):
                 raise fail("direction", owner, "a non-zero finite 2-vector or None", self.direction)
         check_float(self.max_trust_radius, "max_trust_radius", owner, low=self.min_trust_radius)
         check_float(self.trust_radius, "trust_radius", owner, low=self.min_trust_radius, high=self.max_trust_radius)
+        for name in ("max_joint_angle", "shape_scale"):  # in the robot's shape units: no upper bound
+            value = getattr(self, name)
+            if isinstance(value, str):
+                if value != "auto":
+                    raise fail(name, owner, "a positive float or 'auto'", value)
+            else:
+                check_float(value, name, owner, low=0, low_open=True)
         if self.max_tracking_error not in (None, "auto"):
             check_float(self.max_tracking_error, "max_tracking_error", owner, low=0, low_open=True)
 
@@ -356,8 +380,9 @@ class InSituOptimizer(Estimator):
         check_robot(robot, owner)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
         gait = robot.gait.with_order(self.order)
-        if gait.joint_limit().max() > self.max_joint_angle + 1e-12:
-            raise fail("robot", owner, f"a seed gait within max_joint_angle = {self.max_joint_angle:.4g}",
+        r_max = self._joint_limit(robot, owner)
+        if gait.joint_limit().max() > r_max + 1e-12:
+            raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
                        f"a gait reaching {gait.joint_limit().max():.4g} rad")
         if self.max_joint_velocity is not None:
             speed = np.abs(gait.velocity(np.linspace(0, 2 * np.pi, 256, endpoint=False))).max() * 2 * np.pi / period
@@ -366,9 +391,10 @@ class InSituOptimizer(Estimator):
                            f"a gait reaching {speed:.4g} rad/s")
         family = self._family(robot, gait)
         robot.set_gait(gait)
-        state = _State(gait=gait, radius=self.trust_radius, model=self._new_model(gait, period, family),
+        scale = self._shape_scale(gait)
+        state = _State(gait=gait, radius=self.trust_radius * scale, model=self._new_model(gait, period, family, scale),
                        n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
-                       settle_left=self.settle_cycles)
+                       settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale)
         return _Loop(self, robot, state, checkpoint, checkpoint_every).run(callback, record)
 
     @classmethod
@@ -402,11 +428,14 @@ class InSituOptimizer(Estimator):
         except (KeyError, TypeError, ValueError, IndexError) as error:
             raise GeogaitError(f"{path} is an inconsistent optimiser checkpoint: {error}") from None
         if state.model is None:  # not fitted yet when saved (the "cycles" gate's first iteration)
-            state.model = optimizer._new_model(state.gait, state.period, state.family)
+            state.model = optimizer._new_model(state.gait, state.period, state.family,
+                                               optimizer._shape_scale(state.gaits[0]))
         check_robot(robot, "InSituOptimizer.resume")
         if robot.gait.n_joints != state.gait.n_joints:
             raise fail("robot", "InSituOptimizer.resume", f"a robot with {state.gait.n_joints} joints",
                        robot.gait.n_joints)
+        state.max_joint_angle = optimizer._joint_limit(robot, "InSituOptimizer.resume")
+        state.scale = optimizer._shape_scale(state.gaits[0])
         if n_cycles is not None:
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=1)
         robot_state = metadata.get("robot_state")
@@ -416,6 +445,32 @@ class InSituOptimizer(Estimator):
             robot.set_gait(state.robot_gait)
         loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"])
         return loop.run(callback, record)
+
+    # -- scale and limits from the robot --------------------------------------------------------
+    def _joint_limit(self, robot, owner: str) -> float:
+        """r_max: the parameter, or (``"auto"``) from the robot's declared joint ranges."""
+        if not isinstance(self.max_joint_angle, str):
+            return float(self.max_joint_angle)
+        ranges = getattr(robot, "joint_ranges", None)
+        if ranges is None:
+            return DEFAULT_MAX_JOINT_ANGLE
+        ranges = np.asarray(ranges, dtype=float) if _is_numeric(ranges) else None
+        if ranges is None or ranges.shape != (robot.n_joints, 2) or np.any(np.isnan(ranges)) \
+                or np.any(ranges[:, 0] >= 0) or np.any(ranges[:, 1] <= 0):
+            raise fail("robot.joint_ranges", owner, f"an array of shape ({robot.n_joints}, 2) of (low < 0 < high) "
+                       "joint ranges (rad)", getattr(robot, "joint_ranges", None))
+        limit = float(np.min(np.minimum(-ranges[:, 0], ranges[:, 1])))
+        return limit if np.isfinite(limit) else DEFAULT_MAX_JOINT_ANGLE
+
+    def _shape_scale(self, seed: FourierGait) -> float:
+        """The unit of shape (``shape_scale``): the parameter, or the seed gait's largest amplitude."""
+        if not isinstance(self.shape_scale, str):
+            return float(self.shape_scale)
+        amplitude = float(np.sqrt((seed.coefficients[:, 1:] ** 2).sum(axis=1)).max())
+        if not amplitude > 0:
+            raise fail("robot", "InSituOptimizer.run", "a seed gait that moves its joints (shape_scale='auto' "
+                       "is its amplitude)", "a constant gait")
+        return amplitude
 
     # -- gait family --------------------------------------------------------------------------
     def _family(self, robot, gait: FourierGait):
@@ -438,10 +493,10 @@ class InSituOptimizer(Estimator):
         # both default models offer the same protocol (online Γ, partial_fit, rebase, saving)
         return self.model if self.model is not None else AdaptiveGaitModel()
 
-    def _new_model(self, gait: FourierGait, period: float, family=None):
+    def _new_model(self, gait: FourierGait, period: float, family=None, scale: float = 1.0):
         if self.model is None:
             if isinstance(family, SymmetricGaitFamily):
-                return symmetric_chain_model(gait.n_joints)
+                return symmetric_chain_model(gait.n_joints, shape_scale=scale)
             return AdaptiveGaitModel(gait=gait, forgetting_factor=1 - 0.1 / gait.n_joints,
                                      phase_rate=2 * np.pi / period)
         params = self.model.get_params(deep=False)
@@ -476,7 +531,7 @@ class InSituOptimizer(Estimator):
 
     def _limits(self, state):
         speed = None if self.max_joint_velocity is None else self.max_joint_velocity * state.period / (2 * np.pi)
-        return joint_limit_constraints(state.gait.n_joints, self.order, self.max_joint_angle, speed)
+        return joint_limit_constraints(state.gait.n_joints, self.order, state.max_joint_angle, speed)
 
     def _step(self, state) -> bool:
         """Propose, check and (maybe) take a step; returns whether the gait changed.
@@ -492,7 +547,7 @@ class InSituOptimizer(Estimator):
                               direction=self._direction(state))
         params = family.params_of(gait, tolerance=1e-8)
         value, _, pose, _ = problem.evaluate(params)
-        state.update_radius(value, self.min_trust_radius, self.max_trust_radius)
+        state.update_radius(value, self.min_trust_radius * state.scale, self.max_trust_radius * state.scale)
         state.last_prediction = value
         restores = False
         target = 0.0
@@ -507,13 +562,13 @@ class InSituOptimizer(Estimator):
             self._change_gait(state, step.gait)
             return True
         if restores:  # the model could not find a feasible restoring step: trust it less far
-            state.radius = max(self.min_trust_radius, state.radius / 2)
+            state.radius = max(self.min_trust_radius * state.scale, state.radius / 2)
         return False
 
     def _change_gait(self, state, gait) -> None:
         """Re-centre the model on ``gait`` and start a new iteration on it."""
         if self._gate() == "cycles":
-            state.model = self._new_model(gait, state.period, state.family)
+            state.model = self._new_model(gait, state.period, state.family, state.scale)
         else:
             state.model.rebase(gait, terms=self.rebase, covariance_inflation=self.covariance_inflation,
                                constant_variance=self.constant_variance)
@@ -532,7 +587,7 @@ def _is_numeric(value) -> bool:
     return True
 
 
-def symmetric_chain_model(n_joints: int):
+def symmetric_chain_model(n_joints: int, shape_scale: float = 1.0):
     """The default model where the optimiser searches the rotation-free symmetric family.
 
     :class:`~geogait.models.ShapeSpaceModel` of degree 4 with the chain's mirror and front–back
@@ -540,9 +595,20 @@ def symmetric_chain_model(n_joints: int):
     factor 0.999 up to 4 joints and 0.9999 beyond (more weights need a longer memory). On the
     built-in 5- and 9-link swimmers it reaches 95–96 % and 71–74 % of the ceiling in 30–60 cycles,
     against 85–91 % and 59–64 % for the local window model (``make bench-robots``).
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d.
+    shape_scale : float
+        The model's unit of shape (the optimiser passes its own ``shape_scale``).
+
+    Returns
+    -------
+    ShapeSpaceModel
     """
     return models.ShapeSpaceModel(degree=4, degree_shrinkage=30.0, symmetry="mirror+reversal",
-                                  forgetting_factor=0.999 if n_joints <= 4 else 0.9999)
+                                  forgetting_factor=0.999 if n_joints <= 4 else 0.9999, shape_scale=shape_scale)
 
 
 def _declares_symmetry(robot) -> bool:
@@ -564,11 +630,21 @@ def _has_online_gamma(model) -> bool:
 # -- measuring a cycle --------------------------------------------------------------------------
 @dataclass(frozen=True)
 class CycleMeasurement:
-    """What one cycle of a robot tells about its gait, from its own samples."""
+    """What one cycle of a robot tells about its gait, from its own samples.
 
-    net: np.ndarray  # (x, y, heading) over the cycle, body frame at its start
-    start: np.ndarray  # world pose at the start of the cycle
-    tracking_error: float  # RMS realised − commanded shape (rad)
+    Parameters
+    ----------
+    net : ndarray of shape (3,)
+        Net motion (x, y, heading) over the cycle, in the body frame at its start.
+    start : ndarray of shape (3,)
+        World pose at the start of the cycle.
+    tracking_error : float
+        RMS realised − commanded shape over the cycle (shape units).
+    """
+
+    net: np.ndarray
+    start: np.ndarray
+    tracking_error: float
 
 
 def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: str) -> CycleMeasurement:
@@ -577,6 +653,21 @@ def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: st
     The end pose is the last sample's pose advanced by its measured body velocity over one sample
     interval (exact for a zero-order-hold robot such as ``SwimmerStream``). Without
     ``commanded_shape`` the tracking error is measured against the nominal gait θ(φ) itself.
+
+    Parameters
+    ----------
+    chunk : Trajectory
+        One cycle of a robot (``next_cycle()``), without a trial axis.
+    gait : FourierGait
+        The nominal gait the robot ran.
+    period : float
+        Seconds per cycle (the last sample's interval is ``period / n``).
+    owner : str
+        Name used in error messages (who asked).
+
+    Returns
+    -------
+    CycleMeasurement
     """
     if not isinstance(chunk, Trajectory):
         raise fail("robot", owner, "a next_cycle() returning a geogait.simulate.Trajectory", type(chunk).__name__)
@@ -633,6 +724,8 @@ class _State:
     rows: list = field(default_factory=list)
     gaits: list = field(default_factory=list)
     family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
+    max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
+    scale: float = 1.0  # the robot's unit of shape (shape_scale)
 
     def restart_iteration(self):
         self.cycles_in_iteration = 0
@@ -803,7 +896,8 @@ class _Loop:
             if self.checkpoint is not None and due:
                 self._save()
         return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
-                            gaits=list(state.gaits), model=state.model,
+                            gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
+                            shape_scale=state.scale,
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:
@@ -824,7 +918,7 @@ class _Loop:
             if state.iteration == 0:
                 state.seed_measured.append(value)
                 state.seed_tracking.append(measured.tracking_error)
-                state.tracking_limit = max(_TRACKING_FLOOR, 2 * float(np.mean(state.seed_tracking)))
+                state.tracking_limit = max(_TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.seed_tracking)))
             rejected = self._tracking_rejects(measured)
             if not rejected:
                 state.learn(chunk, self.gate)
@@ -866,7 +960,7 @@ class _Loop:
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
         state.promised = None
-        state.radius = max(optimizer.min_trust_radius, state.radius / 2)
+        state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
         previous = state.previous_gait
         optimizer._change_gait(state, previous)
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try

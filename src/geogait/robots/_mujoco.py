@@ -315,6 +315,15 @@ class MujocoRobot:
                        self.cycle_period)
         return steps
 
+    @property
+    def joint_ranges(self) -> np.ndarray:
+        """(d, 2) ranges (rad) of the shape joints from the model; ±inf for unlimited joints.
+
+        :class:`~geogait.optimize.InSituOptimizer` derives its joint limit from them
+        (``max_joint_angle="auto"``).
+        """
+        return self._joint_ranges()
+
     def _joint_ranges(self) -> np.ndarray:
         """(d, 2) joint ranges; ±inf for unlimited joints."""
         ranges = np.array([self.model.jnt_range[j] for j in self._joint_ids], dtype=float)
