@@ -25,7 +25,7 @@ from geogait.io import (
     load_stream_model,
     run_stream,
 )
-from geogait.models import AdaptiveGaitModel, load_model
+from geogait.models import AdaptiveGaitModel, _kernels, load_model
 from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
@@ -49,11 +49,16 @@ def config(tmp_path):
 
 
 def assert_same_model(saved, expected):
-    np.testing.assert_array_equal(saved.window_weights_, expected.window_weights_)
-    np.testing.assert_array_equal(saved.covariance_, expected.covariance_)
-    np.testing.assert_array_equal(saved.psi_, expected.psi_)
-    np.testing.assert_array_equal(saved.phase_model_.bank_.weights, expected.phase_model_.bank_.weights)
-    np.testing.assert_array_equal(saved.phase_model_.bank_.covariance, expected.phase_model_.bank_.covariance)
+    """RLS state of a streamed model equal to the batch path's: bit for bit on the NumPy reference path,
+    to 1e-12 of each array's scale on the compiled one (summation order only; geogait.models._kernels)."""
+    exact = not _kernels.fast_path_available()
+    for a, b in ((saved.window_weights_, expected.window_weights_), (saved.covariance_, expected.covariance_),
+                 (saved.psi_, expected.psi_), (saved.phase_model_.bank_.weights, expected.phase_model_.bank_.weights),
+                 (saved.phase_model_.bank_.covariance, expected.phase_model_.bank_.covariance)):
+        if exact:
+            np.testing.assert_array_equal(a, b)
+        else:
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
     assert saved.n_samples_seen_ == expected.n_samples_seen_ and saved.gait_ == expected.gait_
 
 
@@ -77,9 +82,9 @@ def test_5000_samples_through_the_console_script_equal_the_in_process_and_batch_
     np.testing.assert_array_equal(prediction, expected_prediction)
     np.testing.assert_array_equal(gamma, expected_gamma)
     batch = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(run))  # one partial_fit of all 5 000 samples
-    np.testing.assert_allclose(prediction, batch.prior_prediction_, rtol=0, atol=1e-13)
-    np.testing.assert_allclose(gamma, batch.online_gamma_, rtol=0, atol=1e-13)
-    assert_same_model(load_model(out), batch)  # RLS state bit-identical to the batch path
+    np.testing.assert_allclose(prediction, batch.prior_prediction_, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gamma, batch.online_gamma_, rtol=0, atol=1e-12)
+    assert_same_model(load_model(out), batch)  # RLS state as the batch path's (bit for bit without numba)
     assert "5000 of 5000 samples learned" in done.stderr and gamma[-1] > 0.6  # measured 0.741 (noise 0.1)
 
 
