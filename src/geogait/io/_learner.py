@@ -31,6 +31,7 @@ from ._records import StreamOutput, StreamSample
 
 __all__ = ["OnlineDifferentiator", "StreamLearner", "load_stream_model"]
 
+_TWO_PI = 2 * np.pi
 #: Accepted samples whose medians and spreads define the stream's plausibility bound.
 PLAUSIBILITY_WINDOW = 1000
 #: Accepted samples before the relative bound applies (before: only ±1e12).
@@ -261,7 +262,8 @@ class StreamLearner:
         self.model.partial_fit(phase, sample.shape, rate, sample.body_velocity)
         self._gamma = float(self.model.online_gamma_[-1])  # = model.gamma_, without recomputing it
         prediction = self.model.prior_prediction_[0]
-        if not (math.isfinite(self._gamma) and np.all(np.isfinite(prediction))):
+        x, y, theta = prediction.tolist()
+        if not (math.isfinite(self._gamma) and math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             self.broken = (f"The model went non-finite at input line {sample.line} (online Γ {self._gamma}); it is "
                            "not saved (the last checkpoint, if any, is kept).")
             raise GeogaitError(self.broken)
@@ -381,7 +383,7 @@ class StreamLearner:
             return self.online_phaser.update(sample.shape)
         if sample.phase is None:
             raise fail("phase", f"input line {sample.line}", "given (or stream with a fitted Phaser)", None)
-        return float(np.mod(sample.phase, 2 * np.pi))
+        return float(sample.phase) % _TWO_PI  # float % is np.mod (both take the sign of the divisor)
 
     def _rate(self, sample: StreamSample) -> np.ndarray | None:
         if sample.time is not None:

@@ -92,12 +92,15 @@ def _learn_one(phase, shape, rate, velocity, scale, max_phase, max_magnitude, ch
         # -- rank-one RLS update with forgetting and the trace clamp (RLSBank._step)
         P = covariance[m]
         W = weights[m]
-        denominator = 0.0
+        # Px, summed over j in order for every i; P is exactly symmetric (the update keeps it so), so
+        # walking its rows j (contiguous, vectorised across i) gives the same sums as (P x)_i = Σ_j P_ij x_j
         for i in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += P[i, j] * x[j]
-            px[i] = acc
+            px[i] = 0.0
+        for j in range(n):
+            xj = x[j]
+            for i in range(n):
+                px[i] += P[j, i] * xj
+        denominator = 0.0
         for i in range(n):
             denominator += x[i] * px[i]
         denominator = lam + denominator
@@ -112,10 +115,12 @@ def _learn_one(phase, shape, rate, velocity, scale, max_phase, max_magnitude, ch
         root = 1 / math.sqrt(denominator)
         for i in range(n):
             px[i] = px[i] * root
+        for i in range(n):
+            si = px[i]
+            for j in range(n):
+                P[i, j] = (P[i, j] - si * px[j]) * inv_lam
         trace = 0.0
         for i in range(n):
-            for j in range(n):
-                P[i, j] = (P[i, j] - px[i] * px[j]) * inv_lam
             trace += P[i, i]
         if trace > max_trace:
             factor = max_trace / trace
