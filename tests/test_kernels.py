@@ -179,3 +179,25 @@ def test_other_inputs_take_the_reference_path():
     fast.partial_fit(phase[None], shape[None], rate[None], velocity[None])
     slow.partial_fit(phase[None], shape[None], rate[None], velocity[None])
     assert_same_state(fast, slow)
+
+
+def test_one_compiled_signature_serves_every_caller():
+    """A second signature would compile again (seconds) at some later sample: warm_up's must be the only one."""
+    import io
+
+    from _reference import lines
+
+    from geogait.io import StreamLearner, run_stream
+
+    assert _kernels.warm_up()
+    kernel = _kernels.learn_one_kernel()
+    signatures = len(kernel.signatures)
+    for links in (2, 3, 5):
+        gait = seed_gait(links - 1)
+        run = simulate(PurcellSwimmer(links), gait, 1, seed=0, sensor_noise=0.1)
+        run_stream(StreamLearner(AdaptiveGaitModel(gait=gait)), io.StringIO(lines(run)), io.StringIO())
+        model = AdaptiveGaitModel(gait=gait, forgetting_factor=1, gamma_forgetting=1, interaction=False)
+        model.fit(*fit_args(run, 30))  # a batch first (ψ is then a strided view)
+        one_at_a_time(model, run, start=30, stop=40)
+        assert model.n_samples_seen_ == 40
+    assert len(kernel.signatures) == signatures

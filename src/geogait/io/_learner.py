@@ -24,7 +24,7 @@ from .._validation import (
     fail,
 )
 from ..gaits import FourierGait
-from ..models import MAX_PHASE, AdaptiveGaitModel, load_model
+from ..models import MAX_PHASE, AdaptiveGaitModel, _kernels, load_model
 from ..phase import OnlinePhaser, Phaser
 from ._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ._records import StreamOutput, StreamSample
@@ -199,6 +199,7 @@ class StreamLearner:
                                                                             low=0, low_open=True)
         self.model = model
         self.n_joints = _n_joints(model)
+        _kernels.warm_up()  # load the compiled one-sample path now, not at the first sample (no-op without numba)
         self.online_phaser = None if phaser is None else OnlinePhaser(phaser, window=phase_window)
         if phaser is not None and phaser.n_channels_ != self.n_joints:
             raise fail("phaser", owner, f"a Phaser of {self.n_joints} channels (the model's joints)",

@@ -177,12 +177,14 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         bank, base = self.bank_, self.phase_model_.bank_
         nominal, nominal_rate = self._centre_nominal
         centres, half_width = self._cover
+        psi = self.psi_  # a strided view after the reference path: copied (the kernel is compiled for one layout)
+        psi = psi if psi.flags.c_contiguous else psi.copy()
         out = np.empty(9)
         status = kernel(phase, shape, shape_velocity, body_velocity, self._time_scale(), MAX_PHASE, MAX_MAGNITUDE,
                         not self.__dict__.get("_warned_degrees", False), centres, half_width, nominal, nominal_rate,
                         bool(self.interaction), bank.weights, bank.covariance, bank.n_updates,
                         float(bank.forgetting_factor), bank.max_trace, base.weights, base.covariance, base.n_updates,
-                        float(base.forgetting_factor), base.max_trace, self.psi_, float(self.gamma_forgetting), out)
+                        float(base.forgetting_factor), base.max_trace, psi, float(self.gamma_forgetting), out)
         if status:
             return False
         self._single = True

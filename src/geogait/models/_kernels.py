@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-__all__ = ["ENABLED", "fast_path_available", "fast_path_note", "learn_one_kernel"]
+__all__ = ["ENABLED", "fast_path_available", "fast_path_note", "learn_one_kernel", "warm_up"]
 
 #: Use the compiled one-sample path when numba is installed (set to False to force the NumPy reference).
 ENABLED = True
@@ -175,6 +175,20 @@ def learn_one_kernel():
             return None
         _kernel = numba.njit(cache=True, nogil=True, error_model="numpy")(_learn_one)
     return _kernel
+
+
+def warm_up() -> bool:
+    """Load (or compile, the first time after an install) the kernel now, not at the first sample; returns
+    :func:`fast_path_available`. A real-time loop calls it before its first sample (``geogait stream``)."""
+    kernel = learn_one_kernel()
+    if kernel is None:
+        return False
+    one = np.ones(1)
+    kernel(0.0, one * 0.5, one, np.zeros(3), 1.0, 1e9, 1e12, True, np.zeros(1), 4.0, np.zeros((1, 1)),
+           np.zeros((1, 1)), True, np.zeros((1, 4, 3)), np.eye(4)[None], np.zeros(1, dtype=np.int64), 0.99, 4.0,
+           np.zeros((1, 1, 3)), np.ones((1, 1, 1)), np.zeros(1, dtype=np.int64), 0.99, 1.0, np.zeros(2), 0.995,
+           np.empty(9))
+    return True
 
 
 def fast_path_available() -> bool:
