@@ -17,6 +17,7 @@ from ._rls import RLSBank
 
 __all__ = ["CONFIG_FORMAT", "AdaptiveGaitModel"]
 
+_FLOAT64 = np.dtype(np.float64)  # native float64: the only dtype the compiled one-sample path takes
 CONFIG_FORMAT = "geogait-model-config"
 CONFIG_VERSION = 1
 
@@ -168,11 +169,11 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         kernel = _kernels.learn_one_kernel()
         if kernel is None or self.__dict__.get("batch_shape_", None) != ():
             return False
-        d = self.n_joints_
-        for array, width in ((shape, d), (shape_velocity, d), (body_velocity, 3)):
-            if not (type(array) is np.ndarray and array.shape == (width,) and array.dtype == np.float64):
-                return False
-        if type(phase) is not float and type(phase) is not np.float64:
+        if not (type(shape) is np.ndarray and type(shape_velocity) is np.ndarray and type(body_velocity) is np.ndarray
+                and (type(phase) is float or type(phase) is np.float64)):
+            return False
+        if not (shape.shape == shape_velocity.shape == (self.n_joints_,) and body_velocity.shape == (3,)
+                and shape.dtype == shape_velocity.dtype == body_velocity.dtype == _FLOAT64):
             return False
         bank, base = self.bank_, self.phase_model_.bank_
         nominal, nominal_rate = self._centre_nominal
