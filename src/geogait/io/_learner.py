@@ -235,7 +235,8 @@ class StreamLearner:
         """Process one sample: plausibility, phase, ṙ, a-priori prediction, learning, checkpoint."""
         if self.broken is not None:
             raise GeogaitError(self.broken)
-        sample = self._in_seconds(sample)
+        if self.time_scale != 1.0:
+            sample = self._in_seconds(sample)
         self._clock(sample)
         d = self.n_joints
         values = self._values  # [shape, ṙ, ξ]; NaN where not given
@@ -308,7 +309,7 @@ class StreamLearner:
         One vectorised test per sample against ``_bound`` (±MAX_MAGNITUDE about 0 until the
         statistics exist); comparisons with NaN are False, so channels not given pass.
         """
-        if not (np.abs(values - self._centre) > self._bound).any():
+        if not np.count_nonzero(np.abs(values - self._centre) > self._bound):  # (count_nonzero: C, no Python wrapper)
             return None
         big = np.abs(values) > MAX_MAGNITUDE
         if big.any():
