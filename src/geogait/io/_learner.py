@@ -212,7 +212,10 @@ class StreamLearner:
         self.first_rejection: str | None = None
         self.last_saved: Path | None = None
         self.broken: str | None = None
-        self._history: deque[np.ndarray] = deque(maxlen=PLAUSIBILITY_WINDOW)
+        # the last PLAUSIBILITY_WINDOW accepted samples, one column each, written round the ring (a median does
+        # not depend on the order of its values); the first _n_history columns are filled
+        self._history = np.empty((2 * self.n_joints + 3, PLAUSIBILITY_WINDOW))
+        self._n_history = 0
         width = 2 * self.n_joints + 3
         self._values = np.empty(width)
         self._centre = np.zeros(width)
@@ -318,18 +321,18 @@ class StreamLearner:
         c = int(np.flatnonzero(np.abs(values - self._centre) > self._bound)[0])
         return (f"{self._channel_names()[c]} = {values[c]:g} is implausible: more than outlier_limit = "
                 f"{self.outlier_limit:g} robust standard deviations ({self._spread[c]:.3g}) from the median "
-                f"{self._centre[c]:.4g} of the last {len(self._history)} accepted samples")
+                f"{self._centre[c]:.4g} of the last {self._n_history} accepted samples")
 
     def _remember(self, values: np.ndarray) -> None:
         """Add an accepted sample; refresh the medians and spreads every ``PLAUSIBILITY_REFRESH`` samples."""
-        self._history.append(values.copy())
-        n = len(self._history)
+        self._history[:, self.n_learned % PLAUSIBILITY_WINDOW] = values
+        n = self._n_history = min(self._n_history + 1, PLAUSIBILITY_WINDOW)
         if self.outlier_limit is None or n < PLAUSIBILITY_MIN_SAMPLES or (
                 self._spread is not None and self.n_learned % PLAUSIBILITY_REFRESH):
             return
-        history = np.asarray(self._history)
-        self._centre = np.median(history, axis=0)
-        self._spread = 1.4826 * np.median(np.abs(history - self._centre), axis=0)
+        history = self._history[:, :n]
+        self._centre = np.median(history, axis=1)
+        self._spread = 1.4826 * np.median(np.abs(history - self._centre[:, None]), axis=1)
         # a channel without spread cannot be judged; nothing beyond ±MAX_MAGNITUDE passes either way
         relative = np.where(self._spread > 0, self.outlier_limit * self._spread, np.inf)
         self._bound = np.minimum(relative, MAX_MAGNITUDE - np.abs(self._centre))
