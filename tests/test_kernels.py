@@ -201,3 +201,23 @@ def test_one_compiled_signature_serves_every_caller():
         one_at_a_time(model, run, start=30, stop=40)
         assert model.n_samples_seen_ == 40
     assert len(kernel.signatures) == signatures
+
+
+def test_geogait_stream_says_in_one_line_when_numba_is_missing(monkeypatch, tmp_path):
+    import json
+
+    from _reference import lines
+    from typer.testing import CliRunner
+
+    from geogait.cli import app
+
+    monkeypatch.setattr(_kernels, "_kernel", None)
+    monkeypatch.setattr(_kernels, "_missing", "No module named 'numba'")
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps(AdaptiveGaitModel(gait=GAIT).to_config()))
+    run = simulate(SWIMMER, GAIT, 1, seed=0)
+    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "model.npz")],
+                                input=lines(run, stop=20))
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.stderr.splitlines() if "numba" in line]
+    assert len(notes) == 1 and "pip install 'geogait[fast]'" in notes[0]
