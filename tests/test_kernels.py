@@ -1,6 +1,8 @@
 """The compiled one-sample path (geogait.models._kernels) against the NumPy reference path, and the
 fallback when numba is missing."""
 
+import importlib.util
+
 import numpy as np
 import pytest
 from _reference import GAIT, SWIMMER, fit_args
@@ -13,7 +15,9 @@ from geogait.models import AdaptiveGaitModel, _kernels
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-numba = pytest.importorskip("numba", reason="the compiled path needs numba (pip install geogait[fast])")
+#: Tests of the compiled path itself; the others also run (on the reference path alone) without numba.
+needs_numba = pytest.mark.skipif(importlib.util.find_spec("numba") is None,
+                                 reason="the compiled path needs numba (pip install geogait[fast])")
 
 
 @pytest.fixture
@@ -55,6 +59,7 @@ def assert_same_state(fast, slow):
     assert fast.phase_model_.n_samples_seen_ == slow.phase_model_.n_samples_seen_
 
 
+@needs_numba
 def test_the_compiled_path_is_used_when_numba_is_installed():
     assert _kernels.fast_path_available() and _kernels.fast_path_note() is None
     model = AdaptiveGaitModel(gait=GAIT)
@@ -181,6 +186,7 @@ def test_other_inputs_take_the_reference_path():
     assert_same_state(fast, slow)
 
 
+@needs_numba
 def test_one_compiled_signature_serves_every_caller():
     """A second signature would compile again (seconds) at some later sample: warm_up's must be the only one."""
     import io
