@@ -303,3 +303,35 @@ def test_tracker_rejects_bad_settings(three_link):
     with pytest.raises(GeogaitError, match="'robot' parameter"):
         PathTracker().run(object(), ReferencePath.line(), 2)
     assert isinstance(FourierGait, type)
+
+
+def test_model_motion_reuses_the_model_terms_with_the_same_arithmetic():
+    """ModelMotion computes the model's own terms once per model state: bit-identical to predicted_displacement,
+    and recomputed when the model learns or is rebased (any order of candidate gait)."""
+    from geogait.models import predicted_displacement
+
+    gait = seed_gait(4)
+    run = simulate(PurcellSwimmer(5), gait, 6, seed=0, sensor_noise=0.1)
+    model = AdaptiveGaitModel(gait=gait).fit(run.phase[:300], run.shape[:300], run.shape_velocity[:300],
+                                             run.body_velocity[:300])
+    motion = ModelMotion(model)
+    candidates = [gait.with_params(gait.params * 1.05), gait.with_order(2), seed_gait(4, amplitude=0.8)]
+
+    def check():
+        for candidate in candidates:
+            expected = predicted_displacement(model, candidate, resolution=64, jacobian=True)
+            for actual, wanted in zip(motion(candidate, jacobian=True), expected, strict=True):
+                np.testing.assert_array_equal(actual, wanted)
+            np.testing.assert_array_equal(motion(candidate), expected[0])
+
+    check()
+    terms = motion._terms
+    check()
+    assert motion._terms is terms  # reused
+    model.partial_fit(run.phase[300:400], run.shape[300:400], run.shape_velocity[300:400], run.body_velocity[300:400])
+    check()
+    assert motion._terms is not terms  # the model learned: recomputed
+    model.rebase(candidates[0])
+    check()
+    with pytest.raises(GeogaitError, match="gait"):
+        motion(seed_gait(2))

@@ -170,7 +170,9 @@ def bracket(first, second) -> np.ndarray:
     b = np.asarray(second, dtype=float)
     vx = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     vy = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    return np.stack(np.broadcast_arrays(vx, vy, np.zeros_like(vx)), axis=-1)
+    out = np.zeros(vx.shape + (3,))  # vx and vy have the broadcast shape of a and b
+    out[..., 0], out[..., 1] = vx, vy
+    return out
 
 
 def integrate_body_velocity(body_velocity, dt, initial_pose=None) -> np.ndarray:

@@ -20,6 +20,7 @@ import typer
 from ..io import CsvReader, JsonLinesReader, StreamLearner, load_stream_model, run_stream
 from ..io._fit import check_outputs
 from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
+from ..models._kernels import fast_path_note
 from ..phase import Phaser
 from ._app import app
 from ._common import write_manifest
@@ -83,6 +84,9 @@ def stream(
     learner = StreamLearner(model, phaser=estimator, phase_window=phase_window, derivative_window=derivative_window,
                             path=target, save_every=save_every, time_unit=time_unit,
                             outlier_limit=None if outlier_limit == 0 else outlier_limit)
+    note = fast_path_note()
+    if note is not None:
+        typer.echo(note, err=True)
     reader = (CsvReader if fmt == "csv" else JsonLinesReader)(sys.stdin, learner.n_joints)
     summary = run_stream(learner, sys.stdin, sys.stdout, fmt=fmt, reader=_noting(reader, estimator is not None))
     if summary.reason == "output closed":

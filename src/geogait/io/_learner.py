@@ -24,13 +24,14 @@ from .._validation import (
     fail,
 )
 from ..gaits import FourierGait
-from ..models import MAX_PHASE, AdaptiveGaitModel, load_model
+from ..models import MAX_PHASE, AdaptiveGaitModel, _kernels, load_model
 from ..phase import OnlinePhaser, Phaser
 from ._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ._records import StreamOutput, StreamSample
 
 __all__ = ["OnlineDifferentiator", "StreamLearner", "load_stream_model"]
 
+_TWO_PI = 2 * np.pi
 #: Accepted samples whose medians and spreads define the stream's plausibility bound.
 PLAUSIBILITY_WINDOW = 1000
 #: Accepted samples before the relative bound applies (before: only ±1e12).
@@ -199,6 +200,7 @@ class StreamLearner:
                                                                             low=0, low_open=True)
         self.model = model
         self.n_joints = _n_joints(model)
+        _kernels.warm_up()  # load the compiled one-sample path now, not at the first sample (no-op without numba)
         self.online_phaser = None if phaser is None else OnlinePhaser(phaser, window=phase_window)
         if phaser is not None and phaser.n_channels_ != self.n_joints:
             raise fail("phaser", owner, f"a Phaser of {self.n_joints} channels (the model's joints)",
@@ -211,7 +213,10 @@ class StreamLearner:
         self.first_rejection: str | None = None
         self.last_saved: Path | None = None
         self.broken: str | None = None
-        self._history: deque[np.ndarray] = deque(maxlen=PLAUSIBILITY_WINDOW)
+        # the last PLAUSIBILITY_WINDOW accepted samples, one column each, written round the ring (a median does
+        # not depend on the order of its values); the first _n_history columns are filled
+        self._history = np.empty((2 * self.n_joints + 3, PLAUSIBILITY_WINDOW))
+        self._n_history = 0
         width = 2 * self.n_joints + 3
         self._values = np.empty(width)
         self._centre = np.zeros(width)
@@ -234,7 +239,8 @@ class StreamLearner:
         """Process one sample: plausibility, phase, ṙ, a-priori prediction, learning, checkpoint."""
         if self.broken is not None:
             raise GeogaitError(self.broken)
-        sample = self._in_seconds(sample)
+        if self.time_scale != 1.0:
+            sample = self._in_seconds(sample)
         self._clock(sample)
         d = self.n_joints
         values = self._values  # [shape, ṙ, ξ]; NaN where not given
@@ -262,7 +268,8 @@ class StreamLearner:
         self.model.partial_fit(phase, sample.shape, rate, sample.body_velocity)
         self._gamma = float(self.model.online_gamma_[-1])  # = model.gamma_, without recomputing it
         prediction = self.model.prior_prediction_[0]
-        if not (math.isfinite(self._gamma) and np.all(np.isfinite(prediction))):
+        x, y, theta = prediction.tolist()
+        if not (math.isfinite(self._gamma) and math.isfinite(x) and math.isfinite(y) and math.isfinite(theta)):
             self.broken = (f"The model went non-finite at input line {sample.line} (online Γ {self._gamma}); it is "
                            "not saved (the last checkpoint, if any, is kept).")
             raise GeogaitError(self.broken)
@@ -306,7 +313,7 @@ class StreamLearner:
         One vectorised test per sample against ``_bound`` (±MAX_MAGNITUDE about 0 until the
         statistics exist); comparisons with NaN are False, so channels not given pass.
         """
-        if not (np.abs(values - self._centre) > self._bound).any():
+        if not np.count_nonzero(np.abs(values - self._centre) > self._bound):  # (count_nonzero: C, no Python wrapper)
             return None
         big = np.abs(values) > MAX_MAGNITUDE
         if big.any():
@@ -315,18 +322,18 @@ class StreamLearner:
         c = int(np.flatnonzero(np.abs(values - self._centre) > self._bound)[0])
         return (f"{self._channel_names()[c]} = {values[c]:g} is implausible: more than outlier_limit = "
                 f"{self.outlier_limit:g} robust standard deviations ({self._spread[c]:.3g}) from the median "
-                f"{self._centre[c]:.4g} of the last {len(self._history)} accepted samples")
+                f"{self._centre[c]:.4g} of the last {self._n_history} accepted samples")
 
     def _remember(self, values: np.ndarray) -> None:
         """Add an accepted sample; refresh the medians and spreads every ``PLAUSIBILITY_REFRESH`` samples."""
-        self._history.append(values.copy())
-        n = len(self._history)
+        self._history[:, self.n_learned % PLAUSIBILITY_WINDOW] = values
+        n = self._n_history = min(self._n_history + 1, PLAUSIBILITY_WINDOW)
         if self.outlier_limit is None or n < PLAUSIBILITY_MIN_SAMPLES or (
                 self._spread is not None and self.n_learned % PLAUSIBILITY_REFRESH):
             return
-        history = np.asarray(self._history)
-        self._centre = np.median(history, axis=0)
-        self._spread = 1.4826 * np.median(np.abs(history - self._centre), axis=0)
+        history = self._history[:, :n]
+        self._centre = np.median(history, axis=1)
+        self._spread = 1.4826 * np.median(np.abs(history - self._centre[:, None]), axis=1)
         # a channel without spread cannot be judged; nothing beyond ±MAX_MAGNITUDE passes either way
         relative = np.where(self._spread > 0, self.outlier_limit * self._spread, np.inf)
         self._bound = np.minimum(relative, MAX_MAGNITUDE - np.abs(self._centre))
@@ -382,7 +389,7 @@ class StreamLearner:
             return self.online_phaser.update(sample.shape)
         if sample.phase is None:
             raise fail("phase", f"input line {sample.line}", "given (or stream with a fitted Phaser)", None)
-        return float(np.mod(sample.phase, 2 * np.pi))
+        return float(sample.phase) % _TWO_PI  # float % is np.mod (both take the sign of the divisor)
 
     def _rate(self, sample: StreamSample) -> np.ndarray | None:
         if sample.time is not None:

@@ -22,6 +22,8 @@ __all__ = ["PREDICTION_COLUMNS", "CsvReader", "JsonLinesReader", "StreamOutput",
 
 PREDICTION_COLUMNS = ("predicted_body_velocity_x", "predicted_body_velocity_y", "predicted_body_velocity_theta")
 _KEYS = ("time", "phase", "shape", "shape_velocity", "body_velocity")
+_KEY_SET = frozenset(_KEYS)
+_FLOAT = {float}
 
 
 # -- records ------------------------------------------------------------------------------------
@@ -120,6 +122,10 @@ class StreamSummary:
 
 # -- readers and writers ------------------------------------------------------------------------
 def _vector(value, name: str, line: int, size: int, required: bool) -> np.ndarray | None:
+    # the common case first: a list of ``size`` finite floats (the sum of finite floats is finite unless it
+    # overflows, which leaves the exact checks below to decide)
+    if type(value) is list and len(value) == size and {*map(type, value)} == _FLOAT and math.isfinite(sum(value)):
+        return np.array(value)
     if value is None:
         if required:
             raise fail(name, f"input line {line}", f"given: a list of {size} numbers", None)
@@ -174,9 +180,13 @@ class JsonLinesReader:
         except json.JSONDecodeError as error:
             raise fail("record", f"input line {line}", "a JSON object",
                        f"invalid JSON ({error.msg} at column {error.colno})") from None
+        if type(record) is dict and record.keys() <= _KEY_SET:
+            sample = self._plain(record, line)
+            if sample is not None:
+                return sample
         if not isinstance(record, dict):
             raise fail("record", f"input line {line}", "a JSON object", record)
-        unknown = sorted(set(record) - set(_KEYS))
+        unknown = sorted(set(record) - _KEY_SET)
         if unknown:
             raise fail("record", f"input line {line}", f"an object with keys among {list(_KEYS)}",
                        f"unknown key(s) {unknown}")
@@ -186,6 +196,30 @@ class JsonLinesReader:
                             time=_scalar(record.get("time"), "time", line),
                             phase=_scalar(record.get("phase"), "phase", line),
                             shape_velocity=_vector(record.get("shape_velocity"), "shape_velocity", line, d, False))
+
+
+    def _plain(self, record: dict, line: int) -> StreamSample | None:
+        """The common record at a third of the cost: vectors of the right lengths and every number a finite
+        float (one array holds them all); None leaves any other record to the checks of :meth:`parse`."""
+        d = self.n_joints
+        shape, velocity, rate = record.get("shape"), record.get("body_velocity"), record.get("shape_velocity")
+        if not (type(shape) is list and type(velocity) is list and len(shape) == d and len(velocity) == 3):
+            return None
+        if rate is None:
+            values = shape + velocity
+        elif type(rate) is list and len(rate) == d:
+            values = shape + velocity + rate
+        else:
+            return None
+        time, phase = record.get("time"), record.get("phase")
+        scalars = [v for v in (time, phase) if v is not None]
+        values += scalars
+        # finite floats only (a sum of finite floats is finite unless it overflows: then the exact checks run)
+        if {*map(type, values)} != _FLOAT or not math.isfinite(sum(values)):
+            return None
+        array = np.array(values)
+        return StreamSample(line=line, shape=array[:d], body_velocity=array[d:d + 3], time=time, phase=phase,
+                            shape_velocity=None if rate is None else array[d + 3:2 * d + 3])
 
 
 class CsvReader:
@@ -270,8 +304,25 @@ class _JsonLinesWriter:
         self.sink = sink
 
     def write(self, output: StreamOutput) -> None:
-        self.sink.write(dumps_json(output.to_dict()) + "\n")
+        self.sink.write(_learned_line(output) or dumps_json(output.to_dict()) + "\n")
         self.sink.flush()
+
+
+def _learned_line(output: StreamOutput) -> str | None:
+    """The JSON line of a learned sample with finite values, written directly: the same text as
+    ``json.dumps(output.to_dict())`` (floats by ``float.__repr__``, as :mod:`json` writes them) at a third of
+    the cost; None for any other output (it goes through :func:`dumps_json`)."""
+    if not output.learned or output.rejected is not None:
+        return None
+    x, y, theta = output.prediction.tolist()
+    try:  # None (no time stamp) or a value that is not a float: the general path
+        if not math.isfinite(output.time + output.phase + output.gamma + x + y + theta):
+            return None  # (an overflowing sum of finite values only costs the general path)
+        time, phase, gamma, x, y, theta = map(float.__repr__, (output.time, output.phase, output.gamma, x, y, theta))
+    except TypeError:
+        return None
+    return (f'{{"index": {output.index:d}, "time": {time}, "phase": {phase}, "prediction": [{x}, {y}, {theta}], '
+            f'"gamma": {gamma}, "learned": true}}\n')
 
 
 class _CsvWriter:

@@ -6,9 +6,10 @@ import numpy as np
 
 from .._docs import fill_doc
 from .._estimator import Real
-from .._validation import check_array, check_choice, check_float, fail, warn_if_degrees
+from .._validation import MAX_MAGNITUDE, check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
-from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
+from . import _kernels
+from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase
 from ._features import n_regressors, regressors
 from ._online_gamma import OnlineGamma
 from ._phase import phase_baseline
@@ -16,6 +17,7 @@ from ._rls import RLSBank
 
 __all__ = ["CONFIG_FORMAT", "AdaptiveGaitModel"]
 
+_FLOAT64 = np.dtype(np.float64)  # native float64: the only dtype the compiled one-sample path takes
 CONFIG_FORMAT = "geogait-model-config"
 CONFIG_VERSION = 1
 
@@ -141,6 +143,8 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         -------
         self
         """
+        if self._learn_one_compiled(phase, shape, shape_velocity, body_velocity):
+            return self
         phase, shape, shape_velocity, body_velocity = self._check_samples(
             phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
             owner="AdaptiveGaitModel.partial_fit")
@@ -157,6 +161,40 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
         return self
+
+    def _learn_one_compiled(self, phase, shape, shape_velocity, body_velocity) -> bool:
+        """The compiled one-sample path (:mod:`geogait.models._kernels`); False leaves the sample to the
+        reference path (numba missing, a model not yet started or batched, input that is not one plain
+        float64 sample, or one the reference checks must judge: non-finite, too large, degrees)."""
+        kernel = _kernels.learn_one_kernel()
+        if kernel is None or self.__dict__.get("batch_shape_", None) != ():
+            return False
+        if not (type(shape) is np.ndarray and type(shape_velocity) is np.ndarray and type(body_velocity) is np.ndarray
+                and (type(phase) is float or type(phase) is np.float64)):
+            return False
+        if not (shape.shape == shape_velocity.shape == (self.n_joints_,) and body_velocity.shape == (3,)
+                and shape.dtype == shape_velocity.dtype == body_velocity.dtype == _FLOAT64):
+            return False
+        bank, base = self.bank_, self.phase_model_.bank_
+        nominal, nominal_rate = self._centre_nominal
+        centres, half_width = self._cover
+        psi = self.psi_  # a strided view after the reference path: copied (the kernel is compiled for one layout)
+        psi = psi if psi.flags.c_contiguous else psi.copy()
+        out = np.empty(9)
+        status = kernel(phase, shape, shape_velocity, body_velocity, self._time_scale(), MAX_PHASE, MAX_MAGNITUDE,
+                        not self.__dict__.get("_warned_degrees", False), centres, half_width, nominal, nominal_rate,
+                        bool(self.interaction), bank.weights, bank.covariance, bank.n_updates,
+                        float(bank.forgetting_factor), bank.max_trace, base.weights, base.covariance, base.n_updates,
+                        float(base.forgetting_factor), base.max_trace, psi, float(self.gamma_forgetting), out)
+        if status:
+            return False
+        self._single = True
+        self.prior_prediction_ = out[None, :3]
+        self.psi_ = out[3:5]
+        self.online_gamma_ = out[5:6]
+        self.n_samples_seen_ += 1
+        self.phase_model_.n_samples_seen_ += 1
+        return True
 
     def _learn_one(self, phase, shape, shape_velocity, body_velocity, scale):
         """One sample straight into its covering windows (same arithmetic as :meth:`_learn`).
@@ -189,6 +227,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     def _set_gait(self, gait: FourierGait) -> None:
         self.gait_ = gait
         self._centre_nominal = self._nominal(self.windows_.centres)  # θ(φ_m), θ̇(φ_m), reused every sample
+        self._cover = (self.windows_.centres, self.windows_.width / 2 + 1e-12)  # the window test of PhaseWindows.cover
 
     @property
     def window_weights_(self) -> np.ndarray:

@@ -15,11 +15,14 @@ with :math:`\partial\delta_i/\partial p = ` the Fourier basis of joint i and
 
 from __future__ import annotations
 
+import functools
+from dataclasses import dataclass
+
 import numpy as np
 
 from .._estimator import check_is_fitted
 from .._validation import check_int, fail
-from ..gaits import FourierGait
+from ..gaits import FourierGait, fourier_basis
 from ..se2 import gauss_phases, integrate_cycle
 from ._features import regressors, split_coefficients
 
@@ -52,20 +55,71 @@ def predicted_displacement(model, gait: FourierGait | None = None, *, resolution
     if not isinstance(gait, FourierGait) or gait.n_joints != model.n_joints_:
         raise fail("gait", "predicted_displacement", f"a FourierGait with {model.n_joints_} joints", gait)
     resolution = check_int(resolution, "resolution", "predicted_displacement", minimum=4)
+    return displacement_from_terms(ModelTerms.of(model, resolution), gait, jacobian)
+
+
+@functools.lru_cache(maxsize=16)
+def _phase_basis(resolution: int, order: int, derivative: int) -> np.ndarray:
+    """``fourier_basis`` at the Gauss nodes of ``resolution`` steps (a pure function of its arguments, kept)."""
+    basis = fourier_basis(gauss_phases(resolution)[0].reshape(-1), order, derivative)
+    basis.setflags(write=False)
+    return basis
+
+
+@dataclass(frozen=True)
+class ModelTerms:
+    """What :func:`predicted_displacement` needs of a model, for every candidate gait: its nominal gait
+    and smoothed window weights at the Gauss nodes. A model read by many candidates (a steering
+    family, an optimiser's line search) computes them once; :meth:`current` checks they still hold."""
+
+    resolution: int
+    interaction: bool
+    n_joints: int
+    nominal: np.ndarray  # θ₀ at the nodes (2n, d)
+    nominal_rate: np.ndarray  # θ₀' at the nodes (2n, d)
+    weights: np.ndarray  # smoothed window weights batch + (2n, r, 3)
+    window_weights: np.ndarray  # a copy of the model's window weights they came from
+    gait: FourierGait
+    smoothing: tuple
+
+    @classmethod
+    def of(cls, model, resolution: int) -> ModelTerms:
+        """The terms of a fitted ``model`` at ``resolution`` Magnus steps."""
+        nodes, _ = gauss_phases(resolution)
+        phase = nodes.reshape(-1)
+        own = model.gait_
+        nominal = _phase_basis(resolution, own.order, 0) @ own.coefficients.T  # = own.shape(phase)
+        nominal_rate = _phase_basis(resolution, own.order, 1) @ own.coefficients.T  # = own.velocity(phase)
+        weights = model.smoothed_weights(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)
+        return cls(resolution, model.interaction, model.n_joints_, nominal, nominal_rate, weights,
+                   np.array(model.window_weights_), own, _smoothing(model))
+
+    def current(self, model) -> bool:
+        """Whether ``model`` still gives these terms (same gait, smoothing and window weights)."""
+        return (model.gait_ == self.gait and model.interaction == self.interaction
+                and _smoothing(model) == self.smoothing and np.array_equal(model.window_weights_, self.window_weights))
+
+
+def _smoothing(model) -> tuple:
+    return model.n_windows, model.window_width, model.smoothing_order, model.batch_shape_
+
+
+def displacement_from_terms(terms: ModelTerms, gait: FourierGait, jacobian: bool = False):
+    """:func:`predicted_displacement` of ``gait`` from a model's :class:`ModelTerms` (same arithmetic)."""
+    resolution = terms.resolution
     nodes, step = gauss_phases(resolution)
-    phase = nodes.reshape(-1)
     rate = 2 * np.pi  # the models regress in cycle time (see geogait.models._base)
-    delta = gait.shape(phase) - model.gait_.shape(phase)
-    delta_rate = (gait.velocity(phase) - model.gait_.velocity(phase)) * rate
-    weights = model.smoothed_weights(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)
-    velocity = np.einsum("nr,...nrj->...nj", regressors(delta, delta_rate, model.interaction), weights) / rate
+    basis, d_basis = _phase_basis(resolution, gait.order, 0), _phase_basis(resolution, gait.order, 1)  # (2n, c)
+    delta = basis @ gait.coefficients.T - terms.nominal  # θ(φ) − θ₀(φ)
+    delta_rate = (d_basis @ gait.coefficients.T - terms.nominal_rate) * rate
+    weights = terms.weights
+    velocity = np.einsum("nr,...nrj->...nj", regressors(delta, delta_rate, terms.interaction), weights) / rate
     velocity = velocity.reshape(velocity.shape[:-2] + nodes.shape + (3,))
     if not jacobian:
         return integrate_cycle(velocity, step)
-    parts = split_coefficients(weights, model.n_joints_)
+    parts = split_coefficients(weights, terms.n_joints)
     d_delta = parts["B"] + np.einsum("...nkij,nj->...nki", parts["dA"], delta_rate)  # batch+(2n, 3, d)
     d_rate = parts["A"] + np.einsum("...nkij,ni->...nkj", parts["dA"], delta)
-    basis, d_basis = gait.basis(phase), gait.basis(phase, 1)  # (2n, c)
     velocity_jacobian = (d_delta[..., None] * basis[:, None, None, :]
                          + d_rate[..., None] * rate * d_basis[:, None, None, :]) / rate  # batch+(2n, 3, d, c)
     velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-4] + nodes.shape + (3, -1))
