@@ -41,7 +41,12 @@ Safety (the robot is not the model):
   commanded again and the trust radius halves;
 * **prediction check** — the gate stays closed while the model's predicted objective of the
   current gait differs from the mean measured objective of its cycles by more than
-  ``prediction_tolerance`` (relative), however high Γ is.
+  ``prediction_tolerance`` (relative), however high Γ is;
+* **measured outcomes over the model** — every gait's learned cycles are kept with their measured
+  objective; when the gate would open on a gait whose mean is below the best gait measured so far by
+  more than ``revert_tolerance`` standard errors (pooled cycle-to-cycle spread), the steps have led
+  downhill whatever the model predicts (a model right about the current gait can be wrong about its
+  gradient): the best gait is commanded again and the trust radius halves.
 """
 
 from __future__ import annotations
@@ -85,7 +90,8 @@ class InSituResult:
         change, not learned from), ``gamma`` (online Γ over the iteration so far; NaN on settle
         cycles and on the burn-in cycle after a step, which only trains the reset baseline),
         ``step`` (a step was taken after this cycle), ``rejected`` (this cycle's gait was rejected
-        for poor tracking and the previous one commanded again), ``prediction_ok`` (the prediction
+        for poor tracking and the previous one commanded again), ``reverted`` (measured worse than
+        the best gait so far, which was commanded again), ``prediction_ok`` (the prediction
         check at a gate decision; NaN when none was made), ``trust_radius``,
         ``predicted_objective`` (the model's estimate for the gait of this cycle at the last step
         decision); measured from the robot: ``measured_x``, ``measured_y``, ``measured_heading``
@@ -146,6 +152,7 @@ class InSituResult:
             "final_measured_improvement": _finite(final / seed - 1),
             "steps": self.n_steps,
             "rejected_steps": self.n_rejected,
+            "reverted_to_best": int(self.log["reverted"].sum()) if "reverted" in self.log else 0,
             "max_tracking_error_rad": _finite(log["tracking_error"].max()),
             "max_joint_angle": _finite(self.max_joint_angle),
             "shape_scale": _finite(self.shape_scale),
@@ -221,6 +228,10 @@ class InSituOptimizer(Estimator):
         Largest commanded joint speed |θ̇_j| (rad per second at the robot's cycle period).
     trust_radius, min_trust_radius, max_trust_radius : float
         Initial, smallest and largest step length in parameter space, in units of ``shape_scale``.
+    revert_tolerance : float or None
+        Measured outcomes over the model (module docstring): when the current gait's mean measured
+        objective falls this many standard errors below the best gait measured so far, the best gait
+        is commanded again. ``None`` disables it.
     shape_scale : float or "auto"
         The robot's unit of shape: trust radii and the automatic tracking limit's floor are multiples
         of it, so the same defaults serve joints in radians, curvature modes or metres. ``"auto"``
@@ -272,6 +283,7 @@ class InSituOptimizer(Estimator):
         "constant_variance": Real(low=0),
         "settle_cycles": Integer(minimum=0),
         "prediction_tolerance": Real(low=0, low_open=True, none=True),
+        "revert_tolerance": Real(low=0, low_open=True, none=True),
     }
 
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
@@ -282,7 +294,7 @@ class InSituOptimizer(Estimator):
                  rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2, cycles_per_iteration: int = 30,
                  rebase: str = "all", covariance_inflation: float = 1.0, constant_variance: float = 0.0,
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
-                 prediction_tolerance: float | None = 0.5, shape_scale="auto"):
+                 prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0):
         self.model = model
         self.gate = gate
         self.gamma_threshold = gamma_threshold
@@ -308,6 +320,7 @@ class InSituOptimizer(Estimator):
         self.max_tracking_error = max_tracking_error
         self.prediction_tolerance = prediction_tolerance
         self.shape_scale = shape_scale
+        self.revert_tolerance = revert_tolerance
 
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
     def describe(self) -> dict:
@@ -724,6 +737,7 @@ class _State:
     rows: list = field(default_factory=list)
     gaits: list = field(default_factory=list)
     family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
+    measured: dict = field(default_factory=dict)  # gait -> measured objective of each of its learned cycles
     max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
     scale: float = 1.0  # the robot's unit of shape (shape_scale)
 
@@ -801,6 +815,10 @@ class _State:
                   "seed_measured": np.asarray(self.seed_measured, dtype=float),
                   "seed_tracking": np.asarray(self.seed_tracking, dtype=float),
                   "gaits": np.stack([g.coefficients for g in self.gaits])}
+        if self.measured:
+            arrays["measured/gaits"] = np.stack([g.coefficients for g in self.measured])
+            arrays["measured/counts"] = np.array([len(v) for v in self.measured.values()])
+            arrays["measured/values"] = np.concatenate([np.asarray(v, dtype=float) for v in self.measured.values()])
         if self.previous_gait is not None:
             arrays["previous_gait"] = self.previous_gait.coefficients
         if self.direction is not None:
@@ -836,6 +854,9 @@ class _State:
         state.seed_measured = arrays["seed_measured"].tolist()
         state.seed_tracking = arrays["seed_tracking"].tolist()
         state.gaits = [FourierGait(c) for c in arrays["gaits"]]
+        if "measured/gaits" in arrays:  # older checkpoints start the record afresh
+            values = np.split(arrays["measured/values"], np.cumsum(arrays["measured/counts"])[:-1])
+            state.measured = {FourierGait(c): v.tolist() for c, v in zip(arrays["measured/gaits"], values, strict=True)}
         names = ("phase", "shape", "shape_velocity", "body_velocity")
         state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
                                 for k in range(scalars["iteration_data"])]
@@ -906,7 +927,7 @@ class _Loop:
         measured = measure_cycle(chunk, ran, state.period, "InSituOptimizer.run")
         state.world_heading = float(measured.start[2])
         settling = state.settle_left > 0
-        step = rejected = False
+        step = rejected = reverted = False
         prediction_ok = np.nan
         value = np.nan
         if settling:
@@ -923,7 +944,10 @@ class _Loop:
             if not rejected:
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
+                state.measured.setdefault(state.gait, []).append(value)
                 if self._gate_open():
+                    reverted = self._measured_reverts()
+                if self._gate_open() and not reverted:
                     if self.gate == "cycles":
                         state.fit_iteration()
                     prediction_ok = float(self._prediction_agrees())
@@ -931,8 +955,8 @@ class _Loop:
                     if not step and self.gate == "cycles":  # prior work: another block of cycles, then retry
                         state.cycles_in_iteration = 0
         row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
-                        prediction_ok, measured, value)
-        if step or rejected:
+                        prediction_ok, measured, value, reverted)
+        if step or rejected or reverted:
             state.gaits.append(state.gait)
         state.robot_gait = state.gait
         self.robot.set_gait(state.gait)
@@ -966,6 +990,35 @@ class _Loop:
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
         return True
 
+    def _measured_reverts(self) -> bool:
+        """Measured outcomes over the model: go back to the best gait measured so far when the current
+        one is worse beyond noise.
+
+        Each gait's learned cycles give its mean measured objective; σ is the pooled cycle-to-cycle
+        standard deviation within gaits. When the current gait's mean falls below the best other
+        gait's by more than 2 σ √(1/n + 1/n_best), the model's steps have led the robot downhill,
+        whatever the model predicts: the best gait is commanded again (its further cycles refine its
+        mean, so a lucky best is corrected) and the trust radius halves.
+        """
+        state, optimizer = self.state, self.optimizer
+        if state.iteration == 0 or optimizer.revert_tolerance is None:
+            return False
+        counts = {g: len(v) for g, v in state.measured.items() if len(v) >= 2}
+        if state.gait not in counts or len(counts) < 2:
+            return False
+        means = {g: float(np.mean(state.measured[g])) for g in counts}
+        dof = sum(n - 1 for n in counts.values())
+        sigma = np.sqrt(sum(np.var(state.measured[g], ddof=1) * (n - 1) for g, n in counts.items()) / dof)
+        best = max((g for g in counts if g != state.gait), key=means.get)
+        margin = optimizer.revert_tolerance * sigma * np.sqrt(1 / counts[state.gait] + 1 / counts[best])
+        if not means[state.gait] < means[best] - margin:
+            return False
+        state.promised = None
+        state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        optimizer._change_gait(state, best)
+        state.previous_gait = None
+        return True
+
     def _gate_open(self) -> bool:
         state = self.state
         if self.gate == "cycles":
@@ -982,12 +1035,13 @@ class _Loop:
         measured = float(np.mean(self.state.iteration_measured))
         return bool(abs(predicted - measured) <= tolerance * abs(measured))
 
-    def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value) -> dict:
+    def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value, reverted) -> dict:
         state = self.state
         net = measured.net
         progress = float(np.hypot(net[0], net[1]))
-        row = {"cycle": state.cycle, "iteration": state.iteration - int(step) - int(rejected), "settling": settling,
-               "gamma": gamma, "step": step, "rejected": rejected, "prediction_ok": prediction_ok,
+        row = {"cycle": state.cycle, "iteration": state.iteration - int(step) - int(rejected) - int(reverted),
+               "settling": settling, "gamma": gamma, "step": step, "rejected": rejected, "reverted": reverted,
+               "prediction_ok": prediction_ok,
                "trust_radius": state.radius, "predicted_objective": state.last_prediction,
                "measured_x": net[0], "measured_y": net[1], "measured_heading": net[2],
                "measured_progress": progress, "measured_objective": value,
