@@ -65,6 +65,21 @@ def claim_output(path: Path, *, overwrite: bool, run_files=()) -> OutputLock:
     return lock
 
 
+def explain_nulls(value, reason: str = "not available for this run"):
+    """``value`` (JSON-ready, see :func:`~geogait._files.json_ready`) with a ``"<key>_null_reason"`` beside every
+    null that has none yet (the README's JSON rule), recursively."""
+    if isinstance(value, list):
+        return [explain_nulls(v, reason) for v in value]
+    if not isinstance(value, dict):
+        return value
+    out = {}
+    for key, item in value.items():
+        out[key] = explain_nulls(item, reason)
+        if item is None and not str(key).endswith("_null_reason") and f"{key}_null_reason" not in value:
+            out[f"{key}_null_reason"] = reason
+    return out
+
+
 def listed(values) -> str:
     """The comma-separated text of ``values`` (the inverse of :func:`comma_list`, for help defaults)."""
     return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in values)
