@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._files import describe_path_kind
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..se2 import wrap_angle
 
@@ -125,7 +126,7 @@ class ReferencePath:
         """
         path = Path(path)
         if not path.is_file():
-            raise GeogaitError(f"The waypoints file {path} does not exist.")
+            raise GeogaitError(f"The waypoints file {path} {describe_path_kind(path) or 'does not exist'}.")
         try:
             frame = pd.read_csv(path)
         except (ValueError, pd.errors.ParserError) as error:

@@ -333,7 +333,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
             try:
                 prior[..., outputs] = bank.update_sequence(z[..., None, :, :], y[..., None, :, :])[..., 0, :, :]
             except np.linalg.LinAlgError:
-                raise GeogaitError(self._too_large(shape)) from None
+                raise GeogaitError(self._too_large(shape, x)) from None
         check_finite_banks(self.banks_, f"{type(self).__name__}.partial_fit",
                            f"|shape / shape_scale| reaches {np.abs(shape).max() / self.shape_scale:.3g} at degree "
                            f"{self.degree}; give shape_scale about the shapes' range")
@@ -344,11 +344,13 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         self._flat = None
         return self
 
-    def _too_large(self, shape) -> str:
+    def _too_large(self, shape, features) -> str:
         reach = np.abs(shape).max() / self.shape_scale
-        return (f"The 'shape' values of {type(self).__name__}.partial_fit reach |shape / shape_scale| = {reach:.3g}: "
-                f"its monomials of degree {self.degree} lose the precision the filter needs. Give shape_scale about "
-                "the shapes' range (the model is no longer usable: fit a fresh one).")
+        return (f"The samples of {type(self).__name__}.partial_fit are too large for the model: |shape / shape_scale| "
+                f"reaches {reach:.3g} and its regressors (monomials of degree {self.degree} times the shape "
+                f"velocities) {np.abs(features).max():.3g}, beyond the precision the filter needs. Give shape_scale "
+                "about the shapes' range, and rates in a time unit of about a cycle (the model is no longer usable: "
+                "fit a fresh one).")
 
     def forget(self, factor: float):
         """Discount all evidence so far by ``factor`` at once (:meth:`AdaptiveGaitModel.forget

@@ -104,6 +104,9 @@ class ProcessRobot:
         Seconds to wait for each line before the driver is declared hung and stopped.
     cwd : path-like, optional
         Working directory of the driver.
+    check_cycles : bool
+        Check every cycle against the hello and the gait sent, quarantining implausible ones (module
+        docstring); False returns every cycle as the driver sent it.
 
     Attributes
     ----------
@@ -114,6 +117,10 @@ class ProcessRobot:
         Cycles run so far.
     front_back_symmetric : bool or None
         As declared by the driver (None: not said).
+    cycles_run : int
+        Cycles the driver ran, quarantined ones included.
+    quarantined : list of str
+        One line per quarantined cycle: its number (counting every cycle run) and the reason.
     """
 
     def __init__(self, command, *, timeout: float = 30.0, cwd=None, check_cycles: bool = True):
@@ -228,7 +235,7 @@ class ProcessRobot:
         error = np.sqrt(np.mean((followed - sent) ** 2)) if followed is not None else 0.0
         for earlier in self._earlier if followed is not None else ():
             other = np.sqrt(np.mean((followed - earlier.shape(cycle.phase)) ** 2))
-            if error > 2 * other + 1e-12:
+            if error > 1.5 * other + 1e-12:
                 return (f"the commanded shapes follow an earlier gait (RMS {other:.3g} rad), not the one sent "
                         f"(RMS {error:.3g} rad): set_gait ignored?")
         return self._pose_jump(cycle)
