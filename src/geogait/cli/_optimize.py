@@ -44,6 +44,7 @@ from ._common import claim_output, comma_list, console, listed, output_folder, p
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 _METHODS = ("adaptive", "shape", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
+MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
 #: Every file a run writes into its folder (removed at the start of a run with --overwrite).
 RUN_FILES = (RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "summary.json", "gait.png", "progress.png", "path.png")
@@ -206,6 +207,8 @@ def _optimizer(settings) -> InSituOptimizer:
                                      param_hint="--max-tracking-error") from None
     if settings["cycles"] is not None:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
+        if settings["cycles"] > MAX_CYCLES:
+            raise typer.BadParameter(f"at most {MAX_CYCLES} cycles, got {settings['cycles']}", param_hint="--cycles")
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
     model = {"batch": lambda: BatchGaitModel(),
