@@ -159,6 +159,14 @@ def test_an_output_set_is_all_or_nothing(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["a.csv", "summary.json"]
 
 
+def test_an_output_set_removes_the_members_it_no_longer_holds(tmp_path):
+    for name in ("model.npz", "phaser.npz", "mine.txt"):
+        write_text(tmp_path / name, "old")
+    with output_set(tmp_path, members=("model.npz", "phaser.npz")) as staged:
+        write_text(staged / "model.npz", "new")
+    assert sorted(os.listdir(tmp_path)) == ["mine.txt", "model.npz"]  # no phaser of an earlier fit beside the model
+
+
 def test_a_failing_track_run_leaves_the_earlier_run_whole(tmp_path, monkeypatch):
     folder = tmp_path / "t"
     options = ["track", "--quick", "--cycles", "2", "--warmup", "2", "--controllers", "adaptive", "--path", "line"]

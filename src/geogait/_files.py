@@ -535,11 +535,15 @@ class output_set:  # noqa: N801  (used as a context manager, like open)
         An existing folder.
     last : sequence of str
         Names moved into place after the others, in this order.
+    members : sequence of str
+        Every name the set may hold: those the block did not write are removed from ``folder`` when
+        the set is committed (no file of an earlier set is left beside a newer one).
     """
 
-    def __init__(self, folder, last=()):
+    def __init__(self, folder, last=(), members=()):
         self.folder = Path(folder)
         self.last = tuple(last)
+        self.members = tuple(members)
         self.staging: Path | None = None
 
     def __enter__(self) -> Path:
@@ -574,4 +578,7 @@ class output_set:  # noqa: N801  (used as a context manager, like open)
             except FileNotFoundError:
                 os.chmod(staged, 0o666 & ~_umask())
             os.replace(staged, target)
+        for name in self.members:
+            if name not in names:
+                (self.folder / name).unlink(missing_ok=True)
         _fsync_folder(self.folder)

@@ -225,7 +225,7 @@ def track(
     label = "robot" if robot is not None else f"{links}-link"
     with claim_output(out, overwrite=overwrite):  # checked and locked before any work; replaced as one set at the end
         folder = Path(out)
-        results = {}
+        results, quarantined = {}, {}
         progress = progress_bar()
         try:
             for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
@@ -244,6 +244,7 @@ def track(
 
                     results[name] = tracker.run(device, reference, n_cycles, start_offset=start_offset, callback=show,
                                                 record=True)
+                    quarantined[name] = list(getattr(device, "quarantined", []))
                 if name == "adaptive" and exploration != "fixed":
                     sizes = results[name].perturbation_std  # the others replay it: the same perturbations
         finally:
@@ -255,6 +256,9 @@ def track(
             summary[name] = result.summary() | {"final_gamma": float(result.log["gamma"].iloc[-1])}
             if name != "adaptive":
                 summary[name]["final_gamma_null_reason"] = f"the {name} controller does not learn: no online Γ"
+            if robot is not None:
+                summary[name]["quarantined_cycles"] = len(quarantined[name])
+                summary[name]["quarantine_reasons"] = quarantined[name][:20]
             ran = len(result.log)
             summary[name]["stopped_early"] = ran < n_cycles
             if ran < n_cycles:
