@@ -13,7 +13,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._files import OutputLock, dumps_json, output_set, read_state, write_text
+from .._files import OutputLock, describe_path_kind, dumps_json, output_set, read_state, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
     OptimizationConfig,
@@ -117,20 +117,20 @@ def optimize(
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
+    system, target = _target(settings)
     run_id = _run_id(settings)
     # the folder is locked for this run (a run still writing it is neither resumed nor overwritten)
     with (OutputLock(folder) if resume is not None else
           claim_output(folder, overwrite=overwrite, run_files=RUN_FILES)):
         if resume is not None:
             _check_resume(folder, settings, run_id)
-        summary = _optimize(optimizer, settings, folder, run_id, resume is not None, started)
+        summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
     console.print(dumps_json(summary, indent=1))
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
 
 
-def _optimize(optimizer, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
+def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
     """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set."""
-    system, target = _target(settings)
     ceiling = None
     if system is not None:
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
@@ -286,7 +286,8 @@ _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise
 def _read_settings(folder: Path) -> dict:
     path = folder / RUN_FILE
     if not folder.is_dir():
-        raise GeogaitError(f"--resume {folder}: no such folder.")
+        what = "is a file, not a run's folder" if folder.is_file() else describe_path_kind(folder) or "does not exist"
+        raise GeogaitError(f"--resume {folder}: {what}.")
     if not path.is_file() or not (folder / CHECKPOINT_FILE).is_file():
         raise GeogaitError(f"--resume {folder}: not the folder of an optimisation run with a checkpoint "
                            f"(needs {RUN_FILE} and {CHECKPOINT_FILE}; a run stopped before its first checkpoint "

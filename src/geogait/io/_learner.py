@@ -55,7 +55,7 @@ def load_stream_model(path) -> AdaptiveGaitModel:
     if path.suffix.lower() == ".json":
         if not path.is_file():
             raise fail("path", "load_stream_model", "an existing file",
-                       f"{path} ({describe_path_kind(path) or 'missing'})")
+                       f"{path} ({describe_path_kind(path) or 'does not exist'})")
         try:
             config = json.loads(path.read_text(encoding="utf-8"))
         except json.JSONDecodeError as error:
