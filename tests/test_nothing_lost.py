@@ -193,6 +193,25 @@ def test_track_checks_its_output_folder_before_running(tmp_path):
 
 
 @pytest.mark.slow
+def test_two_runs_into_one_folder_at_once_cannot_both_write_it(tmp_path):
+    folder = tmp_path / "run"
+    first = subprocess.Popen(GEOGAIT + ["optimize", "--cycles", "100000", "--out", str(folder)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and not (folder / "checkpoint.npz").exists():
+            time.sleep(0.05)
+        second = subprocess.run(GEOGAIT + ["optimize", "--cycles", "2", "--seed", "1", "--overwrite", "--out",
+                                           str(folder)], capture_output=True, text=True, timeout=120)
+        assert second.returncode == 1
+        assert f"being written by another geogait run (process {first.pid})" in second.stderr.strip().splitlines()[-1]
+        assert first.poll() is None and json.loads((folder / "run.json").read_text())["seed"] == 0
+    finally:
+        first.send_signal(signal.SIGTERM)
+        first.wait(timeout=60)
+
+
+@pytest.mark.slow
 def test_sigterm_ends_a_run_like_ctrl_c(tmp_path):
     folder = tmp_path / "run"
     process = subprocess.Popen(GEOGAIT + ["optimize", "--cycles", "100000", "--out", str(folder)],
