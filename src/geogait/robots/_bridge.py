@@ -39,9 +39,9 @@ What geogait checks (a driver is trusted with nothing):
   [1e-3, 86 400] s; error messages and stderr lines are cut to :data:`MAX_TEXT` characters;
 * every cycle against the hello and the gait it was sent: its samples span about one
   ``cycle_period`` (within a factor 2), the commanded phase sweeps the cycle (no gap over a
-  quarter cycle), every joint the gait moves does move, the commanded shapes (or, without them,
-  the measured ones) follow the gait sent rather than an earlier one (a driver ignoring
-  ``set_gait``), and no pose jumps further than 20× what the body velocity and the cycle's other
+  quarter cycle), every joint the gait moves sweeps at least 1 % of the gait's range, the
+  commanded shapes (when sent) follow the gait sent rather than an earlier one (RMS distance
+  more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps further than 20× what the body velocity and the cycle's other
   steps allow (also across the cycle boundary). An implausible cycle is **quarantined**: not
   returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
   :data:`MAX_QUARANTINED` in a row end the run with an error naming the reason.
@@ -228,9 +228,10 @@ class ProcessRobot:
                     "(phase stuck or not sweeping the cycle)")
         sent = self._gait.shape(cycle.phase)
         moving = np.ptp(sent, axis=0) > 1e-9
-        still = moving & (np.ptp(cycle.shape, axis=0) == 0)
+        still = moving & (np.ptp(cycle.shape, axis=0) < 0.01 * np.ptp(sent, axis=0))
         if still.any():
-            return f"joint(s) {np.flatnonzero(still).tolist()} never moved, though the gait sent moves them"
+            return (f"joint(s) {np.flatnonzero(still).tolist()} never moved (less than 1% of the range the gait sent "
+                    "sweeps)")
         followed = cycle.commanded_shape  # (measured shapes may leave a gait that saturates: the optimiser judges that)
         error = np.sqrt(np.mean((followed - sent) ** 2)) if followed is not None else 0.0
         for earlier in self._earlier if followed is not None else ():
