@@ -41,10 +41,12 @@ What geogait checks (a driver is trusted with nothing):
   ``cycle_period`` (within a factor 2), the commanded phase sweeps the cycle (no gap over a
   quarter cycle), every joint the gait moves sweeps at least 1 % of the gait's range, the
   commanded shapes (when sent) follow the gait sent rather than an earlier one (RMS distance
-  more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps further than 20× what the body velocity and the cycle's other
-  steps allow (also across the cycle boundary). An implausible cycle is **quarantined**: not
+  more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps
+  further than 20× what the body velocity and the cycle's other steps allow (also across the
+  cycle boundary). An implausible cycle is **quarantined**: not
   returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
-  :data:`MAX_QUARANTINED` in a row end the run with an error naming the reason.
+  :data:`MAX_QUARANTINED` in a row (or that many following an earlier gait since the last
+  ``set_gait``) end the run with an error naming the reason.
 """
 
 from __future__ import annotations
@@ -153,6 +155,7 @@ class ProcessRobot:
         self.line_number = 0
         self.cycle = 0
         self._earlier: list[FourierGait] = []  # gaits commanded before the current one (newest last)
+        self._ignored = 0
         self._last_pose = None
         try:
             self._handshake()
@@ -172,6 +175,7 @@ class ProcessRobot:
             raise fail("gait", "ProcessRobot.set_gait", f"a FourierGait with {self.n_joints} joints", gait)
         self._send({"type": "set_gait", "order": gait.order, "params": gait.params.tolist()})
         if gait != self._gait:
+            self._ignored = 0  # cycles since this change that followed an earlier gait
             self._earlier = [g for g in self._earlier if g != self._gait][-1:] + [self._gait]
             if self._hello_gait not in self._earlier and self._hello_gait != gait:
                 self._earlier.insert(0, self._hello_gait)
@@ -192,8 +196,10 @@ class ProcessRobot:
                 return trajectory
             in_a_row += 1
             self.quarantined.append(f"cycle {self.cycles_run - 1}: {reason}")
-            if in_a_row >= MAX_QUARANTINED:
-                raise self._failure(f"{MAX_QUARANTINED} implausible cycles in a row; the last: {reason}")
+            self._ignored += "set_gait ignored?" in reason
+            if in_a_row >= MAX_QUARANTINED or self._ignored >= MAX_QUARANTINED:
+                what = "in a row" if in_a_row >= MAX_QUARANTINED else "since the last set_gait"
+                raise self._failure(f"{MAX_QUARANTINED} implausible cycles {what}; the last: {reason}")
             warnings.warn(f"robot driver {self._name()}: cycle {self.cycles_run - 1} quarantined (not learned, run "
                           f"again): {reason}", GeogaitWarning, stacklevel=2)
 
