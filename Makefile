@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/geogait optimize --links 3 --out out/demo
+	$(BIN)/geogait optimize --links 3 --overwrite --out out/demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2

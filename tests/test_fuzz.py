@@ -355,3 +355,152 @@ def test_column_mappings_are_checked(tmp_path_factory, run, entries):
         read_log(run.to_pandas(), mapping)
     except GeogaitError as error:
         assert names_a_field(error), error
+
+
+# -- issue 21: the model loader, resume and the robot bridge ------------------------------------------------------
+LOADER_EDITS = st.lists(st.one_of(
+    st.tuples(st.just("param"), st.sampled_from(["n_windows", "smoothing_order", "forgetting_factor", "phase_rate",
+                                                 "window_width", "interaction", "initial_covariance"]),
+              st.one_of(WILD, st.none(), st.booleans(), st.text(max_size=3), st.lists(st.integers(), max_size=2))),
+    st.tuples(st.just("meta"), st.sampled_from(["n_joints", "batch_shape", "class", "format_version"]),
+              st.one_of(WILD, st.none(), st.booleans(), st.text(max_size=3), st.lists(WILD, max_size=3))),
+    st.tuples(st.just("array"), st.sampled_from(["weights", "covariance", "gait", "n_updates", "psi",
+                                                 "phase_model/weights", "n_samples_seen"]),
+              st.sampled_from(["nan", "inf", "complex", "empty", "scalar", "transpose", "huge", "int", "drop"]))),
+    min_size=1, max_size=3)
+
+
+def _edited_array(value: np.ndarray, how: str):
+    value = np.asarray(value)
+    return {"nan": lambda: np.full(value.shape, np.nan), "inf": lambda: np.full(value.shape, -np.inf),
+            "complex": lambda: value.astype(complex), "empty": lambda: np.zeros((0,)), "scalar": lambda: np.float64(3),
+            "transpose": lambda: value.T.copy(), "huge": lambda: np.full(value.shape, 1e300),
+            "int": lambda: value.astype(np.int64)}[how]()
+
+
+@settings(FUZZ, max_examples=60)
+@given(edits=LOADER_EDITS)
+@pytest.mark.filterwarnings("ignore::geogait.GeogaitWarning")
+def test_model_loader_gives_a_usable_model_or_a_clear_error(fitted, run, tmp_path_factory, edits):
+    import time
+
+    from geogait._files import write_state
+
+    metadata, state = fitted.get_state()
+    metadata, state = json.loads(json.dumps(metadata)), dict(state)
+    for kind, name, value in edits:
+        if kind == "param":
+            metadata["params"][name] = value
+        elif kind == "meta":
+            metadata[name] = value
+        elif value == "drop":
+            state.pop(name, None)
+        elif name in state:
+            state[name] = _edited_array(state[name], value)
+    path = tmp_path_factory.mktemp("loader") / "m.npz"
+    write_state(path, metadata, state)
+    started = time.perf_counter()
+    try:
+        model = load_model(path)
+    except GeogaitError as error:
+        assert "m.npz" in str(error), error
+    else:
+        prediction = model.predict(run.phase[:50], run.shape[:50], run.shape_velocity[:50])
+        assert prediction.shape == (50, 3) and np.all(np.isfinite(prediction))
+    assert time.perf_counter() - started < 5
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("resume") / "run"
+    result = CliRunner().invoke(app, ["optimize", "--cycles", "2", "--out", str(folder)])
+    assert result.exit_code == 0, result.output
+    return folder
+
+
+RESUME_EDITS = st.one_of(
+    st.tuples(st.just("setting"), st.sampled_from(["links", "seed", "noise", "method", "robot", "order",
+                                                   "run_id", "checkpoint_every", "max_tracking_error"]),
+              st.one_of(WILD, st.none(), st.booleans(), st.text(max_size=3), st.lists(st.integers(), max_size=2))),
+    st.tuples(st.just("drop"), st.sampled_from(["links", "seed", "run_id", "method"]), st.none()),
+    st.tuples(st.just("option"), st.sampled_from(["--links", "--seed", "--noise", "--method", "--out", "--order"]),
+              st.sampled_from(["5", "0", "batch", "elsewhere"])),
+    st.tuples(st.just("cycles"), st.none(), st.integers(-2, 2)),
+    st.tuples(st.just("raw"), st.none(), st.sampled_from(["{}", "", "[]", "null", '{"links": 3}', "{" * 5000])),
+)
+
+
+@settings(FUZZ, max_examples=25)
+@given(edit=RESUME_EDITS)
+def test_resume_continues_its_own_run_or_refuses_in_one_line(finished_run, tmp_path_factory, edit):
+    import shutil
+
+    folder = tmp_path_factory.mktemp("resume-edit") / "run"
+    shutil.copytree(finished_run, folder)
+    kind, name, value = edit
+    settings_path = folder / "run.json"
+    record = json.loads(settings_path.read_text())
+    options = []
+    if kind == "setting":
+        record[name] = value
+    elif kind == "drop":
+        record.pop(name)
+    elif kind == "option":
+        options = [name, value]
+    elif kind == "cycles":
+        options = ["--cycles", str(value)]
+    if kind == "raw":
+        settings_path.write_text(value)
+    else:
+        settings_path.write_text(json.dumps(record))
+    before = (folder / "checkpoint.npz").read_bytes()
+    result = CliRunner().invoke(app, ["optimize", "--resume", str(folder), *options])
+    error = check_cli(result)
+    unchanged = kind == "setting" and json.loads((finished_run / "run.json").read_text()).get(name) == value \
+        and type(value) is type(json.loads((finished_run / "run.json").read_text()).get(name))
+    if kind in ("setting", "drop", "option", "raw") and not unchanged:
+        assert result.exit_code == 1, (edit, result.output)  # never continues a run its run.json does not describe
+    if result.exit_code == 1:
+        assert error and (folder / "checkpoint.npz").read_bytes() == before
+
+
+FAULTS = ["none", "phase_stuck", "time_scale", "pose_jump", "frozen_joints", "ignore_set_gait", "string_numbers",
+          "bool_numbers", "bad_utf8", "endless_line", "huge_error", "huge_stderr", "deep_json"]
+HELLOS = st.one_of(st.just({}), st.fixed_dictionaries({}, optional={
+    "version": st.sampled_from([1.0, True, "1", 2, None]),
+    "cycle_period": st.one_of(WILD, st.sampled_from(["1", True, None])),
+    "n_joints": st.sampled_from([2.0, "2", True, 0, 3, -1]),
+    "protocol": st.sampled_from(["geogait-robot ", None, 1])}))
+
+
+@settings(FUZZ, max_examples=16)
+@given(fault=st.sampled_from(FAULTS), cycle=st.integers(0, 3), cycles=st.sampled_from([1, 9]),
+       magnitude=st.sampled_from([10.0, 1000.0, 1e6]), hello=HELLOS)
+@pytest.mark.slow
+def test_bridge_takes_a_plausible_cycle_or_quarantines_or_stops_in_one_line(fault, cycle, cycles, magnitude, hello):
+    """A fault-injecting driver (tests/_fault_driver.py): every injected fault is quarantined or ends the run with a
+    clear, bounded error; nothing else escapes, nothing hangs."""
+    import sys
+    import time
+    import warnings
+    from pathlib import Path
+
+    from geogait.optimize import InSituOptimizer
+    from geogait.robots import ProcessRobot
+
+    driver = [sys.executable, str(Path(__file__).with_name("_fault_driver.py")),
+              json.dumps({"fault": fault, "cycle": cycle, "cycles": cycles, "magnitude": magnitude, "hello": hello})]
+    started = time.perf_counter()
+    robot = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with ProcessRobot(driver, timeout=20) as robot:
+                InSituOptimizer().run(robot, 5)
+    except GeogaitError as error:
+        assert str(error).startswith("robot driver '") and len(str(error)) < 1200, error
+    else:
+        injected = fault != "none" and (fault == "ignore_set_gait" or cycle < 5)
+        if injected and fault not in ("ignore_set_gait", "time_scale") and not hello:
+            assert robot.quarantined, (fault, cycle)  # an injected fault is never learned from silently
+    assert time.perf_counter() - started < 40

@@ -213,6 +213,11 @@ class Estimator:
         return state
 
     @classmethod
+    def _check_stored(cls, metadata: dict, state: dict) -> None:
+        """Check the sizes the metadata claim against the stored arrays, before anything is allocated from
+        them (raise ``ValueError`` naming the mismatch; nothing to check by default)."""
+
+    @classmethod
     def can_save(cls) -> bool:
         """Whether a fitted instance can be saved (and an optimiser run with it checkpointed)."""
         return cls._format is not None
@@ -263,7 +268,16 @@ def estimator_from_state(metadata: dict, state: dict, file_format: str | None = 
     if metadata.get("class") not in classes:
         raise GeogaitError(f"unknown {_kind(file_format)} class {metadata.get('class')!r}.")
     cls = classes[metadata["class"]]
+    for name, value in state.items():  # what save guarantees, checked on the way back in
+        value = np.asarray(value)
+        if value.dtype.kind in "cOV" or (value.dtype.kind == "f" and not np.all(np.isfinite(value))):
+            what = "NaN or infinity" if value.dtype.kind == "f" else f"{value.dtype} values"
+            raise GeogaitError(f"the {_kind(file_format)} array {name!r} holds {what}; geogait never saves such a "
+                               "state (the file was changed or corrupted).")
+    if not isinstance(metadata.get("params"), dict):
+        raise GeogaitError(f"inconsistent {_kind(file_format)} state (corrupt file): no hyper-parameters.")
     try:
+        cls._check_stored(metadata, state)
         estimator = cls(**metadata["params"])
         estimator._set_state(cls._upgrade_state(state, metadata), metadata)
     except (KeyError, ValueError, IndexError, TypeError) as error:

@@ -33,8 +33,8 @@ import numpy as np
 
 from ._validation import GeogaitError
 
-__all__ = ["atomic_savez", "atomic_write", "check_writable", "dumps_json", "json_ready", "read_state", "write_json",
-           "write_state", "write_text"]
+__all__ = ["OutputLock", "atomic_savez", "atomic_write", "check_writable", "describe_path_kind", "dumps_json",
+           "json_ready", "output_set", "read_state", "write_json", "write_state", "write_text"]
 
 _UMASK_LOCK = threading.Lock()
 
@@ -341,31 +341,244 @@ def write_state(path, metadata: dict, state: dict[str, np.ndarray], *, require_f
     return atomic_savez(path, arrays)
 
 
-def read_state(path, kind: str, file_format: str, version: int | tuple[int, ...]) -> tuple[dict, dict]:
+#: Largest metadata record of a saved file (bytes) and largest uncompressed archive: a file that claims
+#: more is refused before it is read into memory.
+MAX_METADATA_BYTES = 16 << 20
+MAX_ARCHIVE_BYTES = 8 << 30
+
+
+def describe_path_kind(path: Path) -> str | None:
+    """Why ``path`` cannot be read as a file ("is a folder", "is a FIFO", ...); None for a regular file
+    and for a path that does not exist."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as error:
+        return f"cannot be read ({error.strerror})"
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder, not a file"
+    if stat.S_ISFIFO(mode):
+        return "is a FIFO (named pipe), not a regular file"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "is a device, not a regular file"
+    if stat.S_ISSOCK(mode):
+        return "is a socket, not a regular file"
+    return "is not a regular file"
+
+
+def _check_archive(path: Path, kind: str) -> None:
+    """Refuse an archive whose members would not fit in memory (sizes come from the zip directory)."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            infos = archive.infolist()
+    except (zipfile.BadZipFile, OSError, ValueError):
+        raise GeogaitError(f"{path} is not a readable geogait {kind} (corrupt or truncated file).") from None
+    total = sum(info.file_size for info in infos)
+    metadata = [info.file_size for info in infos if info.filename == "metadata.npy"]
+    if total > MAX_ARCHIVE_BYTES or (metadata and metadata[0] > MAX_METADATA_BYTES):
+        raise GeogaitError(f"{path} is not a readable geogait {kind}: it claims {total} bytes of arrays "
+                           f"(at most {MAX_ARCHIVE_BYTES} read) or a metadata record over {MAX_METADATA_BYTES} bytes.")
+
+
+def read_state(path, kind: str, file_format: str, version: int | tuple[int, ...], *,
+               require_finite: bool = False) -> tuple[dict, dict]:
     """Read a file written by :func:`write_state`, checking its format name and version.
 
     ``version`` is the version this geogait writes, or a tuple of every version it reads.
 
-    ``kind`` names the artefact in error messages ("model", "phaser").
+    ``kind`` names the artefact in error messages ("model", "phaser"). Complex and object arrays are
+    refused; with ``require_finite`` (models, phasers: :func:`write_state` never writes them
+    otherwise) so are floating-point arrays holding NaN or infinity.
     """
     path = Path(path)
+    odd = describe_path_kind(path)
+    if odd is not None:
+        raise GeogaitError(f"{kind.capitalize()} file {path} {odd}.")
     if not path.is_file():
         raise GeogaitError(f"{kind.capitalize()} file {path} does not exist.")
     if not zipfile.is_zipfile(path):
         raise GeogaitError(f"{path} is not a readable geogait {kind} (corrupt or truncated file, or another kind "
                            "of file: not an .npz archive).")
+    _check_archive(path, kind)
     try:
         with np.load(path, allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
-        metadata = json.loads(arrays.pop("metadata").tobytes().decode())
-    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError):
+        raw = arrays.pop("metadata")
+        if raw.dtype != np.uint8 or raw.ndim != 1:
+            raise ValueError("metadata is not a byte record")
+        metadata = json.loads(raw.tobytes().decode())
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError, KeyError, UnicodeDecodeError, RecursionError,
+            MemoryError):
         raise GeogaitError(f"{path} is not a readable geogait {kind} (corrupt or truncated file, or an .npz "
                            "written by another program).") from None
     found = metadata.get("format") if isinstance(metadata, dict) else None
     if found != file_format:
         raise GeogaitError(f"{path} is not a geogait {kind} file (format {found!r}).")
     versions = version if isinstance(version, tuple) else (version,)
-    if metadata.get("format_version") not in versions:
-        raise GeogaitError(f"{path} has {kind} format version {metadata.get('format_version')}; this geogait "
+    found_version = metadata.get("format_version")
+    if isinstance(found_version, bool) or found_version not in versions:
+        raise GeogaitError(f"{path} has {kind} format version {found_version!r}; this geogait "
                            f"reads version {' or '.join(map(str, versions))}.")
-    return metadata, {k.removeprefix("state/"): v for k, v in arrays.items()}
+    state = {k.removeprefix("state/"): v for k, v in arrays.items()}
+    for name, value in state.items():
+        if value.dtype.kind in "cOV":
+            raise GeogaitError(f"{path} is not a readable geogait {kind}: array {name!r} holds {value.dtype} "
+                               "values (real numbers expected).")
+        if require_finite and value.dtype.kind == "f" and not np.all(np.isfinite(value)):
+            raise GeogaitError(f"{path} is not a usable geogait {kind}: array {name!r} holds NaN or infinity "
+                               "(geogait never saves such a state; the file was changed or corrupted).")
+    return metadata, state
+
+
+# -- output folders -----------------------------------------------------------------------------
+LOCK_FILE = ".geogait.lock"
+_STAGING = re.compile(r"^\.geogait-staging\.(\d+)\.[^.]+$")
+
+
+class OutputLock:
+    """An exclusive lock on an output folder while one run writes it (``fcntl.flock`` on ``.geogait.lock``).
+
+    The lock is held on an open file, so the system releases it when the process ends in any way (even
+    ``kill -9``); the lock file itself stays (removing it would race with a run taking it). The
+    holder's process id is written into the file for the message another run gets.
+
+    Parameters
+    ----------
+    folder : path-like
+        An existing folder.
+
+    Raises
+    ------
+    GeogaitError
+        When another process holds the lock.
+    """
+
+    def __init__(self, folder):
+        import fcntl
+
+        self.folder = Path(folder)
+        path = self.folder / LOCK_FILE
+        try:
+            self._handle = os.open(path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+        except OSError as error:
+            raise GeogaitError(f"Cannot lock the output folder {self.folder}: {error.strerror}.") from None
+        try:
+            fcntl.flock(self._handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            try:
+                holder = os.pread(self._handle, 64, 0).decode("ascii", "replace").strip()
+            except OSError:
+                holder = ""
+            os.close(self._handle)
+            self._handle = None
+            who = f" (process {holder})" if holder.isdigit() else ""
+            raise GeogaitError(f"The output folder {self.folder} is being written by another geogait run{who}; "
+                               "wait for it to finish or choose another --out.") from None
+        os.ftruncate(self._handle, 0)
+        os.pwrite(self._handle, f"{os.getpid()}\n".encode(), 0)
+
+    def release(self) -> None:
+        """Give the lock back (also done by the system when the process ends)."""
+        if self._handle is not None:
+            os.close(self._handle)  # closing the only descriptor releases the flock
+            self._handle = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def folder_entries(folder) -> list[str]:
+    """Names in ``folder`` other than geogait's own bookkeeping (lock file, staging folders, temporaries)."""
+    names = []
+    for name in sorted(os.listdir(folder)):
+        if name == LOCK_FILE or _STAGING.match(name) or (name.startswith(".") and name.endswith(".tmp")):
+            continue
+        names.append(name)
+    return names
+
+
+def _remove_stale_staging(folder: Path) -> None:
+    import shutil
+
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return
+    for entry in entries:
+        match = _STAGING.match(entry.name)
+        if match and int(match.group(1)) != os.getpid() and not _pid_alive(int(match.group(1))):
+            shutil.rmtree(entry.path, ignore_errors=True)
+
+
+class output_set:  # noqa: N801  (used as a context manager, like open)
+    """Write several files into ``folder`` as one set: all of them, or none.
+
+    ``with output_set(folder) as staged:`` gives a staging folder inside ``folder``; write every file
+    there (any writer of this module, or a plotting library), then on leaving the block each file
+    replaces its namesake in ``folder`` by :func:`os.replace` (``last`` at the end, e.g. the summary
+    that says the run is complete). If the block raises, or the process is interrupted, the staging
+    folder is removed and ``folder`` is unchanged; staging folders of killed processes are removed by
+    the next set written into the same folder. Each replaced file keeps its mode; links are written
+    through, as by :func:`atomic_write`.
+
+    Parameters
+    ----------
+    folder : path-like
+        An existing folder.
+    last : sequence of str
+        Names moved into place after the others, in this order.
+    members : sequence of str
+        Every name the set may hold: those the block did not write are removed from ``folder`` when
+        the set is committed (no file of an earlier set is left beside a newer one).
+    """
+
+    def __init__(self, folder, last=(), members=()):
+        self.folder = Path(folder)
+        self.last = tuple(last)
+        self.members = tuple(members)
+        self.staging: Path | None = None
+
+    def __enter__(self) -> Path:
+        _remove_stale_staging(self.folder)
+        self.staging = Path(tempfile.mkdtemp(dir=self.folder, prefix=f".geogait-staging.{os.getpid()}."))
+        return self.staging
+
+    def __exit__(self, kind, error, trace):
+        import shutil
+
+        try:
+            if kind is None:
+                self._commit()
+        finally:
+            shutil.rmtree(self.staging, ignore_errors=True)
+        return False
+
+    def _commit(self) -> None:
+        names = sorted(os.listdir(self.staging), key=lambda n: (n in self.last, self.last.index(n) if n in
+                                                                self.last else 0, n))
+        for name in names:  # flush everything first, then rename: a crash leaves whole files only
+            staged = self.staging / name
+            with open(staged, "rb+") as stream:
+                os.fsync(stream.fileno())
+        for name in names:
+            staged = self.staging / name
+            target = _resolve(self.folder / name)
+            if target.is_dir():
+                raise IsADirectoryError(21, "Is a directory", str(self.folder / name))
+            try:
+                os.chmod(staged, target.stat().st_mode & 0o7777)
+            except FileNotFoundError:
+                os.chmod(staged, 0o666 & ~_umask())
+            os.replace(staged, target)
+        for name in self.members:
+            if name not in names:
+                (self.folder / name).unlink(missing_ok=True)
+        _fsync_folder(self.folder)

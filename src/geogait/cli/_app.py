@@ -13,7 +13,9 @@ application.
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 import warnings
 from contextlib import contextmanager
 
@@ -83,6 +85,42 @@ def _escape_help(command) -> None:
         _escape_help(child)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGINT or SIGTERM, raised where the program is: every ``finally`` and atomic write cleans up."""
+
+
+_RECEIVED: list[str] = []  # the signals that ended the command
+
+
+def _interrupt(signum, frame):
+    _RECEIVED.append(signal.Signals(signum).name)
+    signal.signal(signum, signal.SIG_DFL if signum == signal.SIGTERM else signal.default_int_handler)
+    raise Terminated()  # a second signal during the clean-up ends the process at once
+
+
+@contextmanager
+def _signals_as_interrupts():
+    """Handle SIGTERM like SIGINT while a command runs (where nobody else handles them); note which came."""
+    _RECEIVED.clear()
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    defaults = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
+    mine = [signum for signum, default in defaults.items() if signal.getsignal(signum) is default]
+    for signum in mine:
+        signal.signal(signum, _interrupt)
+    try:
+        yield
+    finally:
+        for signum in mine:
+            signal.signal(signum, defaults[signum])
+
+
+def _interrupted_line() -> str:
+    name = _RECEIVED[0] if _RECEIVED else "SIGINT"
+    return f"error: {'terminated' if name == 'SIGTERM' else 'interrupted'} ({name}); files already written are complete"
+
+
 class GeogaitGroup(TyperGroup):
     """The click group of ``geogait``: turns every failure into ``error: …`` and exit code 1."""
 
@@ -91,8 +129,11 @@ class GeogaitGroup(TyperGroup):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
-            with _warnings_as_lines():
+            with _warnings_as_lines(), _signals_as_interrupts():
                 code = super().main(args, prog_name, complete_var, False, **extra)
+        except KeyboardInterrupt:
+            typer.echo(_interrupted_line(), err=True)
+            sys.exit(1)
         except typer.Abort:
             typer.echo("error: aborted", err=True)
             sys.exit(1)
@@ -103,6 +144,9 @@ class GeogaitGroup(TyperGroup):
             if os.environ.get("GEOGAIT_TRACEBACK") and not isinstance(error, TyperException):
                 raise
             typer.echo(f"error: {error_message(error)}", err=True)
+            sys.exit(1)
+        if code == 130 and _RECEIVED:  # typer turns an interrupt into exit code 130
+            typer.echo(_interrupted_line(), err=True)
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)
 

@@ -15,7 +15,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 import geogait
 
-from .._files import write_json
+from .._files import OutputLock, folder_entries, write_json
 from .._validation import GeogaitError
 
 console = Console(stderr=True)
@@ -37,6 +37,47 @@ def output_folder(path: Path) -> Path:
     except OSError as error:
         raise GeogaitError(f"Cannot create the output folder {path}: {error.strerror}.") from None
     return path
+
+
+def claim_output(path: Path, *, overwrite: bool, run_files=()) -> OutputLock:
+    """Create the output folder ``path``, lock it for this run and check that it may be written.
+
+    A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``; with
+    ``overwrite`` the files ``run_files`` of an earlier run are removed now, so that no file of the
+    earlier run is ever mistaken for one of this run. Returns the held :class:`~geogait._files.OutputLock`
+    (use it as a context manager); raises a :class:`~geogait.GeogaitError` when the folder is another
+    run's (locked), not empty, a file, or cannot be created.
+    """
+    folder = output_folder(path)
+    lock = OutputLock(folder)
+    try:
+        existing = folder_entries(folder)
+        if existing and not overwrite:
+            shown = ", ".join(existing[:4]) + (", …" if len(existing) > 4 else "")
+            raise GeogaitError(f"The output folder {folder} is not empty ({shown}); give --overwrite to replace "
+                               "the run it holds, or choose another --out.")
+        if overwrite:
+            for name in run_files:
+                (folder / name).unlink(missing_ok=True)
+    except BaseException:
+        lock.release()
+        raise
+    return lock
+
+
+def explain_nulls(value, reason: str = "not available for this run"):
+    """``value`` (JSON-ready, see :func:`~geogait._files.json_ready`) with a ``"<key>_null_reason"`` beside every
+    null that has none yet (the README's JSON rule), recursively."""
+    if isinstance(value, list):
+        return [explain_nulls(v, reason) for v in value]
+    if not isinstance(value, dict):
+        return value
+    out = {}
+    for key, item in value.items():
+        out[key] = explain_nulls(item, reason)
+        if item is None and not str(key).endswith("_null_reason") and f"{key}_null_reason" not in value:
+            out[f"{key}_null_reason"] = reason
+    return out
 
 
 def listed(values) -> str:

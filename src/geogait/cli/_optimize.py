@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import json
 import time
 from pathlib import Path
@@ -12,7 +13,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._files import dumps_json, write_text
+from .._files import OutputLock, describe_path_kind, dumps_json, output_set, read_state, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
     OptimizationConfig,
@@ -24,6 +25,7 @@ from ..experiments.optimization import (
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
+from ..optimize._insitu import CHECKPOINT_FORMAT, CHECKPOINT_VERSION
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,
@@ -37,12 +39,19 @@ from ..robots import ProcessRobot
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
-from ._common import comma_list, console, listed, output_folder, progress_bar, write_manifest
+from ._common import claim_output, comma_list, console, listed, output_folder, progress_bar, write_manifest
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 _METHODS = ("adaptive", "shape", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
+MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
+#: Every file a run writes into its folder (removed at the start of a run with --overwrite).
+RUN_FILES = (RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "summary.json", "gait.png", "progress.png", "path.png")
+#: Settings that do not change what a run computes: left out of its identity (--cycles may extend a run).
+_NOT_IDENTITY = ("cycles", "robot_timeout", "run_id")
+#: Options a resume may be given (every other option is the run's own, read from run.json).
+_RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 
 
 @app.command()
@@ -81,15 +90,23 @@ def optimize(
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
     checkpoint_every: Annotated[int, typer.Option(help="Write OUT/checkpoint.npz every this many cycles.")] = 1,
     resume: Annotated[Path | None, typer.Option(
-        help="Continue the run whose folder this is (its settings; other options ignored except --cycles).")] = None,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/optimize"),
+        help="Continue the run whose folder this is, with its own settings (run.json); only --cycles (the new "
+             "total) and --robot-timeout may be given with it.")] = None,
+    overwrite: Annotated[bool, typer.Option(
+        help="Replace the run in a non-empty --out folder (its run files are removed when this run starts).")] = False,
+    out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
+        "out/optimize"),
+    ctx: typer.Context = None,
 ) -> None:
     """Optimise a gait in situ (built-in swimmer or --robot); write PNGs, per-cycle CSV, JSON summary."""
     started = time.perf_counter()
     if resume is not None:
+        _refuse_options_with_resume(ctx)
         folder, settings = Path(resume), _read_settings(Path(resume))
         if cycles is not None:
             settings["cycles"] = cycles
+        if ctx is not None and ctx.get_parameter_source("robot_timeout").name == "COMMANDLINE":
+            settings["robot_timeout"] = robot_timeout
     else:
         settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
                         period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
@@ -100,25 +117,81 @@ def optimize(
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
-    folder = output_folder(folder)
     system, target = _target(settings)
+    run_id = _run_id(settings)
+    # the folder is locked for this run (a run still writing it is neither resumed nor overwritten)
+    with (OutputLock(folder) if resume is not None else
+          claim_output(folder, overwrite=overwrite, run_files=RUN_FILES)):
+        if resume is not None:
+            _check_resume(folder, settings, run_id)
+        summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
+    console.print(dumps_json(summary, indent=1))
+    console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
+
+
+def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
+    """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set."""
     ceiling = None
     if system is not None:
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
                                      max_joint_angle=settings["max_joint_angle"])
     with target() as robot_driver:
-        if resume is None:
-            _write_settings(folder, settings)
-        result = _run(optimizer, robot_driver, settings, folder, ceiling, resume is not None)
-    write_text(folder / "cycles.csv", result.log.to_csv(index=False))
-    _figures(folder, system, result, ceiling)
+        if not resumed:
+            _write_settings(folder, settings, run_id)
+        result = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
+        quarantined = list(getattr(robot_driver, "quarantined", []))
     summary = result.summary(ceiling)
-    write_manifest(folder / "summary.json", command="optimize", config={**settings,
-                   "optimizer": optimizer.describe(), "resumed": resume is not None}, results=summary,
-                   started=started)
-    console.print(dumps_json(summary, indent=1))
-    console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
+    if settings["robot"] is not None:
+        summary["quarantined_cycles"] = len(quarantined)
+        summary["quarantine_reasons"] = quarantined[:20]
+    with output_set(folder, last=("summary.json",)) as staged:
+        write_text(staged / "cycles.csv", result.log.to_csv(index=False))
+        _figures(staged, system, result, ceiling)
+        write_manifest(staged / "summary.json", command="optimize", config={**settings, "run_id": run_id,
+                       "optimizer": optimizer.describe(), "resumed": resumed}, results=summary, started=started)
+    return summary
+
+
+def _run_id(settings: dict) -> str:
+    """The identity of a run: a hash of the settings that decide what it computes (not its budget)."""
+    kept = {k: v for k, v in settings.items() if k not in _NOT_IDENTITY}
+    return hashlib.sha256(dumps_json(kept, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _refuse_options_with_resume(ctx) -> None:
+    """Options of a new run given with --resume: refused (the run's own settings are in its run.json)."""
+    if ctx is None:
+        return
+    given = [param for param in ctx.command.params if param.name not in _RESUME_OPTIONS
+             and ctx.get_parameter_source(param.name) is not None
+             and ctx.get_parameter_source(param.name).name == "COMMANDLINE"]
+    if given:
+        names = ", ".join(param.opts[0] for param in given)
+        raise GeogaitError(f"--resume continues a run with the settings in its {RUN_FILE}; {names} cannot be "
+                           "changed (only --cycles and --robot-timeout may be given). Start a new run with "
+                           "--out instead.")
+
+
+def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
+    """The checkpoint in ``folder`` is the run its run.json describes, and --cycles does not undo cycles run."""
+    checkpoint = folder / CHECKPOINT_FILE
+    metadata, _ = read_state(checkpoint, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
+    stored = settings.get("run_id")
+    tag = metadata.get("tag") if isinstance(metadata.get("tag"), dict) else {}
+    if stored is not None or tag:
+        if stored != run_id:
+            raise GeogaitError(f"--resume {folder}: {RUN_FILE} was changed after the run started (its settings do "
+                               "not match its run_id); refusing to resume.")
+        if tag.get("run_id") != run_id:
+            raise GeogaitError(f"--resume {folder}: {CHECKPOINT_FILE} belongs to another run (run id "
+                               f"{tag.get('run_id')!r}, {RUN_FILE} says {run_id!r}): the run described by "
+                               f"{RUN_FILE} stopped before its first checkpoint. Start it again with --overwrite.")
+    state = metadata.get("state") if isinstance(metadata.get("state"), dict) else {}
+    done = state.get("cycle")
+    if settings.get("cycles") is not None and isinstance(done, int) and settings["cycles"] < done:
+        raise GeogaitError(f"--resume {folder}: --cycles {settings['cycles']} is fewer than the {done} cycles "
+                           f"already run; give a total of at least {done}.")
 
 
 def _optimizer(settings) -> InSituOptimizer:
@@ -134,6 +207,8 @@ def _optimizer(settings) -> InSituOptimizer:
                                      param_hint="--max-tracking-error") from None
     if settings["cycles"] is not None:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
+        if settings["cycles"] > MAX_CYCLES:
+            raise typer.BadParameter(f"at most {MAX_CYCLES} cycles, got {settings['cycles']}", param_hint="--cycles")
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
     model = {"batch": lambda: BatchGaitModel(),
@@ -171,7 +246,7 @@ def _target(settings):
     return system, lambda: contextlib.nullcontext(stream)
 
 
-def _run(optimizer, robot, settings, folder, ceiling, resumed):
+def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
     cycles = settings["cycles"]
     if cycles is None:
         cycles = 100 if settings["robot"] is not None else default_budget(settings["links"])
@@ -190,22 +265,50 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed):
         if resumed:
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
-                             record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"])
+                             record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
+                             checkpoint_tag={"run_id": run_id})
 
 
-def _write_settings(folder: Path, settings: dict) -> None:
-    write_text(folder / RUN_FILE, dumps_json(settings, indent=1) + "\n")
+def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
+    write_text(folder / RUN_FILE, dumps_json({**settings, "run_id": run_id}, indent=1) + "\n")
+
+
+#: The settings a run.json must hold, with the JSON types each may take (None: null allowed).
+_SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise": (int, float),
+                  "perturbation": (int, float), "period": (int, float), "gamma_threshold": (int, float),
+                  "forgetting_factor": (int, float, None), "order": (int,), "objective": (str,),
+                  "max_joint_angle": (int, float), "max_joint_velocity": (int, float, None),
+                  "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
+                  "step_rule": (str,), "robot": (str, None), "robot_timeout": (int, float),
+                  "checkpoint_every": (int,)}
 
 
 def _read_settings(folder: Path) -> dict:
     path = folder / RUN_FILE
+    if not folder.is_dir():
+        what = "is a file, not a run's folder" if folder.is_file() else describe_path_kind(folder) or "does not exist"
+        raise GeogaitError(f"--resume {folder}: {what}.")
     if not path.is_file() or not (folder / CHECKPOINT_FILE).is_file():
-        raise GeogaitError(f"--resume {folder}: not the folder of an optimisation run "
-                           f"(needs {RUN_FILE} and {CHECKPOINT_FILE}).")
+        raise GeogaitError(f"--resume {folder}: not the folder of an optimisation run with a checkpoint "
+                           f"(needs {RUN_FILE} and {CHECKPOINT_FILE}; a run stopped before its first checkpoint "
+                           "cannot be resumed).")
     try:
-        return json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        settings = json.loads(path.read_bytes().decode("utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as error:
         raise GeogaitError(f"{path} is not valid JSON: {error}") from None
+    if not isinstance(settings, dict):
+        raise GeogaitError(f"{path} is not the settings record of a run (a JSON object expected).")
+    for name, kinds in _SETTING_TYPES.items():
+        value = settings.get(name, ...)
+        ok = value is not ... and ((value is None and None in kinds) or (
+            not isinstance(value, bool) and isinstance(value, tuple(k for k in kinds if k is not None))))
+        if not ok:
+            expected = " or ".join({int: "an integer", float: "a number", str: "a string", None: "null"}[k]
+                                   for k in kinds)
+            got = "missing" if value is ... else f"{value!r:.40}"
+            raise GeogaitError(f"{path} is not the settings record of a run: '{name}' must be {expected}, "
+                               f"got {got}.")
+    return settings
 
 
 def _figures(folder, system, result, ceiling) -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 import time
+import warnings
 from pathlib import Path
 from typing import Annotated
 
@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 import typer
 
-from .._validation import GeogaitError
+from .._files import dumps_json, json_ready, output_set, write_text
+from .._validation import GeogaitError, GeogaitWarning
 from ..control import (
     CONTROLLERS,
     EXPLORATION,
@@ -43,9 +44,12 @@ from ..plotting import plt, save_figure
 from ..robots import ProcessRobot
 from ..simulate import DragRatioSchedule, SwimmerStream
 from ._app import app, figure_app
-from ._common import console, output_folder, progress_bar, write_manifest
+from ._common import claim_output, console, explain_nulls, output_folder, progress_bar, write_manifest
 
 QUICK = {"cycles": 12, "warmup": 5}
+#: Every file ``geogait track`` writes (replaced together, as one set).
+TRACK_FILES = ("cycles.csv", "path.png", "family.png", "summary.json")
+MAX_SCALE = 1e5  # --scale: built-in paths of at most 1e5 steps
 
 
 def _names(text: str, option: str, choices) -> tuple[str, ...]:
@@ -103,15 +107,9 @@ def _check_robot_options(names, ratios, path: str, step: float | None, explorati
         raise GeogaitError(f"The '--step' option must be a positive number. Got {step} instead.")
 
 
-def _finite(value):
-    """JSON-safe: NaN and inf become null."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    if isinstance(value, float | np.floating):
-        return float(value) if np.isfinite(value) else None
-    return value
+def _json(value, reason: str = "not available for this run"):
+    """Strict JSON values: NaN and inf become null with a reason, and so does every other null."""
+    return explain_nulls(json_ready(value), reason)
 
 
 @app.command()
@@ -161,7 +159,11 @@ def track(
         help="With --robot: the straight gait's step per cycle (pose units) that sizes the built-in paths "
              "(--scale steps); not needed for a waypoints CSV.")] = None,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/track"),
+    overwrite: Annotated[bool, typer.Option(
+        help="Replace the run in a non-empty --out folder (its files are replaced together when this run ends).")
+    ] = False,
+    out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
+        "out/track"),
 ) -> None:
     """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json.
 
@@ -179,6 +181,8 @@ def track(
         system, gait = None, None
     else:
         system, gait, step = straight_gait(links)
+    if not (np.isfinite(scale) and 0 < scale <= MAX_SCALE):
+        raise GeogaitError(f"The '--scale' option must be in (0, {MAX_SCALE:g}] steps. Got {scale} instead.")
     reference = _path(path, step, scale)
     n_cycles = cycles if cycles is not None else (QUICK["cycles"] if quick else 60)
     warmup_cycles = warmup if warmup is not None else (QUICK["warmup"] if quick else 10)
@@ -208,7 +212,6 @@ def track(
     limit = feasible_turn_limit(links, turn_limit or 1.0) if robot is None else turn_limit
     settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, model=tracking_model(model, symmetric=robot is None),
                     change_forgetting=change_forgetting, turn_limit=limit)
-    results = {}
     sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=exploration_high)
     start_std = perturbation if exploration == "fixed" else exploration_high
     def target():  # a fresh robot for every controller
@@ -220,55 +223,74 @@ def track(
                                                     sensor_noise=noise, environment=schedule, seed=seed))
 
     label = "robot" if robot is not None else f"{links}-link"
-    progress = progress_bar()
-    try:
-        for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
-            tracker = PathTracker(controller=name, exploration=sizes, **settings)
-            with target() as device:  # a driver that cannot start fails here, before any progress display
-                progress.start()
-                task = progress.add_task(f"{label} {name:8s}", total=n_cycles, status="warming up")
+    with claim_output(out, overwrite=overwrite):  # checked and locked before any work; replaced as one set at the end
+        folder = Path(out)
+        results, quarantined = {}, {}
+        progress = progress_bar()
+        try:
+            for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
+                tracker = PathTracker(controller=name, exploration=sizes, **settings)
+                with target() as device:  # a driver that cannot start fails here, before any progress display
+                    progress.start()
+                    task = progress.add_task(f"{label} {name:8s}", total=n_cycles, status="warming up")
 
-                def show(row, task=task):
-                    gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
-                    gamma += "" if exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
-                    drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
-                    progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
-                                    f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
+                    def show(row, task=task):
+                        gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
+                        gamma += "" if exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
+                        drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
+                        progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
+                                        f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}"
+                                        f"{gamma}{drag}")
 
-                results[name] = tracker.run(device, reference, n_cycles, start_offset=start_offset, callback=show,
-                                            record=True)
-            if name == "adaptive" and exploration != "fixed":
-                sizes = results[name].perturbation_std  # the others replay it: the same perturbations
-    finally:
-        if progress.live.is_started:
-            progress.stop()
-    folder = output_folder(out)
-    log = pd.concat([r.log for r in results.values()], ignore_index=True)
-    log.to_csv(folder / "cycles.csv", index=False)
-    _plot_paths(folder / "path.png", reference, results)
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    plot_steering_family(ax, {{"adaptive": "model", "frozen": "frozen model", "true": "true"}[n]: r.family
-                              for n, r in results.items()}, links if robot is None else "robot")
-    save_figure(fig, folder / "family.png")
-    summary = {name: result.summary() | {"final_gamma": float(result.log["gamma"].iloc[-1])}
-               for name, result in results.items()}
-    if len(ratios) == 2:
-        summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
-    summary["step_per_cycle"] = step
-    summary["path_length"] = reference.length
-    swimmer = robot is None  # the options of the built-in swimmer, recorded only where they acted
-    config = dict(links=links if swimmer else None, robot=robot, path=path, drag_ratios=ratios if swimmer else None,
-                  cycles=n_cycles, change_cycle=change if len(ratios) == 2 else None, controllers=names,
-                  warmup=warmup_cycles, scale=scale, step=step, offset=start_offset, seed=seed if swimmer else None,
-                  noise=noise if swimmer else None,
-                  perturbation=perturbation if exploration == "fixed" and swimmer else None, exploration=exploration,
-                  exploration_low=exploration_low if exploration == "adaptive" else None,
-                  exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
-                  turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick)
-    write_manifest(folder / "summary.json", command="track", config=config, results=_finite(summary),
-                   started=started)
-    console.print(json.dumps(_finite(summary), indent=1))
-    console.print(f"wrote {folder}/ (cycles.csv, summary.json, path.png, family.png)")
+                    results[name] = tracker.run(device, reference, n_cycles, start_offset=start_offset, callback=show,
+                                                record=True)
+                    quarantined[name] = list(getattr(device, "quarantined", []))
+                if name == "adaptive" and exploration != "fixed":
+                    sizes = results[name].perturbation_std  # the others replay it: the same perturbations
+        finally:
+            if progress.live.is_started:
+                progress.stop()
+        log = pd.concat([r.log for r in results.values()], ignore_index=True)
+        summary = {}
+        for name, result in results.items():
+            summary[name] = result.summary() | {"final_gamma": float(result.log["gamma"].iloc[-1])}
+            if name != "adaptive":
+                summary[name]["final_gamma_null_reason"] = f"the {name} controller does not learn: no online Γ"
+            if robot is not None:
+                summary[name]["quarantined_cycles"] = len(quarantined[name])
+                summary[name]["quarantine_reasons"] = quarantined[name][:20]
+            ran = len(result.log)
+            summary[name]["stopped_early"] = ran < n_cycles
+            if ran < n_cycles:
+                summary[name]["stop_reason"] = (f"the {name} controller reached the end of the path after {ran} of "
+                                                f"{n_cycles} cycles")
+                warnings.warn(summary[name]["stop_reason"] + "; the summary covers the cycles run", GeogaitWarning,
+                              stacklevel=1)
+        if len(ratios) == 2:
+            summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
+        summary["step_per_cycle"] = step
+        summary["path_length"] = reference.length
+        swimmer = robot is None  # the options of the built-in swimmer, recorded only where they acted
+        config = dict(links=links if swimmer else None, robot=robot, path=path, drag_ratios=ratios if swimmer else None,
+                      cycles=n_cycles, change_cycle=change if len(ratios) == 2 else None, controllers=names,
+                      warmup=warmup_cycles, scale=scale, step=step, offset=start_offset, seed=seed if swimmer else None,
+                      noise=noise if swimmer else None,
+                      perturbation=perturbation if exploration == "fixed" and swimmer else None,
+                      exploration=exploration,
+                      exploration_low=exploration_low if exploration == "adaptive" else None,
+                      exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
+                      turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick)
+        with output_set(folder, last=("summary.json",)) as staged:
+            write_text(staged / "cycles.csv", log.to_csv(index=False))
+            _plot_paths(staged / "path.png", reference, results)
+            fig, ax = plt.subplots(figsize=(6, 4.5))
+            plot_steering_family(ax, {{"adaptive": "model", "frozen": "frozen model", "true": "true"}[n]: r.family
+                                      for n, r in results.items()}, links if robot is None else "robot")
+            save_figure(fig, staged / "family.png")
+            write_manifest(staged / "summary.json", command="track", config=_json(config, "not used by this run"),
+                           results=_json(summary), started=started)
+        console.print(dumps_json(_json(summary), indent=1))
+        console.print(f"wrote {folder}/ (cycles.csv, summary.json, path.png, family.png)")
 
 
 def _plot_paths(file, reference: ReferencePath, results: dict) -> None:
@@ -346,7 +368,7 @@ def figure_tracking(
     summary = result.summary()
     write_manifest(folder / "tracking.json", command="figure tracking",
                    config=result.config_dict() or {"from_csv": str(from_csv)},
-                   results=_finite({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
-                                    **summary}), started=started)
-    console.print(json.dumps(_finite(summary), indent=1))
+                   results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
+                                  **summary}), started=started)
+    console.print(dumps_json(_json(summary), indent=1))
     console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking.json)")

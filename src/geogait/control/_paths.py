@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._files import describe_path_kind
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
 from ..se2 import wrap_angle
 
@@ -28,6 +29,9 @@ __all__ = ["ReferencePath", "PATH_KINDS"]
 
 PATH_KINDS = ("line", "circle", "figure8")
 _SPACING = 0.02  # body lengths between polyline vertices of the built-in curves (sagitta < 1e-4 at radius 0.5)
+_MAX_VERTICES = 200_000  # of a built-in curve: beyond, the vertices spread out (sagitta < 1.3e-4 at radius 1e6)
+#: Largest size (radius, length, |coordinate|) of a path, body lengths.
+MAX_PATH_SIZE = 1e6
 
 
 @dataclass(frozen=True)
@@ -81,8 +85,8 @@ class ReferencePath:
     @classmethod
     def circle(cls, radius: float = 1.0) -> ReferencePath:
         """A counter-clockwise circle of ``radius`` about (0, radius): it starts at the origin along +x."""
-        radius = check_float(radius, "radius", "ReferencePath.circle", low=0, low_open=True)
-        n = max(64, int(np.ceil(2 * np.pi * radius / _SPACING)))
+        radius = check_float(radius, "radius", "ReferencePath.circle", low=0, high=MAX_PATH_SIZE, low_open=True)
+        n = min(_MAX_VERTICES, max(64, int(np.ceil(2 * np.pi * radius / _SPACING))))
         angle = 2 * np.pi * np.arange(n) / n
         return cls(np.column_stack([radius * np.sin(angle), radius * (1 - np.cos(angle))]), closed=True,
                    name="circle")
@@ -95,8 +99,8 @@ class ReferencePath:
         so that it leaves the origin along +x: two lobes of length ``size``, radius of curvature
         ``size`` at their tips, crossing itself at the origin at right angles.
         """
-        size = check_float(size, "size", "ReferencePath.figure8", low=0, low_open=True)
-        n = max(128, int(np.ceil(7 * size / _SPACING)))
+        size = check_float(size, "size", "ReferencePath.figure8", low=0, high=MAX_PATH_SIZE, low_open=True)
+        n = min(_MAX_VERTICES, max(128, int(np.ceil(7 * size / _SPACING))))
         t = 2 * np.pi * np.arange(n) / n
         points = np.column_stack([size * np.sin(t), size / 2 * np.sin(2 * t)])
         heading = np.arctan2(points[1, 1], points[1, 0])
@@ -107,7 +111,8 @@ class ReferencePath:
     def waypoints(cls, points, *, closed: bool = False, name: str = "waypoints") -> ReferencePath:
         """The polyline through ``points`` ``(n, 2)`` (body lengths; straight segments, sharp corners kept),
         back to the first point when ``closed``; ``name`` labels it in logs and plots."""
-        return cls(np.asarray(points, dtype=float), closed=closed, name=name)
+        points = check_array(points, "points", "ReferencePath.waypoints", trailing=(2,), limit=MAX_PATH_SIZE)
+        return cls(points, closed=closed, name=name)
 
     @classmethod
     def from_csv(cls, path) -> ReferencePath:
@@ -121,7 +126,7 @@ class ReferencePath:
         """
         path = Path(path)
         if not path.is_file():
-            raise GeogaitError(f"The waypoints file {path} does not exist.")
+            raise GeogaitError(f"The waypoints file {path} {describe_path_kind(path) or 'does not exist'}.")
         try:
             frame = pd.read_csv(path)
         except (ValueError, pd.errors.ParserError) as error:

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .._docs import fill_doc
-from .._files import write_text
+from .._files import describe_path_kind, write_text
 from .._seeds import child_seed
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
@@ -231,7 +231,7 @@ class ExperimentResult:
         """
         path = Path(path)
         if not path.is_file():
-            raise GeogaitError(f"The CSV file {path} does not exist.")
+            raise GeogaitError(f"The CSV file {path} {describe_path_kind(path) or 'does not exist'}.")
         try:
             frame = pd.read_csv(path, **_EXACT_FLOATS)
         except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as error:

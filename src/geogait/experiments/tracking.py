@@ -404,10 +404,19 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
         left, None if it never came back), ``cycles_until_below_frozen``
         (first c such that the adaptive mean |e| over cycles ``change + c`` to the end is below the
         frozen model's over the same cycles; None if never), and per controller the mean |e| over
-        the 10 cycles after the change and over the rest.
+        the 10 cycles after the change and over the rest. Every None comes with a ``<key>_null_reason``;
+        a run that ended before the change has ``change_reached`` False and no recovery numbers.
     """
     curves = {c: _mean_curve(g) for c, g in frame.groupby("controller")}
     out = {}
+    last = int(max(curve.index.max() for curve in curves.values())) if curves else -1
+    out["change_reached"] = last >= change_cycle
+    if last < change_cycle:
+        reason = f"the run ended at cycle {last}, before the change at cycle {change_cycle}"
+        for key in ("cycles_to_recover", "cycles_until_below_frozen",
+                    *(f"{c}_mean_first_10_after" for c in curves), *(f"{c}_mean_after_10" for c in curves)):
+            out[key], out[f"{key}_null_reason"] = None, reason
+        return out
     if "adaptive" in curves:
         adaptive = curves["adaptive"]
         before = adaptive[(adaptive.index >= change_cycle - PRE_CHANGE_CYCLES) & (adaptive.index < change_cycle)]
@@ -421,6 +430,9 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
             first = int(np.argmax(high))
             back = np.flatnonzero(~high[first:])
             out["cycles_to_recover"] = int(after.index[first + back[0]] - change_cycle) if back.size else None
+            if not back.size:
+                out["cycles_to_recover_null_reason"] = (f"the error had not come back within {RECOVERY_FACTOR}× the "
+                                                        "pre-change level by the end of the run")
         if "frozen" in curves:
             frozen = curves["frozen"]
             below = None
@@ -431,11 +443,15 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
                     below = c
                     break
             out["cycles_until_below_frozen"] = below
+            if below is None:
+                out["cycles_until_below_frozen_null_reason"] = "the adaptive error never fell below the frozen one's"
     for controller, curve in curves.items():
         soon = curve[(curve.index >= change_cycle) & (curve.index < change_cycle + 10)]
         late = curve[curve.index >= change_cycle + 10]
         out[f"{controller}_mean_first_10_after"] = float(soon.mean())
         out[f"{controller}_mean_after_10"] = float(late.mean()) if len(late) else None
+        if not len(late):
+            out[f"{controller}_mean_after_10_null_reason"] = "fewer than 10 cycles after the change"
     return out
 
 
@@ -471,7 +487,7 @@ _STYLE = {"adaptive": ("tab:red", "-"), "frozen": ("tab:blue", "--"), "true": ("
 
 def plot_reference(ax, reference: ReferencePath, positions=None):
     """The reference path as a wide grey band, cut to 1 body length around ``positions`` ``(n, 2)``."""
-    points = reference.resampled(max(600, int(reference.length / 0.01)))
+    points = reference.resampled(int(np.clip(reference.length / 0.01, 600, 20_000)))  # bounded, however long
     if positions is not None and len(positions):
         low, high = np.min(positions, axis=0) - 1.0, np.max(positions, axis=0) + 1.0
         points = np.where(np.all((points >= low) & (points <= high), axis=1)[:, None], points, np.nan)

@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 from .._estimator import check_is_fitted
-from .._files import write_json, write_text
+from .._files import output_set, write_json, write_text
 from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
@@ -348,17 +348,20 @@ class LogFit:
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        paths = {"model": self.model.save(folder / "model.npz")}
-        if self.phaser is not None:
-            paths["phaser"] = self.phaser.save(folder / "phaser.npz")
-        paths["config"] = write_json(folder / "config.json", self.model.to_config())
-        if mapping is not None:
-            paths["mapping"] = write_text(folder / "mapping.json", mapping_to_json(mapping))
-        paths.update(write_fit_figures(self, folder))
-        paths["report"] = folder / "report.json"
-        report = {**(extra or {}), "results": self.summary(), "files": {k: p.name for k, p in paths.items()}}
-        write_json(paths["report"], report)
-        return paths
+        members = ("model.npz", "phaser.npz", "config.json", "mapping.json", "report.json", "phase.png",
+                   "nominal_gait.png", "body_velocity.png")
+        with output_set(folder, last=("report.json",), members=members) as staged:  # all of them, or none
+            paths = {"model": self.model.save(staged / "model.npz")}
+            if self.phaser is not None:
+                paths["phaser"] = self.phaser.save(staged / "phaser.npz")
+            paths["config"] = write_json(staged / "config.json", self.model.to_config())
+            if mapping is not None:
+                paths["mapping"] = write_text(staged / "mapping.json", mapping_to_json(mapping))
+            paths.update(write_fit_figures(self, staged))
+            paths["report"] = staged / "report.json"
+            report = {**(extra or {}), "results": self.summary(), "files": {k: p.name for k, p in paths.items()}}
+            write_json(paths["report"], report)
+        return {k: folder / p.name for k, p in paths.items()}
 
 
 def fit_log(log: Log, *, forgetting_factor: float | None = None, n_windows: int | None = None,

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import check_writable
+from .._files import check_writable, describe_path_kind
 from .._validation import (
     MAX_MAGNITUDE,
     GeogaitError,
@@ -55,7 +55,8 @@ def load_stream_model(path) -> AdaptiveGaitModel:
     path = Path(path)
     if path.suffix.lower() == ".json":
         if not path.is_file():
-            raise fail("path", "load_stream_model", "an existing file", str(path))
+            raise fail("path", "load_stream_model", "an existing file",
+                       f"{path} ({describe_path_kind(path) or 'does not exist'})")
         try:
             config = json.loads(path.read_text(encoding="utf-8"))
         except json.JSONDecodeError as error:

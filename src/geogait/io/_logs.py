@@ -70,6 +70,7 @@ import pyarrow as pa
 from scipy.signal import savgol_filter
 
 from .. import se2
+from .._files import describe_path_kind
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float, check_int, fail
 from ..phase import cycle_index
 from ..simulate import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
@@ -206,7 +207,7 @@ def load_column_mapping(path) -> ColumnMapping:
     if path.suffix.lower() not in (".json", ".toml"):
         raise fail("path", owner, "a .json or .toml file", str(path))
     if not path.is_file():
-        raise fail("path", owner, "an existing file", str(path))
+        raise fail("path", owner, "an existing file", f"{path} ({describe_path_kind(path) or 'does not exist'})")
     text = path.read_text(encoding="utf-8")
     try:
         entries = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
@@ -541,7 +542,7 @@ def load_frame(source) -> pd.DataFrame:
     if suffix not in (".csv", ".parquet", ".pq"):
         raise fail("source", _READ, "a file ending in .csv, .parquet or .pq", str(path))
     if not path.is_file():
-        raise fail("source", _READ, "an existing file", str(path))
+        raise fail("source", _READ, "an existing file", f"{path} ({describe_path_kind(path) or 'does not exist'})")
     kind = "CSV" if suffix == ".csv" else "Parquet"
     try:
         return pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)

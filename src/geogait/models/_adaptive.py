@@ -9,7 +9,7 @@ from .._estimator import Real
 from .._validation import MAX_MAGNITUDE, check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
 from . import _kernels
-from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase
+from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase, check_finite_banks
 from ._features import n_regressors, regressors
 from ._online_gamma import OnlineGamma
 from ._phase import phase_baseline
@@ -42,7 +42,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         Window width Δφ (rad); default two window spacings, 4π / M (each sample updates 2 windows).
     forgetting_factor : float in (0, 1]
         λ_RLS. 1 is ordinary recursive least squares.
-    initial_covariance : float > 0
+    initial_covariance : float in (0, 1e12]
         δ₀: P starts at δ₀·I; the trace clamp keeps trace P ≤ n δ₀.
     smoothing_order : int
         Fourier order of the smoothing of window coefficients along φ (≤ (M − 1) / 2).
@@ -98,7 +98,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     _parameter_constraints = {
         **GAIT_MODEL_CONSTRAINTS,
         "forgetting_factor": Real(low=0, high=1, low_open=True),
-        "initial_covariance": Real(low=0, low_open=True),
+        "initial_covariance": Real(low=0, high=1e12, low_open=True),
         "gamma_forgetting": Real(low=0, high=1, low_open=True),
     }
 
@@ -157,6 +157,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
             prior, baseline = self._learn_one(phase[0], shape[0], shape_velocity[0] / scale, body_velocity[0], scale)
         else:
             prior, baseline = self._learn(phase, shape, shape_velocity / scale, body_velocity, scale)
+        check_finite_banks([self.bank_], "AdaptiveGaitModel.partial_fit", "shapes and rates far from the nominal gait")
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]

@@ -152,6 +152,11 @@ class PhaseWindowModel(Estimator):
     def _upgrade_state(cls, state: dict, metadata: dict) -> dict:
         return _from_version_1(state, metadata) if metadata.get("format_version") == 1 else state
 
+    @classmethod
+    def _check_stored(cls, metadata: dict, state: dict) -> None:
+        """The batch shape, window count and shape dimension of the metadata against the stored arrays."""
+        check_stored_sizes(metadata, state)
+
 
 @fill_doc
 class SampleModel:
@@ -288,6 +293,19 @@ class GaitModelBase(SampleModel, PhaseWindowModel):
         return predicted_displacement(self, gait, jacobian=jacobian)
 
     @classmethod
+    def _check_stored(cls, metadata: dict, state: dict) -> None:
+        check_stored_sizes(metadata, state)
+        own = "weights" if "weights" in state else "moment"
+        if own not in state or metadata.get("n_joints") is None:
+            raise ValueError(f"the array {own!r} or the metadata's n_joints is missing")
+        params = metadata["params"]
+        expected = tuple(metadata["batch_shape"]) + (
+            params["n_windows"], n_regressors(metadata["n_joints"], bool(params.get("interaction", True))), 3)
+        if np.shape(state[own]) != expected:
+            raise ValueError(f"the metadata claim arrays of shape {expected}, but {own!r} has shape "
+                             f"{np.shape(state[own])}")
+
+    @classmethod
     def load(cls, path, n_joints: int | None = None):
         """Read a model written by :meth:`save`; checks format, class and shape dimension."""
         model = load_model(path, n_joints=n_joints)
@@ -361,6 +379,48 @@ def check_samples(model, phase, *arrays, names, owner):
         raise fail("phase", owner, f"batched like the data seen so far, shape {batch} + (n,)",
                    f"shape {phase.shape}")
     return [*out, single]
+
+
+def check_finite_banks(banks, owner: str, hint: str) -> None:
+    """Raise a clear :class:`~geogait.GeogaitError` when an update left a filter bank non-finite (values too
+    large for the model's parameters): the model is not silently NaN-propagated."""
+    for bank in banks:
+        if not (np.all(np.isfinite(bank.weights)) and np.all(np.isfinite(bank.covariance))):
+            raise GeogaitError(f"{owner}: the model state went non-finite ({hint}); the samples are too large for "
+                               "its parameters. This model can no longer be used: fit a fresh one.")
+
+
+def _count(value, name: str, minimum: int = 0, maximum: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum or (maximum and value > maximum):
+        bound = f"<= {maximum}" if maximum else ""
+        raise ValueError(f"the metadata's {name} must be an integer >= {minimum} {bound}, got {value!r:.40}")
+    return value
+
+
+def check_stored_sizes(metadata: dict, state: dict) -> None:
+    """Raise ``ValueError`` unless the sizes ``metadata`` claim (batch shape, windows, joints) are those of
+    the stored arrays: checked before a model allocates anything from them (a small file claiming 6e7
+    windows is refused at once, not after gigabytes)."""
+    batch = metadata.get("batch_shape")
+    if not isinstance(batch, list) or len(batch) > 8:
+        raise ValueError(f"the metadata's batch_shape must be a list of at most 8 sizes, got {batch!r:.40}")
+    batch = tuple(_count(b, "batch_shape") for b in batch)
+    params = metadata["params"]
+    key = "phase_model/weights" if "phase_model/weights" in state else "weights"
+    if key not in state:
+        raise ValueError(f"the array {key!r} is missing")
+    weights = np.asarray(state[key])
+    if "n_windows" in params:
+        expected = batch + (_count(params["n_windows"], "n_windows", 1),)
+        if weights.shape[:len(expected)] != expected:
+            raise ValueError(f"the metadata claim batch shape {batch} and {expected[-1]} windows, but the array "
+                             f"{key!r} has shape {weights.shape}")
+    n_joints = metadata.get("n_joints")
+    if n_joints is not None:
+        n_joints = _count(n_joints, "n_joints", 1, 10_000)
+        if "gait" in state and np.shape(state["gait"])[:1] != (n_joints,):
+            raise ValueError(f"the metadata claim {n_joints} joints, but the stored gait has shape "
+                             f"{np.shape(state['gait'])}")
 
 
 def load_model(path, n_joints: int | None = None):

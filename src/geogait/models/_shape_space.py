@@ -55,10 +55,10 @@ import numpy as np
 
 from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
-from .._validation import check_array, check_float, fail
+from .._validation import GeogaitError, check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
-from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
+from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_finite_banks, check_samples, check_stored_sizes
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
@@ -188,11 +188,11 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         on the chain's symmetry axis), ``"mirror+reversal"`` (also the front–back reversal: chains
         with lengths and drags symmetric about the middle, body frame at the middle, e.g.
         ``PurcellSwimmer(body_frame="middle")``). ``None``: no constraint.
-    shape_scale : float > 0
+    shape_scale : float in [1e-6, 1e6]
         s: the monomials are of r / s (conditioning only; s ≈ the largest joint angle is best).
     forgetting_factor : float in (0, 1]
         λ per sample; memory ≈ 1 / (1 − λ) samples. 1 keeps everything (exact least squares).
-    initial_covariance : float > 0
+    initial_covariance : float in (0, 1e12]
         δ₀: P starts at δ₀·I (a ridge prior 1/δ₀ on W); the trace clamp keeps trace P ≤ trace P₀.
     degree_shrinkage : float > 0
         b: the prior variance of the weights of degree-q monomials is δ₀ b^{−q}, a ridge penalty
@@ -246,9 +246,9 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
     _parameter_constraints = {
         "degree": Integer(minimum=0),
         "symmetry": Options(SYMMETRIES),
-        "shape_scale": Real(low=0, low_open=True),
+        "shape_scale": Real(low=1e-6, high=1e6),
         "forgetting_factor": Real(low=0, high=1, low_open=True),
-        "initial_covariance": Real(low=0, low_open=True),
+        "initial_covariance": Real(low=0, high=1e12, low_open=True),
         "degree_shrinkage": Real(low=0, low_open=True),
         "gamma_forgetting": Real(low=0, high=1, low_open=True),
         "n_windows": Integer(minimum=1),
@@ -330,13 +330,27 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
             z = _project(x, gather)  # block regressors Bᵀx, batch + (n, n_b)
             y = body_velocity[..., outputs]
             # one filter takes every sample in time order: exact sequential RLS, computed in blocks
-            prior[..., outputs] = bank.update_sequence(z[..., None, :, :], y[..., None, :, :])[..., 0, :, :]
+            try:
+                prior[..., outputs] = bank.update_sequence(z[..., None, :, :], y[..., None, :, :])[..., 0, :, :]
+            except np.linalg.LinAlgError:
+                raise GeogaitError(self._too_large(shape, x)) from None
+        check_finite_banks(self.banks_, f"{type(self).__name__}.partial_fit",
+                           f"|shape / shape_scale| reaches {np.abs(shape).max() / self.shape_scale:.3g} at degree "
+                           f"{self.degree}; give shape_scale about the shapes' range")
         baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
         self._flat = None
         return self
+
+    def _too_large(self, shape, features) -> str:
+        reach = np.abs(shape).max() / self.shape_scale
+        return (f"The samples of {type(self).__name__}.partial_fit are too large for the model: |shape / shape_scale| "
+                f"reaches {reach:.3g} and its regressors (monomials of degree {self.degree} times the shape "
+                f"velocities) {np.abs(features).max():.3g}, beyond the precision the filter needs. Give shape_scale "
+                "about the shapes' range, and rates in a time unit of about a cycle (the model is no longer usable: "
+                "fit a fresh one).")
 
     def forget(self, factor: float):
         """Discount all evidence so far by ``factor`` at once (:meth:`AdaptiveGaitModel.forget
@@ -410,6 +424,21 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         for b, bank in enumerate(self.banks_):
             arrays.update(bank.state(_block_prefix(b)))
         return arrays
+
+    @classmethod
+    def _check_stored(cls, metadata: dict, state: dict) -> None:
+        """Windows of the baseline, batch shape, and the monomial count the degree claims against the arrays."""
+        import math
+
+        check_stored_sizes(metadata, state)
+        degree, d = metadata["params"].get("degree", 2), metadata.get("n_joints")
+        if isinstance(degree, bool) or not isinstance(degree, int) or degree < 0 or not isinstance(d, int):
+            raise ValueError(f"the metadata's degree and n_joints must be integers, got {degree!r:.20}, {d!r:.20}")
+        stored = sum(np.shape(v)[-2] for k, v in state.items() if k.endswith("weights") and
+                     not k.startswith("phase_model/") and np.ndim(v) >= 2)
+        if degree > 1000 or math.comb(d + degree, d) * d > 2 * stored + 8:
+            raise ValueError(f"degree {degree} in {d} joints claims more monomials than the {stored} stored "
+                             "feature rows")
 
     def _set_state(self, state: dict, metadata: dict) -> None:
         self._reset(tuple(metadata["batch_shape"]), int(metadata["n_joints"]))

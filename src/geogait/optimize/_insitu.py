@@ -357,7 +357,7 @@ class InSituOptimizer(Estimator):
     # -- running ------------------------------------------------------------------------------
     def run(self, robot, n_cycles: int, *, ceiling: float | None = None,
             callback: Callable[[dict], None] | None = None, record: bool = False,
-            checkpoint=None, checkpoint_every: int = 1) -> InSituResult:
+            checkpoint=None, checkpoint_every: int = 1, checkpoint_tag: dict | None = None) -> InSituResult:
         """Optimise in situ for ``n_cycles`` cycles of ``robot``.
 
         Parameters
@@ -378,6 +378,9 @@ class InSituOptimizer(Estimator):
             last) with everything needed by :meth:`resume`: hyper-parameters, model, gait, trust
             radius, log, and the robot's own state when it offers ``robot_state()``.
         checkpoint_every : int
+        checkpoint_tag : dict, optional
+            JSON values stored in the checkpoint as ``tag`` and kept by :meth:`resume` (the CLI's run
+            identity: a resume can check that the checkpoint is the run it means).
         """
         self.validate()
         owner = "InSituOptimizer.run"
@@ -408,7 +411,7 @@ class InSituOptimizer(Estimator):
         state = _State(gait=gait, radius=self.trust_radius * scale, model=self._new_model(gait, period, family, scale),
                        n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
                        settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale)
-        return _Loop(self, robot, state, checkpoint, checkpoint_every).run(callback, record)
+        return _Loop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
     def resume(cls, checkpoint, robot, *, callback: Callable[[dict], None] | None = None,
@@ -450,13 +453,13 @@ class InSituOptimizer(Estimator):
         state.max_joint_angle = optimizer._joint_limit(robot, "InSituOptimizer.resume")
         state.scale = optimizer._shape_scale(state.gaits[0])
         if n_cycles is not None:
-            state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=1)
+            state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
         if robot_state is not None and hasattr(robot, "restore_robot_state"):
             robot.restore_robot_state({**robot_state, **_prefixed(arrays, "robot/")})
         else:
             robot.set_gait(state.robot_gait)
-        loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"])
+        loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"], metadata.get("tag"))
         return loop.run(callback, record)
 
     # -- scale and limits from the robot --------------------------------------------------------
@@ -889,8 +892,8 @@ def _checkpoint_path(checkpoint, owner):
 class _Loop:
     """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
 
-    def __init__(self, optimizer, robot, state, checkpoint, checkpoint_every):
-        self.optimizer, self.robot, self.state = optimizer, robot, state
+    def __init__(self, optimizer, robot, state, checkpoint, checkpoint_every, tag=None):
+        self.optimizer, self.robot, self.state, self.tag = optimizer, robot, state, tag
         self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
         self.gate = optimizer._gate()
         self.truth = _Oracle(robot, optimizer)
@@ -1081,7 +1084,7 @@ class _Loop:
         payload = {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION, "geogait": __version__,
                    "params": _params_to_json(self.optimizer), "state": metadata,
                    "model": None if model_metadata is None else {"metadata": model_metadata},
-                   "robot_state": robot_state, "checkpoint_every": self.checkpoint_every}
+                   "robot_state": robot_state, "checkpoint_every": self.checkpoint_every, "tag": self.tag}
         write_state(self.checkpoint, payload, arrays)
 
 

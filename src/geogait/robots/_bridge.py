@@ -31,6 +31,22 @@ computed from consecutive poses (SE(2) logarithms). ``commanded_shape`` is optio
 :mod:`geogait.robots`). At any time the driver may send ``{"type": "error", "message": "..."}``.
 Lines of other types are ignored (room for extensions); anything the driver writes to stderr is
 kept and shown when it fails.
+
+What geogait checks (a driver is trusted with nothing):
+
+* every line is strict UTF-8 JSON of at most :data:`MAX_LINE_BYTES` bytes; numbers are JSON numbers
+  (not strings or booleans), ``version`` and ``n_joints`` integers; ``cycle_period`` lies in
+  [1e-3, 86 400] s; error messages and stderr lines are cut to :data:`MAX_TEXT` characters;
+* every cycle against the hello and the gait it was sent: its samples span about one
+  ``cycle_period`` (within a factor 2), the commanded phase sweeps the cycle (no gap over a
+  quarter cycle), every joint the gait moves sweeps at least 1 % of the gait's range, the
+  commanded shapes (when sent) follow the gait sent rather than an earlier one (RMS distance
+  more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps
+  further than 20× what the body velocity and the cycle's other steps allow (also across the
+  cycle boundary). An implausible cycle is **quarantined**: not
+  returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
+  :data:`MAX_QUARANTINED` in a row (or that many following an earlier gait since the last
+  ``set_gait``) end the run with an error naming the reason.
 """
 
 from __future__ import annotations
@@ -42,10 +58,11 @@ import queue
 import shlex
 import subprocess
 import threading
+import warnings
 
 import numpy as np
 
-from .._validation import GeogaitError, check_float, fail
+from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory
@@ -55,6 +72,27 @@ __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "ProcessRobot"]
 PROTOCOL = "geogait-robot"
 PROTOCOL_VERSION = 1
 _MAX_SAMPLES = 1_000_000  # per cycle: a driver that never ends its cycle is an error, not a memory leak
+#: Longest line read from a driver (bytes): one sample of a 200-joint robot is about 10 kB.
+MAX_LINE_BYTES = 1 << 20
+#: Longest driver text (error message, stderr line) shown, in characters.
+MAX_TEXT = 300
+#: Implausible cycles in a row that end a run.
+MAX_QUARANTINED = 3
+#: Range of a hello's cycle_period (seconds): 1000 cycles/s to one cycle a day.
+PERIOD_RANGE = (1e-3, 86_400.0)
+
+
+class _Fault(str):
+    """A line the reader could not take (too long, not UTF-8): reported as the error of that line."""
+
+
+def _cut(text, limit: int = MAX_TEXT) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[:limit] + f"… ({len(text)} characters)"
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 class ProcessRobot:
@@ -68,6 +106,9 @@ class ProcessRobot:
         Seconds to wait for each line before the driver is declared hung and stopped.
     cwd : path-like, optional
         Working directory of the driver.
+    check_cycles : bool
+        Check every cycle against the hello and the gait sent, quarantining implausible ones (module
+        docstring); False returns every cycle as the driver sent it.
 
     Attributes
     ----------
@@ -78,19 +119,33 @@ class ProcessRobot:
         Cycles run so far.
     front_back_symmetric : bool or None
         As declared by the driver (None: not said).
+    cycles_run : int
+        Cycles the driver ran, quarantined ones included.
+    quarantined : list of str
+        One line per quarantined cycle: its number (counting every cycle run) and the reason.
     """
 
-    def __init__(self, command, *, timeout: float = 30.0, cwd=None):
+    def __init__(self, command, *, timeout: float = 30.0, cwd=None, check_cycles: bool = True):
         self.timeout = check_float(timeout, "timeout", "ProcessRobot", low=0, low_open=True)
-        argv = shlex.split(command) if isinstance(command, str) else [str(c) for c in command]
+        if isinstance(command, str):
+            try:
+                argv = shlex.split(command)
+            except ValueError as error:  # an unbalanced quote
+                raise fail("command", "ProcessRobot", f"a command line a shell could split ({error})",
+                           command) from None
+        else:
+            argv = [str(c) for c in command]
         if not argv:
             raise fail("command", "ProcessRobot", "a non-empty command line", command)
         self.command = argv
+        self.check_cycles = bool(check_cycles)
+        self.quarantined: list[str] = []
+        self.cycles_run = 0
         try:
             self._process = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                             stderr=subprocess.PIPE, cwd=cwd, text=True, bufsize=1)
+                                             stderr=subprocess.PIPE, cwd=cwd)
         except OSError as error:
-            raise GeogaitError(f"could not start the robot driver {argv[0]!r}: {error.strerror or error}") from None
+            raise GeogaitError(f"could not start the robot driver {self._name()}: {error.strerror or error}") from None
         self._lines: queue.Queue = queue.Queue()
         self._stderr: collections.deque = collections.deque(maxlen=20)
         self._pumps = [threading.Thread(target=self._pump, args=(pipe, lines), daemon=True)
@@ -99,6 +154,9 @@ class ProcessRobot:
             pump.start()
         self.line_number = 0
         self.cycle = 0
+        self._earlier: list[FourierGait] = []  # gaits commanded before the current one (newest last)
+        self._ignored = 0
+        self._last_pose = None
         try:
             self._handshake()
         except GeogaitError:
@@ -116,10 +174,36 @@ class ProcessRobot:
         if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints:
             raise fail("gait", "ProcessRobot.set_gait", f"a FourierGait with {self.n_joints} joints", gait)
         self._send({"type": "set_gait", "order": gait.order, "params": gait.params.tolist()})
+        if gait != self._gait:
+            self._ignored = 0  # cycles since this change that followed an earlier gait
+            self._earlier = [g for g in self._earlier if g != self._gait][-1:] + [self._gait]
+            if self._hello_gait not in self._earlier and self._hello_gait != gait:
+                self._earlier.insert(0, self._hello_gait)
         self._gait = gait
 
     def next_cycle(self) -> Trajectory:
-        """Ask the driver to run one cycle and collect its samples."""
+        """Ask the driver to run one cycle and collect its samples; implausible cycles are quarantined
+        (logged in :attr:`quarantined`, warned about, run again; see the module docstring)."""
+        in_a_row = 0
+        while True:
+            trajectory = self._run_cycle()
+            self.cycles_run += 1
+            reason = self._implausible(trajectory) if self.check_cycles else None
+            self._last_pose = trajectory.pose[-1]
+            if reason is None:
+                trajectory.cycle[:] = self.cycle
+                self.cycle += 1
+                return trajectory
+            in_a_row += 1
+            self.quarantined.append(f"cycle {self.cycles_run - 1}: {reason}")
+            self._ignored += "set_gait ignored?" in reason
+            if in_a_row >= MAX_QUARANTINED or self._ignored >= MAX_QUARANTINED:
+                what = "in a row" if in_a_row >= MAX_QUARANTINED else "since the last set_gait"
+                raise self._failure(f"{MAX_QUARANTINED} implausible cycles {what}; the last: {reason}")
+            warnings.warn(f"robot driver {self._name()}: cycle {self.cycles_run - 1} quarantined (not learned, run "
+                          f"again): {reason}", GeogaitWarning, stacklevel=2)
+
+    def _run_cycle(self) -> Trajectory:
         self._send({"type": "run_cycle"})
         samples = []
         while True:
@@ -133,16 +217,59 @@ class ProcessRobot:
                     raise self._failure(f"more than {_MAX_SAMPLES} samples in one cycle without 'cycle_end'")
         if len(samples) < 4:
             raise self._failure(f"a cycle of {len(samples)} sample(s); at least 4 are needed")
-        trajectory = self._trajectory(samples)
-        self.cycle += 1
-        return trajectory
+        return self._trajectory(samples)
+
+    # -- plausibility of a cycle ----------------------------------------------------------------
+    def _implausible(self, cycle: Trajectory) -> str | None:
+        """Why ``cycle`` cannot be what the driver was told to run (None: plausible)."""
+        n = cycle.time.size
+        span = (cycle.time[-1] - cycle.time[0]) * n / (n - 1)
+        if not self.cycle_period / 2 <= span <= 2 * self.cycle_period:
+            return (f"its {n} samples span {span:.4g} s, but the hello's cycle_period is {self.cycle_period:.4g} s "
+                    "(time stamps in another unit, or a wrong period)")
+        phase = np.sort(cycle.phase)
+        gaps = np.diff(np.concatenate([phase, phase[:1] + 2 * np.pi]))
+        if gaps.max() > np.pi / 2 + 1e-9:
+            return (f"the commanded phase covers only {2 * np.pi - gaps.max():.3g} of the 2π rad of a cycle "
+                    "(phase stuck or not sweeping the cycle)")
+        sent = self._gait.shape(cycle.phase)
+        moving = np.ptp(sent, axis=0) > 1e-9
+        still = moving & (np.ptp(cycle.shape, axis=0) < 0.01 * np.ptp(sent, axis=0))
+        if still.any():
+            return (f"joint(s) {np.flatnonzero(still).tolist()} never moved (less than 1% of the range the gait sent "
+                    "sweeps)")
+        followed = cycle.commanded_shape  # (measured shapes may leave a gait that saturates: the optimiser judges that)
+        error = np.sqrt(np.mean((followed - sent) ** 2)) if followed is not None else 0.0
+        for earlier in self._earlier if followed is not None else ():
+            other = np.sqrt(np.mean((followed - earlier.shape(cycle.phase)) ** 2))
+            if error > 1.5 * other + 1e-12:
+                return (f"the commanded shapes follow an earlier gait (RMS {other:.3g} rad), not the one sent "
+                        f"(RMS {error:.3g} rad): set_gait ignored?")
+        return self._pose_jump(cycle)
+
+    def _pose_jump(self, cycle: Trajectory) -> str | None:
+        """A pose step far beyond what the body velocity and the other steps of the cycle allow."""
+        position = cycle.pose[:, :2]
+        if self._last_pose is not None:
+            position = np.vstack([self._last_pose[:2], position])
+        step = np.hypot(*np.diff(position, axis=0).T)
+        dt = np.diff(cycle.time)
+        moved = np.hypot(cycle.body_velocity[:-1, 0], cycle.body_velocity[:-1, 1]) * dt
+        limit = 20 * (np.percentile(step, 90) + np.percentile(moved, 90)) + 1e-9 * (1 + np.abs(position).max())
+        k = int(np.argmax(step))
+        if step[k] > limit:
+            where = ("from the end of the previous cycle to its first sample" if self._last_pose is not None and k == 0
+                     else f"at sample {k - (self._last_pose is not None) + 1}")
+            return (f"the pose jumps by {step[k]:.4g} {where}, where the body velocity and the cycle's other steps "
+                    f"allow about {limit / 20:.3g}")
+        return None
 
     def close(self) -> None:
         """Send ``stop`` and end the driver (terminated if it does not exit within a second)."""
         process = self._process
         if process.poll() is None:
             try:
-                process.stdin.write(json.dumps({"type": "stop"}) + "\n")
+                process.stdin.write((json.dumps({"type": "stop"}) + "\n").encode())
                 process.stdin.flush()
                 process.stdin.close()
             except OSError:
@@ -172,14 +299,51 @@ class ProcessRobot:
     # -- messages -----------------------------------------------------------------------------
     @staticmethod
     def _pump(stream, sink):
-        for line in stream:
-            sink.put(line) if isinstance(sink, queue.Queue) else sink.append(line.rstrip())
-        if isinstance(sink, queue.Queue):
-            sink.put(None)  # end of file
+        """Read the driver's lines: bounded in length, strictly decoded; never raises (a fault is queued)."""
+        if not isinstance(sink, queue.Queue):
+            return ProcessRobot._pump_stderr(stream, sink)
+        try:
+            while True:
+                line = stream.readline(MAX_LINE_BYTES + 1)
+                if not line:
+                    break
+                if len(line) > MAX_LINE_BYTES:
+                    sink.put(_Fault(f"is longer than {MAX_LINE_BYTES} bytes (no line end); the driver was stopped"))
+                    return
+                try:
+                    sink.put(line.decode("utf-8"))
+                except UnicodeDecodeError as error:
+                    sink.put(_Fault(f"is not UTF-8 (byte 0x{line[error.start]:02x} at position {error.start})"))
+                    return
+        except (OSError, ValueError) as error:
+            sink.put(_Fault(f"could not be read ({error})"))
+            return
+        sink.put(None)  # end of file
+
+    @staticmethod
+    def _pump_stderr(stream, sink):
+        """Keep the driver's last stderr lines, each cut to :data:`MAX_TEXT` characters."""
+        continued = False
+        try:
+            while True:
+                chunk = stream.readline(4 * MAX_TEXT)
+                if not chunk:
+                    return
+                if not continued:
+                    sink.append(_cut(chunk.decode("utf-8", "replace").rstrip()))
+                elif sink and not sink[-1].endswith("…"):
+                    sink[-1] += "…"
+                continued = not chunk.endswith(b"\n")
+        except (OSError, ValueError):
+            return
+
+    def _name(self) -> str:
+        """The driver's command line, cut for messages."""
+        return repr(_cut(shlex.join(self.command), 80))
 
     def _send(self, message: dict) -> None:
         try:
-            self._process.stdin.write(json.dumps(message) + "\n")
+            self._process.stdin.write((json.dumps(message) + "\n").encode())
             self._process.stdin.flush()
         except (OSError, ValueError):
             raise self._failure("the driver stopped reading its input") from None
@@ -197,56 +361,72 @@ class ProcessRobot:
                 code = None
             raise self._failure(f"the driver closed its output (exit code {code})")
         self.line_number += 1
+        if isinstance(line, _Fault):
+            self._process.kill()
+            raise self._failure(f"line {self.line_number} {line}")
         try:
             message = json.loads(line)
-        except json.JSONDecodeError as error:
-            raise self._failure(f"line {self.line_number} is not JSON ({error.msg}): {line.strip()[:80]!r}") from None
+        except (json.JSONDecodeError, RecursionError) as error:
+            reason = getattr(error, "msg", "nested too deeply")
+            raise self._failure(f"line {self.line_number} is not JSON ({reason}): {_cut(line, 80)!r}") from None
         if not isinstance(message, dict):
-            raise self._failure(f"line {self.line_number} is not a JSON object: {line.strip()[:80]!r}")
+            raise self._failure(f"line {self.line_number} is not a JSON object: {_cut(line, 80)!r}")
         if message.get("type") == "error":
-            raise self._failure(f"the driver reported an error: {message.get('message')}")
+            raise self._failure(f"the driver reported an error: {_cut(message.get('message'))}")
         return message
 
     def _failure(self, text: str) -> GeogaitError:
         tail = " | ".join(list(self._stderr)[-3:])
-        return GeogaitError(f"robot driver {self.command[0]!r}: {text}" + (f" (stderr: {tail})" if tail else ""))
+        return GeogaitError(f"robot driver {self._name()}: {text}" + (f" (stderr: {tail})" if tail else ""))
 
     def _field(self, message: dict, name: str, shape: tuple, optional: bool = False):
         value = message.get(name)
         if value is None and optional:
             return None
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            array = None
-        if array is None or array.shape != shape or not np.all(np.isfinite(array)):
+        if shape == ():
+            numbers = _is_number(value)
+        else:
+            numbers = isinstance(value, list) and len(value) == shape[0] and all(map(_is_number, value))
+        array = None
+        if numbers:
+            try:
+                array = np.asarray(value, dtype=float)
+            except OverflowError:  # an integer beyond the float range
+                array = None
+        if array is None or not np.all(np.isfinite(array)):
             expected = "a finite number" if shape == () else f"a list of {shape[0]} finite numbers"
-            raise self._failure(f"line {self.line_number}: field '{name}' must be {expected}, got {value!r:.80}")
+            raise self._failure(f"line {self.line_number}: field '{name}' must be {expected} (JSON numbers), got "
+                                f"{_cut(repr(value), 80)}")
         return array
 
     def _handshake(self) -> None:
         hello = self._receive()
         if hello.get("type") != "hello" or hello.get("protocol") != PROTOCOL:
-            raise self._failure(f"the first line must be a '{PROTOCOL}' hello, got {json.dumps(hello)[:80]}")
-        if hello.get("version") != PROTOCOL_VERSION:
-            raise self._failure(f"protocol version {hello.get('version')!r}; this geogait speaks {PROTOCOL_VERSION}")
+            raise self._failure(f"the first line must be a '{PROTOCOL}' hello, got {_cut(json.dumps(hello), 80)}")
+        version = hello.get("version")
+        if type(version) is not int or version != PROTOCOL_VERSION:
+            raise self._failure(f"protocol version {_cut(repr(version), 40)} (must be the integer {PROTOCOL_VERSION}); "
+                                f"this geogait speaks {PROTOCOL_VERSION}")
         n_joints = hello.get("n_joints")
-        if isinstance(n_joints, bool) or not isinstance(n_joints, int) or n_joints < 1:
-            raise self._failure(f"'n_joints' must be a positive integer, got {n_joints!r}")
+        if isinstance(n_joints, bool) or not isinstance(n_joints, int) or not 1 <= n_joints <= 10_000:
+            raise self._failure(f"'n_joints' must be an integer in 1..10000, got {_cut(repr(n_joints), 40)}")
         self.n_joints = n_joints
         period = self._field(hello, "cycle_period", ())
-        if period <= 0:
-            raise self._failure(f"'cycle_period' must be positive (seconds), got {float(period)}")
+        low, high = PERIOD_RANGE
+        if not low <= period <= high:
+            raise self._failure(f"'cycle_period' must be in [{low:g}, {high:g}] seconds, got {float(period):g}")
         self.cycle_period = float(period)
-        self._gait = self._read_gait(hello.get("gait"))
+        self._gait = self._hello_gait = self._read_gait(hello.get("gait"))
         symmetric = hello.get("front_back_symmetric")
         if symmetric is not None and not isinstance(symmetric, bool):
-            raise self._failure(f"'front_back_symmetric' must be true or false, got {symmetric!r}")
+            raise self._failure(f"'front_back_symmetric' must be true or false, got {_cut(repr(symmetric), 40)}")
         self.front_back_symmetric = symmetric
 
     def _read_gait(self, gait) -> FourierGait:
-        if not isinstance(gait, dict) or not isinstance(gait.get("order"), int) or gait["order"] < 1:
-            raise self._failure(f"'gait' must be {{'order': K >= 1, 'params': [...]}}, got {gait!r:.80}")
+        order = gait.get("order") if isinstance(gait, dict) else None
+        if type(order) is not int or not 1 <= order <= 1000:
+            raise self._failure(f"'gait' must be {{'order': K in 1..1000, 'params': [...]}}, "
+                                f"got {_cut(repr(gait), 80)}")
         params = self._field(gait, "params", (self.n_joints * (2 * gait["order"] + 1),))
         return FourierGait.from_params(params, self.n_joints)
 
