@@ -16,3 +16,12 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "seeded"))
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261123)
+
+
+def pytest_configure(config):
+    """Compile the real-time kernel once, before any worker or subprocess needs it: its disk cache is
+    then only read while tests run in parallel."""
+    if not hasattr(config, "workerinput"):
+        from geogait.models import _kernels
+
+        _kernels.warm_up()

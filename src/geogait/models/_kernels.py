@@ -185,15 +185,24 @@ def learn_one_kernel():
 def warm_up() -> bool:
     """Load (or compile, the first time after an install) the kernel now, not at the first sample; returns
     :func:`fast_path_available`. A real-time loop calls it before its first sample (``geogait stream``)."""
+    global _kernel, _missing
     kernel = learn_one_kernel()
     if kernel is None:
         return False
     one = np.ones(1)
+    try:
+        _call_once(kernel, one)
+    except Exception as error:  # noqa: BLE001  a broken compile or cache must not stop the reference path
+        _kernel, _missing = None, f"the compiled kernel failed to load ({type(error).__name__}: {error})"
+        return False
+    return True
+
+
+def _call_once(kernel, one):
     kernel(0.0, one * 0.5, one, np.zeros(3), 1.0, 1e9, 1e12, True, np.zeros(1), 4.0, np.zeros((1, 1)),
            np.zeros((1, 1)), True, np.zeros((1, 4, 3)), np.eye(4)[None], np.zeros(1, dtype=np.int64), 0.99, 4.0,
            np.zeros((1, 1, 3)), np.ones((1, 1, 1)), np.zeros(1, dtype=np.int64), 0.99, 1.0, np.zeros(2), 0.995,
            np.empty(9))
-    return True
 
 
 def fast_path_available() -> bool:
