@@ -25,7 +25,7 @@ from ..experiments.optimization import (
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
-from ..optimize._insitu import CHECKPOINT_FORMAT, CHECKPOINT_VERSION
+from ..optimize._insitu import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, DEFAULT_MAX_JOINT_ANGLE
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,
@@ -42,7 +42,7 @@ from ._app import app, figure_app
 from ._common import claim_output, comma_list, console, listed, output_folder, progress_bar, write_manifest
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
-_METHODS = ("adaptive", "shape", "batch")
+_METHODS = ("auto", "adaptive", "shape", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
@@ -71,16 +71,18 @@ def optimize(
     order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
     objective: Annotated[str, typer.Option(
         help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the seed's initial heading).")] = "progress",
-    max_joint_angle: Annotated[float, typer.Option(help="Joint limit r_max (rad).")] = 2 * np.pi / 3,
+    max_joint_angle: Annotated[float | None, typer.Option(
+        help="Joint limit r_max (rad) [default: from the robot's declared joint ranges, else 2π/3].")] = None,
     max_joint_velocity: Annotated[float | None, typer.Option(help="Joint speed limit (rad/s) [default: none].")] = None,
     settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
     method: Annotated[str, typer.Option(
-        help="Model: adaptive (this paper's RLS window model), shape (connection over shape space: Fig. 5's, "
-             "degree 4 with the swimmer's mirror and front-back symmetries; for --robot degree 3 without) or "
-             "batch (Bittner 2018).",
-    )] = "adaptive",
+        help="Model: auto (the library's default: Fig. 5's symmetric shape-space model in the rotation-free "
+             "symmetric family, else the window model), adaptive (this paper's RLS window model), shape "
+             "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
+             "symmetries; for --robot degree 3 without) or batch (Bittner 2018).",
+    )] = "auto",
     family: Annotated[str, typer.Option(
         help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
              "symmetric.")] = "auto",
@@ -135,7 +137,7 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
     if system is not None:
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
-                                     max_joint_angle=settings["max_joint_angle"])
+                                     max_joint_angle=settings["max_joint_angle"] or DEFAULT_MAX_JOINT_ANGLE)
     with target() as robot_driver:
         if not resumed:
             _write_settings(folder, settings, run_id)
@@ -211,12 +213,19 @@ def _optimizer(settings) -> InSituOptimizer:
             raise typer.BadParameter(f"at most {MAX_CYCLES} cycles, got {settings['cycles']}", param_hint="--cycles")
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
     forgetting = settings["forgetting_factor"]
-    model = {"batch": lambda: BatchGaitModel(),
+    if settings["method"] == "auto" and forgetting is not None:
+        raise typer.BadParameter("applies to --method adaptive or shape; auto chooses its model's own",
+                                 param_hint="--forgetting-factor")
+    if settings["method"] == "adaptive" and forgetting is None and settings["robot"] is None:
+        forgetting = 1 - 0.1 / (settings["links"] - 1)  # a robot's d is known once it is connected (_run)
+    model = {"auto": lambda: None,
+             "batch": lambda: BatchGaitModel(),
              "shape": lambda: _shape_model(settings["links"], settings["robot"] is not None, forgetting),
              "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
              }[settings["method"]]()
+    joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
-                           objective=settings["objective"], max_joint_angle=settings["max_joint_angle"],
+                           objective=settings["objective"], max_joint_angle=joint_limit,
                            max_joint_velocity=settings["max_joint_velocity"],
                            settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
                            step_rule=settings.get("step_rule", "linear"),
@@ -262,6 +271,8 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             progress.update(task, completed=row["cycle"] + 1, status=status)
 
         checkpoint = folder / CHECKPOINT_FILE
+        if settings["method"] == "adaptive" and optimizer.model is None:  # the window model, λ = 1 − 0.1 / d
+            optimizer.set_params(model=AdaptiveGaitModel(forgetting_factor=1 - 0.1 / robot.n_joints))
         if resumed:
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
@@ -277,7 +288,7 @@ def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
 _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise": (int, float),
                   "perturbation": (int, float), "period": (int, float), "gamma_threshold": (int, float),
                   "forgetting_factor": (int, float, None), "order": (int,), "objective": (str,),
-                  "max_joint_angle": (int, float), "max_joint_velocity": (int, float, None),
+                  "max_joint_angle": (int, float, None), "max_joint_velocity": (int, float, None),
                   "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
                   "step_rule": (str,), "robot": (str, None), "robot_timeout": (int, float),
                   "checkpoint_every": (int,)}
