@@ -49,6 +49,8 @@ def main(argv=None) -> int:
     parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
     parser.add_argument("--quick", action="store_true", help="swimmer3 + the MuJoCo case, 2 seeds, 20 cycles")
     parser.add_argument("--from-json", default=None, help="redraw table and figure from a manifest")
+    parser.add_argument("--merge", default=None, help="a manifest whose records of the cases and methods run now "
+                        "are replaced by this run's (the rest kept, both commands recorded)")
     parser.add_argument("--out", default="benchmarks/results/robots", help="output folder")
     args = parser.parse_args(argv)
     arguments = sys.argv[1:] if argv is None else argv
@@ -65,6 +67,8 @@ def main(argv=None) -> int:
             result = bench.run_robot_benchmark(cases, _names(args.methods), n_seeds=seeds, budget=budget,
                                                seed=args.seed, jobs=args.jobs, scheduler=args.scheduler)
             wall = time.perf_counter() - start
+            if args.merge:
+                result, command = bench.merge_results(bench.from_manifest(args.merge), result, command)
         budgets = [b for b in (30, 60, 100) if b <= result["config"]["budget"]] or [result["config"]["budget"]]
         paths = bench.write_outputs(result, args.out, command, wall, budgets=budgets)
     except GeogaitError as error:

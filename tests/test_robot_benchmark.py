@@ -186,3 +186,26 @@ def test_quick_benchmark_writes_table_manifest_and_figure_and_redraws(tmp_path):
     assert again.returncode == 0, again.stderr
     assert (redraw / "robots.md").read_text() == table
     assert not (redraw / "robots.json").exists()
+
+
+def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
+    import pandas as pd
+
+    from geogait._validation import GeogaitError
+
+    def result(rows, methods, n_seeds=2):
+        frame = pd.DataFrame([{"case": c, "method": m, "seed": s, "cycles": 10, "objective": v}
+                              for c, m, s, v in rows])
+        return {"records": frame, "cases": {"swimmer3": {}}, "skipped": {},
+                "config": {"cases": ["swimmer3"], "methods": methods, "n_seeds": n_seeds, "budget": 10, "seed": 0},
+                "command": "first"}
+
+    old = result([("swimmer3", "geogait", 0, 1.0), ("swimmer3", "random", 0, 2.0), ("swimmer3", "cmaes", 0, 3.0)],
+                 ["geogait", "cmaes", "random"])
+    new = result([("swimmer3", "geogait", 0, 9.0)], ["geogait"])
+    merged, command = bench.merge_results(old, new, "second")
+    assert merged["records"]["method"].tolist() == ["geogait", "cmaes", "random"]  # METHODS order
+    assert merged["records"]["objective"].tolist() == [9.0, 3.0, 2.0]
+    assert command == "first && second"
+    with pytest.raises(GeogaitError, match="n_seeds"):
+        bench.merge_results(old, result([], ["geogait"], n_seeds=3), "third")

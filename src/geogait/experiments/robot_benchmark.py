@@ -679,6 +679,31 @@ def from_manifest(path) -> dict:
         raise GeogaitError(f"{path} is not a robot benchmark manifest: {error}") from None
 
 
+def merge_results(old: dict, new: dict, command: str) -> tuple[dict, str]:
+    """``old``'s records with those of ``new``'s cases and methods replaced by ``new``'s.
+
+    Both runs must share seeds, budget and root seed (so the seeds stay paired); the returned command
+    names both runs.
+    """
+    keys = ("n_seeds", "budget", "seed")
+    if any(old["config"][k] != new["config"][k] for k in keys):
+        raise GeogaitError("--merge: the runs differ in " + ", ".join(
+            f"{k} ({old['config'][k]} vs {new['config'][k]})" for k in keys if old["config"][k] != new["config"][k]))
+    records = old["records"]
+    if not new["records"].empty:
+        replaced = records.set_index(["case", "method"]).index.isin(
+            new["records"].set_index(["case", "method"]).index.unique())
+        records = pd.concat([records[~replaced], new["records"]], ignore_index=True)
+        case_order = {c: i for i, c in enumerate(dict.fromkeys(records["case"]))}
+        order = records["case"].map(case_order) * len(METHODS) + records["method"].map(METHODS.index)
+        records = records.iloc[np.argsort(order.to_numpy(), kind="stable")].reset_index(drop=True)
+    config = {**old["config"], "cases": list(dict.fromkeys(old["config"]["cases"] + new["config"]["cases"])),
+              "methods": list(dict.fromkeys(old["config"]["methods"] + new["config"]["methods"]))}
+    merged = {"records": records, "cases": {**old["cases"], **new["cases"]},
+              "skipped": {**old["skipped"], **new["skipped"]}, "config": config}
+    return merged, f"{old.get('command', '')} && {command}"
+
+
 def write_outputs(result: dict, folder, command: str, wall_time: float | None, budgets=(30, 60, 100)) -> dict:
     """``robots.md`` (table), ``robots.json`` (manifest; not rewritten when ``wall_time`` is None, a
     redraw), ``robots.csv`` and ``robots.png`` in ``folder``."""
