@@ -36,7 +36,9 @@ def test_models_predict_the_same_motion_at_any_period(model_class):
 
 
 def test_optimiser_takes_the_same_steps_in_seconds_at_any_period():
-    results = {period: InSituOptimizer().run(_stream(period), 10) for period in (1.0, 2.5, 0.2)}
+    # the window model works in cycle time; the shape-space model (the symmetric family's default) regresses
+    # ξ on ṙ in seconds, so its fixed prior weighs differently at another period: free family here
+    results = {period: InSituOptimizer(family="free").run(_stream(period), 10) for period in (1.0, 2.5, 0.2)}
     reference = results[1.0]
     assert reference.n_steps >= 3
     for period, result in results.items():
