@@ -617,13 +617,15 @@ def plot_benchmark(result: dict, path) -> Path:
     names = list(dict.fromkeys(records["case"]))
     columns = min(3, len(names))
     rows = -(-len(names) // columns)
-    spare = rows * columns > len(names)  # an empty panel holds the legend
-    figure, axes = plt.subplots(rows + (not spare), columns, figsize=(5.2 * columns, 3.6 * rows + 1.2 * (not spare)),
-                                squeeze=False, height_ratios=[1] * rows + ([0.3] if not spare else []))
+    figure = plt.figure(figsize=(5.2 * columns, 3.6 * rows + 1.1))
+    grid = figure.add_gridspec(rows + 1, columns, height_ratios=[1] * rows + [0.28])
+    axes = np.array([figure.add_subplot(grid[r, c]) for r in range(rows) for c in range(columns)])
+    legend_axis = figure.add_subplot(grid[rows, :])  # a row of its own, across every column
+    legend_axis.axis("off")
     bases = list(dict.fromkeys(m.removesuffix("-held") for m in records["method"]))
     colours = dict(zip(bases, plt.get_cmap("tab10").colors, strict=False))
     handles = {}
-    for ax, case in zip(axes.flat, names, strict=False):
+    for ax, case in zip(axes, names, strict=False):
         block = records[records["case"] == case]
         has_ceiling = result["cases"][case]["ceiling"] is not None
         column = "ceiling_fraction" if has_ceiling else "improvement"
@@ -641,11 +643,11 @@ def plot_benchmark(result: dict, path) -> Path:
         ax.set_xlabel("cycles used (all charged)")
         ax.set_ylabel("share of the ceiling" if has_ceiling else "improvement over the seed")
         ax.grid(alpha=0.3)
-    for ax in list(axes.flat)[len(names):]:
+    for ax in axes[len(names):]:
         ax.axis("off")
     order = [m for m in METHODS if m in handles]
-    axes.flat[len(names)].legend([handles[m] for m in order], order, loc="center", ncol=2 if spare else 6,
-                                 fontsize=9, title="dotted: free · dashed: held to the rotation limit")
+    legend_axis.legend([handles[m] for m in order], order, loc="center", ncol=6, fontsize=9,
+                       title="geogait solid · black-box dotted: free, dashed: held to the rotation limit")
     figure.suptitle("Each method's gait re-run clean: median and interquartile band over paired seeds "
                     "(free black-box gaits may turn: see the rotation in the table)", fontsize=10)
     return save_figure(figure, path)
@@ -669,11 +671,23 @@ def manifest(result: dict, command: str, wall_time: float) -> dict:
             "records": json.loads(records.to_json(orient="records")) if not records.empty else []}
 
 
+_NUMERIC = ("cycles", "cycles_run", "seconds", "objective", "rotation", "improvement", "ceiling_fraction", "score")
+
+
+def _numeric(records: pd.DataFrame) -> pd.DataFrame:
+    """Numeric record columns as floats (JSON nulls of a case without a ceiling or score become NaN)."""
+    records = records.copy()
+    for column in _NUMERIC:
+        if column in records:
+            records[column] = pd.to_numeric(records[column], errors="coerce")
+    return records
+
+
 def from_manifest(path) -> dict:
     """The result stored in a manifest written by :func:`manifest` (to redraw table and figure)."""
     try:
         data = json.loads(Path(path).read_text())
-        return {"records": pd.DataFrame(data["records"]), "cases": data["cases"], "skipped": data["skipped"],
+        return {"records": _numeric(pd.DataFrame(data["records"])), "cases": data["cases"], "skipped": data["skipped"],
                 "config": data["config"], "command": data["command"]}
     except (OSError, ValueError, KeyError) as error:
         raise GeogaitError(f"{path} is not a robot benchmark manifest: {error}") from None
@@ -693,7 +707,7 @@ def merge_results(old: dict, new: dict, command: str) -> tuple[dict, str]:
     if not new["records"].empty:
         replaced = records.set_index(["case", "method"]).index.isin(
             new["records"].set_index(["case", "method"]).index.unique())
-        records = pd.concat([records[~replaced], new["records"]], ignore_index=True)
+        records = _numeric(pd.concat([records[~replaced], new["records"]], ignore_index=True))
         case_order = {c: i for i, c in enumerate(dict.fromkeys(records["case"]))}
         order = records["case"].map(case_order) * len(METHODS) + records["method"].map(METHODS.index)
         records = records.iloc[np.argsort(order.to_numpy(), kind="stable")].reset_index(drop=True)
