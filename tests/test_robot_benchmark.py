@@ -209,3 +209,15 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     assert command == "first && second"
     with pytest.raises(GeogaitError, match="n_seeds"):
         bench.merge_results(old, result([], ["geogait"], n_seeds=3), "third")
+
+
+def test_a_manifest_with_cases_without_ceiling_or_score_redraws(tmp_path):
+    """JSON nulls (no ceiling, no score) come back as NaN columns the figure and table can use."""
+    result = bench.run_robot_benchmark(["swimmer3"], ["random"], n_seeds=1, budget=4, progress=False)
+    result["records"]["ceiling_fraction"] = np.nan  # as for a robot without a known ceiling
+    result["cases"]["swimmer3"]["ceiling"] = None
+    paths = bench.write_outputs(result, tmp_path, "test", 1.0, budgets=(4,))
+    loaded = bench.from_manifest(paths["manifest"])
+    assert loaded["records"]["ceiling_fraction"].dtype == float
+    bench.plot_benchmark(loaded, tmp_path / "again.png")
+    assert "improvement over seed" in bench.benchmark_table(loaded, (4,))
