@@ -84,6 +84,10 @@ def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
     assert done.returncode == 0, done.stderr
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert summary["results"]["steps"] >= 1 and "ceiling_displacement_per_cycle" not in summary["results"]
+    declared = summary["results"]["robot"]  # what the robot declared, not the built-in swimmer's options
+    assert declared["n_joints"] == 2 and declared["cycle_period_s"] == 0.5
+    assert declared["max_joint_angle_used"] == pytest.approx(2 * np.pi / 3)  # the driver declares no ranges
+    assert not {"links", "noise", "perturbation", "period", "seed"} & set(summary["config"])
     assert len(pd.read_csv(tmp_path / "r" / "cycles.csv")) == 6
     broken = subprocess.run(GEOGAIT + ["optimize", "--robot", "false", "--cycles", "3", "--out", str(tmp_path / "b")],
                             capture_output=True, text=True, timeout=60)

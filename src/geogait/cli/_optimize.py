@@ -143,16 +143,34 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
             _write_settings(folder, settings, run_id)
         result = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
         quarantined = list(getattr(robot_driver, "quarantined", []))
+        declared = _declared(robot_driver, result)
     summary = result.summary(ceiling)
+    config = dict(settings)
     if settings["robot"] is not None:
         summary["quarantined_cycles"] = len(quarantined)
         summary["quarantine_reasons"] = quarantined[:20]
+        summary["robot"] = declared
+        for name in _SWIMMER_ONLY:  # the built-in swimmer's options say nothing about a robot's run
+            config.pop(name, None)
     with output_set(folder, last=("summary.json",)) as staged:
         write_text(staged / "cycles.csv", result.log.to_csv(index=False))
         _figures(staged, system, result, ceiling)
-        write_manifest(staged / "summary.json", command="optimize", config={**settings, "run_id": run_id,
+        write_manifest(staged / "summary.json", command="optimize", config={**config, "run_id": run_id,
                        "optimizer": optimizer.describe(), "resumed": resumed}, results=summary, started=started)
     return summary
+
+
+#: Options of the built-in swimmer, left out of a --robot run's summary.
+_SWIMMER_ONLY = ("links", "seed", "noise", "perturbation", "period")
+
+
+def _declared(robot, result) -> dict:
+    """What the robot declared and what the run made of it (a --robot run's summary)."""
+    ranges = getattr(robot, "joint_ranges", None)
+    return {"n_joints": int(robot.n_joints), "cycle_period_s": float(robot.cycle_period),
+            "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
+            "seed_gait_params": result.initial_gait.params.tolist(),
+            "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale}
 
 
 def _run_id(settings: dict) -> str:
