@@ -1,0 +1,128 @@
+"""The wheeled kinematic snake against an independent no-slip computation."""
+
+import numpy as np
+import pytest
+
+from geogait import se2
+from geogait._validation import GeogaitError
+from geogait.gaits import FourierGait
+from geogait.simulate import cycle_displacement
+from geogait.systems import KinematicSnake, System
+
+GEOMETRIES = [
+    {},
+    {"link_lengths": (0.3, 0.5, 0.4), "wheel_positions": (0.2, 0.7, 0.9)},
+    {"link_lengths": (1.0, 2.0, 1.5), "wheel_positions": (0.0, 0.3, 1.0)},
+]
+
+
+def wheel_poses(snake, q):
+    """World wheel positions ``(3, 2)`` and headings ``(3,)`` from q = (x, y, θ, r0, r1) by plain
+    forward kinematics: the middle link's centre at (x, y) heading θ."""
+    x, y, theta, r0, r1 = q
+    l0, l1, l2 = snake.link_lengths
+    w0, w1, w2 = snake.wheel_positions
+
+    def e(angle):
+        return np.array([np.cos(angle), np.sin(angle)])
+
+    centre = np.array([x, y])
+    rear_joint, front_joint = centre - l1 / 2 * e(theta), centre + l1 / 2 * e(theta)
+    headings = np.array([theta - r0, theta, theta + r1])
+    positions = np.array([rear_joint - (1 - w0) * l0 * e(headings[0]),  # link 0 runs rear_joint → its tail
+                          rear_joint + w1 * l1 * e(theta),
+                          front_joint + w2 * l2 * e(headings[2])])
+    return positions, headings
+
+
+def no_slip_body_velocity(snake, shape, shape_rate, pose=(0.3, -0.2, 0.7)):
+    """ξ solving the three no-slip rows numerically (finite-difference wheel Jacobians, lstsq)."""
+    q = np.array([*pose, *shape])
+    positions, headings = wheel_poses(snake, q)
+    h = 1e-6
+    jac = np.stack([(wheel_poses(snake, q + h * np.eye(5)[k])[0] - wheel_poses(snake, q - h * np.eye(5)[k])[0])
+                    / (2 * h) for k in range(5)], axis=-1)  # (3 wheels, 2, 5)
+    normals = np.stack([-np.sin(headings), np.cos(headings)], axis=-1)
+    rows = np.einsum("wk,wkq->wq", normals, jac)  # n_i · ∂p_i/∂q
+    world = np.linalg.lstsq(rows[:, :3], -rows[:, 3:] @ shape_rate, rcond=None)[0]
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    return np.array([c * world[0] + s * world[1], -s * world[0] + c * world[1], world[2]])
+
+
+def test_is_a_system():
+    assert isinstance(KinematicSnake(), System)
+    assert KinematicSnake().n_joints == 2
+
+
+@pytest.mark.parametrize("geometry", GEOMETRIES)
+def test_connection_matches_numerical_no_slip_solution(rng, geometry):
+    snake = KinematicSnake(**geometry)
+    shapes = rng.uniform(-2.0, 2.0, size=(40, 2))
+    shapes = shapes[snake.singular_distance(shapes) > 0.05]
+    rates = rng.normal(size=shapes.shape)
+    batch = snake.connection(shapes)  # vectorised over the batch
+    for shape, rate, connection in zip(shapes, rates, batch, strict=True):
+        expected = no_slip_body_velocity(snake, shape, rate)
+        np.testing.assert_allclose(-connection @ rate, expected, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(snake.connection(shapes[None, :, :])[0], batch)
+    np.testing.assert_allclose(snake.connection(shapes[0]), batch[0])
+
+
+@pytest.mark.parametrize("geometry", GEOMETRIES)
+def test_singular_set_is_where_the_numerical_constraints_degenerate(rng, geometry):
+    snake = KinematicSnake(**geometry)
+    curve = snake._curve[rng.choice(len(snake._curve), 50, replace=False)]
+    for shape in curve:  # the stacked no-slip rows in ξ lose rank on the curve
+        q = np.array([0.0, 0.0, 0.0, *shape])
+        _, headings = wheel_poses(snake, q)
+        h = 1e-6
+        jac = np.stack([(wheel_poses(snake, q + h * np.eye(5)[k])[0] - wheel_poses(snake, q - h * np.eye(5)[k])[0])
+                        / (2 * h) for k in range(3)], axis=-1)
+        rows = np.einsum("wk,wkq->wq", np.stack([-np.sin(headings), np.cos(headings)], axis=-1), jac)
+        singular_values = np.linalg.svd(rows, compute_uv=False)
+        assert singular_values[-1] < 1e-6 * singular_values[0]
+    assert np.all(snake.singular(curve, tolerance=1e-9))
+    assert np.all(snake.singular_distance(curve) < 1e-12)
+
+
+def test_equal_link_snake_is_singular_on_the_diagonal(rng):
+    snake = KinematicSnake()
+    t = rng.uniform(-2.5, 2.5, size=30)
+    assert np.all(snake.singular(np.stack([t, t], axis=-1)))
+    shapes = rng.uniform(-1.0, 1.0, size=(200, 2))
+    np.testing.assert_allclose(snake.singular_distance(shapes), np.abs(shapes[:, 0] - shapes[:, 1]) / np.sqrt(2),
+                               atol=1e-3)
+    half = 1 / 6
+    closed = half * (1 + np.cos(shapes[:, 0])) * (1 + np.cos(shapes[:, 1])) * (
+        np.tan(shapes[:, 0] / 2) - np.tan(shapes[:, 1] / 2))
+    np.testing.assert_allclose(snake.constraint_determinant(shapes), closed, atol=1e-15)
+    value, gradient = snake.feasibility(shapes, jacobian=True)
+    np.testing.assert_allclose(value, snake.singular_distance(shapes) - 0.2)
+    far = value > -0.1  # the direction from the nearest sample is accurate away from the set
+    np.testing.assert_allclose(np.abs(gradient[far]), 1 / np.sqrt(2), atol=1e-2)
+
+
+def test_gait_away_from_the_singular_set_moves_and_reversal_undoes_it():
+    snake = KinematicSnake()
+    gait = snake.seed_gait()
+    assert snake.feasible(gait.shape(np.linspace(0, 2 * np.pi, 512))).all()
+    forward = cycle_displacement(snake, gait, 512)
+    assert np.hypot(*forward[:2]) > 0.2  # 0.28 body lengths per cycle
+    assert abs(forward[2]) < 1e-9  # symmetric about r0 = -r1: no net rotation
+    coefficients = gait.coefficients.copy()
+    coefficients[:, 2] *= -1  # θ(-φ)
+    backward = cycle_displacement(snake, FourierGait(coefficients), 512)
+    np.testing.assert_allclose(se2.compose(forward, backward), 0, atol=1e-9)
+
+
+def test_rejects_bad_geometry():
+    with pytest.raises(GeogaitError, match="'link_lengths' parameter of KinematicSnake"):
+        KinematicSnake(link_lengths=(1.0, -1.0, 1.0))
+    with pytest.raises(GeogaitError, match="'wheel_positions' parameter of KinematicSnake"):
+        KinematicSnake(wheel_positions=(0.5, 1.5, 0.5))
+    with pytest.raises(GeogaitError, match="rear wheel off the rear joint"):
+        KinematicSnake(wheel_positions=(1.0, 0.5, 0.5))
+    with pytest.raises(GeogaitError, match="'margin' parameter of KinematicSnake"):
+        KinematicSnake(margin=-0.1)
+    with pytest.raises(GeogaitError, match="'shapes' parameter"):
+        KinematicSnake().connection(np.zeros(3))
