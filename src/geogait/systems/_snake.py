@@ -41,6 +41,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .._validation import check_array, check_float, fail
 from ..gaits import FourierGait
@@ -88,6 +89,7 @@ class KinematicSnake:
     wheel_positions: tuple[float, ...] = (0.5, 0.5, 0.5)
     margin: float = 0.2
     _curve: np.ndarray = field(init=False, repr=False, compare=False)
+    _curve_tree: cKDTree = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         owner = "KinematicSnake"
@@ -108,6 +110,7 @@ class KinematicSnake:
         object.__setattr__(self, "wheel_positions", tuple(float(x) for x in wheels))
         object.__setattr__(self, "margin", float(self.margin))
         object.__setattr__(self, "_curve", self._singular_curve())
+        object.__setattr__(self, "_curve_tree", cKDTree(self._curve))
 
     n_joints = 2
 
@@ -196,19 +199,10 @@ class KinematicSnake:
     def _nearest(self, shapes):
         """Distance ``(...,)`` to the sampled singular set and the unit direction away from it."""
         flat = shapes.reshape(-1, 2)
-        curve = self._curve
-        best = np.empty(flat.shape[0])
-        direction = np.zeros_like(flat)
-        for start in range(0, flat.shape[0], 256):  # bounded memory: 256 × m distances at a time
-            chunk = flat[start:start + 256]
-            offset = chunk[:, None, :] - curve[None, :, :]
-            squared = np.einsum("nmk,nmk->nm", offset, offset)
-            index = np.argmin(squared, axis=1)
-            rows = np.arange(chunk.shape[0])
-            best[start:start + 256] = np.sqrt(squared[rows, index])
-            away = offset[rows, index]
-            direction[start:start + 256] = away / np.maximum(best[start:start + 256], 1e-15)[:, None]
-        return best.reshape(shapes.shape[:-1]), direction.reshape(shapes.shape)
+        distance, index = self._curve_tree.query(flat)
+        away = flat - self._curve[index]
+        direction = away / np.maximum(distance, 1e-15)[:, None]
+        return distance.reshape(shapes.shape[:-1]), direction.reshape(shapes.shape)
 
     def singular_distance(self, shapes) -> np.ndarray:
         """Euclidean distance (rad) from shapes ``(..., 2)`` to the singular set D = 0 → ``(...,)``.
