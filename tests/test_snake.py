@@ -204,3 +204,17 @@ def test_ceiling_start_must_be_feasible():
     assert np.all(shapes[:, 0] < shapes[:, 1])  # SLSQP stays on the start's side
     # Mirror symmetry, up to the sampled singular set.
     assert ceiling.value == pytest.approx(optimize_ceiling(snake, starts=1).value, rel=1e-4)
+
+
+@pytest.mark.parametrize("geometry", GEOMETRIES[1:])
+def test_ceiling_of_other_geometries_keeps_the_determinant_sign_within_the_margin(geometry):
+    """No zero of D(r) within ``margin`` of the loop: D keeps its sign on discs of rings around it."""
+    snake = KinematicSnake(**geometry)
+    ceiling = optimize_ceiling(snake, starts=3)
+    assert np.isfinite(ceiling.value) and ceiling.value > 0
+    loop = ceiling.gait.shape(np.linspace(0, 2 * np.pi, 512, endpoint=False))
+    angle = np.linspace(0, 2 * np.pi, 128, endpoint=False)
+    radius = np.linspace(0, snake.margin, 9)
+    disc = (radius[:, None, None] * np.stack([np.cos(angle), np.sin(angle)], axis=-1)[None]).reshape(-1, 2)
+    determinant = snake.constraint_determinant(loop[:, None, :] + disc[None, :, :])  # (512, 9 · 128)
+    assert np.all(determinant * determinant[:, :1] > 0)
