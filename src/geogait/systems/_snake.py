@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import check_array, check_float, fail
+from .._validation import check_array, check_float, check_int, fail
 from ..gaits import FourierGait
 from ._base import check_shapes
 
@@ -249,24 +249,31 @@ class KinematicSnake:
         """
         return self.feasibility(shapes) >= 0
 
-    def seed_gait(self, amplitude: float = 0.5, order: int = 1) -> FourierGait:
-        r"""A feasible starting gait: a circle of radius ``amplitude`` about (0.6, −0.6).
+    def seed_gait(self, amplitude: float | None = None, order: int = 1) -> FourierGait:
+        r"""A feasible starting gait: a circle of radius ``amplitude`` about (c, −c).
 
-        .. math:: r_0 = 0.6 + a\cos\phi,\quad r_1 = -0.6 + a\sin\phi
+        .. math:: r_0 = c + a\cos\phi,\quad r_1 = -c + a\sin\phi,\qquad
+           c = 0.6 + \max(0, m - 0.4),\quad a = \min(0.5,\ 0.8(\sqrt2\,c - m))
 
-        It stays on the side r₀ > r₁ of the equal-link snake's singular line (the paper's
-        :func:`~geogait.gaits.seed_gait`, a circle about the origin, crosses it twice per cycle).
+        with m the margin: the circle keeps √2 c − a ≥ m from the line r₀ = r₁, the equal-link
+        snake's singular set (the paper's :func:`~geogait.gaits.seed_gait`, a circle about the
+        origin, crosses it twice per cycle). Other geometries may need a start of their own.
 
         Parameters
         ----------
-        amplitude : float in (0, 0.6]
-            Radius a, radians.
+        amplitude : float in (0, c], optional
+            Radius a, radians; by default the largest of the formula above.
         order : int, default 1
             Fourier order of the returned gait (extra coefficients zero).
         """
-        amplitude = check_float(amplitude, "amplitude", "KinematicSnake.seed_gait", low=0, high=0.6, low_open=True)
+        centre = 0.6 + max(0.0, self.margin - 0.4)
+        if amplitude is None:
+            amplitude = min(0.5, 0.8 * (np.sqrt(2) * centre - self.margin))
+        amplitude = check_float(amplitude, "amplitude", "KinematicSnake.seed_gait", low=0, high=centre,
+                                low_open=True)
+        order = check_int(order, "order", "KinematicSnake.seed_gait", minimum=1)
         coefficients = np.zeros((2, 2 * order + 1))
-        coefficients[:, 0] = [0.6, -0.6]
+        coefficients[:, 0] = [centre, -centre]
         coefficients[0, 1] = amplitude
         coefficients[1, order + 1] = amplitude
         return FourierGait(coefficients)
