@@ -309,3 +309,16 @@ def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhil
     unguarded, measured_off = run(revert_tolerance=None)
     assert not unguarded.log["reverted"].any()
     assert measured_off.iloc[-1] < 0.6 * measured_off.max()  # without it, the model walks the robot downhill
+
+
+def test_ceiling_start_defaults_to_the_seed_gait_and_accepts_a_lower_order():
+    from geogait.gaits import seed_gait
+    from geogait.optimize import optimize_ceiling
+    from geogait.systems import PurcellSwimmer
+
+    swimmer = PurcellSwimmer(3)
+    default = optimize_ceiling(swimmer, starts=1)
+    given = optimize_ceiling(swimmer, starts=1, start=seed_gait(2, amplitude=1.0))
+    assert given.value == default.value
+    raised = optimize_ceiling(swimmer, order=2, objective_kind="progress", starts=1, start=default.gait)
+    assert raised.gait.order == 2 and raised.value >= default.value - 1e-9
