@@ -42,7 +42,9 @@ class Ceiling:
     displacement : ndarray of shape (3,)
         Net (x, y, heading) per cycle of ``gait``.
     starts : int
-        Number of multi-start runs; ``values`` holds each start's result.
+        Number of multi-start runs made (fewer than asked when a system's feasible region left a
+        random start without a feasible draw); ``values`` holds each start's result (-inf: the
+        run ended infeasible).
     values : ndarray
     """
 
