@@ -9,8 +9,8 @@ from scipy.optimize import minimize
 from geogait import se2
 from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, seed_gait
-from geogait.optimize import optimize_ceiling
-from geogait.optimize._ceiling import FEASIBILITY_SLACK, feasibility_constraint
+from geogait.optimize import feasibility_constraint, optimize_ceiling
+from geogait.optimize._objective import FEASIBILITY_SLACK
 from geogait.simulate import cycle_displacement
 from geogait.systems import FunctionSystem, KinematicSnake, System
 

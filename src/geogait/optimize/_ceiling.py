@@ -14,18 +14,20 @@ from scipy.optimize import minimize
 
 from .._files import write_json
 from .._validation import check_choice, check_float, check_int, fail
-from ..gaits import FourierGait, SymmetricGaitFamily, fourier_basis, seed_gait
+from ..gaits import FourierGait, SymmetricGaitFamily, seed_gait
 from ..simulate import cycle_displacement
-from ..systems import FeasibleSystem, System
-from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, rms_speed
+from ..systems import System
+from ._objective import (
+    OBJECTIVES,
+    default_objective,
+    feasibility_constraint,
+    joint_limit_constraints,
+    objective,
+    rms_speed,
+)
 
-__all__ = ["Ceiling", "cached_ceiling", "feasibility_constraint", "optimize_ceiling"]
+__all__ = ["Ceiling", "cached_ceiling", "optimize_ceiling"]
 
-#: Phases per Fourier order of the grid on which a system's feasible region is imposed.
-FEASIBILITY_PHASES = 256
-#: The grid constraint is g(θ(φ_k)) ≥ this slack, so that the continuous loop (between grid phases)
-#: keeps g ≥ 0 too; in radians for a distance-type g.
-FEASIBILITY_SLACK = 2e-3
 #: Random draws tried per random start of a system with a feasible region before giving up on it.
 FEASIBLE_DRAWS = 2000
 
@@ -53,37 +55,6 @@ class Ceiling:
     displacement: np.ndarray
     starts: int
     values: np.ndarray
-
-
-def feasibility_constraint(system, n_joints: int, order: int):
-    """The feasible region of ``system`` as rows on a phase grid, or None when it declares none.
-
-    Parameters
-    ----------
-    system : System
-        A :class:`~geogait.systems.FeasibleSystem` contributes rows; any other system none.
-    n_joints : int
-        Shape dimension d.
-    order : int
-        Fourier order K of the gait family.
-
-    Returns
-    -------
-    callable or None
-        ``f(params (d (2K + 1),)) -> (g (n,), dg/dp (n, d (2K + 1)))`` with
-        g = feasibility(θ(φ_k)) − slack on ``FEASIBILITY_PHASES · K`` equally spaced phases.
-    """
-    if not isinstance(system, FeasibleSystem):
-        return None
-    phase = np.linspace(0, 2 * np.pi, FEASIBILITY_PHASES * order, endpoint=False)
-    basis = fourier_basis(phase, order)  # (n, c)
-
-    def rows(params):
-        shapes = basis @ np.reshape(params, (n_joints, -1)).T  # (n, d)
-        value, gradient = system.feasibility(shapes, jacobian=True)
-        return value - FEASIBILITY_SLACK, (gradient[:, :, None] * basis[:, None, :]).reshape(len(phase), -1)
-
-    return rows
 
 
 def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matrix=None, feasibility=None):
