@@ -330,3 +330,16 @@ def test_forward_direction_is_the_mean_motion_of_the_seeds_cycles():
     noisy = SwimmerStream(PurcellSwimmer(3), still, sensor_noise=0.1, seed=2)
     with pytest.raises(GeogaitError, match="cannot be told from noise"):
         InSituOptimizer(objective="forward", family="free", min_cycles_per_iteration=4).run(noisy, 10)
+
+
+def test_ceiling_start_defaults_to_the_seed_gait_and_accepts_a_lower_order():
+    from geogait.gaits import seed_gait
+    from geogait.optimize import optimize_ceiling
+    from geogait.systems import PurcellSwimmer
+
+    swimmer = PurcellSwimmer(3)
+    default = optimize_ceiling(swimmer, starts=1)
+    given = optimize_ceiling(swimmer, starts=1, start=seed_gait(2, amplitude=1.0))
+    assert given.value == default.value
+    raised = optimize_ceiling(swimmer, order=2, objective_kind="progress", starts=1, start=default.gait)
+    assert raised.gait.order == 2 and raised.value >= default.value - 1e-9

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from geogait.gaits import FreeGaitFamily, SymmetricGaitFamily, seed_gait
+from geogait.gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily, seed_gait
 from geogait.models import PerfectInformationModel, ShapeSpaceModel
 from geogait.optimize import (
     InSituOptimizer,
@@ -92,3 +92,24 @@ def test_optimizer_runs_on_perfect_information_and_on_the_shape_space_model():
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
     learned = InSituOptimizer(model=ShapeSpaceModel(degree=3), step_rule="sqp").run(stream, 30, ceiling=ceiling)
     assert learned.n_steps >= 5 and learned.log["ceiling_fraction"].iloc[-1] > 0.85
+
+
+@pytest.mark.parametrize("rule", [linear_step, sqp_step])
+def test_steps_respect_a_systems_feasible_region(rule):
+    from geogait.optimize import feasibility_constraint
+    from geogait.systems import KinematicSnake
+
+    snake = KinematicSnake()
+    family = FreeGaitFamily(2)
+    truth = PerfectInformationModel(system=snake)
+    limits = joint_limit_constraints(2, 1, 2 * np.pi / 3)
+    start = FourierGait([[0.35, 0.25, 0.0], [-0.35, 0.0, 0.25]])  # 0.245 rad from the singular line
+    params = family.params_of(start)
+    unconstrained = rule(StepProblem(truth.predict_displacement, family, limits=limits), params, 1.0)
+    phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    assert snake.singular_distance(unconstrained.gait.shape(phase)).min() < snake.margin  # without: it cuts in
+    problem = StepProblem(truth.predict_displacement, family, limits=limits,
+                          feasibility=feasibility_constraint(snake, 2, 1))
+    step = rule(problem, params, 1.0)
+    assert step.accepted and step.predicted_value > step.value_before * 1.005
+    assert snake.singular_distance(step.gait.shape(phase)).min() >= snake.margin

@@ -3,7 +3,15 @@ prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._insitu import CycleMeasurement, InSituOptimizer, InSituResult, measure_cycle, symmetric_chain_model
-from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, path_length, rms_speed
+from ._objective import (
+    OBJECTIVES,
+    default_objective,
+    feasibility_constraint,
+    joint_limit_constraints,
+    objective,
+    path_length,
+    rms_speed,
+)
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
@@ -17,6 +25,7 @@ __all__ = [
     "StepProblem",
     "cached_ceiling",
     "default_objective",
+    "feasibility_constraint",
     "joint_limit_constraints",
     "linear_step",
     "measure_cycle",

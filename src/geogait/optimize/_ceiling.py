@@ -13,13 +13,23 @@ import numpy as np
 from scipy.optimize import minimize
 
 from .._files import write_json
-from .._validation import check_choice, check_float, check_int
+from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, SymmetricGaitFamily, seed_gait
 from ..simulate import cycle_displacement
 from ..systems import System
-from ._objective import OBJECTIVES, default_objective, joint_limit_constraints, objective, rms_speed
+from ._objective import (
+    OBJECTIVES,
+    default_objective,
+    feasibility_constraint,
+    joint_limit_constraints,
+    objective,
+    rms_speed,
+)
 
 __all__ = ["Ceiling", "cached_ceiling", "optimize_ceiling"]
+
+#: Random draws tried per random start of a system with a feasible region before giving up on it.
+FEASIBLE_DRAWS = 2000
 
 
 @dataclass(frozen=True)
@@ -34,7 +44,9 @@ class Ceiling:
     displacement : ndarray of shape (3,)
         Net (x, y, heading) per cycle of ``gait``.
     starts : int
-        Number of multi-start runs; ``values`` holds each start's result.
+        Number of multi-start runs made (fewer than asked when a system's feasible region left a
+        random start without a feasible draw); ``values`` holds each start's result (-inf: the
+        run ended infeasible).
     values : ndarray
     """
 
@@ -45,9 +57,10 @@ class Ceiling:
     values: np.ndarray
 
 
-def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matrix=None):
+def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matrix=None, feasibility=None):
     """SLSQP from ``start``; ``matrix`` T maps free parameters q to Fourier parameters p = T q
-    (a rotation-free family: no rotation constraint), identity when None."""
+    (a rotation-free family: no rotation constraint), identity when None; ``feasibility`` (from
+    :func:`feasibility_constraint`) adds the system's feasible region as inequality rows."""
     to_fourier = np.eye(start.params.size) if matrix is None else matrix
 
     def evaluate(q):
@@ -68,6 +81,9 @@ def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matri
     limit_matrix, bound = limits
     limit_matrix = limit_matrix @ to_fourier
     constraints = [{"type": "ineq", "fun": lambda q: bound - limit_matrix @ q, "jac": lambda q: -limit_matrix}]
+    if feasibility is not None:
+        constraints.append({"type": "ineq", "fun": lambda q: feasibility(to_fourier @ q)[0],
+                            "jac": lambda q: feasibility(to_fourier @ q)[1] @ to_fourier})
     if matrix is None:
         constraints.append({"type": "eq", "fun": lambda q: cached(q)[2][2], "jac": lambda q: cached(q)[3][2]})
     start_q = np.linalg.lstsq(to_fourier, start.params, rcond=None)[0]
@@ -76,18 +92,30 @@ def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matri
     gait = start.with_params(to_fourier @ result.x)
     pose = cycle_displacement(system, gait, resolution)
     feasible = abs(pose[2]) < 1e-6 and np.all(limit_matrix @ result.x <= bound + 1e-9)
+    if feasibility is not None:  # the grid rows hold (to SLSQP's tolerance), and the loop between them
+        feasible = feasible and np.all(feasibility(gait.params)[0] >= -1e-9) and bool(
+            np.all(system.feasible(gait.shape(np.linspace(0, 2 * np.pi, 4096, endpoint=False)))))
     return gait, (objective(kind, pose, np.zeros((3, gait.params.size)), gait)[0] if feasible else -np.inf), pose
 
 
 def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | None = None,
                      max_joint_angle: float = 2 * np.pi / 3, starts: int = 8, seed: int = 0,
-                     resolution: int = 128, family: str = "free") -> Ceiling:
-    """Maximise the objective over Fourier gaits of ``order`` with the true connection.
+                     resolution: int = 128, family: str = "free", start: FourierGait | None = None) -> Ceiling:
+    r"""Maximise the objective over Fourier gaits of ``order`` with the true connection.
 
     SLSQP with exact gradients (:func:`~geogait.simulate.cycle_displacement` with
     ``jacobian=True``), the zero-net-rotation equality constraint and the joint limits as linear
-    inequalities; multi-start from the paper's seed gait and ``starts - 1`` random gaits within the
-    limits. Returns the best feasible result; among starts that tie to 1e-6 (``"budget"`` and
+    inequalities; multi-start from ``start`` (by default the paper's seed gait, or the system's own
+    ``seed_gait`` when it declares a feasible region) and ``starts - 1`` random gaits within the
+    limits. A :class:`~geogait.systems.FeasibleSystem` (e.g. the kinematic snake, whose connection
+    is singular on a curve) adds its region as inequality rows on a phase grid,
+
+    .. math:: g(\theta(\phi_k)) \ge s,\quad \phi_k = 2\pi k / (256 K),\ s = 2\cdot 10^{-3},
+
+    with exact gradients ∂g/∂r · ∂θ/∂p; random starts are drawn until feasible (up to 2000 draws
+    each: a start that finds none is dropped, and ``Ceiling.starts`` counts the starts run), and a
+    result counts only if the loop is feasible at 4096 phases. Returns the best feasible result;
+    among starts that tie to 1e-6 (``"budget"`` and
     ``"efficiency"`` do not change when a loop is repeated), the one with the least RMS shape speed.
 
     Parameters
@@ -110,6 +138,9 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
         ``"symmetric"`` optimises inside the front–back symmetric family
         (:class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's φ₀), which is rotation-free
         by construction, with half the parameters; only for chains with that symmetry.
+    start : FourierGait, optional
+        First start, of ``d`` joints; it must lie within the joint limits (and the system's
+        feasible region, if any). Its order is raised to ``order`` if lower.
     """
     order = check_int(order, "order", "optimize_ceiling", minimum=1)
     starts = check_int(starts, "starts", "optimize_ceiling", minimum=1)
@@ -120,24 +151,50 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
     d = system.n_joints
     limits = joint_limit_constraints(d, order, r_max)
     rng = np.random.default_rng(seed)
-    seed_start = seed_gait(d, amplitude=min(1.0, 0.9 * r_max), order=order)
+    feasibility = feasibility_constraint(system, d, order)
+    seed_start = _first_start(system, start, d, order, r_max, feasibility)
     matrix = SymmetricGaitFamily.from_gait(seed_start).matrix if family == "symmetric" else None
     candidates = [seed_start]
     for _ in range(starts - 1):
-        coefficients = 0.5 * rng.normal(size=(d, 2 * order + 1))
-        coefficients[:, 0] *= 0.2
-        if matrix is not None:  # project onto the family, then scale into the limits
-            coefficients = (matrix @ np.linalg.lstsq(matrix, coefficients.ravel(), rcond=None)[0]).reshape(d, -1)
-        scale = np.abs(coefficients).sum(axis=1).max() / (0.8 * r_max)
-        candidates.append(FourierGait(coefficients / max(scale, 1.0)))
-    results = [_solve(system, start, kind, limits, resolution, matrix) for start in candidates]
+        for _ in range(1 if feasibility is None else FEASIBLE_DRAWS):
+            coefficients = 0.5 * rng.normal(size=(d, 2 * order + 1))
+            # A feasible region may exclude loops about the origin: offsets then span the limits.
+            coefficients[:, 0] *= 0.2 if feasibility is None else 2 * r_max
+            if matrix is not None:  # project onto the family, then scale into the limits
+                coefficients = (matrix @ np.linalg.lstsq(matrix, coefficients.ravel(), rcond=None)[0]).reshape(d, -1)
+            scale = np.abs(coefficients).sum(axis=1).max() / (0.8 * r_max)
+            candidate = FourierGait(coefficients / max(scale, 1.0))
+            if feasibility is None or np.all(feasibility(candidate.params)[0] >= 0):
+                candidates.append(candidate)
+                break
+    results = [_solve(system, begin, kind, limits, resolution, matrix, feasibility) for begin in candidates]
     values = np.array([value for _, value, _ in results])
     # "budget" and "efficiency" are invariant under repeating a loop (θ(φ) → θ(Kφ)); among starts that tie
     # (within 1e-6), keep the gait with the least RMS shape speed: the single loop, not its repetition.
     tied = np.nonzero(values >= values.max() - 1e-6 * abs(values.max()))[0]
     best = int(tied[np.argmin([rms_speed(results[i][0]) for i in tied])])
     gait, value, pose = results[best]
-    return Ceiling(gait=gait, value=float(value), displacement=pose, starts=starts, values=values)
+    return Ceiling(gait=gait, value=float(value), displacement=pose, starts=len(candidates), values=values)
+
+
+def _first_start(system, start, d: int, order: int, r_max: float, feasibility) -> FourierGait:
+    """The given start (checked) or the default: the system's feasible seed, else the paper's."""
+    owner = "optimize_ceiling"
+    if start is None:
+        if feasibility is not None:
+            start = system.seed_gait(order=order)
+        else:
+            return seed_gait(d, amplitude=min(1.0, 0.9 * r_max), order=order)
+    elif not isinstance(start, FourierGait) or start.n_joints != d or start.order > order:
+        raise fail("start", owner, f"a FourierGait with {d} joints and order <= {order}", start)
+    start = start.with_order(order) if start.order < order else start
+    if np.any(start.joint_limit() > r_max):
+        raise fail("start", owner, f"a gait within the joint limit {r_max:g} rad",
+                   f"a gait reaching {start.joint_limit().max():.4g} rad")
+    if feasibility is not None and np.any(feasibility(start.params)[0] < 0):
+        raise fail("start", owner, f"a gait inside the feasible region of {system.name} (pass a feasible start)",
+                   f"a gait with feasibility down to {feasibility(start.params)[0].min():.4g}")
+    return start
 
 
 def _cache_folder() -> Path:

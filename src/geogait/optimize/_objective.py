@@ -34,11 +34,20 @@ import numpy as np
 
 from .._validation import check_choice, fail
 from ..gaits import FourierGait, fourier_basis
+from ..systems import FeasibleSystem
 
-__all__ = ["OBJECTIVES", "default_objective", "objective", "path_length", "joint_limit_constraints", "rms_speed"]
+__all__ = [
+    "OBJECTIVES", "default_objective", "feasibility_constraint", "objective", "path_length", "joint_limit_constraints",
+    "rms_speed",
+]
 
 OBJECTIVES = ("progress", "efficiency", "forward", "budget")
 _PATH_NODES = 256
+#: Phases per Fourier order of the grid on which a system's feasible region is imposed.
+FEASIBILITY_PHASES = 256
+#: The grid constraint is g(θ(φ_k)) ≥ this slack, so that the continuous loop (between grid phases)
+#: keeps g ≥ 0 too; in radians for a distance-type g.
+FEASIBILITY_SLACK = 2e-3
 
 
 def path_length(gait: FourierGait, params=None, jacobian: bool = False):
@@ -182,3 +191,34 @@ def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float, m
         rows += [blocks, -blocks]
         bounds.append(np.full(2 * blocks.shape[0], limit * tightening))
     return np.vstack(rows), np.concatenate(bounds)
+
+
+def feasibility_constraint(system, n_joints: int, order: int):
+    """The feasible region of ``system`` as rows on a phase grid, or None when it declares none.
+
+    Parameters
+    ----------
+    system : System
+        A :class:`~geogait.systems.FeasibleSystem` contributes rows; any other system none.
+    n_joints : int
+        Shape dimension d.
+    order : int
+        Fourier order K of the gait family.
+
+    Returns
+    -------
+    callable or None
+        ``f(params (d (2K + 1),)) -> (g (n,), dg/dp (n, d (2K + 1)))`` with
+        g = feasibility(θ(φ_k)) − slack on ``FEASIBILITY_PHASES · K`` equally spaced phases.
+    """
+    if not isinstance(system, FeasibleSystem):
+        return None
+    phase = np.linspace(0, 2 * np.pi, FEASIBILITY_PHASES * order, endpoint=False)
+    basis = fourier_basis(phase, order)  # (n, c)
+
+    def rows(params):
+        shapes = basis @ np.reshape(params, (n_joints, -1)).T  # (n, d)
+        value, gradient = system.feasibility(shapes, jacobian=True)
+        return value - FEASIBILITY_SLACK, (gradient[:, :, None] * basis[:, None, :]).reshape(len(phase), -1)
+
+    return rows

@@ -98,6 +98,11 @@ class StepProblem:
         Largest |predicted rotation − target| of an accepted step.
     direction : array-like of 2 floats, optional
         Direction of the ``"forward"`` objective (in the frame of the predicted pose).
+    feasibility : callable, optional
+        A system's feasible region as rows on a phase grid, ``f(p) -> (g (m,), dg/dp (m, d (2K+1)))``
+        of the Fourier parameters p, feasible where g ≥ 0
+        (:func:`~geogait.optimize.feasibility_constraint`); the linear step imposes its
+        linearisation, the SQP step the rows themselves, and every accepted step satisfies them.
     """
 
     predict: Callable
@@ -107,11 +112,14 @@ class StepProblem:
     rotation: bool | None = None
     rotation_tolerance: float = 1e-3
     direction: np.ndarray | None = None
+    feasibility: Callable | None = None
 
     def __post_init__(self):
         owner = "StepProblem"
         if not callable(self.predict):
             raise fail("predict", owner, "callable as predict(gait, jacobian=...)", self.predict)
+        if self.feasibility is not None and not callable(self.feasibility):
+            raise fail("feasibility", owner, "callable as feasibility(params) -> (g, dg/dp)", self.feasibility)
         if not isinstance(self.family, FreeGaitFamily | SymmetricGaitFamily):
             raise fail("family", owner, "a FreeGaitFamily or SymmetricGaitFamily", self.family)
         check_choice(self.objective, "objective", owner, OBJECTIVES)
@@ -154,9 +162,18 @@ class StepProblem:
         """h − G T q of free parameters ``params`` ``(n_params,)`` (joint limits hold where ≥ 0)."""
         return self._limit_bound - self._limit_matrix @ params
 
+    def region(self, params):
+        """Feasible-region rows ``(g (m,), dg/dq (m, n_params))`` at free parameters ``params`` (m = 0
+        without ``feasibility``)."""
+        matrix = self.family.matrix
+        if self.feasibility is None:
+            return np.zeros(0), np.zeros((0, matrix.shape[1]))
+        value, jacobian = self.feasibility(matrix @ np.asarray(params, dtype=float))
+        return np.asarray(value, dtype=float), np.asarray(jacobian, dtype=float) @ matrix
+
     def feasible(self, params) -> bool:
-        """Whether free parameters ``params`` satisfy the joint limits (to 1e-12)."""
-        return bool(np.all(self.slack(params) >= -1e-12))
+        """Whether free parameters ``params`` satisfy the joint limits (to 1e-12) and the feasible region."""
+        return bool(np.all(self.slack(params) >= -1e-12) and np.all(self.region(params)[0] >= -1e-12))
 
     def correct_rotation(self, params, target: float):
         """Minimum-norm Newton steps from free parameters ``params`` on the predicted rotation towards ``target``
@@ -223,6 +240,10 @@ def linear_step(problem: StepProblem, params, radius: float, *, rotation_target:
         {"type": "ineq", "fun": lambda d: radius**2 - d @ metric @ d, "jac": lambda d: -2 * metric @ d},
         {"type": "ineq", "fun": lambda d: slack - matrix @ d, "jac": lambda d: -matrix},
     ]
+    if problem.feasibility is not None:
+        region, region_jacobian = problem.region(params)
+        constraints.append({"type": "ineq", "fun": lambda d: region + region_jacobian @ d,
+                            "jac": lambda d: region_jacobian})
     if problem.rotation:
         row, miss = pose_jacobian[2], pose[2] - rotation_target
         constraints.append({"type": "eq", "fun": lambda d: miss + row @ d, "jac": lambda d: row})
@@ -266,6 +287,9 @@ def sqp_step(problem: StepProblem, params, radius: float, *, rotation_target: fl
          "jac": lambda d: -2 * metric @ d / radius},
         {"type": "ineq", "fun": lambda d: slack - matrix @ d, "jac": lambda d: -matrix},
     ]
+    if problem.feasibility is not None:
+        constraints.append({"type": "ineq", "fun": lambda d: problem.region(params + d)[0],
+                            "jac": lambda d: problem.region(params + d)[1]})
     if problem.rotation:
         constraints.append({"type": "eq", "fun": lambda d: (problem.evaluate(params + d)[2][2] - rotation_target),
                             "jac": lambda d: problem.evaluate(params + d)[3][2]})

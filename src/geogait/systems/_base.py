@@ -10,7 +10,7 @@ import numpy as np
 
 from .._validation import check_array, check_int, fail
 
-__all__ = ["System", "FunctionSystem", "check_shapes"]
+__all__ = ["System", "FeasibleSystem", "FunctionSystem", "check_shapes"]
 
 
 @runtime_checkable
@@ -29,6 +29,73 @@ class System(Protocol):
 
     def connection(self, shapes) -> np.ndarray:
         """Local connection A for shapes ``(..., d)``, returned as ``(..., 3, d)``."""
+        ...
+
+
+@runtime_checkable
+class FeasibleSystem(Protocol):
+    r"""A :class:`System` that also declares a feasible shape region (e.g. away from a singular set).
+
+    Downstream, :func:`~geogait.optimize.optimize_ceiling` keeps every gait it tries inside the
+    region on its phase grid, :math:`g(\theta(\phi_k)) \ge 0`, as it does the joint limits, and starts
+    from :meth:`seed_gait` (and only from feasible random gaits).
+
+    Methods
+    -------
+    feasibility(shapes, jacobian=False)
+        Smooth signed margin g(r) ``(...,)``, ≥ 0 where feasible (and ∂g/∂r ``(..., d)`` with
+        ``jacobian``); radians for a distance.
+    feasible(shapes)
+        ``feasibility(shapes) >= 0`` as a bool array ``(...,)``.
+    seed_gait(amplitude=..., order=1)
+        A feasible starting gait of Fourier order ``order``.
+    """
+
+    name: str
+    n_joints: int
+
+    def connection(self, shapes) -> np.ndarray:
+        """Local connection A ``(..., 3, d)``.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+            Joint angles, radians.
+        """
+        ...
+
+    def feasibility(self, shapes, jacobian: bool = False):
+        """Signed margin g(r) ``(...,)``, ≥ 0 where feasible.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+            Joint angles, radians.
+        jacobian : bool, default False
+            Also return ∂g/∂r ``(..., d)``.
+        """
+        ...
+
+    def feasible(self, shapes) -> np.ndarray:
+        """``feasibility(shapes) >= 0``, bool ``(...,)``.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+            Joint angles, radians.
+        """
+        ...
+
+    def seed_gait(self, amplitude: float = ..., order: int = 1):
+        """A feasible starting gait.
+
+        Parameters
+        ----------
+        amplitude : float
+            Size of the loop, radians (the system's default when omitted).
+        order : int, default 1
+            Fourier order of the returned gait.
+        """
         ...
 
 
