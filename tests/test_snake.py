@@ -229,3 +229,25 @@ def test_feasibility_rows_have_exact_gradients(rng):
     np.testing.assert_allclose(jacobian, numeric, atol=1e-6)
     assert value.shape == (512,) and np.all(value > 0)
     assert feasibility_constraint(FunctionSystem(lambda r: np.zeros(r.shape[:-1] + (3, 2)), n_joints=2), 2, 1) is None
+
+
+def test_in_situ_optimiser_keeps_every_commanded_gait_off_the_singular_set():
+    """On a simulated kinematic snake the optimiser's steps respect the system's feasible region (the
+    margin around r₀ = r₁): every commanded gait keeps it, the gait still improves, and a seed that
+    crosses the singular line (the paper's seed gait) is refused before any cycle runs."""
+    from geogait.gaits import Perturbation
+    from geogait.optimize import InSituOptimizer
+    from geogait.simulate import SwimmerStream
+
+    snake = KinematicSnake()
+    stream = SwimmerStream(snake, snake.seed_gait(), perturbation=Perturbation.from_std(0.05), sensor_noise=0.05,
+                           seed=0)
+    result = InSituOptimizer(family="free").run(stream, 25)
+    phases = np.linspace(0, 2 * np.pi, 1024)
+    assert result.n_steps >= 3
+    assert min(snake.singular_distance(g.shape(phases)).min() for g in result.gaits) >= snake.margin - 1e-3
+    assert result.log["true_objective"].iloc[-1] > 1.5 * result.log["true_objective"].iloc[0]
+    crossing = SwimmerStream(snake, seed_gait(2), seed=0)
+    with pytest.raises(GeogaitError, match="feasible region"):
+        InSituOptimizer(family="free").run(crossing, 3)
+    assert crossing.cycle == 0

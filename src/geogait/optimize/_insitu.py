@@ -67,7 +67,7 @@ from ..models import AdaptiveGaitModel, model_from_state
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ..systems import PurcellSwimmer
-from ._objective import OBJECTIVES, joint_limit_constraints, objective
+from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
 from ._steps import STEP_RULES, StepProblem, take_step
 
 __all__ = ["InSituOptimizer", "InSituResult"]
@@ -412,11 +412,16 @@ class InSituOptimizer(Estimator):
                 raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
                            f"a gait reaching {speed:.4g} rad/s")
         family = self._family(robot, gait)
+        feasibility = _feasibility(robot, gait, self.order)
+        if feasibility is not None and feasibility(gait.params)[0].min() < 0:
+            raise fail("robot", owner, "a seed gait inside the system's feasible region (its singular set's "
+                       "margin; e.g. the system's own seed_gait())", "a seed gait that leaves it")
         robot.set_gait(gait)
         scale = self._shape_scale(gait)
         state = _State(gait=gait, radius=self.trust_radius * scale, model=self._new_model(gait, period, family, scale),
                        n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
-                       settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale)
+                       settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale,
+                       feasibility=feasibility)
         return _Loop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
@@ -458,6 +463,7 @@ class InSituOptimizer(Estimator):
                        robot.gait.n_joints)
         state.max_joint_angle = optimizer._joint_limit(robot, "InSituOptimizer.resume")
         state.scale = optimizer._shape_scale(state.gaits[0])
+        state.feasibility = _feasibility(robot, state.gait, optimizer.order)
         if n_cycles is not None:
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
@@ -566,7 +572,7 @@ class InSituOptimizer(Estimator):
         gait, family = state.gait, state.family
         problem = StepProblem(state.model.predict_displacement, family, objective=self.objective,
                               limits=self._limits(state), rotation_tolerance=self.rotation_tolerance,
-                              direction=self._direction(state))
+                              direction=self._direction(state), feasibility=state.feasibility)
         params = family.params_of(gait, tolerance=1e-8)
         value, _, pose, _ = problem.evaluate(params)
         state.update_radius(value, self.min_trust_radius * state.scale, self.max_trust_radius * state.scale)
@@ -643,6 +649,12 @@ def _declares_symmetry(robot) -> bool:
         return False
     lengths = np.asarray(system.link_lengths)
     return bool(np.allclose(lengths, lengths[::-1]))
+
+
+def _feasibility(robot, gait: FourierGait, order: int):
+    """The feasible region of a simulator's system (``current_system()``) as step constraints, or None."""
+    system = robot.current_system() if hasattr(robot, "current_system") else None
+    return None if system is None else feasibility_constraint(system, gait.n_joints, order)
 
 
 def _has_online_gamma(model) -> bool:
@@ -747,6 +759,7 @@ class _State:
     gaits: list = field(default_factory=list)
     family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
     measured: dict = field(default_factory=dict)  # gait -> measured objective of each of its learned cycles
+    feasibility: object = None  # the system's feasible region as step constraints (None: none declared)
     seed_nets: list = field(default_factory=list)  # the seed's measured motion per cycle, direction frame
     direction_fixed: bool = False  # "forward" fixed (given, or from all the seed's cycles at the first gate)
     max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
