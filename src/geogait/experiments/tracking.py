@@ -78,13 +78,17 @@ DRAG_WINDOWS = ((0, 10), (10, 30))
 """Windows of cycles after the drag change, ``[start, stop)`` counted from the change, over which each
 controller's mean |cross-track error| is reported (``"cycles_0_9"``, ``"cycles_10_29"``)."""
 CONTROLLER_STYLE = {
-    "adaptive": {"color": "tab:red", "linestyle": "-", "marker": "o", "ms": 3.0, "alpha": 1.0, "zorder": 4},
-    "frozen": {"color": "tab:blue", "linestyle": "--", "marker": "s", "ms": 3.0, "alpha": 0.9, "zorder": 3},
-    "true": {"color": "0.15", "linestyle": ":", "marker": "x", "ms": 2.5, "alpha": 0.7, "zorder": 2},
+    "adaptive": {"color": "tab:red", "linestyle": "-", "marker": "o", "ms": 2.5, "mfc": "tab:red", "alpha": 1.0,
+                 "zorder": 4},
+    "frozen": {"color": "tab:blue", "linestyle": "--", "marker": "s", "ms": 5.0, "mfc": "none", "alpha": 0.9,
+               "zorder": 3},
+    "true": {"color": "0.15", "linestyle": ":", "marker": "x", "ms": 5.0, "mfc": "none", "alpha": 0.6,
+             "zorder": 2},
 }
-"""One style per controller (colour, line, marker, size, alpha, draw order), used by every tracking
-figure (``path.png``, ``family.png``, ``tracking.png``); the true controller is drawn below the others,
-smaller and lighter, so that its markers do not hide theirs."""
+"""One style per controller (colour, line, marker, size, fill, alpha, draw order), used by every
+tracking figure (``path.png``, ``family.png``, ``tracking.png``): the true controller is drawn first and
+lightest, the frozen one as hollow squares around the adaptive controller's small dots, so that no
+controller's markers hide another's."""
 RECOVERY_FACTOR = 1.5
 """Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
 PRE_CHANGE_CYCLES = 10
@@ -687,7 +691,7 @@ def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> di
 def controller_style(controller: str) -> dict:
     """Matplotlib keywords of a controller's line and markers (:data:`CONTROLLER_STYLE`)."""
     style = CONTROLLER_STYLE.get(controller, {"color": "C2", "linestyle": "-", "marker": ".", "ms": 3.0,
-                                              "alpha": 1.0, "zorder": 3})
+                                              "mfc": "C2", "alpha": 1.0, "zorder": 3})
     return dict(style)
 
 
@@ -851,7 +855,7 @@ def plot_steering_family(ax, families: dict, n_links: int | str):
              "max step": {"color": "tab:green", "linestyle": "-", "marker": "d"}}
     for name, family in families.items():
         style = controller_style("adaptive" if name == "model" else name) if name not in extra else extra[name]
-        style = {k: v for k, v in style.items() if k in ("color", "linestyle", "marker", "zorder", "alpha")}
+        style = {k: v for k, v in style.items() if k in ("color", "linestyle", "marker", "mfc", "zorder", "alpha")}
         ok = family.feasible
         ax.plot(family.steps[ok], family.poses[ok, 2], ms=3, lw=1.2, label=labels.get(name, name), **style)
     ax.axhline(0, color="0.8", lw=0.6)
