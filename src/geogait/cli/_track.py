@@ -203,7 +203,8 @@ def track(
     out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
         "out/track"),
 ) -> None:
-    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json.
+    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json
+    (with --trials N > 1: path.png, cycles.csv, trials.csv and summary.json, per-trial ratios included).
 
     Each controller runs on its own copy of the simulated swimmer with the same seed (same perturbations
     and noise), or its own driver process of --robot: the adaptive model keeps learning, the frozen one
@@ -327,6 +328,9 @@ def track(
                                                 f"{n_cycles} cycles")
                 warnings.warn(summary[name]["stop_reason"] + "; the summary covers the cycles run", GeogaitWarning,
                               stacklevel=1)
+        means = [summary.get(n, {}).get("cross_track_mean") for n in ("adaptive", "true")]
+        if None not in means and means[1] > 0:
+            summary["adaptive_over_true_cross_track"] = means[0] / means[1]
         if len(ratios) == 2:
             summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
         summary["step_per_cycle"] = step
