@@ -224,3 +224,5 @@ def test_figure_tracking_follows_a_csv_path(tmp_path):
     assert (out / "tracking.png").stat().st_size > 10_000
     bad = _run("figure", "tracking", "--quick", "--path", "spiral", "--out", tmp_path / "bad")
     assert bad.exit_code == 1 and "The '--path' option" in bad.stderr
+    both = _run("figure", "tracking", "--quick", "--drag-only", "--path", file, "--out", tmp_path / "both")
+    assert both.exit_code == 1 and "'--drag-path'" in both.stderr

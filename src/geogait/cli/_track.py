@@ -478,6 +478,9 @@ def figure_tracking(
     if file and drag_file and Path(file).resolve() != Path(drag_file).resolve():
         raise GeogaitError(f"The '--path' and '--drag-path' options take one waypoints CSV between them. Got {file} "
                            f"and {drag_file}.")
+    if drag_only and path is not None:
+        raise GeogaitError("The '--drag-only' option runs no path at constant drag; give the paths through the "
+                           "change with '--drag-path' instead of '--path'.")
     path_file = file or drag_file
     references = None if path_file is None else {CUSTOM_PATH: ReferencePath.from_csv(path_file)}
     folder = output_folder(out)

@@ -723,7 +723,8 @@ def plot_paths(ax, frame: pd.DataFrame, n_links: int, kind: str, environment: st
         style = controller_style(controller)
         ax.plot(part["x"], part["y"], lw=1, label=controller, **style)
     ax.set_aspect("equal", adjustable="datalim")
-    title = f"{n_links}-link {kind}" + (" (k 2→4)" if environment == "change" else "")
+    name = f"{kind} ({reference.name})" if kind == CUSTOM_PATH and reference is not None else kind
+    title = f"{n_links}-link {name}" + (" (k 2→4)" if environment == "change" else "")
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("x (body lengths)", fontsize=8)
     ax.set_ylabel("y (body lengths)", fontsize=8)
