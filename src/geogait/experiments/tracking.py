@@ -508,7 +508,8 @@ def trial_stats(frame: pd.DataFrame, change_cycle: int | None = None) -> pd.Data
     change_cycle : int, optional
         Tracking cycle of the drag change: adds each trial's mean |e| over the :data:`DRAG_WINDOWS`
         after it (``cycles_0_9_after``, ``cycles_10_29_after``; NaN where the run did not reach the
-        window's first cycle). For the rows of ``environment == "constant"`` the windows stay NaN.
+        window's first cycle; a window cut by the end of the run averages the cycles it has). For the
+        rows of ``environment == "constant"`` the windows stay NaN.
 
     Returns
     -------
