@@ -133,9 +133,13 @@ def test_track_trials_pairs_seeds_across_controllers_and_reports_each_trial(tmp_
     assert (out / "path.png").stat().st_size > 10_000 and not (out / "family.png").exists()
 
 
-def test_track_trials_is_refused_with_a_robot(tmp_path):
-    result = _run("track", "--robot", "no-such-driver", "--trials", "2", "--out", tmp_path / "x")
-    assert result.exit_code == 1 and "The '--trials' option" in result.stderr
+@pytest.mark.parametrize(("options", "message"), [
+    (["--robot", "no-such-driver", "--trials", "2"], "The '--trials' option"),
+    (["--jobs", "2"], "The '--jobs' and '--scheduler' options"),
+])
+def test_track_trials_options_refused_where_they_cannot_act(tmp_path, options, message):
+    result = _run("track", "--quick", *options, "--out", tmp_path / "x")
+    assert result.exit_code == 1 and message in result.stderr and not (tmp_path / "x").exists()
 
 
 # -- per-trial statistics and the drag-change windows -----------------------------------------

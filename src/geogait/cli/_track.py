@@ -215,6 +215,9 @@ def track(
     ratios = _ratios(drag_ratio)
     names = _names(controllers or ",".join(c for c in CONTROLLERS if robot is None or c != "true"),
                    "--controllers", CONTROLLERS)
+    if trials == 1 and (jobs != 1 or scheduler is not None):
+        raise GeogaitError("The '--jobs' and '--scheduler' options spread the trials of '--trials N' (N > 1) over "
+                           "workers; one trial runs in this process (add '--trials N' or drop them).")
     if robot is not None:
         if trials > 1:
             raise GeogaitError("The '--trials' option runs the built-in swimmer on paired seeds; a robot behind "
