@@ -226,6 +226,8 @@ def test_figure_tracking_follows_a_csv_path(tmp_path):
     assert "adaptive_over_true_per_trial" in manifest["results"]["3-link csv constant"]
     assert "windows" in manifest["results"]["3-link csv change"]["drag_change"]
     assert (out / "tracking.png").stat().st_size > 10_000
+    trials = pd.read_csv(out / "tracking-trials.csv")
+    assert len(trials) == 3 * 3 and trials[trials["environment"] == "change"]["cycles_0_9_after"].notna().all()
     bad = _run("figure", "tracking", "--quick", "--path", "spiral", "--out", tmp_path / "bad")
     assert bad.exit_code == 1 and "The '--path' option" in bad.stderr
     both = _run("figure", "tracking", "--quick", "--drag-only", "--path", file, "--out", tmp_path / "both")

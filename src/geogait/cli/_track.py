@@ -474,7 +474,12 @@ def figure_tracking(
     from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-tracking"),
 ) -> None:
-    """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4."""
+    """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4.
+
+    Writes tracking.png, steering-family.png, tracking.csv (every cycle), tracking-trials.csv (one row
+    per swimmer, path, environment, trial and controller, with the drag-change windows) and
+    tracking.json (pooled and per-trial statistics).
+    """
     started = time.perf_counter()
     paths, file = _figure_paths(path, "--path") if path is not None else (None, None)
     drag_paths, drag_file = _figure_paths(drag_path, "--drag-path") if drag_path is not None else (None, None)
@@ -507,10 +512,13 @@ def figure_tracking(
     for ax, n_links in zip(axes[0], families, strict=True):
         plot_steering_family(ax, steering_families(int(n_links)), int(n_links))
     save_figure(fig, folder / "steering-family.png")
+    change = result.config.change_cycle if result.config is not None else int(result.frame["cycle"].max() + 1) // 2
+    write_text(folder / "tracking-trials.csv", trial_stats(result.frame, change).to_csv(index=False))
     summary = result.summary()
     write_manifest(folder / "tracking.json", command="figure tracking",
                    config=result.config_dict() or {"from_csv": str(from_csv)},
                    results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
                                   **summary}), started=started)
     console.print(dumps_json(_json(summary), indent=1))
-    console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking.json)")
+    console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking-trials.csv, "
+                  "tracking.json)")
