@@ -24,20 +24,28 @@ from ..control import (
     PathTracker,
     ReferencePath,
 )
+from ..experiments._common import run_sweep
 from ..experiments.tracking import (
+    CUSTOM_PATH,
+    PATHS,
     TRACKING_MODELS,
     TURN_SPACING,
     TrackingConfig,
     TrackingResult,
+    controller_style,
     drag_change_metrics,
     feasible_turn_limit,
+    mark_change,
+    per_trial_ratios,
     plot_reference,
     plot_steering_family,
     run_tracking,
     steering_families,
     straight_gait,
+    track_trials,
     tracking_model,
     tracking_path,
+    trial_stats,
 )
 from ..gaits import Perturbation
 from ..plotting import plt, save_figure
@@ -47,8 +55,11 @@ from ._app import app, figure_app
 from ._common import claim_output, console, explain_nulls, output_folder, progress_bar, write_manifest
 
 QUICK = {"cycles": 12, "warmup": 5}
-#: Every file ``geogait track`` writes (replaced together, as one set).
-TRACK_FILES = ("cycles.csv", "path.png", "family.png", "summary.json")
+#: Every file ``geogait track`` writes (replaced together, as one set); ``trials.csv`` with ``--trials`` > 1,
+#: ``family.png`` with one trial.
+TRACK_FILES = ("cycles.csv", "path.png", "family.png", "trials.csv", "summary.json")
+#: Built-in paths of ``--path``: the control module's curves and the experiment's waypoint rectangle.
+BUILT_IN_PATHS = PATH_KINDS + ("waypoints",)
 MAX_SCALE = 1e5  # --scale: built-in paths of at most 1e5 steps
 
 
@@ -81,12 +92,29 @@ def _ratios(text: str) -> tuple[float, ...]:
 
 
 def _path(text: str, step: float, scale: float) -> ReferencePath:
-    if text in PATH_KINDS:
+    if text in BUILT_IN_PATHS:
         return tracking_path(text, step, scale)
     if text.endswith(".csv") or Path(text).exists():
         return ReferencePath.from_csv(text)
-    raise GeogaitError(f"The '--path' option must be one of {', '.join(PATH_KINDS)} or a waypoints CSV file "
+    raise GeogaitError(f"The '--path' option must be one of {', '.join(BUILT_IN_PATHS)} or a waypoints CSV file "
                        f"(columns x, y). Got {text!r} instead.")
+
+
+def _figure_paths(text: str, option: str) -> tuple[tuple[str, ...], str | None]:
+    """``--path`` / ``--drag-path`` of ``figure tracking``: built-in names and at most one waypoints CSV."""
+    names, files = [], []
+    for item in (v.strip() for v in text.split(",") if v.strip()):
+        if item in PATHS:
+            names.append(item)
+        elif item.endswith(".csv") or Path(item).exists():
+            files.append(item)
+            names.append(CUSTOM_PATH)
+        else:
+            raise GeogaitError(f"The '{option}' option must be a comma-separated list of {', '.join(PATHS)} and at "
+                               f"most one waypoints CSV file (columns x, y). Got {item!r} instead.")
+    if len(set(files)) > 1:
+        raise GeogaitError(f"The '{option}' option takes at most one waypoints CSV file. Got {', '.join(files)}.")
+    return tuple(dict.fromkeys(names)), (files[0] if files else None)
 
 
 def _check_robot_options(names, ratios, path: str, step: float | None, exploration: str) -> None:
@@ -100,7 +128,7 @@ def _check_robot_options(names, ratios, path: str, step: float | None, explorati
     if exploration != "fixed":
         raise GeogaitError("'--exploration adaptive' needs a robot whose δ size can be set between cycles; the "
                            "JSON-lines bridge has no such message (use '--exploration fixed' with '--robot').")
-    if path in PATH_KINDS and step is None:
+    if path in BUILT_IN_PATHS and step is None:
         raise GeogaitError(f"The built-in path {path!r} is sized in steps of the straight gait: give '--step' (the "
                            "robot's step per cycle, pose units) with '--robot', or a waypoints CSV as '--path'.")
     if step is not None and not (np.isfinite(step) and step > 0):
@@ -115,8 +143,10 @@ def _json(value, reason: str = "not available for this run"):
 @app.command()
 def track(
     links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.")] = 3,
-    path: Annotated[str, typer.Option(help="line, circle, figure8, or a waypoints CSV (columns x, y; body "
-                                           "lengths).")] = "circle",
+    path: Annotated[str, typer.Option(help="line, circle, figure8, waypoints (the 1.5 × 1 rectangle of the "
+                                           "README figure, in --scale steps), or a waypoints CSV (columns x, y; "
+                                           "body lengths; a last row equal to the first closes the path).")
+                    ] = "circle",
     drag_ratio: Annotated[str, typer.Option(
         help="Drag ratio k, or two (e.g. 2,4): changed unannounced at --change-cycle.")] = "2",
     cycles: Annotated[int | None, typer.Option(help="Tracking cycles [default: 60; 12 with --quick].")] = None,
@@ -158,6 +188,14 @@ def track(
     step: Annotated[float | None, typer.Option(
         help="With --robot: the straight gait's step per cycle (pose units) that sizes the built-in paths "
              "(--scale steps); not needed for a waypoints CSV.")] = None,
+    trials: Annotated[int, typer.Option(
+        min=1, help="Paired trials (built-in swimmer): trial i runs every controller on the seed "
+                    "SeedSequence(--seed).spawn(N)[i]; with N > 1 the trials run on the sweep runner (--jobs, "
+                    "--scheduler), cycles.csv gets a trial column, trials.csv one row per trial and controller, "
+                    "and summary.json the per-trial ratios (no live display, no family.png).")] = 1,
+    jobs: Annotated[int, typer.Option(help="joblib worker processes for --trials N > 1 (-1: all cores).")] = 1,
+    scheduler: Annotated[str | None, typer.Option(
+        help="Dask scheduler address for --trials N > 1 (needs geogait[dask]).")] = None,
     quick: Annotated[bool, typer.Option(help="A short run: 5 warm-up and 12 tracking cycles.")] = False,
     overwrite: Annotated[bool, typer.Option(
         help="Replace the run in a non-empty --out folder (its files are replaced together when this run ends).")
@@ -165,7 +203,8 @@ def track(
     out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
         "out/track"),
 ) -> None:
-    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json.
+    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json
+    (with --trials N > 1: path.png, cycles.csv, trials.csv and summary.json, per-trial ratios included).
 
     Each controller runs on its own copy of the simulated swimmer with the same seed (same perturbations
     and noise), or its own driver process of --robot: the adaptive model keeps learning, the frozen one
@@ -176,7 +215,13 @@ def track(
     ratios = _ratios(drag_ratio)
     names = _names(controllers or ",".join(c for c in CONTROLLERS if robot is None or c != "true"),
                    "--controllers", CONTROLLERS)
+    if trials == 1 and (jobs != 1 or scheduler is not None):
+        raise GeogaitError("The '--jobs' and '--scheduler' options spread the trials of '--trials N' (N > 1) over "
+                           "workers; one trial runs in this process (add '--trials N' or drop them).")
     if robot is not None:
+        if trials > 1:
+            raise GeogaitError("The '--trials' option runs the built-in swimmer on paired seeds; a robot behind "
+                               "'--robot' runs once (drop '--trials' with '--robot').")
         _check_robot_options(names, ratios, path, step, exploration)
         system, gait = None, None
     else:
@@ -222,8 +267,28 @@ def track(
         return contextlib.nullcontext(SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(start_std),
                                                     sensor_noise=noise, environment=schedule, seed=seed))
 
+    swimmer = robot is None  # the options of the built-in swimmer, recorded only where they acted
+    config = dict(links=links if swimmer else None, robot=robot, path=path, drag_ratios=ratios if swimmer else None,
+                  cycles=n_cycles, change_cycle=change if len(ratios) == 2 else None, controllers=names,
+                  warmup=warmup_cycles, scale=scale, step=step, offset=start_offset, seed=seed if swimmer else None,
+                  noise=noise if swimmer else None,
+                  perturbation=perturbation if exploration == "fixed" and swimmer else None,
+                  exploration=exploration,
+                  exploration_low=exploration_low if exploration == "adaptive" else None,
+                  exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
+                  turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick, trials=trials,
+                  jobs=jobs if trials > 1 else None, scheduler=scheduler if trials > 1 else None)
+    if trials > 1:
+        options = dict(n_links=links, path=reference, n_cycles=n_cycles, drag_ratios=ratios, change_cycle=change,
+                       warmup_cycles=warmup_cycles, sensor_noise=noise, perturbation=start_std, controllers=names,
+                       tracker_options=dict(horizon=horizon, model=tracking_model(model),
+                                            change_forgetting=change_forgetting, turn_limit=limit),
+                       start_offset=start_offset, exploration=None if sizes == "fixed" else sizes)
+        _track_trials(out, overwrite, options, trials, seed, jobs, scheduler, reference, config, started, step)
+        return
     label = "robot" if robot is not None else f"{links}-link"
-    with claim_output(out, overwrite=overwrite):  # checked and locked before any work; replaced as one set at the end
+    # checked and locked before any work; replaced as one set at the end
+    with claim_output(out, overwrite=overwrite):
         folder = Path(out)
         results, quarantined = {}, {}
         progress = progress_bar()
@@ -266,26 +331,21 @@ def track(
                                                 f"{n_cycles} cycles")
                 warnings.warn(summary[name]["stop_reason"] + "; the summary covers the cycles run", GeogaitWarning,
                               stacklevel=1)
+        means = [summary.get(n, {}).get("cross_track_mean") for n in ("adaptive", "true")]
+        if None not in means and means[1] > 0:
+            summary["adaptive_over_true_cross_track"] = means[0] / means[1]
         if len(ratios) == 2:
             summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
         summary["step_per_cycle"] = step
         summary["path_length"] = reference.length
-        swimmer = robot is None  # the options of the built-in swimmer, recorded only where they acted
-        config = dict(links=links if swimmer else None, robot=robot, path=path, drag_ratios=ratios if swimmer else None,
-                      cycles=n_cycles, change_cycle=change if len(ratios) == 2 else None, controllers=names,
-                      warmup=warmup_cycles, scale=scale, step=step, offset=start_offset, seed=seed if swimmer else None,
-                      noise=noise if swimmer else None,
-                      perturbation=perturbation if exploration == "fixed" and swimmer else None,
-                      exploration=exploration,
-                      exploration_low=exploration_low if exploration == "adaptive" else None,
-                      exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
-                      turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick)
-        with output_set(folder, last=("summary.json",)) as staged:
+        summary["path_closed"] = reference.closed
+        with output_set(folder, members=TRACK_FILES, last=("summary.json",)) as staged:
             write_text(staged / "cycles.csv", log.to_csv(index=False))
-            _plot_paths(staged / "path.png", reference, results)
+            _plot_paths(staged / "path.png", reference, {n: r.log for n, r in results.items()},
+                        {n: r.trajectory for n, r in results.items()}, {n: r.start for n, r in results.items()},
+                        change if len(ratios) == 2 else None)
             fig, ax = plt.subplots(figsize=(6, 4.5))
-            plot_steering_family(ax, {{"adaptive": "model", "frozen": "frozen model", "true": "true"}[n]: r.family
-                                      for n, r in results.items()}, links if robot is None else "robot")
+            plot_steering_family(ax, {n: r.family for n, r in results.items()}, links if robot is None else "robot")
             save_figure(fig, staged / "family.png")
             write_manifest(staged / "summary.json", command="track", config=_json(config, "not used by this run"),
                            results=_json(summary), started=started)
@@ -293,23 +353,87 @@ def track(
         console.print(f"wrote {folder}/ (cycles.csv, summary.json, path.png, family.png)")
 
 
-def _plot_paths(file, reference: ReferencePath, results: dict) -> None:
-    """Reference path, each controller's sampled path and its cycle-boundary markers."""
-    styles = {"adaptive": "tab:red", "frozen": "tab:blue", "true": "k"}
-    fig, ax = plt.subplots(figsize=(6.4, 5.6))
-    plot_reference(ax, reference, np.concatenate([r.log[["x", "y"]].to_numpy() for r in results.values()]))
-    for name, result in results.items():
-        color = styles.get(name, "C2")
-        if result.trajectory is not None:
-            pose = result.trajectory.pose
-            ax.plot(pose[:, 0], pose[:, 1], color=color, lw=0.6, alpha=0.7)
-        ax.plot(result.log["x"], result.log["y"], "o", color=color, ms=2.5, label=f"{name} (cycle ends)")
-        ax.plot(*result.start[:2], "^", color=color, ms=6)
+def _track_trials(out, overwrite, options, trials, seed, jobs, scheduler, reference, config, started, step) -> None:
+    """``geogait track --trials N``: the paired trials on the sweep runner, per-trial results written."""
+    with claim_output(out, overwrite=overwrite):
+        folder = Path(out)
+        log, wall, workers = run_sweep(track_trials, trials, options, seed=seed, chunk_size=1, jobs=jobs,
+                                       scheduler=scheduler, progress=True,
+                                       description=f"{options['n_links']}-link tracking")
+        change = config["change_cycle"]
+        stats = trial_stats(log, change)
+        summary = {}
+        for name, part in stats.groupby("controller", sort=False):
+            rows = log[log["controller"] == name]
+            summary[name] = {"cross_track_mean": float(rows["cross_track"].abs().mean()),
+                             "cross_track_p95": float(np.percentile(rows["cross_track"].abs(), 95)),
+                             "heading_error_mean": float(rows["heading_error"].abs().mean()),
+                             "heading_error_p95": float(np.percentile(rows["heading_error"].abs(), 95)),
+                             "trial_cross_track_mean_worst": float(part["cross_track_mean"].max()),
+                             "trials_stopped_early": int((part["cycles"] < config["cycles"]).sum())}
+        ratios = per_trial_ratios(stats)
+        if ratios:
+            summary["adaptive_over_true_cross_track"] = (summary["adaptive"]["cross_track_mean"]
+                                                         / summary["true"]["cross_track_mean"])
+            summary["adaptive_over_true_per_trial"] = ratios
+            summary["adaptive_over_true_worst_trial"] = ratios["worst"]
+            summary["share_trials_within_1.5x_true"] = ratios["share_within"]
+        if change is not None:
+            summary["drag_change"] = drag_change_metrics(log, change)
+        summary |= {"trials": trials, "step_per_cycle": step, "path_length": reference.length,
+                    "path_closed": reference.closed, "wall_time_s_sweep": wall, "workers": workers}
+        with output_set(folder, members=TRACK_FILES, last=("summary.json",)) as staged:
+            write_text(staged / "cycles.csv", log.to_csv(index=False))
+            write_text(staged / "trials.csv", stats.to_csv(index=False))
+            first = log[log["trial"] == log["trial"].min()]
+            _plot_paths(staged / "path.png", reference, {n: g for n, g in first.groupby("controller", sort=False)},
+                        error_logs={n: g for n, g in log.groupby("controller", sort=False)}, change_cycle=change,
+                        title=f"trial {int(first['trial'].iloc[0])} of {trials}; errors: mean of {trials} trials")
+            write_manifest(staged / "summary.json", command="track", config=_json(config, "not used by this run"),
+                           results=_json(summary), started=started)
+        console.print(dumps_json(_json(summary), indent=1))
+        console.print(f"wrote {folder}/ (cycles.csv, trials.csv, summary.json, path.png)")
+
+
+def _plot_paths(file, reference: ReferencePath, logs: dict, trajectories: dict | None = None,
+                starts: dict | None = None, change_cycle: int | None = None, error_logs: dict | None = None,
+                title: str = "") -> None:
+    """Left: the reference path, each controller's sampled path and its cycle-boundary markers (the
+    true controller underneath); right: |cross-track error| per cycle (trial mean of ``error_logs``,
+    default ``logs``), the drag change marked."""
+    fig, (ax, errors) = plt.subplots(1, 2, figsize=(11.5, 5.0), gridspec_kw={"width_ratios": [1.25, 1]})
+    plot_reference(ax, reference, np.concatenate([log[["x", "y"]].to_numpy() for log in logs.values()]))
+    for name, log in logs.items():
+        style = controller_style(name)
+        trajectory = (trajectories or {}).get(name)
+        if trajectory is not None:
+            pose = trajectory.pose
+            ax.plot(pose[:, 0], pose[:, 1], color=style["color"], lw=0.6, alpha=0.6 * style["alpha"],
+                    zorder=style["zorder"])
+        ax.plot(log["x"], log["y"], ls="none", label=f"{name} (cycle ends)",
+                **{k: v for k, v in style.items() if k != "linestyle"})
+        if change_cycle is not None:
+            at = log[log["cycle"] == change_cycle]
+            ax.plot(at["x"], at["y"], "*", color=style["color"], ms=11, mec="k", mew=0.5, zorder=6,
+                    label="drag change" if name == next(iter(logs)) else None)
+        if starts and name in starts:
+            ax.plot(*starts[name][:2], "^", color=style["color"], ms=6, zorder=style["zorder"])
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (body lengths)")
     ax.set_ylabel("y (body lengths)")
-    ax.set_title("Path following: body-frame path and cycle boundaries")
+    ax.set_title("Body-frame path and cycle boundaries" + (f"\n({title})" if title else ""), fontsize=10)
     ax.legend(fontsize=8)
+    for name, log in (error_logs or logs).items():
+        curve = log.assign(error=log["cross_track"].abs()).groupby("cycle")["error"].mean()
+        style = controller_style(name)
+        errors.plot(curve.index, curve.to_numpy(), color=style["color"], ls=style["linestyle"], lw=1.3,
+                    zorder=style["zorder"], label=name)
+    if change_cycle is not None:
+        mark_change(errors, change_cycle, "drag change")
+    errors.set_xlabel("tracking cycle")
+    errors.set_ylabel("|cross-track error| (body lengths)")
+    errors.set_title("Cross-track error per cycle", fontsize=10)
+    errors.legend(fontsize=8)
     save_figure(fig, file)
 
 
@@ -336,6 +460,13 @@ def figure_tracking(
     drag_only: Annotated[bool, typer.Option(
         help="Only the paths through the drag change (line and circle), with the same trials as in the "
              "full run.")] = False,
+    path: Annotated[str | None, typer.Option(
+        help="Paths at constant drag: comma-separated line, circle, figure8, waypoints and at most one waypoints "
+             "CSV (columns x, y, body lengths, not scaled; a last row equal to the first closes it) [default: all "
+             "four built-ins].")] = None,
+    drag_path: Annotated[str | None, typer.Option(
+        help="Paths through the drag change, the same names (the CSV must be the one of --path if both name "
+             "one) [default: line,circle].")] = None,
     seed: Annotated[int | None, typer.Option(help="Root random seed [default: 0].")] = None,
     jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
@@ -343,8 +474,23 @@ def figure_tracking(
     from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-tracking"),
 ) -> None:
-    """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4."""
+    """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4.
+
+    Writes tracking.png, steering-family.png, tracking.csv (every cycle), tracking-trials.csv (one row
+    per swimmer, path, environment, trial and controller, with the drag-change windows) and
+    tracking.json (pooled and per-trial statistics).
+    """
     started = time.perf_counter()
+    paths, file = _figure_paths(path, "--path") if path is not None else (None, None)
+    drag_paths, drag_file = _figure_paths(drag_path, "--drag-path") if drag_path is not None else (None, None)
+    if file and drag_file and Path(file).resolve() != Path(drag_file).resolve():
+        raise GeogaitError(f"The '--path' and '--drag-path' options take one waypoints CSV between them. Got {file} "
+                           f"and {drag_file}.")
+    if drag_only and path is not None:
+        raise GeogaitError("The '--drag-only' option runs no path at constant drag; give the paths through the "
+                           "change with '--drag-path' instead of '--path'.")
+    path_file = file or drag_file
+    references = None if path_file is None else {CUSTOM_PATH: ReferencePath.from_csv(path_file)}
     folder = output_folder(out)
     if from_csv is not None:
         result = TrackingResult.from_csv(from_csv)
@@ -353,22 +499,26 @@ def figure_tracking(
         changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
                        links=None if links is None else _links(links), exploration=exploration,
                        exploration_low=exploration_low, exploration_high=exploration_high, model=model,
-                       change_forgetting=change_forgetting, paths=() if drag_only else None)
+                       change_forgetting=change_forgetting, paths=() if drag_only else paths,
+                       drag_paths=drag_paths, path_file=path_file)
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if cycles is not None:
             config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
         result = run_tracking(config, jobs=jobs, scheduler=scheduler)
         result.to_csv(folder / "tracking.csv")
-    result.plot(folder / "tracking.png")
+    result.plot(folder / "tracking.png", references)
     families = sorted(result.frame["links"].unique())
     fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.5), squeeze=False)
     for ax, n_links in zip(axes[0], families, strict=True):
         plot_steering_family(ax, steering_families(int(n_links)), int(n_links))
     save_figure(fig, folder / "steering-family.png")
+    change = result.config.change_cycle if result.config is not None else int(result.frame["cycle"].max() + 1) // 2
+    write_text(folder / "tracking-trials.csv", trial_stats(result.frame, change).to_csv(index=False))
     summary = result.summary()
     write_manifest(folder / "tracking.json", command="figure tracking",
                    config=result.config_dict() or {"from_csv": str(from_csv)},
                    results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
                                   **summary}), started=started)
     console.print(dumps_json(_json(summary), indent=1))
-    console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking.json)")
+    console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking-trials.csv, "
+                  "tracking.json)")

@@ -68,8 +68,12 @@ class ReferencePath:
         vertices = np.vstack([points, points[:1]]) if self.closed else points
         lengths = np.linalg.norm(np.diff(vertices, axis=0), axis=1)
         if np.any(lengths <= 1e-12):
+            first = int(np.argmax(lengths <= 1e-12))
+            repeat = (f"vertex {(first + 1) % points.shape[0]} repeating vertex {first}" if first + 1 < len(points)
+                      or not self.closed else f"the last vertex {first} repeating the first (a closed path does "
+                      "not repeat its first vertex)")
             raise fail("points", "ReferencePath", "vertices without repeats (every segment of positive length)",
-                       f"{int(np.sum(lengths <= 1e-12))} zero-length segment(s)")
+                       f"{int(np.sum(lengths <= 1e-12))} zero-length segment(s), the first {repeat} (0-based)")
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "_vertices", vertices)
         object.__setattr__(self, "_starts", np.concatenate([[0.0], np.cumsum(lengths)[:-1]]))
@@ -118,11 +122,25 @@ class ReferencePath:
     def from_csv(cls, path) -> ReferencePath:
         """Waypoints from the CSV file ``path`` with columns ``x`` and ``y`` (body lengths), one row per waypoint.
 
+        A last row equal to the first closes the path: the polyline runs back to the first waypoint
+        and on around it, lap after lap (``closed=True``, the repeated row dropped).
+
         Raises
         ------
         GeogaitError
-            When the file is missing, lacks a column, has fewer than two rows, non-numeric or
-            non-finite values, or repeats a waypoint.
+            When the file is missing, lacks a column, has fewer than two rows (three distinct ones for
+            a closed path), non-numeric or non-finite values, or a row that repeats the one before it
+            (a zero-length segment); the message names the file and the data row (1-based, the
+            header not counted).
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> file = pathlib.Path(tempfile.mkdtemp()) / "square.csv"
+        >>> _ = file.write_text("x,y\\n0,0\\n1,0\\n1,1\\n0,1\\n0,0\\n")
+        >>> square = ReferencePath.from_csv(file)
+        >>> square.closed, square.points.shape, square.length
+        (True, (4, 2), 4.0)
         """
         path = Path(path)
         if not path.is_file():
@@ -142,7 +160,21 @@ class ReferencePath:
                                f"Got a bad value in data row {int(bad[0]) + 1} instead.")
         if values.shape[0] < 2:
             raise GeogaitError(f"The waypoints file {path} must have at least 2 waypoints. Got {values.shape[0]}.")
-        return cls.waypoints(values, name=path.stem)
+        steps = np.linalg.norm(np.diff(values, axis=0), axis=1)
+        repeats = np.flatnonzero(steps <= 1e-12)
+        if repeats.size:
+            row = int(repeats[0]) + 2  # data rows are 1-based: rows row - 1 and row are equal
+            raise GeogaitError(f"The waypoints file {path} must not repeat a waypoint in consecutive rows (a "
+                               f"zero-length segment). Got data row {row} equal to row {row - 1} "
+                               f"({values[row - 1, 0]:g}, {values[row - 1, 1]:g}) instead"
+                               + (f"; {repeats.size} such rows in all." if repeats.size > 1 else "."))
+        closed = values.shape[0] > 2 and np.linalg.norm(values[-1] - values[0]) <= 1e-12
+        if closed:
+            values = values[:-1]
+            if values.shape[0] < 3:
+                raise GeogaitError(f"The waypoints file {path} closes its path (the last row repeats the first) "
+                                   f"and must then have at least 3 distinct waypoints. Got {values.shape[0]}.")
+        return cls.waypoints(values, closed=bool(closed), name=path.stem)
 
     @classmethod
     def named(cls, kind: str, scale: float = 1.0) -> ReferencePath:

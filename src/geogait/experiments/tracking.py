@@ -21,9 +21,15 @@ rectangle with sharp corners). Errors are in body lengths (every swimmer has len
 
 Reported per swimmer, path, environment and controller: cross-track error |e| per cycle and heading
 error |χ − ψ| per cycle (course of the cycle's chord against the path tangent), mean and 95th
-percentile over cycles and trials; for the drag change, the cycles until the adaptive controller's
-trial-mean error is back within 1.5× its level over the 10 cycles before the change, and the cycles
-until it stays below the frozen model's.
+percentile over cycles and trials, and per trial (:func:`trial_stats`): the adaptive / true ratio of
+mean cross-track error of every trial, its worst trial and the share of trials within 1.5×. For the
+drag change, each controller's mean error over fixed windows after the change (cycles 0–9 and 10–29
+after it, :data:`DRAG_WINDOWS`), pooled and per trial; and the lenient older metrics: the cycles
+until the adaptive controller's trial-mean error is back within 1.5× its level over the 10 cycles
+before the change, and the cycles until it stays below the frozen model's.
+
+A path of the user's own joins the built-in ones as the path ``"csv"`` (``TrackingConfig(path_file=...)``,
+a waypoints CSV read by :meth:`~geogait.control.ReferencePath.from_csv`, in body lengths, not scaled).
 """
 
 from __future__ import annotations
@@ -60,10 +66,29 @@ from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
 __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
            "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING",
-           "plot_exploration", "plot_exploration_curves", "tracking_model", "TRACKING_MODELS"]
+           "plot_exploration", "plot_exploration_curves", "tracking_model", "TRACKING_MODELS", "CONTROLLER_STYLE",
+           "controller_style", "mark_change", "DRAG_WINDOWS", "CUSTOM_PATH", "trial_stats", "per_trial_ratios",
+           "track_trials"]
 
 _OWNER = "TrackingConfig"
 PATHS = ("line", "circle", "figure8", "waypoints")
+CUSTOM_PATH = "csv"
+"""Name of the user's own path (``TrackingConfig.path_file``) in scenarios, frames and summaries."""
+DRAG_WINDOWS = ((0, 10), (10, 30))
+"""Windows of cycles after the drag change, ``[start, stop)`` counted from the change, over which each
+controller's mean |cross-track error| is reported (``"cycles_0_9"``, ``"cycles_10_29"``)."""
+CONTROLLER_STYLE = {
+    "adaptive": {"color": "tab:red", "linestyle": "-", "marker": "o", "ms": 2.5, "mfc": "tab:red", "alpha": 1.0,
+                 "zorder": 4},
+    "frozen": {"color": "tab:blue", "linestyle": "--", "marker": "s", "ms": 5.0, "mfc": "none", "alpha": 0.9,
+               "zorder": 3},
+    "true": {"color": "0.15", "linestyle": ":", "marker": "x", "ms": 5.0, "mfc": "none", "alpha": 0.6,
+             "zorder": 2},
+}
+"""One style per controller (colour, line, marker, size, fill, alpha, draw order), used by every
+tracking figure (``path.png``, ``family.png``, ``tracking.png``): the true controller is drawn first and
+lightest, the frozen one as hollow squares around the adaptive controller's small dots, so that no
+controller's markers hide another's."""
 RECOVERY_FACTOR = 1.5
 """Recovered: the adaptive trial-mean error is back within this factor of its pre-change level."""
 PRE_CHANGE_CYCLES = 10
@@ -81,9 +106,10 @@ class TrackingConfig:
     n_trials : int
         Paired trials per swimmer (each runs every scenario and controller).
     paths : tuple of str
-        Paths followed at constant drag ratio (``line``, ``circle``, ``figure8``, ``waypoints``).
+        Paths followed at constant drag ratio (``line``, ``circle``, ``figure8``, ``waypoints``, and
+        ``csv`` for ``path_file``).
     drag_paths : tuple of str
-        Paths followed through the drag-ratio change.
+        Paths followed through the drag-ratio change (the same names).
     drag_ratios : tuple of float
         Drag ratio before and after the change.
     n_cycles : int
@@ -121,6 +147,9 @@ class TrackingConfig:
         Root seed; swimmer i uses ``seed + 1000 i``.
     chunk_size : int
         Trials per runner chunk.
+    path_file : str, optional
+        A waypoints CSV (columns x, y, body lengths; a last row equal to the first closes it), the path
+        named ``"csv"`` in ``paths`` and ``drag_paths``.
     """
 
     links: tuple[int, ...] = (3, 5)
@@ -145,6 +174,7 @@ class TrackingConfig:
     controllers: tuple[str, ...] = CONTROLLERS
     seed: int = 0
     chunk_size: int = 1
+    path_file: str | None = None
 
     @classmethod
     def quick(cls, **changes) -> TrackingConfig:
@@ -161,8 +191,10 @@ class TrackingConfig:
         check_int(self.n_trials, "n_trials", _OWNER, minimum=1)
         for name in ("paths", "drag_paths"):
             for path in getattr(self, name):
-                if path not in PATHS:
-                    raise fail(name, _OWNER, "paths among " + ", ".join(PATHS), path)
+                if path not in PATHS + (CUSTOM_PATH,):
+                    raise fail(name, _OWNER, "paths among " + ", ".join(PATHS + (CUSTOM_PATH,)), path)
+                if path == CUSTOM_PATH and self.path_file is None:
+                    raise fail(name, _OWNER, f"paths whose {CUSTOM_PATH!r} comes with a 'path_file'", path)
         if not self.paths and not self.drag_paths:
             raise fail("paths", _OWNER, "at least one path (in paths or drag_paths)", self.paths)
         if len(self.drag_ratios) != 2:
@@ -261,7 +293,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
                     line_offset: float, turn_limit: float, heading_weight: float, controllers,
                     exploration: str = "fixed", exploration_low: float = 0.05, exploration_high: float = 0.15,
-                    model: str = "shape", change_forgetting: float = 100.0) -> pd.DataFrame:
+                    model: str = "shape", change_forgetting: float = 100.0,
+                    custom_path: ReferencePath | None = None) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
 
     Parameters
@@ -280,6 +313,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
     exploration, exploration_low, exploration_high, model, change_forgetting
         As in :class:`TrackingConfig`.
+    custom_path : ReferencePath, optional
+        The path named ``"csv"`` in ``scenarios`` (not scaled, no offset).
 
     Returns
     -------
@@ -302,9 +337,15 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
     for kind, environment in scenarios:
         # each scenario draws its trials from a key of its own, so a run of some scenarios repeats the
         # trials of the full run (keys 0-3 at constant drag, 4-7 through the change, in PATHS order)
-        key = PATHS.index(kind) + (len(PATHS) if environment == "change" else 0)
-        path = tracking_path(kind, step, path_scale)
-        offset = line_offset * step if kind == "line" else 0.0
+        # (the user's path: keys 8 and 9)
+        if kind == CUSTOM_PATH:
+            if custom_path is None:
+                raise fail("custom_path", "tracking_trials", f"a ReferencePath for the scenario {kind!r}", None)
+            key, path, offset = 2 * len(PATHS) + (environment == "change"), custom_path, 0.0
+        else:
+            key = PATHS.index(kind) + (len(PATHS) if environment == "change" else 0)
+            path = tracking_path(kind, step, path_scale)
+            offset = line_offset * step if kind == "line" else 0.0
         for trial, seed in zip(trial_indices, child_seeds(seeds, key), strict=True):
             sizes = "fixed" if exploration == "fixed" else rule
             for controller in order:
@@ -318,6 +359,58 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
                     sizes = result.perturbation_std  # replayed by the frozen and true controllers
                 frames.append(result.log[columns].assign(trial=int(trial), links=n_links, path=kind,
                                                          environment=environment, controller=controller))
+    return pd.concat(frames, ignore_index=True)
+
+
+def track_trials(trial_indices, seeds, *, n_links: int, path: ReferencePath, n_cycles: int, drag_ratios,
+                 change_cycle: int, warmup_cycles: int, sensor_noise: float, perturbation: float,
+                 controllers, tracker_options: dict, start_offset: float = 0.0, exploration=None) -> pd.DataFrame:
+    """Runner trial function of ``geogait track --trials``: every controller on each trial's seed.
+
+    Parameters
+    ----------
+    trial_indices : sequence of int
+    seeds : sequence of numpy.random.SeedSequence
+        One per trial, shared by all its controllers (paired trials: the same warm-up, perturbations
+        and noise).
+    n_links : int
+    path : ReferencePath
+    n_cycles, change_cycle, warmup_cycles : int
+        Tracking cycles, the tracking cycle of the drag change, warm-up cycles.
+    drag_ratios : tuple of float
+        One drag ratio, or two (before and after ``change_cycle``).
+    sensor_noise, perturbation : float
+        Noise (fraction of RMS) and starting δ std (rad).
+    controllers : sequence of str
+    tracker_options : dict
+        Keyword arguments of :class:`~geogait.control.PathTracker` shared by every controller.
+    start_offset : float
+        Initial offset to the left of the path (body lengths).
+    exploration : AdaptiveExploration, optional
+        δ sized online by the adaptive controller and replayed by the others; fixed when None.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The controllers' logs (:class:`~geogait.control.PathTracker`'s columns) with ``trial`` and
+        ``controller``.
+    """
+    system, gait, _ = straight_gait(n_links)
+    system = system.with_drag_ratio(drag_ratios[0])
+    frames = []
+    for trial, seed in zip(trial_indices, seeds, strict=True):
+        sizes = "fixed" if exploration is None else exploration
+        for controller in sorted(controllers, key=lambda c: c != "adaptive"):  # the adaptive run sizes δ
+            schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
+                        if len(drag_ratios) == 2 else None)
+            robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
+                                  sensor_noise=sensor_noise, environment=schedule, seed=seed)
+            tracker = PathTracker(controller=controller, exploration=sizes, warmup_cycles=warmup_cycles,
+                                  **tracker_options)
+            result = tracker.run(robot, path, n_cycles, start_offset=start_offset)
+            if controller == "adaptive" and exploration is not None:
+                sizes = result.perturbation_std
+            frames.append(result.log.assign(trial=int(trial), controller=controller))
     return pd.concat(frames, ignore_index=True)
 
 
@@ -340,9 +433,13 @@ class TrackingResult(ExperimentResult):
         change = None if self.config is None else self.config.change_cycle
         return tracking_summary(self.frame, change_cycle=change)
 
-    def plot(self, path):
-        """Draw the figure to ``path`` (:func:`plot_tracking`)."""
-        plot_tracking(self.frame, path)
+    def plot(self, path, references: dict | None = None):
+        """Draw the figure to ``path`` (:func:`plot_tracking`); ``references`` maps a path name to its
+        :class:`~geogait.control.ReferencePath` (default: the built-ins, and ``path_file`` as ``"csv"``)."""
+        if references is None and self.config is not None and self.config.path_file is not None:
+            references = {CUSTOM_PATH: ReferencePath.from_csv(self.config.path_file)}
+        change = None if self.config is None else self.config.change_cycle
+        plot_tracking(self.frame, path, change_cycle=change, references=references)
         return path
 
 
@@ -363,6 +460,7 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
     """
     config = (config or TrackingConfig()).validate()
     frames, wall, workers = [], 0.0, 1
+    custom = None if config.path_file is None else ReferencePath.from_csv(config.path_file)
     for index, n_links in enumerate(config.links):
         options = dict(n_links=n_links, scenarios=config.scenarios(), drag_ratios=config.drag_ratios,
                        n_cycles=config.n_cycles, change_cycle=config.change_cycle,
@@ -372,7 +470,7 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
                        heading_weight=config.heading_weight, controllers=config.controllers,
                        exploration=config.exploration, exploration_low=config.exploration_low,
                        exploration_high=config.exploration_high,
-                       model=config.model, change_forgetting=config.change_forgetting)
+                       model=config.model, change_forgetting=config.change_forgetting, custom_path=custom)
         frame, seconds, workers = run_sweep(tracking_trials, config.n_trials, options, seed=config.seed + 1000 * index,
                                             chunk_size=config.chunk_size, jobs=jobs, scheduler=scheduler,
                                             progress=progress, description=f"{n_links}-link tracking")
@@ -383,13 +481,113 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
 
 
 def _stats(group: pd.DataFrame) -> dict:
-    cross, heading = np.abs(group["cross_track"].to_numpy()), np.abs(group["heading_error"].to_numpy())
-    return {"cross_track_mean": float(cross.mean()), "cross_track_p95": float(np.percentile(cross, 95)),
-            "heading_error_mean": float(heading.mean()), "heading_error_p95": float(np.percentile(heading, 95))}
+    out = {}
+    for column in ("cross_track", "heading_error"):
+        if column in group:
+            values = np.abs(group[column].to_numpy())
+            out |= {f"{column}_mean": float(values.mean()), f"{column}_p95": float(np.percentile(values, 95))}
+    return out
 
 
 def _mean_curve(group: pd.DataFrame) -> pd.Series:
     return group.assign(error=group["cross_track"].abs()).groupby("cycle")["error"].mean()
+
+
+def _window_key(window) -> str:
+    return f"cycles_{window[0]}_{window[1] - 1}"
+
+
+def trial_stats(frame: pd.DataFrame, change_cycle: int | None = None) -> pd.DataFrame:
+    """Error statistics of every trial and controller of a long-format tracking frame.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Columns ``trial``, ``controller``, ``cycle``, ``cross_track``, ``heading_error`` and any of
+        ``links``, ``path``, ``environment`` (the groups kept apart).
+    change_cycle : int, optional
+        Tracking cycle of the drag change: adds each trial's mean |e| over the :data:`DRAG_WINDOWS`
+        after it (``cycles_0_9_after``, ``cycles_10_29_after``; NaN where the run did not reach the
+        window's first cycle; a window cut by the end of the run averages the cycles it has). For the
+        rows of ``environment == "constant"`` the windows stay NaN.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per group, trial and controller: the group columns, ``trial``, ``controller``,
+        ``cycles``, ``cross_track_mean``, ``cross_track_p95``, ``heading_error_mean``,
+        ``heading_error_p95`` and, with ``change_cycle``, the windows.
+    """
+    keys = [c for c in ("links", "path", "environment") if c in frame.columns] + ["trial", "controller"]
+    rows = []
+    for key, group in frame.groupby(keys, sort=True):
+        row = dict(zip(keys, key, strict=True)) | {"cycles": len(group)} | _stats(group)
+        if change_cycle is not None:
+            error = group["cross_track"].abs().to_numpy()
+            after = group["cycle"].to_numpy() - change_cycle
+            changed = row.get("environment", "change") == "change"
+            for window in DRAG_WINDOWS:
+                inside = (after >= window[0]) & (after < window[1])
+                row[_window_key(window) + "_after"] = float(error[inside].mean()) if changed and inside.any() \
+                    else np.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def per_trial_ratios(stats: pd.DataFrame, column: str = "cross_track_mean", numerator: str = "adaptive",
+                     denominator: str = "true", factor: float = RECOVERY_FACTOR) -> dict:
+    """The ratio ``numerator / denominator`` of ``column`` trial by trial (paired trials), its worst
+    trial and the share of trials within ``factor``.
+
+    Parameters
+    ----------
+    stats : pandas.DataFrame
+        Rows of :func:`trial_stats` for one group (one swimmer, path and environment).
+    column : str
+    numerator, denominator : str
+        Controllers.
+    factor : float
+
+    Returns
+    -------
+    dict
+        ``ratios`` (list, trial order), ``trials`` (their indices), ``worst`` (largest ratio),
+        ``worst_trial``, ``median``, ``share_within`` (fraction of trials with ratio <= ``factor``),
+        ``factor``, ``share_below_one`` (fraction with ratio < 1); empty when a controller is missing.
+    """
+    table = stats.pivot_table(index="trial", columns="controller", values=column, aggfunc="first")
+    if numerator not in table or denominator not in table:
+        return {}
+    ratios = (table[numerator] / table[denominator]).dropna()
+    if not len(ratios):
+        return {}
+    worst = int(ratios.idxmax())
+    return {"ratios": [float(v) for v in ratios], "trials": [int(t) for t in ratios.index],
+            "worst": float(ratios.max()), "worst_trial": worst, "median": float(ratios.median()),
+            "share_within": float(np.mean(ratios.to_numpy() <= factor)), "factor": factor,
+            "share_below_one": float(np.mean(ratios.to_numpy() < 1))}
+
+
+def _drag_windows(frame: pd.DataFrame, change_cycle: int) -> dict:
+    """Mean |e| per controller over each window after the change: pooled over trials, and per trial
+    the adaptive / true and adaptive / frozen ratios."""
+    stats = trial_stats(frame.assign(environment="change"), change_cycle)
+    out = {}
+    for window in DRAG_WINDOWS:
+        column = _window_key(window) + "_after"
+        entry = {}
+        for controller, part in stats.groupby("controller"):
+            values = part[column].dropna()
+            entry[controller] = float(values.mean()) if len(values) else None
+            if not len(values):
+                entry[f"{controller}_null_reason"] = (f"the run ended before cycle {change_cycle + window[0]}, "
+                                                      "the window's first after the change")
+        for other in ("true", "frozen"):
+            ratios = per_trial_ratios(stats.dropna(subset=[column]), column, "adaptive", other)
+            if ratios:
+                entry[f"adaptive_over_{other}_per_trial"] = ratios
+        out[column] = entry
+    return out
 
 
 def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
@@ -404,7 +602,10 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
         left, None if it never came back), ``cycles_until_below_frozen``
         (first c such that the adaptive mean |e| over cycles ``change + c`` to the end is below the
         frozen model's over the same cycles; None if never), and per controller the mean |e| over
-        the 10 cycles after the change and over the rest. Every None comes with a ``<key>_null_reason``;
+        the 10 cycles after the change and over the rest; ``windows``: per window of
+        :data:`DRAG_WINDOWS` (``cycles_0_9_after``, ``cycles_10_29_after``) each controller's mean |e|
+        pooled over trials, and per trial the ratios adaptive / true and adaptive / frozen
+        (:func:`per_trial_ratios`: worst trial, share within 1.5×). Every None comes with a ``<key>_null_reason``;
         a run that ended before the change has ``change_reached`` False and no recovery numbers.
     """
     curves = {c: _mean_curve(g) for c, g in frame.groupby("controller")}
@@ -445,6 +646,7 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
             out["cycles_until_below_frozen"] = below
             if below is None:
                 out["cycles_until_below_frozen_null_reason"] = "the adaptive error never fell below the frozen one's"
+    out["windows"] = _drag_windows(frame, change_cycle)
     for controller, curve in curves.items():
         soon = curve[(curve.index >= change_cycle) & (curve.index < change_cycle + 10)]
         late = curve[curve.index >= change_cycle + 10]
@@ -457,8 +659,9 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
 
 def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> dict:
     """Headline numbers per swimmer, path and environment of the long-format ``frame``: error statistics
-    per controller, the adaptive / true ratio of mean cross-track error and the goals; drag-change
-    recovery after ``change_cycle`` (default: half the run)."""
+    per controller, the adaptive / true ratio of mean cross-track error pooled and per trial (its worst
+    trial, the share of trials within 1.5×) and the goals; drag-change windows and recovery after
+    ``change_cycle`` (default: half the run)."""
     if change_cycle is None:
         change_cycle = int(frame["cycle"].max() + 1) // 2
     summary = {}
@@ -468,6 +671,10 @@ def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> di
             ratio = entry["adaptive"]["cross_track_mean"] / entry["true"]["cross_track_mean"]
             entry["adaptive_over_true_cross_track"] = ratio
             entry["goal_within_1.5x_true"] = bool(ratio <= 1.5)
+            per_trial = per_trial_ratios(trial_stats(group))
+            entry["adaptive_over_true_per_trial"] = per_trial
+            entry["adaptive_over_true_worst_trial"] = per_trial["worst"]
+            entry["share_trials_within_1.5x_true"] = per_trial["share_within"]
         adaptive = group[group["controller"] == "adaptive"]
         if len(adaptive):
             entry["adaptive_gamma_final_median"] = float(
@@ -482,32 +689,46 @@ def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> di
     return summary
 
 
-_STYLE = {"adaptive": ("tab:red", "-"), "frozen": ("tab:blue", "--"), "true": ("k", ":")}
+def controller_style(controller: str) -> dict:
+    """Matplotlib keywords of a controller's line and markers (:data:`CONTROLLER_STYLE`)."""
+    style = CONTROLLER_STYLE.get(controller, {"color": "C2", "linestyle": "-", "marker": ".", "ms": 3.0,
+                                              "mfc": "C2", "alpha": 1.0, "zorder": 3})
+    return dict(style)
 
 
 def plot_reference(ax, reference: ReferencePath, positions=None):
-    """The reference path as a wide grey band, cut to 1 body length around ``positions`` ``(n, 2)``."""
+    """The reference path as a wide grey band. A closed path is drawn whole; an open one is cut to 1
+    body length around ``positions`` ``(n, 2)`` (a line 100 body lengths long would hide the robot)."""
     points = reference.resampled(int(np.clip(reference.length / 0.01, 600, 20_000)))  # bounded, however long
-    if positions is not None and len(positions):
+    if reference.closed:
+        points = np.vstack([points, points[:1]])
+    elif positions is not None and len(positions):
         low, high = np.min(positions, axis=0) - 1.0, np.max(positions, axis=0) + 1.0
         points = np.where(np.all((points >= low) & (points <= high), axis=1)[:, None], points, np.nan)
-    ax.plot(points[:, 0], points[:, 1], color="0.6", lw=4, alpha=0.5, label="reference")
+    ax.plot(points[:, 0], points[:, 1], color="0.6", lw=4, alpha=0.5, label="reference", zorder=1)
     return ax
 
 
-def plot_paths(ax, frame: pd.DataFrame, n_links: int, kind: str, environment: str, trial: int):
-    """One trial's boundary positions (cycle markers) of each controller over the reference path."""
+def plot_paths(ax, frame: pd.DataFrame, n_links: int, kind: str, environment: str, trial: int,
+               reference: ReferencePath | None = None):
+    """One trial's boundary positions (cycle markers) of each controller over the reference path
+    (default: the built-in path ``kind``; none drawn for the user's ``"csv"`` path without ``reference``)."""
     _, _, step = straight_gait(n_links)
     group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == environment)
                   & (frame["trial"] == trial)]
-    plot_reference(ax, tracking_path(kind, step), group[["x", "y"]].to_numpy())
+    if reference is None and kind in PATHS:
+        reference = tracking_path(kind, step)
+    if reference is not None:
+        plot_reference(ax, reference, group[["x", "y"]].to_numpy())
     for controller, part in group.groupby("controller"):
-        color, style = _STYLE.get(controller, ("C2", "-"))
-        ax.plot(part["x"], part["y"], style, color=color, lw=1, marker=".", ms=3, label=controller)
+        style = controller_style(controller)
+        ax.plot(part["x"], part["y"], lw=1, label=controller, **style)
     ax.set_aspect("equal", adjustable="datalim")
-    title = f"{n_links}-link {kind}" + (" (k 2→4)" if environment == "change" else "")
+    name = f"{kind} ({reference.name})" if kind == CUSTOM_PATH and reference is not None else kind
+    title = f"{n_links}-link {name}" + (" (k 2→4)" if environment == "change" else "")
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("x (body lengths)", fontsize=8)
+    ax.set_ylabel("y (body lengths)", fontsize=8)
     ax.legend(fontsize=6, loc="best")
     return ax
 
@@ -516,12 +737,11 @@ def plot_error_curves(ax, frame: pd.DataFrame, n_links: int, kind: str, change_c
     """Trial-mean |cross-track error| per cycle of each controller through the drag change."""
     group = frame[(frame["links"] == n_links) & (frame["path"] == kind) & (frame["environment"] == "change")]
     for controller, part in group.groupby("controller"):
-        color, style = _STYLE.get(controller, ("C2", "-"))
+        style = controller_style(controller) | {"marker": None}
         curve = _mean_curve(part)
-        ax.plot(curve.index, curve.to_numpy(), style, color=color, lw=1.4, label=controller)
+        ax.plot(curve.index, curve.to_numpy(), lw=1.4, label=controller, **style)
     if change_cycle is not None:
-        ax.axvline(change_cycle, color="0.4", lw=0.8)
-        ax.text(change_cycle, ax.get_ylim()[1] * 0.95, " k 2→4", fontsize=7, va="top")
+        mark_change(ax, change_cycle)
     ax.set_xlabel("tracking cycle", fontsize=8)
     ax.set_ylabel("mean |cross-track| (body lengths)", fontsize=8)
     ax.set_title(f"{n_links}-link {kind}, drag change ({group['trial'].nunique()} trials)", fontsize=9)
@@ -529,9 +749,17 @@ def plot_error_curves(ax, frame: pd.DataFrame, n_links: int, kind: str, change_c
     return ax
 
 
-def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
+def mark_change(ax, change_cycle: float, label: str = "k 2→4"):
+    """A vertical line at the drag change, labelled at the top of the axes."""
+    ax.axvline(change_cycle, color="0.3", lw=1.0, ls="-", zorder=0)
+    ax.text(change_cycle, 0.97, f" {label}", fontsize=7, va="top", transform=ax.get_xaxis_transform())
+    return ax
+
+
+def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None, references: dict | None = None):
     """Draw the whole figure from the long-format ``frame`` to ``path``: per swimmer a row of path panels
-    (trial 0) and drag-change error curves after ``change_cycle`` (default: half the run)."""
+    (trial 0) and drag-change error curves after ``change_cycle`` (default: half the run); ``references``
+    maps a path name to the :class:`~geogait.control.ReferencePath` drawn under it (the user's ``"csv"``)."""
     links = sorted(frame["links"].unique())
     scenarios = frame[["path", "environment"]].drop_duplicates().itertuples(index=False)
     constant = [p for p, e in scenarios if e == "constant"]
@@ -543,7 +771,7 @@ def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None):
     trial = int(frame["trial"].min())
     for row, n_links in zip(axes, links, strict=True):
         for ax, kind in zip(row, constant, strict=False):
-            plot_paths(ax, frame, int(n_links), kind, "constant", trial)
+            plot_paths(ax, frame, int(n_links), kind, "constant", trial, (references or {}).get(kind))
         for ax, kind in zip(row[len(constant):], changed, strict=True):
             plot_error_curves(ax, frame, int(n_links), kind, change_cycle)
     save_figure(fig, path)
@@ -564,7 +792,7 @@ def plot_exploration_curves(ax, frames: dict, n_links: int, kind: str, change_cy
             top = max(top, float(curve[curve.index >= 5].max()))
         std = group[group["controller"] == "adaptive"].groupby("cycle")["perturbation_std"].mean()
         sizes.plot(std.index, std.to_numpy(), color=color, lw=0.7, alpha=0.6)
-    ax.axvline(change_cycle, color="0.4", lw=0.8)
+    mark_change(ax, change_cycle)
     ax.set_ylim(0, 1.3 * top)  # the initial offset's transient (cycles 0-4) runs off the top
     sizes.set_ylim(0, 0.6)
     sizes.set_ylabel("δ std (rad), thin lines", fontsize=7)
@@ -616,16 +844,22 @@ def steering_families(n_links: int, *, turns=None, warmup_cycles: int = 10, sens
 
 
 def plot_steering_family(ax, families: dict, n_links: int | str):
-    """Turning rate against step per cycle of each family (feasible members)."""
-    styles = {"true": ("k", "-", "o"), "model": ("tab:red", "--", "s"), "true k=4": ("0.5", ":", "^"),
-              "max step": ("tab:green", "-", "d")}
+    """Turning rate against step per cycle of each family (feasible members).
+
+    ``families`` maps a name to a :class:`~geogait.control.SteeringFamily`: a controller name
+    (``adaptive``, ``frozen``, ``true``: drawn in its :data:`CONTROLLER_STYLE`, as in every tracking
+    figure), ``model`` (the adaptive model, in the adaptive controller's colour), ``true k=4`` or
+    ``max step``."""
+    labels = {"true": "nearest gait, true connection", "model": "nearest gait, adaptive model",
+              "adaptive": "adaptive controller's model", "frozen": "frozen controller's model",
+              "true k=4": "nearest gait, true, drag ratio 4", "max step": "largest step (optimal steering)"}
+    extra = {"true k=4": {"color": "0.55", "linestyle": ":", "marker": "^"},
+             "max step": {"color": "tab:green", "linestyle": "-", "marker": "d"}}
     for name, family in families.items():
-        color, line, marker = styles.get(name, ("C4", "-", "."))
+        style = controller_style("adaptive" if name == "model" else name) if name not in extra else extra[name]
+        style = {k: v for k, v in style.items() if k in ("color", "linestyle", "marker", "mfc", "zorder", "alpha")}
         ok = family.feasible
-        ax.plot(family.steps[ok], family.poses[ok, 2], line, color=color, marker=marker, ms=3, lw=1.2,
-                label={"true": "nearest gait, true connection", "model": "nearest gait, adaptive model",
-                       "true k=4": "nearest gait, true, drag ratio 4",
-                       "max step": "largest step (optimal steering)"}.get(name, name))
+        ax.plot(family.steps[ok], family.poses[ok, 2], ms=3, lw=1.2, label=labels.get(name, name), **style)
     ax.axhline(0, color="0.8", lw=0.6)
     ax.set_xlabel("step along travel per cycle (body lengths)")
     ax.set_ylabel("turn per cycle (rad)")

@@ -1,0 +1,243 @@
+"""Issue 23: ``geogait track --trials``, paths of the user's own (closed CSVs, errors naming file and
+row), per-trial statistics and drag-change windows, and the tracking figures' styles."""
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.colors import to_rgba
+from typer.testing import CliRunner
+
+from geogait import GeogaitError
+from geogait.cli import app
+from geogait.control import ReferencePath
+from geogait.experiments.tracking import (
+    CONTROLLER_STYLE,
+    drag_change_metrics,
+    per_trial_ratios,
+    plot_error_curves,
+    plot_paths,
+    plot_reference,
+    plot_steering_family,
+    trial_stats,
+)
+from geogait.plotting import plt
+
+
+def _run(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def _summary(folder):
+    return json.loads((folder / "summary.json").read_text())
+
+
+def _square(tmp_path, side=0.3, close=True, name="square.csv"):
+    rows = [(0, 0), (side, 0), (side, side), (0, side)] + ([(0, 0)] if close else [])
+    file = tmp_path / name
+    file.write_text("x,y\n" + "".join(f"{x},{y}\n" for x, y in rows))
+    return file
+
+
+# -- paths of one's own ------------------------------------------------------------------------
+def test_a_csv_whose_last_row_repeats_the_first_is_closed(tmp_path):
+    closed = ReferencePath.from_csv(_square(tmp_path, side=1.0))
+    assert closed.closed and closed.points.shape == (4, 2) and closed.length == pytest.approx(4.0)
+    np.testing.assert_allclose(closed.point(4.5), [0.5, 0.0])  # lap two: on around the first waypoint
+    assert not closed.at_end(10.0)
+    opened = ReferencePath.from_csv(_square(tmp_path, side=1.0, close=False, name="open.csv"))
+    assert not opened.closed and opened.length == pytest.approx(3.0) and opened.at_end(3.0)
+
+
+def test_the_tracker_goes_round_a_closed_csv_path_and_stops_at_the_end_of_an_open_one(tmp_path):
+    """The 3-link swimmer steps ≈ 0.1 body lengths a cycle: 16 cycles are more than one lap of the 1.2 body
+    length square. Closed, it keeps going; open, the run stops at the last waypoint."""
+    options = ["track", "--links", "3", "--quick", "--warmup", "3", "--cycles", "16", "--controllers", "adaptive"]
+    closed = _run(*options, "--path", _square(tmp_path), "--out", tmp_path / "closed")
+    assert closed.exit_code == 0, closed.output
+    results = _summary(tmp_path / "closed")["results"]
+    assert results["path_closed"] is True and results["path_length"] == pytest.approx(1.2)
+    assert results["adaptive"]["stopped_early"] is False
+    assert len(pd.read_csv(tmp_path / "closed" / "cycles.csv")) == 16
+    opened = _run(*options, "--path", _square(tmp_path, close=False, name="open.csv"), "--out", tmp_path / "open")
+    assert opened.exit_code == 0, opened.output
+    results = _summary(tmp_path / "open")["results"]
+    assert results["path_closed"] is False and results["adaptive"]["stopped_early"] is True
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("x,y\n0,0\n1,0\n1,0\n1,1\n", "Got data row 3 equal to row 2 (1, 0)"),
+    ("x,y\n0,0\n0,0\n", "Got data row 2 equal to row 1 (0, 0)"),
+    ("x,y\n0,0\n1,0\n0,0\n", "at least 3 distinct waypoints"),
+    ("x,y\n0,0\n1,zero\n", "bad value in data row 2"),
+])
+def test_bad_waypoint_rows_are_named_with_file_and_row(tmp_path, text, message):
+    file = tmp_path / "mine.csv"
+    file.write_text(text)
+    with pytest.raises(GeogaitError, match="mine.csv") as error:
+        ReferencePath.from_csv(file)
+    assert message in str(error.value)
+    result = _run("track", "--quick", "--path", file, "--out", tmp_path / "x")
+    assert result.exit_code == 1 and str(file) in result.stderr and message in result.stderr
+    assert len(result.stderr.splitlines()) == 1
+
+
+def test_a_repeated_vertex_names_its_index():
+    with pytest.raises(GeogaitError, match="the first vertex 2 repeating vertex 1"):
+        ReferencePath(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0]]))
+
+
+def test_the_readme_rectangle_is_a_built_in_path(tmp_path):
+    result = _run("track", "--links", "3", "--quick", "--warmup", "3", "--cycles", "2", "--controllers", "adaptive",
+                  "--path", "waypoints", "--out", tmp_path / "w")
+    assert result.exit_code == 0, result.output
+    step = _summary(tmp_path / "w")["results"]["step_per_cycle"]
+    assert _summary(tmp_path / "w")["results"]["path_length"] == pytest.approx(5 * 10 * step, rel=0.01)
+
+
+# -- paired trials -----------------------------------------------------------------------------
+def test_track_trials_pairs_seeds_across_controllers_and_reports_each_trial(tmp_path):
+    out = tmp_path / "trials"
+    result = _run("track", "--links", "3", "--path", "circle", "--drag-ratio", "2,4", "--quick", "--warmup", "3",
+                  "--cycles", "4", "--change-cycle", "2", "--trials", "3", "--seed", "5", "--out", out)
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(out / "cycles.csv")
+    assert sorted(log["trial"].unique()) == [0, 1, 2] and log.groupby(["trial", "controller"]).size().eq(4).all()
+    # paired: the same warm-up and first decision for the adaptive and frozen models of a trial (both fitted
+    # on the same seeded warm-up), different from trial to trial
+    first = log[log["cycle"] == 0].pivot(index="trial", columns="controller", values=["x", "y", "predicted_turn"])
+    for column in ("x", "y", "predicted_turn"):
+        np.testing.assert_array_equal(first[column]["adaptive"], first[column]["frozen"])
+    assert first["x"]["adaptive"].nunique() == 3
+    # per-trial results, checked against the cycles
+    trials = pd.read_csv(out / "trials.csv")
+    means = log.assign(e=log["cross_track"].abs()).groupby(["trial", "controller"])["e"].mean()
+    np.testing.assert_allclose(trials.set_index(["trial", "controller"])["cross_track_mean"], means.sort_index())
+    ratios = means.xs("adaptive", level="controller") / means.xs("true", level="controller")
+    results = _summary(out)["results"]
+    per_trial = results["adaptive_over_true_per_trial"]
+    np.testing.assert_allclose(per_trial["ratios"], ratios.to_numpy())
+    assert results["adaptive_over_true_worst_trial"] == pytest.approx(ratios.max())
+    assert per_trial["worst_trial"] == int(ratios.idxmax())
+    assert results["share_trials_within_1.5x_true"] == pytest.approx(np.mean(ratios <= 1.5))
+    window = results["drag_change"]["windows"]["cycles_0_9_after"]
+    after = log[log["cycle"] >= 2].assign(e=lambda f: f["cross_track"].abs())
+    assert window["frozen"] == pytest.approx(after[after["controller"] == "frozen"]["e"].mean())
+    assert window["adaptive_over_true_per_trial"]["trials"] == [0, 1, 2]
+    assert results["drag_change"]["windows"]["cycles_10_29_after"]["adaptive"] is None  # not reached: said why
+    assert "before cycle 12" in results["drag_change"]["windows"]["cycles_10_29_after"]["adaptive_null_reason"]
+    def nulls_without_reason(value):  # issue 21: every null of a tracking output says why
+        if isinstance(value, list):
+            return [n for v in value for n in nulls_without_reason(v)]
+        if not isinstance(value, dict):
+            return []
+        return [k for k, v in value.items() if v is None and f"{k}_null_reason" not in value] + \
+            [n for v in value.values() for n in nulls_without_reason(v)]
+
+    assert nulls_without_reason(results) == []
+    config = _summary(out)["config"]
+    assert config["trials"] == 3 and config["seed"] == 5
+    assert (out / "path.png").stat().st_size > 10_000 and not (out / "family.png").exists()
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--robot", "no-such-driver", "--trials", "2"], "The '--trials' option"),
+    (["--jobs", "2"], "The '--jobs' and '--scheduler' options"),
+])
+def test_track_trials_options_refused_where_they_cannot_act(tmp_path, options, message):
+    result = _run("track", "--quick", *options, "--out", tmp_path / "x")
+    assert result.exit_code == 1 and message in result.stderr and not (tmp_path / "x").exists()
+
+
+# -- per-trial statistics and the drag-change windows -----------------------------------------
+def _frame(errors: dict, cycles=40):
+    """Long-format frame: ``errors`` maps (trial, controller) to |e| as a function of the cycle."""
+    return pd.concat([pd.DataFrame({"trial": trial, "controller": controller, "cycle": np.arange(cycles),
+                                    "cross_track": (-1) ** trial * error(np.arange(cycles)), "heading_error": 0.1})
+                      for (trial, controller), error in errors.items()], ignore_index=True)
+
+
+def test_per_trial_ratios_and_windows_on_known_errors():
+    """Trial 0: adaptive 1.2× the true connection everywhere; trial 1: 2× after the change (cycle 10),
+    1× before. The pooled ratio hides trial 1; the per-trial one shows it."""
+    def step(before, after):
+        return lambda c: np.where(c < 10, before, after)
+
+    frame = _frame({(0, "adaptive"): step(0.12, 0.12), (0, "true"): step(0.1, 0.1), (0, "frozen"): step(0.1, 0.3),
+                    (1, "adaptive"): step(0.1, 0.2), (1, "true"): step(0.1, 0.1), (1, "frozen"): step(0.1, 0.3)})
+    stats = trial_stats(frame, change_cycle=10)
+    row = stats.set_index(["trial", "controller"]).loc[(1, "adaptive")]
+    assert row["cross_track_mean"] == pytest.approx((10 * 0.1 + 30 * 0.2) / 40)
+    assert row["cycles_0_9_after"] == pytest.approx(0.2) and row["cycles_10_29_after"] == pytest.approx(0.2)
+    ratios = per_trial_ratios(stats)
+    assert ratios["ratios"] == pytest.approx([1.2, 0.175 / 0.1])
+    assert ratios["worst"] == pytest.approx(1.75) and ratios["worst_trial"] == 1
+    assert ratios["share_within"] == 0.5 and ratios["share_below_one"] == 0.0
+    windows = drag_change_metrics(frame, 10)["windows"]
+    late = windows["cycles_10_29_after"]
+    assert late["adaptive"] == pytest.approx(0.16) and late["frozen"] == pytest.approx(0.3)
+    assert late["true"] == pytest.approx(0.1)
+    assert late["adaptive_over_true_per_trial"]["ratios"] == pytest.approx([1.2, 2.0])
+    assert late["adaptive_over_frozen_per_trial"]["share_below_one"] == 1.0
+    assert windows["cycles_0_9_after"]["adaptive"] == pytest.approx(0.16)
+
+
+def test_windows_without_the_change_reached_say_why():
+    frame = _frame({(0, "adaptive"): lambda c: 0.1 + 0 * c, (0, "true"): lambda c: 0.1 + 0 * c}, cycles=15)
+    late = drag_change_metrics(frame, 10)["windows"]["cycles_10_29_after"]
+    assert late["adaptive"] is None and "before cycle 20" in late["adaptive_null_reason"]
+
+
+# -- figures -----------------------------------------------------------------------------------
+def test_one_controller_style_in_every_tracking_figure():
+    fig, axes = plt.subplots(1, 3)
+    family = SimpleNamespace(steps=np.array([0.1, 0.2]), poses=np.zeros((2, 3)), feasible=np.ones(2, bool))
+    plot_steering_family(axes[0], {"adaptive": family, "frozen": family, "true": family}, 3)
+    frame = _frame({(0, c): (lambda c: 0.1 + 0 * c) for c in CONTROLLER_STYLE}, cycles=12).assign(
+        links=3, path="circle", environment="constant", x=lambda f: f["cycle"] * 0.1, y=0.0)
+    plot_paths(axes[1], frame, 3, "circle", "constant", 0)
+    plot_error_curves(axes[2], frame.assign(environment="change"), 3, "circle", change_cycle=6)
+    for ax in axes:
+        colours = {line.get_label(): to_rgba(line.get_color()) for line in ax.lines}
+        for name, style in CONTROLLER_STYLE.items():
+            label = next(k for k in colours if name in k and (name != "true" or "k=4" not in k))
+            assert colours[label] == to_rgba(style["color"]), (ax, name)
+    zorder = {line.get_label(): line.get_zorder() for line in axes[1].lines}
+    assert zorder["true"] < zorder["frozen"] < zorder["adaptive"]  # the true controller underneath
+    assert axes[1].get_ylabel() == "y (body lengths)"
+    assert any(np.allclose(line.get_xdata(), 6) for line in axes[2].lines)  # the drag change marked
+    plt.close(fig)
+
+
+def test_a_closed_reference_path_is_drawn_whole():
+    fig, ax = plt.subplots()
+    plot_reference(ax, ReferencePath.circle(1.0), np.array([[0.0, 0.0], [0.3, 0.05]]))
+    points = np.column_stack(ax.lines[0].get_data())
+    assert np.isfinite(points).all() and np.allclose(points[0], points[-1])  # no arcs: one closed curve
+    plot_reference(ax, ReferencePath.line(100.0), np.array([[0.0, 0.0], [0.3, 0.05]]))
+    assert np.isnan(ax.lines[1].get_xydata()).any()  # a long open line is still cut around the robot
+    plt.close(fig)
+
+
+def test_figure_tracking_follows_a_csv_path(tmp_path):
+    file = _square(tmp_path, side=0.6)
+    out = tmp_path / "fig"
+    result = _run("figure", "tracking", "--quick", "--trials", "1", "--cycles", "4", "--path", f"circle,{file}",
+                  "--drag-path", file, "--out", out)
+    assert result.exit_code == 0, result.output
+    frame = pd.read_csv(out / "tracking.csv")
+    assert set(zip(frame["path"], frame["environment"], strict=True)) == {
+        ("circle", "constant"), ("csv", "constant"), ("csv", "change")}
+    manifest = json.loads((out / "tracking.json").read_text())
+    assert manifest["config"]["path_file"] == str(file)
+    assert "adaptive_over_true_per_trial" in manifest["results"]["3-link csv constant"]
+    assert "windows" in manifest["results"]["3-link csv change"]["drag_change"]
+    assert (out / "tracking.png").stat().st_size > 10_000
+    trials = pd.read_csv(out / "tracking-trials.csv")
+    assert len(trials) == 3 * 3 and trials[trials["environment"] == "change"]["cycles_0_9_after"].notna().all()
+    bad = _run("figure", "tracking", "--quick", "--path", "spiral", "--out", tmp_path / "bad")
+    assert bad.exit_code == 1 and "The '--path' option" in bad.stderr
+    both = _run("figure", "tracking", "--quick", "--drag-only", "--path", file, "--out", tmp_path / "both")
+    assert both.exit_code == 1 and "'--drag-path'" in both.stderr
