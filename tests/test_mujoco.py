@@ -453,11 +453,11 @@ def test_example_runs_quick(tmp_path, capsys):
     assert "purcell3   Γ 0.9" in capsys.readouterr().out
 
 
-def test_readme_mujoco_section_runs():
+def test_docs_mujoco_section_runs():
     import re
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[1] / "docs" / "robots.md").read_text()
     block = re.search(r"## A MuJoCo robot.*?```python\n(.*?)```", readme, re.S).group(1)
     assert ".run(robot, 100)" in block
     namespace = {}

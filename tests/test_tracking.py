@@ -279,12 +279,12 @@ def test_figure_tracking_redraws_from_csv(tmp_path):
     assert (out / "tracking.png").stat().st_size > 10_000 and (out / "steering-family.png").stat().st_size > 10_000
 
 
-def test_readme_steering_example_runs(monkeypatch, tmp_path):
+def test_docs_steering_example_runs(monkeypatch, tmp_path):
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = re.search(r"## Steering and path following.*?```python\n(.*?)```", text, re.S).group(1)
+    text = (Path(__file__).resolve().parents[1] / "docs" / "results" / "steering.md").read_text()
+    block = re.search(r"# Steering and path following.*?```python\n(.*?)```", text, re.S).group(1)
     monkeypatch.chdir(tmp_path)
     namespace = {}
     exec(compile(block, "README steering example", "exec"), namespace)

@@ -67,7 +67,7 @@ def claim_output(path: Path, *, overwrite: bool, run_files=()) -> OutputLock:
 
 def explain_nulls(value, reason: str = "not available for this run"):
     """``value`` (JSON-ready, see :func:`~geogait._files.json_ready`) with a ``"<key>_null_reason"`` beside every
-    null that has none yet (the README's JSON rule), recursively."""
+    null that has none yet (the JSON rule of docs/robot-data.md), recursively."""
     if isinstance(value, list):
         return [explain_nulls(v, reason) for v in value]
     if not isinstance(value, dict):

@@ -144,7 +144,7 @@ def _json(value, reason: str = "not available for this run"):
 def track(
     links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.")] = 3,
     path: Annotated[str, typer.Option(help="line, circle, figure8, waypoints (the 1.5 × 1 rectangle of the "
-                                           "README figure, in --scale steps), or a waypoints CSV (columns x, y; "
+                                           "docs figure, in --scale steps), or a waypoints CSV (columns x, y; "
                                            "body lengths; a last row equal to the first closes the path).")
                     ] = "circle",
     drag_ratio: Annotated[str, typer.Option(

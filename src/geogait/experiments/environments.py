@@ -36,7 +36,7 @@ is as large as that change, so no model's error even doubles at a switch and eve
 immediate, while the λ = 0.7 model (≈ 3 effective samples per window for 1 + 2d + d² weights)
 follows the noise and errs ≈ 10× more than the others throughout. Without noise the switches,
 the adaptation and the λ trade-off the paper describes are all visible; ``--noise 0.3`` gives the
-realistic-noise version (both are in the README).
+realistic-noise version (both in docs/results/paper-figures.md).
 
 Recovery after a switch
 -----------------------

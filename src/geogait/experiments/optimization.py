@@ -16,7 +16,7 @@ of degree 4 with a prior that shrinks each higher degree 30× (``degree_shrinkag
 mirror and front–back symmetries built into its basis (``symmetry="mirror+reversal"``), forgetting factor
 0.999 up to 5 links and 0.9999 beyond (3448 weights on 9 links need a longer memory) — on every swimmer it
 won against, or tied with, the degree-3 model, the unconstrained shape-space model and the local window
-model (:class:`~geogait.models.AdaptiveGaitModel`) in ``studies/ceiling.py`` (README, issue 10). The
+model (:class:`~geogait.models.AdaptiveGaitModel`) in ``studies/ceiling.py`` (docs/results/paper-figures.md). The
 optimiser searches its default family: the rotation-free symmetric family on these symmetric swimmers.
 
 Why these defaults: sensor noise 0.1 of the signal RMS (with the 0.3 of the accuracy experiment the

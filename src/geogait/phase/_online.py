@@ -52,7 +52,7 @@ the offline :meth:`Phaser.transform` of the whole record (0.67–1.12 times it: 
 out perturbations that the analytic signal keeps; least gain at window/period 1, where the time
 constant is a quarter cycle), 95th percentile 0.15–0.24 rad (offline 0.21–0.24). The former
 window estimate erred by a median 1.1–1.2 rad at window/period 1.5, 2.3 and 2.5, and 0.41 rad
-under the ramp. The README ("Your own robot") has the table.
+under the ramp. docs/robot-data.md has the table.
 
 Limits. The phase is that of the training limit cycle: a stream whose waveform differs (another
 gait, a saturating actuator) gets a biased phase, as it does offline, where the corrections are
