@@ -481,3 +481,24 @@ def test_path_following_on_a_mujoco_swimmer():
     assert np.abs(log["cross_track"]).max() < step  # 0.1 × radius
     assert log["s"].iloc[-1] > 0.8 * cycles * step
     assert log["true_x"].isna().all()  # no oracle behind MuJoCo
+
+
+def test_set_cycle_period_runs_whole_samples_with_continuous_time():
+    def make(seed):
+        return MujocoRobot(purcell_swimmer_xml(3), seed=seed)
+
+    robot = make(0)
+    robot.next_cycle()
+    unit = robot.steps_per_sample * robot.timestep
+    robot.set_cycle_period(1.537)
+    assert robot.samples_per_cycle == round(1.537 / unit)
+    assert robot.cycle_period == pytest.approx(robot.samples_per_cycle * unit)
+    cycle = robot.next_cycle()
+    assert cycle.time.size == robot.samples_per_cycle and cycle.time[0] == pytest.approx(1.0)
+    assert cycle.time[-1] == pytest.approx(1.0 + robot.cycle_period * (1 - 1 / robot.samples_per_cycle))
+    other = make(7)
+    other.restore_robot_state(robot.robot_state())
+    assert other.cycle_period == robot.cycle_period
+    np.testing.assert_array_equal(other.next_cycle().pose, robot.next_cycle().pose)
+    with pytest.raises(GeogaitError, match="'cycle_period'"):
+        robot.set_cycle_period(unit)

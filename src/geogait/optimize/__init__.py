@@ -12,6 +12,7 @@ from ._objective import (
     path_length,
     rms_speed,
 )
+from ._period import PeriodSearch
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "CycleMeasurement",
     "InSituOptimizer",
     "InSituResult",
+    "PeriodSearch",
     "Step",
     "StepProblem",
     "cached_ceiling",

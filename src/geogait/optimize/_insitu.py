@@ -59,7 +59,7 @@ import numpy as np
 import pandas as pd
 
 from .. import __version__, models, se2
-from .._estimator import Estimator, Integer, Options, Real
+from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state, write_state
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
@@ -68,6 +68,7 @@ from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ..systems import PurcellSwimmer
 from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
+from ._period import PeriodSearch
 from ._steps import STEP_RULES, StepProblem, take_step
 
 __all__ = ["InSituOptimizer", "InSituResult"]
@@ -147,12 +148,20 @@ class InSituResult:
         """
         log = self.log
         measured = log[~log["settling"] & ~log["rejected"]]
-        seed = measured.loc[measured["iteration"] == 0, "measured_objective"].mean()
-        final = measured.loc[measured["iteration"] == measured["iteration"].iloc[-1], "measured_objective"].mean()
+        seed_rows = measured["iteration"] == 0
+        final_rows = measured["iteration"] == measured["iteration"].iloc[-1]
+        seed = measured.loc[seed_rows, "measured_objective"].mean()
+        final = measured.loc[final_rows, "measured_objective"].mean()
+        # per second: the same ratio at a fixed period, the objective's own with optimize_period
+        periods = measured["cycle_period"] if "cycle_period" in measured else pd.Series(1.0, measured.index)
+        seed_rate = (measured["measured_objective"] / periods)[seed_rows].mean()
+        final_rate = (measured["measured_objective"] / periods)[final_rows].mean()
         summary = {
             "seed_measured_objective": _finite(seed),
             "final_measured_objective": _finite(final),
-            "final_measured_improvement": _finite(final / seed - 1),
+            "final_measured_improvement": _finite(final_rate / seed_rate - 1),
+            "seed_cycle_period": _finite(periods[seed_rows].mean()),
+            "final_cycle_period": _finite(periods[final_rows].mean()),
             "steps": self.n_steps,
             "rejected_steps": self.n_rejected,
             "reverted_to_best": int(self.log["reverted"].sum()) if "reverted" in self.log else 0,
@@ -266,6 +275,15 @@ class InSituOptimizer(Estimator):
     prediction_tolerance : float or None
         Largest relative difference between the model's predicted objective of the current gait and
         its mean measured objective for the gate to open. ``None`` disables the check.
+    optimize_period : bool
+        Make the cycle period a decision variable and the objective a rate (per second): gait steps
+        from the model alternate with period trials judged on measured outcomes
+        (:class:`~geogait.optimize.PeriodSearch`), within ``period_range`` and
+        ``max_joint_velocity``. Needs a robot with ``set_cycle_period`` (e.g.
+        :class:`~geogait.robots.MujocoRobot`). Default False: the robot's period is kept.
+    period_range : tuple of 2 floats, optional
+        (shortest, longest) period in seconds for ``optimize_period``; default half to twice the
+        robot's period.
     """
 
     _parameter_constraints = {
@@ -290,6 +308,7 @@ class InSituOptimizer(Estimator):
         "settle_cycles": Integer(minimum=0),
         "prediction_tolerance": Real(low=0, low_open=True, none=True),
         "revert_tolerance": Real(low=0, low_open=True, none=True),
+        "optimize_period": Boolean(),
     }
 
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
@@ -300,7 +319,8 @@ class InSituOptimizer(Estimator):
                  rotation_tolerance: float = 1e-3, min_cycles_per_iteration: int = 2, cycles_per_iteration: int = 30,
                  rebase: str = "all", covariance_inflation: float = 1.0, constant_variance: float = 0.0,
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
-                 prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0):
+                 prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0,
+                 optimize_period: bool = False, period_range=None):
         self.model = model
         self.gate = gate
         self.gamma_threshold = gamma_threshold
@@ -327,6 +347,8 @@ class InSituOptimizer(Estimator):
         self.prediction_tolerance = prediction_tolerance
         self.shape_scale = shape_scale
         self.revert_tolerance = revert_tolerance
+        self.optimize_period = optimize_period
+        self.period_range = period_range
 
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
     def describe(self) -> dict:
@@ -359,6 +381,12 @@ class InSituOptimizer(Estimator):
                 check_float(value, name, owner, low=0, low_open=True)
         if self.max_tracking_error not in (None, "auto"):
             check_float(self.max_tracking_error, "max_tracking_error", owner, low=0, low_open=True)
+        if self.period_range is not None:
+            bounds = np.asarray(self.period_range, dtype=float) if _is_numeric(self.period_range) else None
+            if bounds is None or bounds.shape != (2,) or not np.all(np.isfinite(bounds)) \
+                    or not 0 < bounds[0] < bounds[1]:
+                raise fail("period_range", owner, "None or (shortest, longest) seconds with 0 < shortest < longest",
+                           self.period_range)
 
     # -- running ------------------------------------------------------------------------------
     def run(self, robot, n_cycles: int, *, ceiling: float | None = None,
@@ -411,6 +439,7 @@ class InSituOptimizer(Estimator):
             if speed > self.max_joint_velocity * (1 + 1e-9):
                 raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
                            f"a gait reaching {speed:.4g} rad/s")
+        period_range = self._period_range(robot, period, owner)
         family = self._family(robot, gait)
         feasibility = _feasibility(robot, gait, self.order)
         if feasibility is not None and feasibility(gait.params)[0].min() < 0:
@@ -421,7 +450,8 @@ class InSituOptimizer(Estimator):
         state = _State(gait=gait, radius=self.trust_radius * scale, model=self._new_model(gait, period, family, scale),
                        n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
                        settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale,
-                       feasibility=feasibility)
+                       feasibility=feasibility, robot_period=period, seed_period=period,
+                       period_search=PeriodSearch(*period_range) if period_range is not None else None)
         return _Loop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
@@ -471,10 +501,24 @@ class InSituOptimizer(Estimator):
             robot.restore_robot_state({**robot_state, **_prefixed(arrays, "robot/")})
         else:
             robot.set_gait(state.robot_gait)
+            if state.period_search is not None and robot.cycle_period != state.robot_period:
+                robot.set_cycle_period(state.robot_period)
         loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"], metadata.get("tag"))
         return loop.run(callback, record)
 
     # -- scale and limits from the robot --------------------------------------------------------
+    def _period_range(self, robot, period: float, owner: str):
+        """(shortest, longest) period for ``optimize_period`` (None when the period is fixed)."""
+        if not self.optimize_period:
+            return None
+        if not callable(getattr(robot, "set_cycle_period", None)):
+            raise fail("robot", owner, "a robot with set_cycle_period(seconds) for optimize_period=True "
+                       "(e.g. geogait.robots.MujocoRobot)", type(robot).__name__)
+        low, high = (period / 2, 2 * period) if self.period_range is None else map(float, self.period_range)
+        if not low <= period <= high:
+            raise fail("period_range", owner, f"a range holding the robot's period ({period:g} s)", (low, high))
+        return low, high
+
     def _joint_limit(self, robot, owner: str) -> float:
         """r_max: the parameter, or (``"auto"``) from the robot's declared joint ranges."""
         if not isinstance(self.max_joint_angle, str):
@@ -593,15 +637,20 @@ class InSituOptimizer(Estimator):
             state.radius = max(self.min_trust_radius * state.scale, state.radius / 2)
         return False
 
-    def _change_gait(self, state, gait) -> None:
-        """Re-centre the model on ``gait`` and start a new iteration on it."""
-        if self._gate() == "cycles":
+    def _change_gait(self, state, gait, period=None) -> None:
+        """Re-centre the model on ``gait`` (a fresh model at a new ``period``) and start a new iteration."""
+        period = state.period if period is None else float(period)
+        if period != state.period:  # another period: what was learned need not hold (dynamics)
+            state.promised = None
+            state.model = self._new_model(gait, period, state.family, state.scale)
+        elif self._gate() == "cycles":
             state.model = self._new_model(gait, state.period, state.family, state.scale)
         else:
             state.model.rebase(gait, terms=self.rebase, covariance_inflation=self.covariance_inflation,
                                constant_variance=self.constant_variance)
             state.model.reset_gamma()
         state.previous_gait, state.gait = state.gait, gait
+        state.previous_period, state.period = state.period, period
         state.iteration += 1
         state.restart_iteration()
         state.settle_left = self.settle_cycles
@@ -764,6 +813,16 @@ class _State:
     direction_fixed: bool = False  # "forward" fixed (given, or from all the seed's cycles at the first gate)
     max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
     scale: float = 1.0  # the robot's unit of shape (shape_scale)
+    robot_period: float = np.nan  # period the robot runs next (s)
+    previous_period: float = np.nan
+    seed_period: float = np.nan
+    period_search: PeriodSearch | None = None  # optimize_period's line search (None: period fixed)
+    trial_tracking: list = field(default_factory=list)  # tracking errors of a period trial's cycles
+
+    def rate(self, period: float) -> float:
+        """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
+        optimised (a rate), else 1."""
+        return 1.0 / period if self.period_search is not None else 1.0
 
     def restart_iteration(self):
         self.cycles_in_iteration = 0
@@ -826,9 +885,11 @@ class _State:
     _SCALARS = ("radius", "n_cycles", "ceiling", "period", "cycle", "iteration", "cycles_in_iteration",
                 "settle_left", "last_prediction", "residual_variance", "gamma", "world_heading", "tracking_limit",
                 "seed_value")
+    _PERIOD_SCALARS = ("robot_period", "previous_period", "seed_period")  # newer than the checkpoint format
 
     def to_checkpoint(self) -> tuple[dict, dict]:
-        metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS}
+        metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS + self._PERIOD_SCALARS}
+        metadata["period_search"] = None if self.period_search is None else self.period_search.to_json()
         metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
         family = self.family
         metadata["family"] = {"kind": "symmetric" if isinstance(family, SymmetricGaitFamily) else "free",
@@ -840,7 +901,8 @@ class _State:
                   "seed_tracking": np.asarray(self.seed_tracking, dtype=float),
                   "gaits": np.stack([g.coefficients for g in self.gaits])}
         if self.measured:
-            arrays["measured/gaits"] = np.stack([g.coefficients for g in self.measured])
+            arrays["measured/gaits"] = np.stack([g.coefficients for g, _ in self.measured])
+            arrays["measured/periods"] = np.array([period for _, period in self.measured], dtype=float)
             arrays["measured/counts"] = np.array([len(v) for v in self.measured.values()])
             arrays["measured/values"] = np.concatenate([np.asarray(v, dtype=float) for v in self.measured.values()])
         if self.previous_gait is not None:
@@ -849,6 +911,8 @@ class _State:
             arrays["direction"] = self.direction
         if self.seed_nets:
             arrays["seed_nets"] = np.asarray(self.seed_nets, dtype=float)
+        if self.trial_tracking:
+            arrays["trial_tracking"] = np.asarray(self.trial_tracking, dtype=float)
         metadata["direction_fixed"] = bool(self.direction_fixed)
         for k, parts in enumerate(self.iteration_data):
             for name, value in zip(("phase", "shape", "shape_velocity", "body_velocity"), parts, strict=True):
@@ -868,6 +932,11 @@ class _State:
         for name in cls._SCALARS:
             value = scalars[name]
             setattr(state, name, np.nan if value is None and name not in ("ceiling",) else value)
+        for name in cls._PERIOD_SCALARS:  # checkpoints before the period could change: the one period
+            value = scalars.get(name, state.period)
+            setattr(state, name, np.nan if value is None else value)
+        search = scalars.get("period_search")
+        state.period_search = None if search is None else PeriodSearch.from_json(search)
         state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
         promised = scalars["promised"]
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
@@ -880,13 +949,16 @@ class _State:
         # checkpoints before the averaged direction fixed it at the first measured cycle
         state.direction_fixed = bool(scalars.get("direction_fixed", state.direction is not None))
         state.seed_nets = list(arrays["seed_nets"]) if "seed_nets" in arrays else []
+        state.trial_tracking = arrays["trial_tracking"].tolist() if "trial_tracking" in arrays else []
         state.iteration_measured = arrays["iteration_measured"].tolist()
         state.seed_measured = arrays["seed_measured"].tolist()
         state.seed_tracking = arrays["seed_tracking"].tolist()
         state.gaits = [FourierGait(c) for c in arrays["gaits"]]
         if "measured/gaits" in arrays:  # older checkpoints start the record afresh
             values = np.split(arrays["measured/values"], np.cumsum(arrays["measured/counts"])[:-1])
-            state.measured = {FourierGait(c): v.tolist() for c, v in zip(arrays["measured/gaits"], values, strict=True)}
+            periods = arrays.get("measured/periods", np.full(len(values), state.period))
+            state.measured = {(FourierGait(c), float(t)): v.tolist()
+                              for c, t, v in zip(arrays["measured/gaits"], periods, values, strict=True)}
         names = ("phase", "shape", "shape_velocity", "body_velocity")
         state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
                                 for k in range(scalars["iteration_data"])]
@@ -953,8 +1025,8 @@ class _Loop:
 
     def _cycle(self, chunk) -> dict:
         optimizer, state = self.optimizer, self.state
-        ran = state.robot_gait
-        measured = measure_cycle(chunk, ran, state.period, "InSituOptimizer.run")
+        ran, ran_period = state.robot_gait, state.robot_period
+        measured = measure_cycle(chunk, ran, ran_period, "InSituOptimizer.run")
         state.world_heading = float(measured.start[2])
         settling = state.settle_left > 0
         step = rejected = reverted = False
@@ -974,24 +1046,74 @@ class _Loop:
             if not rejected:
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
-                state.measured.setdefault(state.gait, []).append(value)
+                state.measured.setdefault((state.gait, state.period), []).append(value * state.rate(state.period))
                 if self._gate_open():
                     self._fix_direction()
                     reverted = self._measured_reverts()
                 if self._gate_open() and not reverted:
                     if self.gate == "cycles":
                         state.fit_iteration()
-                    prediction_ok = float(self._prediction_agrees())
-                    step = bool(prediction_ok) and optimizer._step(state)
-                    if not step and self.gate == "cycles":  # prior work: another block of cycles, then retry
+                    period_trial = state.period_search is not None and self._period_move()
+                    if not period_trial:
+                        prediction_ok = float(self._prediction_agrees())
+                        step = bool(prediction_ok) and optimizer._step(state)
+                        if state.period_search is not None:
+                            state.period_search.turn = True
+                            if step:
+                                state.period_search.gait_changed()
+                    if not step and not period_trial and self.gate == "cycles":  # prior work: another block
                         state.cycles_in_iteration = 0
+                    step = step or period_trial
         row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
-                        prediction_ok, measured, value, reverted)
+                        prediction_ok, measured, value, reverted, ran_period)
         if step or rejected or reverted:
             state.gaits.append(state.gait)
         state.robot_gait = state.gait
         self.robot.set_gait(state.gait)
+        self._command_period()
         return row
+
+    def _command_period(self) -> None:
+        """Command the state's period; the robot may round it (its timing), and the run uses what it runs."""
+        state = self.state
+        if state.period != state.robot_period:
+            self.robot.set_cycle_period(state.period)
+            realised = float(self.robot.cycle_period)
+            if realised != state.period:  # the model was built for the asked period: rebuild it
+                state.period = realised
+                state.model = self.optimizer._new_model(state.gait, realised, state.family, state.scale)
+        state.robot_period = state.period
+
+    def _period_move(self) -> bool:
+        """The period's turn at a gate decision (``optimize_period``): judge the trial in progress, or
+        start the next one; returns whether the period was changed (counted as a step)."""
+        state, search = self.state, self.state.period_search
+        if search.trial_from is not None:
+            reference = state.measured.get((state.gait, search.trial_from))
+            origin = search.trial_from
+            trial = float(np.mean(state.measured[(state.gait, state.period)]))
+            kept = search.judge(trial, float(np.mean(reference)) if reference else -np.inf)
+            search.turn = False
+            tracking, state.trial_tracking = state.trial_tracking, []
+            if kept:  # the automatic tracking limit follows the period: twice what this one tracks
+                state.tracking_limit = max(_TRACKING_FLOOR * state.scale, 2 * float(np.mean(tracking)))
+                return False
+            self.optimizer._change_gait(state, state.gait, origin)
+            return True
+        if not search.turn:
+            return False
+        shortest = 0.0
+        if self.optimizer.max_joint_velocity is not None:
+            phase = np.linspace(0, 2 * np.pi, 256, endpoint=False)
+            shortest = np.abs(state.gait.velocity(phase)).max() * 2 * np.pi / self.optimizer.max_joint_velocity
+        period = search.propose(state.period, shortest)
+        if period is None:
+            search.turn = False
+            return False
+        search.trial_from = state.period
+        state.trial_tracking = []
+        self.optimizer._change_gait(state, state.gait, period)
+        return True
 
     def _set_direction(self, measured):
         """The direction of ``"forward"`` (default): the mean motion of the seed's measured cycles.
@@ -1034,18 +1156,26 @@ class _Loop:
         values = [float(net @ state.direction) for net in nets]  # "forward" of every seed cycle, fixed direction
         state.seed_measured = values
         state.iteration_measured = list(values)
-        state.measured[state.gait] = list(values)
+        state.measured[(state.gait, state.period)] = [v * state.rate(state.period) for v in values]
 
     def _tracking_rejects(self, measured) -> bool:
         """Reject the current gait (back to the previous one) if the robot could not follow it."""
         optimizer, state = self.optimizer, self.state
+        search = state.period_search
+        if search is not None and search.trial_from is not None:
+            state.trial_tracking.append(measured.tracking_error)
+            if optimizer.max_tracking_error == "auto":  # another period tracks otherwise: judged by outcome
+                return False
         limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
         state.promised = None
         state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
         previous = state.previous_gait
-        optimizer._change_gait(state, previous)
+        optimizer._change_gait(state, previous, state.previous_period)
+        if search is not None and search.trial_from is not None:  # a period the robot cannot follow
+            search.judge(-np.inf, 0.0)
+            search.turn = False
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
         return True
 
@@ -1062,19 +1192,24 @@ class _Loop:
         state, optimizer = self.state, self.optimizer
         if state.iteration == 0 or optimizer.revert_tolerance is None:
             return False
+        current = (state.gait, state.period)
         counts = {g: len(v) for g, v in state.measured.items() if len(v) >= 2}
-        if state.gait not in counts or len(counts) < 2:
+        if current not in counts or len(counts) < 2:
             return False
         means = {g: float(np.mean(state.measured[g])) for g in counts}
         dof = sum(n - 1 for n in counts.values())
         sigma = np.sqrt(sum(np.var(state.measured[g], ddof=1) * (n - 1) for g, n in counts.items()) / dof)
-        best = max((g for g in counts if g != state.gait), key=means.get)
-        margin = optimizer.revert_tolerance * sigma * np.sqrt(1 / counts[state.gait] + 1 / counts[best])
-        if not means[state.gait] < means[best] - margin:
+        best = max((g for g in counts if g != current), key=means.get)
+        margin = optimizer.revert_tolerance * sigma * np.sqrt(1 / counts[current] + 1 / counts[best])
+        if not means[current] < means[best] - margin:
             return False
         state.promised = None
         state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
-        optimizer._change_gait(state, best)
+        search = state.period_search
+        if search is not None and search.trial_from is not None:  # the trial lost beyond noise
+            search.judge(-np.inf, 0.0)
+            search.turn = False
+        optimizer._change_gait(state, *best)
         state.previous_gait = None
         return True
 
@@ -1094,7 +1229,7 @@ class _Loop:
         measured = float(np.mean(self.state.iteration_measured))
         return bool(abs(predicted - measured) <= tolerance * abs(measured))
 
-    def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value, reverted) -> dict:
+    def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value, reverted, period) -> dict:
         state = self.state
         net = measured.net
         progress = float(np.hypot(net[0], net[1]))
@@ -1104,17 +1239,19 @@ class _Loop:
                "trust_radius": state.radius, "predicted_objective": state.last_prediction,
                "measured_x": net[0], "measured_y": net[1], "measured_heading": net[2],
                "measured_progress": progress, "measured_objective": value,
-               "measured_speed": progress / state.period, "tracking_error": measured.tracking_error,
+               "measured_speed": progress / period, "cycle_period": period, "tracking_error": measured.tracking_error,
                "world_x": measured.start[0], "world_y": measured.start[1], "world_heading": measured.start[2]}
         pose, true_value = self.truth(gait, state)
         if self.truth.available:
             row.update({"true_x": pose[0], "true_y": pose[1], "true_heading": pose[2],
                         "true_progress": float(np.hypot(pose[0], pose[1])), "true_objective": true_value,
-                        "improvement": true_value / state.seed_value - 1})
+                        "improvement": true_value * state.rate(period) / (state.seed_value * state.rate(state.seed_period))
+                        - 1})
             reference = true_value
         else:
             seed = float(np.mean(state.seed_measured)) if state.seed_measured else np.nan
-            row["improvement"] = value / seed - 1 if seed else np.nan
+            row["improvement"] = (value * state.rate(period) / (seed * state.rate(state.seed_period)) - 1
+                                  if seed else np.nan)
             reference = value
         if state.ceiling is not None:
             row["ceiling_fraction"] = reference / state.ceiling

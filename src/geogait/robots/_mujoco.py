@@ -221,6 +221,7 @@ class MujocoRobot:
         self._perturbation = self.perturbation.stream(self.cycle_period / steps_per_cycle, d, self._rng)
         self.kp, self.kd = self._resolve_gains(kp, kd)
         self.cycle = 0
+        self._elapsed = 0.0  # seconds run before the current cycle (periods may change)
         self._start(mujoco)
 
     # -- set-up -------------------------------------------------------------------------------
@@ -420,6 +421,23 @@ class MujocoRobot:
         self._check_gait(gait, "MujocoRobot.set_gait")
         self._gait = gait
 
+    def set_cycle_period(self, cycle_period: float) -> None:
+        """Run the following cycles at ``cycle_period`` seconds, the nearest the physics can time.
+
+        A cycle is a whole number of samples of ``steps_per_sample`` physics steps, so the period
+        becomes the nearest multiple of ``steps_per_sample × timestep`` (``cycle_period`` reads it
+        back) and ``samples_per_cycle`` follows; the exploration perturbation keeps its spectrum in
+        seconds. :class:`~geogait.optimize.InSituOptimizer` uses it with ``optimize_period=True``.
+        """
+        owner = "MujocoRobot.set_cycle_period"
+        period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
+        unit = self.steps_per_sample * self.timestep
+        samples = int(round(period / unit))
+        if samples < 4:
+            raise fail("cycle_period", owner, f"at least 4 samples of {unit:g} s ({4 * unit:g} s)", period)
+        self.samples_per_cycle = samples
+        self.cycle_period = samples * unit
+
     def _commands(self, phase: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Commanded shape and rate (rad, rad/s) at ``phase`` (n,) with perturbation ``state`` (n, d, 2)."""
         phase_rate = 2 * np.pi / self.cycle_period
@@ -479,10 +497,11 @@ class MujocoRobot:
             mujoco.mj_step(model, data)
         index = np.arange(n)
         trajectory = Trajectory(
-            time=(self.cycle * n + index) * (self.cycle_period / n), phase=2 * np.pi * index / n,
+            time=self._elapsed + index * (self.cycle_period / n), phase=2 * np.pi * index / n,
             cycle=np.full(n, self.cycle), shape=shape, shape_velocity=shape_velocity,
             body_velocity=body_velocity, pose=pose, commanded_shape=command[::k].copy())
         self.cycle += 1
+        self._elapsed += self.cycle_period
         return trajectory
 
     def next_cycles(self, n_cycles: int) -> Trajectory:
@@ -500,7 +519,8 @@ class MujocoRobot:
             ``physics`` (``mj_getState`` with ``mjSTATE_INTEGRATION``: time, qpos, qvel, act,
             warm start, ctrl, applied forces, mocap, ...), ``perturbation`` (δ, δ̇ per joint),
             ``gait`` (coefficients), ``rng`` (the generator's state, JSON values), ``cycle`` and
-            ``heading`` (the unwrapped heading of the last sample).
+            ``heading`` (the unwrapped heading of the last sample), ``elapsed`` (seconds run) and
+            ``cycle_period``.
         """
         mujoco = _mujoco()
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -508,7 +528,8 @@ class MujocoRobot:
         mujoco.mj_getState(self.model, self.data, physics, spec)
         return {"physics": physics, "perturbation": self._perturbation.state.copy(),
                 "gait": np.array(self._gait.coefficients), "rng": copy.deepcopy(self._rng.bit_generator.state),
-                "cycle": int(self.cycle), "heading": float(self._heading)}
+                "cycle": int(self.cycle), "heading": float(self._heading), "elapsed": float(self._elapsed),
+                "cycle_period": float(self.cycle_period)}
 
     def restore_robot_state(self, state: dict) -> None:
         """Continue exactly where the robot that wrote ``state`` (:meth:`robot_state`) was."""
@@ -529,12 +550,15 @@ class MujocoRobot:
                        f"shape {perturbation.shape}")
         gait = FourierGait(np.asarray(state["gait"], dtype=float))
         self._check_gait(gait, owner)
+        if "cycle_period" in state:  # states saved before periods could change lack it
+            self.set_cycle_period(float(state["cycle_period"]))
         mujoco.mj_setState(self.model, self.data, physics, spec)
         self._perturbation.state = perturbation.copy()
         self._gait = gait
         self._rng.bit_generator.state = copy.deepcopy(state["rng"])
         self.cycle = int(state["cycle"])
         self._heading = float(state["heading"])
+        self._elapsed = float(state.get("elapsed", self.cycle * self.cycle_period))
 
     def close(self) -> None:
         """Drop the simulation data (MuJoCo frees its buffers with it); later cycles raise an error."""

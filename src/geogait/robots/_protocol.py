@@ -27,8 +27,11 @@ __all__ = ["Robot", "check_robot", "ROBOT_EXTRAS"]
 
 #: Optional members, detected by name: a simulator's truth (``current_system() -> System``, the
 #: oracle column of the optimiser's log), bit-identical checkpoints (``robot_state() -> dict`` of
-#: JSON values and arrays, ``restore_robot_state(state)``), and ``close()`` to release resources.
-ROBOT_EXTRAS = ("current_system", "robot_state", "restore_robot_state", "close")
+#: JSON values and arrays, ``restore_robot_state(state)``), ``close()`` to release resources,
+#: ``set_cycle_period(seconds)`` (run the following cycles at that period, or the nearest the robot
+#: can time, read back from ``cycle_period``: the optimiser's ``optimize_period``), and
+#: ``joint_ranges`` ((d, 2) array of joint limits in shape units: the optimiser's automatic limit).
+ROBOT_EXTRAS = ("current_system", "robot_state", "restore_robot_state", "close", "set_cycle_period", "joint_ranges")
 
 
 @runtime_checkable

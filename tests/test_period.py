@@ -1,0 +1,152 @@
+"""The cycle period as a decision variable: the line search, robots that change their period, and
+the in-situ optimiser finding the best period of a robot whose actuators lag."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from geogait import se2
+from geogait.gaits import FourierGait, seed_gait
+from geogait.optimize import InSituOptimizer, PeriodSearch
+from geogait.simulate import Trajectory, cycle_displacement
+from geogait.systems import PurcellSwimmer
+
+TAU = 0.6 / (2 * np.pi)  # actuator time constant: the best period of LaggingRobot is near 2πτ = 0.6 s
+
+
+def _gain(period):
+    """Amplitude response of a first-order actuator at the gait's frequency 2π / T."""
+    return 1 / np.sqrt(1 + (2 * np.pi * TAU / period) ** 2)
+
+
+class LaggingRobot:
+    """A kinematic 3-link swimmer driven by first-order actuators: at period T every joint realises
+    the command scaled by 1/√(1 + (2πτ/T)²). Shorter cycles are faster until the joints no longer
+    follow, so speed per second peaks at a period the model cannot know (about 2πτ).
+    Written here, independently of the package's robots: the Robot protocol and set_cycle_period.
+    """
+
+    def __init__(self, cycle_period=1.0, samples_per_cycle=80, seed=0):
+        self.system = PurcellSwimmer(3)
+        self.n_joints, self.cycle_period, self.samples = 2, cycle_period, samples_per_cycle
+        self._gait, self.pose, self.elapsed = seed_gait(2), np.zeros(3), 0.0
+        self.rng = np.random.default_rng(seed)
+        self.periods = []
+
+    @property
+    def gait(self):
+        return self._gait
+
+    def set_gait(self, gait):
+        self._gait = gait
+
+    def set_cycle_period(self, period):
+        self.cycle_period = round(period / 0.01) * 0.01  # a robot with a 10 ms clock
+
+    def robot_state(self):
+        return {"rng": self.rng.bit_generator.state, "pose": self.pose.copy(), "elapsed": self.elapsed,
+                "cycle_period": self.cycle_period, "gait": self._gait.coefficients.copy()}
+
+    def restore_robot_state(self, state):
+        self.rng.bit_generator.state = state["rng"]
+        self.pose, self.elapsed = np.asarray(state["pose"]), state["elapsed"]
+        self.cycle_period, self._gait = state["cycle_period"], FourierGait(np.asarray(state["gait"]))
+
+    def next_cycle(self):
+        n, period = self.samples, self.cycle_period
+        rate, gain = 2 * np.pi / period, _gain(period)
+        phase = 2 * np.pi * np.arange(n) / n
+        offset = self.rng.uniform(0, 2 * np.pi, 2)
+        wobble = 0.1 * np.sin(np.outer(phase, [3, 5]) + offset)
+        wobble_rate = 0.1 * np.array([3, 5]) * np.cos(np.outer(phase, [3, 5]) + offset)
+        commanded = self._gait.shape(phase) + wobble
+        shape = gain * commanded
+        shape_velocity = gain * (self._gait.velocity(phase) + wobble_rate) * rate
+        body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
+        poses = se2.integrate_body_velocity(body_velocity, period / n, self.pose)
+        self.pose = poses[-1]
+        time = self.elapsed + np.arange(n) * period / n
+        self.elapsed += period
+        self.periods.append(period)
+        return Trajectory(time=time, phase=phase, cycle=np.full(n, len(self.periods) - 1), shape=shape,
+                          shape_velocity=shape_velocity, body_velocity=body_velocity, pose=poses[:-1],
+                          commanded_shape=commanded)
+
+
+def _true_speed(gait, period):
+    scaled = FourierGait(gait.coefficients * _gain(period))
+    return np.hypot(*cycle_displacement(PurcellSwimmer(3), scaled, resolution=128)[:2]) / period
+
+
+def test_period_search_steps_shrinks_and_stops():
+    search = PeriodSearch(0.5, 2.0)
+    first = search.propose(1.0)
+    assert first == pytest.approx(np.exp(-0.2))  # shorter first
+    assert not search.judge(1.0, 2.0)  # worse: the other side, half the step
+    assert search.direction == 1 and search.step == pytest.approx(0.1)
+    assert search.propose(1.0) == pytest.approx(np.exp(0.1))
+    assert search.judge(3.0, 2.0) and search.step == pytest.approx(0.15)
+    assert search.propose(2.0) == pytest.approx(2.0 * np.exp(-0.15))  # at the top bound: back down
+    search.step = 0.01
+    assert search.propose(1.0) is None  # below 2 %: the search has ended
+    search.gait_changed()
+    assert search.step == pytest.approx(search.restart_step)
+    assert PeriodSearch(0.9, 1.1).propose(1.0, shortest=0.995) == pytest.approx(1.1)  # boxed by the speed limit
+    assert PeriodSearch.from_json(search.to_json()) == search
+
+
+def test_optimiser_finds_the_period_a_lagging_robot_runs_fastest_at():
+    robot = LaggingRobot(seed=3)
+    result = InSituOptimizer(optimize_period=True, period_range=(0.25, 2.0)).run(robot, 60)
+    periods = np.linspace(0.25, 2.0, 71)
+    final = result.final_gait
+    speeds = [_true_speed(final, period) for period in periods]
+    best = periods[int(np.argmax(speeds))]
+    chosen = result.log["cycle_period"].iloc[-1]
+    assert robot.periods[-1] == chosen
+    assert abs(np.log(chosen / best)) < 0.25
+    assert _true_speed(final, chosen) >= 0.9 * max(speeds)
+    assert _true_speed(final, chosen) >= 1.1 * _true_speed(seed_gait(2), 1.0)
+    summary = result.summary()
+    assert summary["seed_cycle_period"] == 1.0 and summary["final_cycle_period"] == pytest.approx(chosen)
+    assert summary["final_measured_improvement"] > 0.1  # per second: the period counts
+
+
+def test_fixed_period_is_the_default_and_never_commanded():
+    robot = LaggingRobot(seed=1)
+    result = InSituOptimizer().run(robot, 12)
+    assert set(robot.periods) == {1.0} and set(result.log["cycle_period"]) == {1.0}
+
+
+def test_period_options_are_checked_before_the_robot_moves():
+    class FixedPeriod(LaggingRobot):
+        set_cycle_period = None
+
+    robot = FixedPeriod()
+    with pytest.raises(ValueError, match="set_cycle_period"):
+        InSituOptimizer(optimize_period=True).run(robot, 3)
+    for bad in [(1.0,), (2.0, 1.0), (0.0, 1.0), (1.0, np.nan), "fast"]:
+        with pytest.raises(ValueError, match="'period_range'"):
+            InSituOptimizer(optimize_period=True, period_range=bad).run(robot, 3)
+    with pytest.raises(ValueError, match="'period_range'.*robot's period"):
+        InSituOptimizer(optimize_period=True, period_range=(0.1, 0.5)).run(LaggingRobot(), 3)
+    assert robot.periods == []
+
+
+def test_resume_with_a_period_search_is_bit_identical(tmp_path):
+    path = tmp_path / "run.npz"
+
+    def make():
+        return InSituOptimizer(optimize_period=True, period_range=(0.25, 2.0), settle_cycles=1)
+
+    whole = make().run(LaggingRobot(seed=4), 24)
+
+    def stop(row):
+        if row["cycle"] == 13:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        make().run(LaggingRobot(seed=4), 24, checkpoint=path, callback=stop)
+    resumed = InSituOptimizer.resume(path, LaggingRobot(seed=4))
+    assert len(set(whole.log["cycle_period"])) >= 2
+    pd.testing.assert_frame_equal(resumed.log, whole.log, check_dtype=False)
