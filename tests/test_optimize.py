@@ -3,6 +3,7 @@
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from geogait import se2
@@ -306,9 +307,28 @@ def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhil
     assert guarded.log["reverted"].any()
     assert guarded.summary()["reverted_to_best"] == int(guarded.log["reverted"].sum())
     assert measured.iloc[-1] >= 0.8 * measured.max()  # it ends on (or back near) the best gait measured
-    unguarded, measured_off = run(revert_tolerance=None)
+    unguarded, measured_off = run(revert_tolerance=None, climb=False)
     assert not unguarded.log["reverted"].any()
     assert measured_off.iloc[-1] < 0.6 * measured_off.max()  # without it, the model walks the robot downhill
+
+
+def test_the_climb_takes_over_from_a_model_that_leads_downhill_and_keeps_the_limits():
+    """Without the revert, the model's unconfirmed promises hand the steps to the measured climb, which
+    keeps the best gait measured (the robot's motion shrinks away from the seed gait)."""
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=6)
+    result = InSituOptimizer(family="free", revert_tolerance=None, max_joint_angle=1.2).run(
+        _MisleadingPoses(stream, seed_gait(2)), 40)
+    log = result.log
+    assert log["climb"].sum() >= 3 and not (log["climb"] & log["period_change"]).any()
+    measured = log[~log["settling"]].groupby("iteration")["measured_objective"].mean()
+    final = np.all(np.isclose(log.filter(like="param_").to_numpy(), result.final_gait.params), axis=1)
+    assert log.loc[final, "measured_objective"].mean() >= 0.8 * measured.max()  # the result: the best measured
+    assert result.summary()["final_measured_objective"] >= 0.8 * measured.max()
+    assert max(gait.joint_limit().max() for gait in result.gaits) <= 1.2 + 1e-9
+    # the same seed repeats the run exactly; another seed draws other directions
+    again = InSituOptimizer(family="free", revert_tolerance=None, max_joint_angle=1.2).run(
+        _MisleadingPoses(SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=6), seed_gait(2)), 40)
+    pd.testing.assert_frame_equal(again.log, log)
 
 
 def test_forward_direction_is_the_mean_motion_of_the_seeds_cycles():

@@ -102,13 +102,13 @@ def test_optimiser_finds_the_period_a_lagging_robot_runs_fastest_at():
     final = result.final_gait
     speeds = [_true_speed(final, period) for period in periods]
     best = periods[int(np.argmax(speeds))]
-    chosen = result.log["cycle_period"].iloc[-1]
-    assert robot.periods[-1] == chosen
+    chosen = result.cycle_period
+    assert chosen in set(robot.periods)
     assert abs(np.log(chosen / best)) < 0.25
     assert _true_speed(final, chosen) >= 0.9 * max(speeds)
     assert _true_speed(final, chosen) >= 1.1 * _true_speed(seed_gait(2), 1.0)
     summary = result.summary()
-    assert summary["seed_cycle_period"] == 1.0 and summary["final_cycle_period"] == pytest.approx(chosen)
+    assert summary["seed_cycle_period"] == 1.0 and summary["final_cycle_period"] == pytest.approx(result.cycle_period)
     assert summary["final_measured_improvement"] > 0.1  # per second: the period counts
 
 

@@ -71,7 +71,7 @@ def test_every_method_is_charged_for_every_cycle_the_robot_ran(monkeypatch, sett
             assert charged == budget
         else:
             assert budget - charged < settle + 1, method
-        assert all(used <= charged for used, _ in trace.events)
+        assert all(used <= charged for used, *_ in trace.events)
 
 
 def test_all_methods_see_the_same_robot(monkeypatch):
@@ -111,7 +111,7 @@ def test_clean_evaluation_matches_the_exact_displacement():
 
 def test_black_box_candidates_respect_the_joint_limit_and_stay_in_the_family():
     case = bench.CASES["swimmer5"]
-    family = bench._Family(case, seed_gait(4))
+    family = bench._Family(case, seed_gait(4), 1.0)
     rng = np.random.default_rng(0)
     for _ in range(20):
         params = rng.normal(0, 3, family.seed_params.size)
@@ -129,7 +129,7 @@ def test_held_variant_penalises_rotation_beyond_the_limit():
     values = {}
     for held in (False, True):
         robot = bench._CountingRobot(case.make_robot(None, explore=False, noise=False))
-        family = bench._Family(dataclasses.replace(case, family="free"), robot.gait)
+        family = bench._Family(dataclasses.replace(case, family="free"), robot.gait, robot.cycle_period)
         params = family.seed_params.copy()
         params[0] = 0.5  # an offset on the first joint makes the gait turn
         objective = bench._Objective(case, robot, family, 10, held, seed_value=0.05)

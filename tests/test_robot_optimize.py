@@ -112,7 +112,8 @@ def test_forward_objective_sign_matters():
 
 
 def test_saturated_actuators_are_detected_and_their_steps_rejected():
-    options = dict(trust_radius=0.15, max_trust_radius=0.3, prediction_tolerance=None)
+    # the model's steps alone (climb=False): what the tracking check does to them
+    options = dict(trust_radius=0.15, max_trust_radius=0.3, prediction_tolerance=None, climb=False)
     result = InSituOptimizer(**options).run(SaturatingRobot(limit=1.1), 40)
     log = result.log
     limit = max(0.05, 2 * log.loc[log["iteration"] == 0, "tracking_error"].mean())  # "auto": twice the seed's
@@ -128,7 +129,7 @@ def test_saturated_actuators_are_detected_and_their_steps_rejected():
 
 
 def test_the_prediction_check_closes_the_gate_when_the_model_overpredicts():
-    log = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3, max_tracking_error=None).run(
+    log = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3, max_tracking_error=None, climb=False).run(
         SaturatingRobot(limit=1.1), 25).log
     checked = log.dropna(subset=["prediction_ok"])
     failed = checked[checked["prediction_ok"] == 0]

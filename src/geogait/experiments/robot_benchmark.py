@@ -135,6 +135,10 @@ class BenchmarkCase:
         Optional modules the case needs (``"mujoco"``, ``"gymnasium"``, ``"elastica"``).
     checkpoints : tuple of int, optional
         Cycles at which gaits are evaluated (default every 10 cycles, 30 and 60); fewer for slow robots.
+    period_range : tuple of 2 floats, optional
+        (shortest, longest) cycle period (s) every method may choose: the objective is then per
+        second and the period a decision variable (geogait's ``optimize_period``; one more
+        coordinate, r_max · log(T / T₀), for the black-box methods). None: the robot's period.
     """
 
     name: str
@@ -152,6 +156,7 @@ class BenchmarkCase:
     score_name: str = ""
     requires: tuple = field(default_factory=tuple)
     checkpoints: tuple | None = None
+    period_range: tuple | None = None
 
     def missing(self) -> list[str]:
         """Optional modules this case needs that are not installed."""
@@ -189,13 +194,19 @@ def _gymnasium_robot(seed, explore, noise, gait=None):
     return gymnasium_swimmer(seed=seed, **options)
 
 
+def _set_period(robot, period):
+    if period is not None:
+        robot.set_cycle_period(period)
+
+
 def _elastica_robot(seed, explore, noise, gait=None):
     from ..robots import ElasticaSnake
     return ElasticaSnake(gait=gait, seed=seed, perturbation=None if explore else Perturbation(eta=0))
 
 
-def swimmer_v5_return(gait: FourierGait) -> float:
-    """Gymnasium Swimmer-v5's episode return of ``gait``, from rest, without exploration.
+def swimmer_v5_return(gait: FourierGait, period: float | None = None) -> float:
+    """Gymnasium Swimmer-v5's episode return of ``gait`` run at ``period`` s (default 2), from rest,
+    without exploration.
 
     The episode's forward reward sums the torso's x-velocity over 1000 steps of 0.04 s, which is
     (x(40 s) − x(0)) / 0.04 on the same MuJoCo model (``gymnasium:swimmer``) driven by
@@ -203,6 +214,7 @@ def swimmer_v5_return(gait: FourierGait) -> float:
     |a| ≤ 1 on two motors: at most 0.2 per episode) is left out.
     """
     robot = _gymnasium_robot(None, explore=False, noise=False, gait=gait)
+    _set_period(robot, period)
     duration = _SWIMMER_V5_DT * _SWIMMER_V5_STEPS
     cycles = int(round(duration / robot.cycle_period))
     start = robot.next_cycle().pose[0, 0]
@@ -228,7 +240,7 @@ def _cases() -> dict[str, BenchmarkCase]:
         name="gymnasium-swimmer", description="Gymnasium Swimmer-v5 model (quadratic drag, inertia), PD joints, 2 s",
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
         settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return",
-        requires=("mujoco", "gymnasium"))
+        requires=("mujoco", "gymnasium"), period_range=(0.5, 4.0))
     cases["elastica-snake"] = BenchmarkCase(
         name="elastica-snake", description="PyElastica continuum snake (Cosserat rod, anisotropic friction), "
         "4 curvature modes, 1 s", make_robot=_elastica_robot, objective="forward", direction=None,
@@ -262,9 +274,10 @@ def _value(case: BenchmarkCase, net: np.ndarray) -> float:
     return float(np.hypot(net[0], net[1]))
 
 
-def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int) -> np.ndarray:
-    """Command ``gait``, run the settling cycles, return the net motion of ``n_measured`` cycles."""
+def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int, period=None) -> np.ndarray:
+    """Command ``gait`` (at ``period``), run the settling cycles, return the net motion of ``n_measured`` cycles."""
     robot.set_gait(gait)
+    _set_period(robot, period)
     for _ in range(case.settle_cycles):
         robot.next_cycle()
     return np.array([measure_cycle(robot.next_cycle(), gait, robot.cycle_period, _OWNER).net
@@ -281,21 +294,23 @@ def seed_direction(case: BenchmarkCase) -> tuple:
     return float(net[0] / norm), float(net[1] / norm)
 
 
-def evaluate_gait(case: BenchmarkCase, gait: FourierGait) -> dict:
+def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None = None) -> dict:
     """A gait re-run clean (no exploration, no sensor noise) on a fresh robot of ``case``.
 
     Returns
     -------
     dict
-        ``objective`` (mean measured objective per cycle), ``rotation`` (mean net rotation per
-        cycle, rad) and, when the case has one, ``score``.
+        ``objective`` (mean measured objective per cycle; per second for a case with a
+        ``period_range``), ``rotation`` (mean net rotation per cycle, rad), ``period`` (s) and,
+        when the case has one, ``score``.
     """
     robot = case.make_robot(None, explore=False, noise=False, gait=gait)
-    nets = _run_measured(robot, case, gait, case.eval_cycles)
-    result = {"objective": float(np.mean([_value(case, net) for net in nets])),
-              "rotation": float(np.mean(nets[:, 2]))}
+    nets = _run_measured(robot, case, gait, case.eval_cycles, period)
+    rate = 1 / robot.cycle_period if case.period_range is not None else 1.0
+    result = {"objective": float(np.mean([_value(case, net) for net in nets])) * rate,
+              "rotation": float(np.mean(nets[:, 2])), "period": float(robot.cycle_period)}
     if case.score is not None:
-        result["score"] = case.score(gait)
+        result["score"] = case.score(gait, period) if case.period_range is not None else case.score(gait)
     return result
 
 
@@ -303,33 +318,44 @@ def evaluate_gait(case: BenchmarkCase, gait: FourierGait) -> dict:
 class _Family:
     """Order-1 gait family of a case, with the joint-limit repair every black-box method uses."""
 
-    def __init__(self, case: BenchmarkCase, seed: FourierGait):
+    def __init__(self, case: BenchmarkCase, seed: FourierGait, period: float):
         self.family = (SymmetricGaitFamily.from_gait(seed, order=1) if case.family == "symmetric"
                        else FreeGaitFamily(seed.n_joints, 1))
         self.r_max = case.max_joint_angle
+        self.period_range, self.seed_period = case.period_range, period
         self.seed_params = self.family.params_of(seed.with_order(1))
+        if self.period_range is not None:  # one more coordinate: r_max · log(T / T₀)
+            self.seed_params = np.append(self.seed_params, 0.0)
 
     def gait(self, params) -> FourierGait:
         """The gait of ``params``, scaled back onto the joint limit when beyond it."""
-        params = np.asarray(params, dtype=float)
+        params = np.asarray(params, dtype=float)[:self.family.n_params]
         reach = float(self.family.gait(params).joint_limit().max())
         scale = min(1.0, self.r_max * (1 - 1e-6) / reach) if reach > 0 else 1.0
         return self.family.gait(params * scale)
+
+    def period(self, params) -> float | None:
+        """The period of ``params`` (None for a case at the robot's period), clipped to its range."""
+        if self.period_range is None:
+            return None
+        period = self.seed_period * np.exp(float(np.asarray(params, dtype=float)[-1]) / self.r_max)
+        return float(np.clip(period, *self.period_range))
 
 
 # -- methods ------------------------------------------------------------------------------------
 class _Trace:
     """The gait a method would hand over after each number of cycles used."""
 
-    def __init__(self, robot: _CountingRobot, gait: FourierGait):
+    def __init__(self, robot: _CountingRobot, gait: FourierGait, period: float | None = None):
         self.robot = robot
-        self.events = [(0, gait)]
+        self.events = [(0, gait, period)]
 
-    def recommend(self, gait: FourierGait):
-        self.events.append((self.robot.cycles, gait))
+    def recommend(self, gait: FourierGait, period: float | None = None):
+        self.events.append((self.robot.cycles, gait, period))
 
-    def at(self, cycles: int) -> FourierGait:
-        return [gait for used, gait in self.events if used <= cycles][-1]
+    def at(self, cycles: int) -> tuple:
+        """(gait, period) handed over after ``cycles`` cycles (period None: the robot's)."""
+        return [(gait, period) for used, gait, period in self.events if used <= cycles][-1]
 
 
 class _Objective:
@@ -344,10 +370,11 @@ class _Objective:
         return self.robot.cycles + self.case.settle_cycles + 1 <= self.budget
 
     def __call__(self, params) -> float:
-        gait = self.family.gait(params)
-        net = _run_measured(self.robot, self.case, gait, 1)[0]
+        gait, period = self.family.gait(params), self.family.period(params)
+        net = _run_measured(self.robot, self.case, gait, 1, period)[0]
         excess = max(0.0, abs(net[2]) - self.case.rotation_limit)
-        return _value(self.case, net) - self.weight * excess
+        rate = 1 / self.robot.cycle_period if period is not None else 1.0
+        return _value(self.case, net) * rate - self.weight * excess
 
 
 def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):
@@ -367,7 +394,7 @@ def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):
                 return
             values.append(-objective(candidate))
         strategy.tell(candidates, values)
-        trace.recommend(family.gait(strategy.mean))
+        trace.recommend(family.gait(strategy.mean), family.period(strategy.mean))
 
 
 def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
@@ -392,7 +419,7 @@ def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
         study.tell(trial, value)
         if value > best:
             best = value
-            trace.recommend(family.gait(params))
+            trace.recommend(family.gait(params), family.period(params))
 
 
 def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
@@ -402,7 +429,7 @@ def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
         value = objective(params)
         if value > best:
             best = value
-            trace.recommend(family.gait(params))
+            trace.recommend(family.gait(params), family.period(params))
         params = rng.uniform(-family.r_max, family.r_max, family.seed_params.size)
 
 
@@ -419,15 +446,21 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, batch: boo
     options = {"model": BatchGaitModel(), "gate": "cycles"} if batch else {}
     if case.objective == "forward":
         options.update(objective="forward", direction=case.direction, direction_frame="body")
+    if case.period_range is not None:
+        options.update(optimize_period=True, period_range=case.period_range)
     optimizer = InSituOptimizer(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
                                 family="auto" if case.family == "symmetric" else "free", **options)
-    seed = robot.gait
+    seed, period = robot.gait, robot.cycle_period
     result = optimizer.run(robot, budget)
-    params = result.log.filter(like="param_").to_numpy()
-    trace = _Trace(robot, seed.with_order(1))
-    trace.events = [(0, seed.with_order(1))] + [
-        (c, FourierGait.from_params(params[c], seed.n_joints)) for c in range(1, len(params))]
-    trace.events.append((budget, result.final_gait))
+    log = result.log
+    params = log.filter(like="param_").to_numpy()
+    # after cycle c, the gait of the last cycle up to c that was not an unjudged trial
+    kept = ~log["candidate"].to_numpy(dtype=bool)
+    fixed = case.period_range is None
+    trace = _Trace(robot, seed.with_order(1), None if fixed else period)
+    trace.events += [(c, FourierGait.from_params(params[c], seed.n_joints),
+                      None if fixed else float(log["cycle_period"].iloc[c])) for c in range(1, len(params)) if kept[c]]
+    trace.events.append((budget, result.final_gait, None if fixed else result.cycle_period))
     return trace
 
 
@@ -438,8 +471,8 @@ def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value:
         return _geogait(case, robot, budget, batch=method == "geogait-batch"), robot.cycles
     held = method.endswith("-held")
     robot = _CountingRobot(case.make_robot(seed, explore=False, noise=True))
-    family = _Family(case, robot.gait)
-    trace = _Trace(robot, family.gait(family.seed_params))
+    family = _Family(case, robot.gait, robot.cycle_period)
+    trace = _Trace(robot, family.gait(family.seed_params), family.period(family.seed_params))
     objective = _Objective(case, robot, family, budget, held, seed_value)
     # the method's own random numbers: a grandchild of the robot's seed (spawn() would change the seed)
     rng = np.random.default_rng(np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 1)))
@@ -465,9 +498,9 @@ def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds:
         trace, used = _run_method(spec, method, children[seed_index], budget, seed_value)
         elapsed = time.perf_counter() - start
         for cycles in checkpoints:
-            result = evaluate_gait(spec, trace.at(cycles))
+            result = evaluate_gait(spec, *trace.at(cycles))
             rows.append({"trial": int(trial), "case": case, "method": method, "seed": seed_index,
-                         "cycles": cycles, "cycles_run": used, "seconds": elapsed,
+                         "cycles": cycles, "cycles_run": used, "seconds": elapsed, "period": result["period"],
                          "objective": result["objective"], "rotation": result["rotation"],
                          "improvement": result["objective"] / seed_value - 1,
                          "ceiling_fraction": result["objective"] / ceiling_value if ceiling_value else np.nan,

@@ -68,6 +68,7 @@ from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ..systems import PurcellSwimmer
 from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
+from ._climb import MeasuredClimb
 from ._period import PeriodSearch
 from ._steps import STEP_RULES, StepProblem, take_step
 
@@ -99,7 +100,10 @@ class InSituResult:
         (net motion of the cycle in the body frame at its start), ``measured_progress`` (its
         length), ``measured_objective``, ``measured_speed`` (progress per second),
         ``tracking_error`` (RMS realised − commanded shape, rad), ``world_x``, ``world_y``,
-        ``world_heading`` (pose at the start of the cycle); with a simulator's truth ``true_x``,
+        ``world_heading`` (pose at the start of the cycle), ``cycle_period`` (s), ``climb`` (the step
+        after this cycle came from the measured climb), ``period_change`` (a period trial started or
+        ended after it), ``candidate`` (this cycle ran a climb candidate or period trial that was
+        not kept: not a result); with a simulator's truth ``true_x``,
         ``true_y``, ``true_heading``, ``true_progress``, ``true_objective``; ``improvement``
         (relative to the seed: true values where there is a truth, else the measured objective over
         the mean measured objective of the seed's cycles so far), ``ceiling_fraction`` (when a
@@ -113,6 +117,8 @@ class InSituResult:
         The joint limit and unit of shape the run used (resolved from the robot for ``"auto"``).
     direction : ndarray of shape (2,) or None
         The unit direction of ``"forward"`` the run used (in its ``direction_frame``).
+    cycle_period : float or None
+        The period (s) to run ``final_gait`` at (the robot's, unless ``optimize_period``).
     model : object or None
         The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
         the last fit): what the next step would have used. Inspect it against a simulator's truth,
@@ -128,6 +134,7 @@ class InSituResult:
     max_joint_angle: float | None = None
     shape_scale: float | None = None
     direction: np.ndarray | None = None
+    cycle_period: float | None = None
 
     @property
     def n_steps(self) -> int:
@@ -148,6 +155,8 @@ class InSituResult:
         """
         log = self.log
         measured = log[~log["settling"] & ~log["rejected"]]
+        if "candidate" in measured:  # the result is the last gait that was not an unjudged climb candidate
+            measured = measured[~measured["candidate"].astype(bool)]
         seed_rows = measured["iteration"] == 0
         final_rows = measured["iteration"] == measured["iteration"].iloc[-1]
         seed = measured.loc[seed_rows, "measured_objective"].mean()
@@ -284,6 +293,15 @@ class InSituOptimizer(Estimator):
     period_range : tuple of 2 floats, optional
         (shortest, longest) period in seconds for ``optimize_period``; default half to twice the
         robot's period.
+    climb : bool
+        When measured outcomes contradict the model — its promised gains unconfirmed twice in a row
+        at the smallest trust radius, its prediction check failed twice in a row, or a revert to the
+        best gait — take steps from the measured outcomes instead (:class:`MeasuredClimb`, a
+        mirrored (1+1) evolution strategy in the same family, within the same limits), and return
+        to model steps once the model predicts the measured gains again. Default True.
+    random_state : int or None
+        Seed of the climb's random directions (default 0: runs repeat exactly; an int, so that a
+        checkpoint can name it; None draws fresh entropy).
     """
 
     _parameter_constraints = {
@@ -309,6 +327,8 @@ class InSituOptimizer(Estimator):
         "prediction_tolerance": Real(low=0, low_open=True, none=True),
         "revert_tolerance": Real(low=0, low_open=True, none=True),
         "optimize_period": Boolean(),
+        "climb": Boolean(),
+        "random_state": Integer(minimum=0, none=True),
     }
 
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
@@ -320,7 +340,7 @@ class InSituOptimizer(Estimator):
                  rebase: str = "all", covariance_inflation: float = 1.0, constant_variance: float = 0.0,
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
                  prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0,
-                 optimize_period: bool = False, period_range=None):
+                 optimize_period: bool = False, period_range=None, climb: bool = True, random_state: int | None = 0):
         self.model = model
         self.gate = gate
         self.gamma_threshold = gamma_threshold
@@ -349,6 +369,8 @@ class InSituOptimizer(Estimator):
         self.revert_tolerance = revert_tolerance
         self.optimize_period = optimize_period
         self.period_range = period_range
+        self.climb = climb
+        self.random_state = random_state
 
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
     def describe(self) -> dict:
@@ -451,7 +473,8 @@ class InSituOptimizer(Estimator):
                        n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
                        settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale,
                        feasibility=feasibility, robot_period=period, seed_period=period,
-                       period_search=PeriodSearch(*period_range) if period_range is not None else None)
+                       period_search=PeriodSearch(*period_range) if period_range is not None else None,
+                       climb=self._new_climb(scale), rng=np.random.default_rng(self.random_state))
         return _Loop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
@@ -493,6 +516,10 @@ class InSituOptimizer(Estimator):
                        robot.gait.n_joints)
         state.max_joint_angle = optimizer._joint_limit(robot, "InSituOptimizer.resume")
         state.scale = optimizer._shape_scale(state.gaits[0])
+        if state.climb is None:  # checkpoints before the climb
+            state.climb = optimizer._new_climb(state.scale)
+        if "rng" not in metadata["state"]:
+            state.rng = np.random.default_rng(optimizer.random_state)
         state.feasibility = _feasibility(robot, state.gait, optimizer.order)
         if n_cycles is not None:
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
@@ -575,6 +602,10 @@ class InSituOptimizer(Estimator):
         params.update({k: v for k, v in (("gait", gait), ("phase_rate", 2 * np.pi / period)) if k in params})
         return type(self.model)(**params)
 
+    def _new_climb(self, scale: float) -> MeasuredClimb:
+        return MeasuredClimb(sigma=self.max_trust_radius * scale, min_sigma=self.min_trust_radius * scale,
+                             max_sigma=4 * self.max_trust_radius * scale)
+
     def _gate(self) -> str:
         if self.gate is not None:
             return self.gate
@@ -621,6 +652,8 @@ class InSituOptimizer(Estimator):
         value, _, pose, _ = problem.evaluate(params)
         state.update_radius(value, self.min_trust_radius * state.scale, self.max_trust_radius * state.scale)
         state.last_prediction = value
+        if self.climb and state.distrust >= 2:  # promised gains unconfirmed at the smallest radius
+            return False
         restores = False
         target = 0.0
         if problem.rotation:
@@ -818,6 +851,11 @@ class _State:
     seed_period: float = np.nan
     period_search: PeriodSearch | None = None  # optimize_period's line search (None: period fixed)
     trial_tracking: list = field(default_factory=list)  # tracking errors of a period trial's cycles
+    climb: MeasuredClimb | None = None  # steps from measured outcomes (the climb parameter)
+    rng: np.random.Generator | None = None  # the climb's directions
+    distrust: int = 0  # ratio tests failed in a row at the smallest trust radius
+    prediction_failures: int = 0  # prediction checks failed in a row
+    rotations: dict = field(default_factory=dict)  # (gait, period) -> measured net rotation of each learned cycle
 
     def rate(self, period: float) -> float:
         """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
@@ -875,6 +913,7 @@ class _State:
             return
         before, promised, boundary = self.promised
         ratio = (value_now - before) / (promised - before) if promised != before else 1.0
+        self.distrust = self.distrust + 1 if ratio < 0.25 and self.radius <= low * (1 + 1e-12) else 0
         if ratio < 0.25:
             self.radius = max(low, self.radius / 2)
         elif ratio > 0.75 and boundary:
@@ -886,10 +925,19 @@ class _State:
                 "settle_left", "last_prediction", "residual_variance", "gamma", "world_heading", "tracking_limit",
                 "seed_value")
     _PERIOD_SCALARS = ("robot_period", "previous_period", "seed_period")  # newer than the checkpoint format
+    _COUNTERS = ("distrust", "prediction_failures")
 
     def to_checkpoint(self) -> tuple[dict, dict]:
         metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS + self._PERIOD_SCALARS}
         metadata["period_search"] = None if self.period_search is None else self.period_search.to_json()
+        metadata.update({name: int(getattr(self, name)) for name in self._COUNTERS})
+        metadata["rng"] = self.rng.bit_generator.state
+        climb = self.climb
+        metadata["climb"] = {"sigma": climb.sigma, "min_sigma": climb.min_sigma, "max_sigma": climb.max_sigma,
+                             "active": climb.active, "mirror": climb.mirror, "failures": climb.failures,
+                             "agreements": climb.agreements, "predicted_gain": _json_float(climb.predicted_gain),
+                             "base_period": None if climb.base is None else climb.base[1],
+                             "candidate_period": None if climb.candidate is None else climb.candidate[1]}
         metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
         family = self.family
         metadata["family"] = {"kind": "symmetric" if isinstance(family, SymmetricGaitFamily) else "free",
@@ -903,8 +951,15 @@ class _State:
         if self.measured:
             arrays["measured/gaits"] = np.stack([g.coefficients for g, _ in self.measured])
             arrays["measured/periods"] = np.array([period for _, period in self.measured], dtype=float)
+            arrays["measured/rotations"] = np.concatenate([np.asarray(self.rotations[k], dtype=float)
+                                                           for k in self.measured])
             arrays["measured/counts"] = np.array([len(v) for v in self.measured.values()])
             arrays["measured/values"] = np.concatenate([np.asarray(v, dtype=float) for v in self.measured.values()])
+        for name, value in (("climb/base", self.climb.base), ("climb/candidate", self.climb.candidate)):
+            if value is not None:
+                arrays[name] = value[0].coefficients
+        if self.climb.direction is not None:
+            arrays["climb/direction"] = self.climb.direction
         if self.previous_gait is not None:
             arrays["previous_gait"] = self.previous_gait.coefficients
         if self.direction is not None:
@@ -937,6 +992,22 @@ class _State:
             setattr(state, name, np.nan if value is None else value)
         search = scalars.get("period_search")
         state.period_search = None if search is None else PeriodSearch.from_json(search)
+        for name in cls._COUNTERS:
+            setattr(state, name, int(scalars.get(name, 0)))
+        state.rng = np.random.default_rng()
+        if scalars.get("rng") is not None:
+            state.rng.bit_generator.state = scalars["rng"]
+        climb = scalars.get("climb")
+        if climb is not None:
+            state.climb = MeasuredClimb(
+                sigma=climb["sigma"], min_sigma=climb["min_sigma"], max_sigma=climb["max_sigma"],
+                active=climb["active"], mirror=climb["mirror"], failures=climb["failures"],
+                agreements=climb["agreements"],
+                predicted_gain=np.nan if climb["predicted_gain"] is None else climb["predicted_gain"],
+                base=None if climb["base_period"] is None else (FourierGait(arrays["climb/base"]), climb["base_period"]),
+                candidate=None if climb["candidate_period"] is None
+                else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
+                direction=arrays.get("climb/direction"))
         state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
         promised = scalars["promised"]
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
@@ -959,6 +1030,9 @@ class _State:
             periods = arrays.get("measured/periods", np.full(len(values), state.period))
             state.measured = {(FourierGait(c), float(t)): v.tolist()
                               for c, t, v in zip(arrays["measured/gaits"], periods, values, strict=True)}
+            rotations = (np.split(arrays["measured/rotations"], np.cumsum(arrays["measured/counts"])[:-1])
+                         if "measured/rotations" in arrays else [np.zeros(0)] * len(values))
+            state.rotations = {k: r.tolist() for k, r in zip(state.measured, rotations, strict=True)}
         names = ("phase", "shape", "shape_velocity", "body_velocity")
         state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
                                 for k in range(scalars["iteration_data"])]
@@ -1018,7 +1092,14 @@ class _Loop:
             due = state.cycle % self.checkpoint_every == 0 or state.cycle == state.n_cycles
             if self.checkpoint is not None and due:
                 self._save()
-        return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=state.gait,
+        # a climb candidate not yet judged is not a result: the base it was drawn from is
+        final, period = state.gait, state.period
+        if state.climb.active and state.climb.candidate is not None:
+            final, period = state.climb.base
+        elif state.period_search is not None and state.period_search.trial_from is not None:
+            period = state.period_search.trial_from
+        return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=final,
+                            cycle_period=period,
                             gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
                             shape_scale=state.scale, direction=state.direction,
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
@@ -1027,10 +1108,13 @@ class _Loop:
         optimizer, state = self.optimizer, self.state
         ran, ran_period = state.robot_gait, state.robot_period
         measured = measure_cycle(chunk, ran, ran_period, "InSituOptimizer.run")
+        search = state.period_search
+        was_trial = search is not None and search.trial_from is not None
+        was_candidate = state.climb.candidate == (ran, ran_period)
         state.world_heading = float(measured.start[2])
         settling = state.settle_left > 0
-        step = rejected = reverted = False
-        prediction_ok = np.nan
+        rejected = reverted = False
+        kind, prediction_ok = None, np.nan
         value = np.nan
         if settling:
             state.settle_left -= 1
@@ -1046,32 +1130,55 @@ class _Loop:
             if not rejected:
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
-                state.measured.setdefault((state.gait, state.period), []).append(value * state.rate(state.period))
+                key = (state.gait, state.period)
+                state.measured.setdefault(key, []).append(value * state.rate(state.period))
+                state.rotations.setdefault(key, []).append(float(measured.net[2]))
                 if self._gate_open():
                     self._fix_direction()
                     reverted = self._measured_reverts()
                 if self._gate_open() and not reverted:
-                    if self.gate == "cycles":
-                        state.fit_iteration()
-                    period_trial = state.period_search is not None and self._period_move()
-                    if not period_trial:
-                        prediction_ok = float(self._prediction_agrees())
-                        step = bool(prediction_ok) and optimizer._step(state)
-                        if state.period_search is not None:
-                            state.period_search.turn = True
-                            if step:
-                                state.period_search.gait_changed()
-                    if not step and not period_trial and self.gate == "cycles":  # prior work: another block
-                        state.cycles_in_iteration = 0
-                    step = step or period_trial
+                    kind, prediction_ok = self._decide()
+        step = kind is not None
         row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
                         prediction_ok, measured, value, reverted, ran_period)
+        row.update(climb=kind == "climb", period_change=kind == "period",
+                   candidate=bool(was_candidate and state.climb.base != (ran, ran_period)
+                                  or was_trial and not (search.trial_from is None and state.period == ran_period)))
         if step or rejected or reverted:
             state.gaits.append(state.gait)
         state.robot_gait = state.gait
         self.robot.set_gait(state.gait)
         self._command_period()
         return row
+
+    def _decide(self) -> tuple[str | None, float]:
+        """The gate is open: a period trial, a model step or a climb step (or none).
+
+        Returns the kind of change made (``"period"``, ``"model"``, ``"climb"`` or None) and the
+        prediction check's outcome (NaN when none was made).
+        """
+        state, optimizer = self.state, self.optimizer
+        if self.gate == "cycles":
+            state.fit_iteration()
+        if state.period_search is not None and self._period_move():
+            return "period", np.nan
+        kind, prediction_ok = None, np.nan
+        if not state.climb.active:
+            prediction_ok = float(self._prediction_agrees())
+            state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
+            if prediction_ok and optimizer._step(state):
+                kind = "model"
+            elif optimizer.climb and (state.distrust >= 2 or state.prediction_failures >= 2):
+                state.climb.start(self._best_key(), optimizer.max_trust_radius * state.scale)
+        if kind is None and state.climb.active and self._climb_move():
+            kind = "climb"
+        if state.period_search is not None:
+            state.period_search.turn = True
+            if kind is not None:
+                state.period_search.gait_changed()
+        if kind is None and self.gate == "cycles":  # prior work: another block of cycles, then retry
+            state.cycles_in_iteration = 0
+        return kind, prediction_ok
 
     def _command_period(self) -> None:
         """Command the state's period; the robot may round it (its timing), and the run uses what it runs."""
@@ -1083,6 +1190,72 @@ class _Loop:
                 state.period = realised
                 state.model = self.optimizer._new_model(state.gait, realised, state.family, state.scale)
         state.robot_period = state.period
+
+    def _best_key(self) -> tuple:
+        """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
+        state = self.state
+        current = (state.gait, state.period)
+        keys = [k for k, v in state.measured.items() if len(v) >= 2 or k == current]
+        return max(keys, key=lambda k: float(np.mean(state.measured[k]))) if keys else current
+
+    def _climb_move(self) -> bool:
+        """The climb's turn at a gate decision (:class:`MeasuredClimb`): judge the candidate just measured,
+        go back to the base to measure it again after three failures, or command the next candidate;
+        returns whether the gait changed."""
+        state, optimizer, climb = self.state, self.optimizer, self.state.climb
+        key = (state.gait, state.period)
+        if climb.candidate is not None:
+            if climb.candidate == key and climb.base in state.measured:
+                climb.judge(float(np.mean(state.measured[key])), float(np.mean(state.measured[climb.base])),
+                            self._rotation_holds(key, climb.base))
+                if climb.model_trusted_again:  # back to model steps, from the best gait
+                    climb.active = False
+                    state.distrust = state.prediction_failures = 0
+                    state.radius = optimizer.trust_radius * state.scale
+                    if key != climb.base:
+                        optimizer._change_gait(state, *climb.base)
+                        return True
+                    return False
+            climb.candidate = None  # a candidate left early (rejected, reverted) is not judged
+        if key != climb.base and (climb.failures >= 3 or climb.base not in state.measured):
+            climb.failures = 0  # measure the base again: it may have been lucky
+            optimizer._change_gait(state, *climb.base)
+            return True
+        return self._climb_candidate()
+
+    def _climb_candidate(self) -> bool:
+        """Command the climb's next candidate: σ from the base in its next direction, shortened until it
+        keeps the joint limits and the feasible region."""
+        state, optimizer, climb = self.state, self.optimizer, self.state.climb
+        base_gait, period = climb.base
+        family = state.family
+        base = family.params_of(base_gait, tolerance=1e-8)
+        direction = climb.next_direction(state.rng, base.size)
+        speed = None if optimizer.max_joint_velocity is None else optimizer.max_joint_velocity * period / (2 * np.pi)
+        rows, bounds = joint_limit_constraints(base_gait.n_joints, optimizer.order, state.max_joint_angle, speed)
+        for shrink in range(6):
+            gait = family.gait(base + climb.sigma * 0.5 ** shrink * direction)
+            if np.all(rows @ gait.params <= bounds + 1e-12) and (
+                    state.feasibility is None or state.feasibility(gait.params)[0].min() >= 0):
+                break
+        else:
+            climb.sigma = max(climb.min_sigma, climb.sigma / 2)
+            return False
+        rate = state.rate(period)
+        climb.predicted_gain = (optimizer._predict(state, gait)[1] - optimizer._predict(state, base_gait)[1]) * rate
+        climb.candidate = (gait, period)
+        optimizer._change_gait(state, gait, period)
+        return True
+
+    def _rotation_holds(self, key, base) -> bool:
+        """The candidate's mean measured net rotation is no larger than the base's (or the rotation
+        tolerance) beyond twice its standard error."""
+        rotations, reference = np.asarray(self.state.rotations.get(key, [])), self.state.rotations.get(base, [])
+        if rotations.size == 0:
+            return True
+        limit = max(abs(float(np.mean(reference))) if len(reference) else 0.0, self.optimizer.rotation_tolerance)
+        error = float(np.std(rotations, ddof=1) / np.sqrt(rotations.size)) if rotations.size > 1 else 0.0
+        return abs(float(rotations.mean())) <= limit + 2 * error
 
     def _period_move(self) -> bool:
         """The period's turn at a gate decision (``optimize_period``): judge the trial in progress, or
@@ -1171,6 +1344,8 @@ class _Loop:
             return False
         state.promised = None
         state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
+            state.climb.judge(-np.inf, 0.0, rotation_holds=False)
         previous = state.previous_gait
         optimizer._change_gait(state, previous, state.previous_period)
         if search is not None and search.trial_from is not None:  # a period the robot cannot follow
@@ -1190,8 +1365,8 @@ class _Loop:
         mean, so a lucky best is corrected) and the trust radius halves.
         """
         state, optimizer = self.state, self.optimizer
-        if state.iteration == 0 or optimizer.revert_tolerance is None:
-            return False
+        if state.iteration == 0 or optimizer.revert_tolerance is None or state.climb.active:
+            return False  # (the climb judges its own candidates)
         current = (state.gait, state.period)
         counts = {g: len(v) for g, v in state.measured.items() if len(v) >= 2}
         if current not in counts or len(counts) < 2:
@@ -1210,11 +1385,18 @@ class _Loop:
             search.judge(-np.inf, 0.0)
             search.turn = False
         optimizer._change_gait(state, *best)
+        if optimizer.climb and not (search is not None and best[0] == current[0]):  # the model led downhill
+            if not state.climb.active:
+                state.climb.start(best, optimizer.max_trust_radius * state.scale)
+            else:
+                state.climb.base, state.climb.candidate = best, None
         state.previous_gait = None
         return True
 
     def _gate_open(self) -> bool:
         state = self.state
+        if state.climb.active:  # measured outcomes need measured cycles, not a model's confidence
+            return state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
         if self.gate == "cycles":
             return state.cycles_in_iteration >= self.optimizer.cycles_per_iteration
         return (state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration

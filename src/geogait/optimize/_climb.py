@@ -1,0 +1,96 @@
+r"""Steps from measured outcomes when the model's steps do not deliver: a local evolution strategy.
+
+A model can fit the samples well (Γ high, the prediction check passing) and still be wrong about
+the gradient of the objective — on a robot with inertia or drag outside the model class its
+promised gains are not measured, the ratio test shrinks the trust radius to its floor, and the run
+stalls. The in-situ optimiser then climbs on what the robot measures: a (1+1) evolution strategy
+with mirrored sampling (Brockhoff, Auger, Hansen, Arnold & Hohm, PPSN 2010) in the same gait
+family. From the base gait (the best measured so far) a candidate is commanded at distance σ
+in a random direction (or, after a failure, in the opposite direction), run for the usual settle
+and measured cycles, and kept when its mean measured objective beats the base's and its measured
+net rotation does not grow beyond noise. σ grows by half on success and shrinks by 0.85 on
+failure (a success rate near 2/7 keeps it steady). After three failures in a row the base is run
+again, so a base that was measured lucky is corrected. Every cycle still trains the model; when it
+predicts the measured gain of two candidates in a row (same sign, within a factor 2), model steps
+resume.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["MeasuredClimb"]
+
+
+@dataclass
+class MeasuredClimb:
+    """State of the measured-outcome climb (module docstring).
+
+    Parameters
+    ----------
+    sigma, min_sigma, max_sigma : float
+        Step length in the family's parameters and its bounds (shape units).
+    active : bool
+        Steps come from the climb (True) or from the model (False).
+    base, candidate : tuple (FourierGait, period) or None
+        The gait the candidates are drawn from, and the candidate being measured.
+    direction : ndarray or None
+        Unit direction (family parameters) of the last candidate.
+    mirror : bool
+        The next candidate is the mirror image of the last, failed one.
+    failures, agreements : int
+        Failures in a row; candidates in a row whose measured gain the model predicted.
+    predicted_gain : float
+        The model's predicted gain of the candidate being measured.
+    """
+
+    sigma: float
+    min_sigma: float
+    max_sigma: float
+    active: bool = False
+    base: tuple | None = None
+    candidate: tuple | None = None
+    direction: np.ndarray | None = None
+    mirror: bool = False
+    failures: int = 0
+    agreements: int = 0
+    predicted_gain: float = np.nan
+
+    def start(self, base: tuple, sigma: float) -> None:
+        """Hand the steps to the climb, from ``base``."""
+        self.active, self.base, self.candidate = True, base, None
+        self.sigma = float(np.clip(sigma, self.min_sigma, self.max_sigma))
+        self.direction, self.mirror, self.failures, self.agreements = None, False, 0, 0
+
+    def next_direction(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """The mirror of the last failed direction, or a fresh random unit direction."""
+        if self.mirror and self.direction is not None:
+            self.direction = -self.direction
+        else:
+            draw = rng.standard_normal(n)
+            self.direction = draw / np.linalg.norm(draw)
+        return self.direction
+
+    def judge(self, candidate_value: float, base_value: float, rotation_holds: bool) -> bool:
+        """Record the candidate's outcome; returns whether it becomes the base."""
+        success = bool(candidate_value > base_value and rotation_holds)
+        measured_gain = candidate_value - base_value
+        predicted = self.predicted_gain
+        agrees = (np.isfinite(predicted) and measured_gain != 0 and predicted * measured_gain > 0
+                  and 0.5 <= predicted / measured_gain <= 2.0)
+        self.agreements = self.agreements + 1 if agrees else 0
+        if success:
+            self.base, self.failures, self.mirror = self.candidate, 0, False
+            self.sigma = min(self.max_sigma, 1.5 * self.sigma)
+        else:
+            self.failures += 1
+            self.mirror = not self.mirror  # mirror once after a fresh direction fails
+            self.sigma = max(self.min_sigma, 0.85 * self.sigma)
+        self.candidate = None
+        return success
+
+    @property
+    def model_trusted_again(self) -> bool:
+        return self.agreements >= 2
