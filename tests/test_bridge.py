@@ -33,6 +33,40 @@ def test_the_reference_driver_through_a_process_gives_the_in_process_result():
     np.testing.assert_array_equal(bridged.final_gait.params, direct.final_gait.params)  # JSON floats round-trip
 
 
+def test_a_driver_without_exploration_of_its_own_is_optimised_as_one_with():
+    """Protocol 2: geogait sends the exploration with every cycle, so the driver's own does not matter;
+    a version-1 driver that explores not at all is told apart: a warning, and no model step."""
+    runs = []
+    for own in ("0", "0.3"):
+        with ProcessRobot(DRIVER + ["--perturbation", own, "--seed", "2"]) as robot:
+            assert robot.protocol_version == 2 and robot.accepts_excitation
+            runs.append(InSituOptimizer().run(robot, 10))
+    assert runs[0].n_steps >= 2
+    pd.testing.assert_frame_equal(runs[0].log, runs[1].log)
+    assert runs[0].log["excitation"].min() > 0.05  # δ std 0.15 rad, commanded
+    with ProcessRobot(DRIVER + ["--protocol", "1", "--perturbation", "0", "--seed", "2"]) as robot:
+        assert robot.protocol_version == 1 and not robot.accepts_excitation
+        with pytest.warns(UserWarning, match="carry no exploration"):
+            log = InSituOptimizer().run(robot, 10).log
+    assert log["excitation"].max() < 1e-9
+    assert not (log["step"] & ~log["climb"] & ~log["period_change"]).any()  # no model step: only the climb
+
+
+def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
+    hello = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
+             "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}, "joint_ranges": [[-1.5, 1.5], [-1.2, 1.4]]}
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
+        np.testing.assert_array_equal(robot.joint_ranges, [[-1.5, 1.5], [-1.2, 1.4]])
+        assert InSituOptimizer()._joint_limit(robot, "test") == 1.2
+    for bad in ([[-1.5, 1.5]], [[0.5, 1.5], [-1, 1]], [[-1, "1"], [-1, 1]]):
+        wrong = dict(hello, joint_ranges=bad)
+        with pytest.raises(ValueError, match="'joint_ranges'"):
+            ProcessRobot(_driver(tmp_path, f"print(json.dumps({wrong!r}), flush=True)\ntime.sleep(5)\n"))
+    with pytest.raises(ValueError, match="'excitation'.*version 2"):
+        ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, version=1, excitation=True)!r}), "
+                                       "flush=True)\ntime.sleep(5)\n"))
+
+
 @pytest.mark.slow
 def test_poses_only_drivers_get_body_velocities_from_poses():
     with ProcessRobot(DRIVER + ["--poses-only", "--perturbation", "0", "--noise", "0"]) as robot:

@@ -186,7 +186,7 @@ def test_every_parameter_of_every_estimator_is_constrained(named):
     """Each hyper-parameter is declared, or checked with the others (then validate names it)."""
     _, estimator, _ = named
     checked_together = {"InSituOptimizer": {"model", "direction", "max_tracking_error", "max_joint_angle",
-                                              "shape_scale"}}
+                                              "shape_scale", "exploration", "period_range"}}
     declared = set(estimator._parameter_constraints) | checked_together.get(type(estimator).__name__, set())
     assert declared == set(estimator.get_params(deep=False))
 

@@ -343,7 +343,7 @@ def fault_robot(**config):
 @pytest.mark.parametrize(("config", "fragment"), [
     ({"hello": {"cycle_period": 1e300}}, "'cycle_period' must be in [0.001, 86400] seconds, got 1e+300"),
     ({"hello": {"cycle_period": 1e-300}}, "'cycle_period' must be in"),
-    ({"hello": {"version": 1.0}}, "protocol version 1.0 (must be the integer 1)"),
+    ({"hello": {"version": 1.0}}, "protocol version 1.0 (must be the integer 1 or 2)"),
     ({"hello": {"version": True}}, "protocol version True"),
     ({"hello": {"n_joints": 2.0}}, "'n_joints' must be an integer"),
     ({"hello": {"gait": {"order": True, "params": [0, 1, 0, 0, 0, 1]}}}, "'gait' must be"),

@@ -7,7 +7,8 @@ import pytest
 
 from geogait import se2
 from geogait.gaits import FourierGait, seed_gait
-from geogait.optimize import InSituOptimizer, PeriodSearch
+from geogait.optimize import InSituOptimizer
+from geogait.optimize._period import PeriodSearch
 from geogait.simulate import Trajectory, cycle_displacement
 from geogait.systems import PurcellSwimmer
 

@@ -74,7 +74,8 @@ def test_robots_implement_the_protocol():
 def test_measured_motion_per_cycle_is_the_true_one_without_perturbations():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation(eta=0.0), seed=0,
                            samples_per_cycle=400)
-    log = InSituOptimizer().run(stream, 4).log
+    with pytest.warns(UserWarning, match="carry no exploration"):  # the stream's own exploration: none
+        log = InSituOptimizer(exploration=None).run(stream, 4).log
     measured = log[["measured_x", "measured_y", "measured_heading"]].to_numpy()
     true = log[["true_x", "true_y", "true_heading"]].to_numpy()
     np.testing.assert_allclose(measured, true, atol=2e-4)  # zero-order hold at 400 samples vs Magnus

@@ -253,7 +253,10 @@ def _optimizer(settings) -> InSituOptimizer:
                            max_joint_velocity=settings["max_joint_velocity"],
                            settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
                            step_rule=settings.get("step_rule", "linear"),
-                           max_tracking_error=None if tracking == "off" else tracking).validate()
+                           max_tracking_error=None if tracking == "off" else tracking,
+                           # the built-in swimmer: --perturbation sizes the exploration geogait commands
+                           exploration="auto" if settings["robot"] is not None else settings["perturbation"],
+                           random_state=settings.get("seed") or 0).validate()
 
 
 def _shape_model(links: int, robot: bool, forgetting: float | None) -> ShapeSpaceModel:

@@ -20,7 +20,7 @@ from scipy.linalg import expm
 
 from .._validation import check_float, check_int, fail
 
-__all__ = ["Perturbation"]
+__all__ = ["Perturbation", "check_excitation", "excitation_at"]
 
 
 @dataclass(frozen=True)
@@ -183,3 +183,61 @@ class PerturbationStream:
             state = state @ self.transition.T + noise[..., n, :, :]
         self.state = state
         return out
+
+
+def check_excitation(shape, shape_velocity, n_joints: int, owner: str) -> tuple[np.ndarray, np.ndarray]:
+    """Validate an excitation sent to a robot: δ and δ̇ on M ≥ 4 uniform phases of one cycle.
+
+    Parameters
+    ----------
+    shape, shape_velocity : array-like of shape (M, d)
+        δ (shape units) and δ̇ (shape units per second) at phases 2πk / M, k = 0 … M − 1.
+    n_joints : int
+        d.
+    owner : str
+        Who asks (named in errors).
+
+    Returns
+    -------
+    shape, shape_velocity : ndarray of shape (M, d)
+    """
+    arrays = []
+    for name, value in (("shape", shape), ("shape_velocity", shape_velocity)):
+        try:
+            array = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise fail(name, owner, f"an array of shape (M, {n_joints}) of floats", type(value).__name__) from None
+        if array.ndim != 2 or array.shape[1] != n_joints or array.shape[0] < 4:
+            raise fail(name, owner, f"an array of shape (M, {n_joints}) with M >= 4 phases", f"shape {array.shape}")
+        if not np.all(np.isfinite(array)):
+            raise fail(name, owner, "finite values", "NaN or inf")
+        arrays.append(array)
+    if arrays[0].shape != arrays[1].shape:
+        raise fail("shape_velocity", owner, f"the shape of 'shape' {arrays[0].shape}", f"shape {arrays[1].shape}")
+    return arrays[0], arrays[1]
+
+
+def excitation_at(phase, shape: np.ndarray, shape_velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """δ and δ̇ of an excitation given on M uniform phases, linearly interpolated (periodically) at ``phase``.
+
+    Robots that accept an excitation (``set_excitation``) evaluate it at the phases of their own
+    samples or physics steps.
+
+    Parameters
+    ----------
+    phase : array-like of shape (n,)
+    shape, shape_velocity : ndarray of shape (M, d)
+        As checked by :func:`check_excitation`.
+
+    Returns
+    -------
+    delta, delta_rate : ndarray of shape (n, d)
+    """
+    m = shape.shape[0]
+    grid = 2 * np.pi * np.arange(m + 1) / m
+    wrapped = np.mod(np.asarray(phase, dtype=float), 2 * np.pi)
+    out = []
+    for values in (shape, shape_velocity):
+        closed = np.vstack([values, values[:1]])
+        out.append(np.stack([np.interp(wrapped, grid, closed[:, j]) for j in range(values.shape[1])], axis=-1))
+    return out[0], out[1]

@@ -12,7 +12,7 @@ from ._objective import (
     path_length,
     rms_speed,
 )
-from ._period import PeriodSearch
+from ._exploration import Exploration
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
@@ -20,9 +20,9 @@ __all__ = [
     "STEP_RULES",
     "Ceiling",
     "CycleMeasurement",
+    "Exploration",
     "InSituOptimizer",
     "InSituResult",
-    "PeriodSearch",
     "Step",
     "StepProblem",
     "cached_ceiling",

@@ -51,6 +51,7 @@ Safety (the robot is not the model):
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,7 +62,7 @@ import pandas as pd
 from .. import __version__, models, se2
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state, write_state
-from .._validation import GeogaitError, check_float, check_int, fail
+from .._validation import GeogaitError, GeogaitWarning, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ..models import AdaptiveGaitModel, model_from_state
 from ..robots import check_robot
@@ -69,6 +70,7 @@ from ..simulate import Trajectory, cycle_displacement
 from ..systems import PurcellSwimmer
 from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
 from ._climb import MeasuredClimb
+from ._exploration import Exploration
 from ._period import PeriodSearch
 from ._steps import STEP_RULES, StepProblem, take_step
 
@@ -287,7 +289,7 @@ class InSituOptimizer(Estimator):
     optimize_period : bool
         Make the cycle period a decision variable and the objective a rate (per second): gait steps
         from the model alternate with period trials judged on measured outcomes
-        (:class:`~geogait.optimize.PeriodSearch`), within ``period_range`` and
+        (a measured line search on log T, module :mod:`geogait.optimize._period`), within ``period_range`` and
         ``max_joint_velocity``. Needs a robot with ``set_cycle_period`` (e.g.
         :class:`~geogait.robots.MujocoRobot`). Default False: the robot's period is kept.
     period_range : tuple of 2 floats, optional
@@ -296,9 +298,19 @@ class InSituOptimizer(Estimator):
     climb : bool
         When measured outcomes contradict the model — its promised gains unconfirmed twice in a row
         at the smallest trust radius, its prediction check failed twice in a row, or a revert to the
-        best gait — take steps from the measured outcomes instead (:class:`MeasuredClimb`, a
-        mirrored (1+1) evolution strategy in the same family, within the same limits), and return
+        best gait — take steps from the measured outcomes instead (a
+        mirrored (1+1) evolution strategy, module :mod:`geogait.optimize._climb` in the same family, within the same limits), and return
         to model steps once the model predicts the measured gains again. Default True.
+    exploration : "auto", float or None
+        Who explores. ``"auto"`` (default): the optimiser commands the excitation of eq. 8
+        (δ std 0.15 × ``shape_scale``, two oscillations per cycle; :class:`Exploration`) to robots
+        that offer ``set_excitation`` (and to none while the measured climb runs: its outcomes are
+        measured clean); robots without it explore on their own. A float: that δ std in units of
+        ``shape_scale`` (the robot must offer ``set_excitation``). None: never commanded — the
+        robot's own perturbation (the paper's simulated swimmer). Either way, the log's
+        ``excitation`` column is each cycle's RMS commanded (or, without ``commanded_shape``,
+        realised) − nominal shape, and when the cycles of a gait show none (below 1 % of
+        ``shape_scale``) the model cannot learn: the run says so (a warning) and takes no model step.
     random_state : int or None
         Seed of the climb's random directions (default 0: runs repeat exactly; an int, so that a
         checkpoint can name it; None draws fresh entropy).
@@ -330,6 +342,8 @@ class InSituOptimizer(Estimator):
         "climb": Boolean(),
         "random_state": Integer(minimum=0, none=True),
     }
+    #: δ std of the optimiser's own excitation, in units of ``shape_scale`` (``exploration="auto"``).
+    EXPLORATION_STD = 0.15
 
     def __init__(self, *, model=None, gate: str | None = None, gamma_threshold: float = 0.5, order: int = 1,
                  objective: str = "progress", direction=None, direction_frame: str = "world",
@@ -340,7 +354,8 @@ class InSituOptimizer(Estimator):
                  rebase: str = "all", covariance_inflation: float = 1.0, constant_variance: float = 0.0,
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
                  prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0,
-                 optimize_period: bool = False, period_range=None, climb: bool = True, random_state: int | None = 0):
+                 optimize_period: bool = False, period_range=None, climb: bool = True, exploration="auto",
+                 random_state: int | None = 0):
         self.model = model
         self.gate = gate
         self.gamma_threshold = gamma_threshold
@@ -370,6 +385,7 @@ class InSituOptimizer(Estimator):
         self.optimize_period = optimize_period
         self.period_range = period_range
         self.climb = climb
+        self.exploration = exploration
         self.random_state = random_state
 
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
@@ -403,6 +419,12 @@ class InSituOptimizer(Estimator):
                 check_float(value, name, owner, low=0, low_open=True)
         if self.max_tracking_error not in (None, "auto"):
             check_float(self.max_tracking_error, "max_tracking_error", owner, low=0, low_open=True)
+        if isinstance(self.exploration, str):
+            if self.exploration != "auto":
+                raise fail("exploration", owner, "'auto', a float >= 0 (δ std in shape_scale units) or None",
+                           self.exploration)
+        elif self.exploration is not None:
+            check_float(self.exploration, "exploration", owner, low=0)
         if self.period_range is not None:
             bounds = np.asarray(self.period_range, dtype=float) if _is_numeric(self.period_range) else None
             if bounds is None or bounds.shape != (2,) or not np.all(np.isfinite(bounds)) \
@@ -462,6 +484,7 @@ class InSituOptimizer(Estimator):
                 raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
                            f"a gait reaching {speed:.4g} rad/s")
         period_range = self._period_range(robot, period, owner)
+        excites = self._excites(robot, owner)
         family = self._family(robot, gait)
         feasibility = _feasibility(robot, gait, self.order)
         if feasibility is not None and feasibility(gait.params)[0].min() < 0:
@@ -475,6 +498,8 @@ class InSituOptimizer(Estimator):
                        feasibility=feasibility, robot_period=period, seed_period=period,
                        period_search=PeriodSearch(*period_range) if period_range is not None else None,
                        climb=self._new_climb(scale), rng=np.random.default_rng(self.random_state))
+        if excites:
+            state.exploration = Exploration(self._exploration_std() * scale, gait.n_joints, state.rng)
         return _Loop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
@@ -534,6 +559,19 @@ class InSituOptimizer(Estimator):
         return loop.run(callback, record)
 
     # -- scale and limits from the robot --------------------------------------------------------
+    def _excites(self, robot, owner: str) -> bool:
+        """Whether the optimiser commands the excitation (``exploration``) to this robot."""
+        accepts = callable(getattr(robot, "set_excitation", None)) and bool(getattr(robot, "accepts_excitation", True))
+        if self.exploration is None:
+            return False
+        if self.exploration != "auto" and not accepts:
+            raise fail("robot", owner, "a robot with set_excitation(shape, shape_velocity) for a numeric "
+                       "'exploration' (or exploration='auto' / None)", type(robot).__name__)
+        return accepts
+
+    def _exploration_std(self) -> float:
+        return self.EXPLORATION_STD if self.exploration == "auto" else float(self.exploration)
+
     def _period_range(self, robot, period: float, owner: str):
         """(shortest, longest) period for ``optimize_period`` (None when the period is fixed)."""
         if not self.optimize_period:
@@ -756,11 +794,15 @@ class CycleMeasurement:
         World pose at the start of the cycle.
     tracking_error : float
         RMS realised − commanded shape over the cycle (shape units).
+    excitation : float
+        RMS commanded − nominal shape (the exploration the cycle carried), or realised − nominal
+        for a robot that does not report ``commanded_shape`` (shape units).
     """
 
     net: np.ndarray
     start: np.ndarray
     tracking_error: float
+    excitation: float = np.nan
 
 
 def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: str) -> CycleMeasurement:
@@ -802,10 +844,12 @@ def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: st
         raise fail("cycle.time", owner, "strictly increasing finite time stamps (seconds)", chunk.time[:5])
     dt = period / n
     end = se2.compose(chunk.pose[-1], se2.exp(chunk.body_velocity[-1] * dt))
-    commanded = chunk.commanded_shape if chunk.commanded_shape is not None else gait.shape(chunk.phase)
+    nominal = gait.shape(chunk.phase)
+    commanded = chunk.commanded_shape if chunk.commanded_shape is not None else nominal
     error = float(np.sqrt(np.mean((chunk.shape - commanded) ** 2)))
+    excited = commanded if chunk.commanded_shape is not None else chunk.shape
     return CycleMeasurement(net=se2.between(chunk.pose[0], end), start=np.array(chunk.pose[0], dtype=float),
-                            tracking_error=error)
+                            tracking_error=error, excitation=float(np.sqrt(np.mean((excited - nominal) ** 2))))
 
 
 # -- the run ------------------------------------------------------------------------------------
@@ -856,6 +900,10 @@ class _State:
     distrust: int = 0  # ratio tests failed in a row at the smallest trust radius
     prediction_failures: int = 0  # prediction checks failed in a row
     rotations: dict = field(default_factory=dict)  # (gait, period) -> measured net rotation of each learned cycle
+    exploration: Exploration | None = None  # the optimiser's own excitation (None: the robot's)
+    excitation_next: tuple | None = None  # (δ, δ̇) commanded for the next cycle (re-sent on resume)
+    iteration_excitation: list = field(default_factory=list)  # excitation RMS of this iteration's cycles
+    warned_no_excitation: bool = False
 
     def rate(self, period: float) -> float:
         """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
@@ -866,6 +914,7 @@ class _State:
         self.cycles_in_iteration = 0
         self.iteration_data = []
         self.iteration_measured = []
+        self.iteration_excitation = []
 
     def learn(self, chunk, gate):
         self.cycles_in_iteration += 1
@@ -968,6 +1017,12 @@ class _State:
             arrays["seed_nets"] = np.asarray(self.seed_nets, dtype=float)
         if self.trial_tracking:
             arrays["trial_tracking"] = np.asarray(self.trial_tracking, dtype=float)
+        arrays["iteration_excitation"] = np.asarray(self.iteration_excitation, dtype=float)
+        metadata["warned_no_excitation"] = bool(self.warned_no_excitation)
+        if self.exploration is not None:
+            metadata["exploration_std"] = self.exploration.std
+            arrays["exploration/state"] = self.exploration.state
+            arrays["exploration/next_shape"], arrays["exploration/next_shape_velocity"] = self.excitation_next
         metadata["direction_fixed"] = bool(self.direction_fixed)
         for k, parts in enumerate(self.iteration_data):
             for name, value in zip(("phase", "shape", "shape_velocity", "body_velocity"), parts, strict=True):
@@ -1021,6 +1076,13 @@ class _State:
         state.direction_fixed = bool(scalars.get("direction_fixed", state.direction is not None))
         state.seed_nets = list(arrays["seed_nets"]) if "seed_nets" in arrays else []
         state.trial_tracking = arrays["trial_tracking"].tolist() if "trial_tracking" in arrays else []
+        state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
+        state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
+        if scalars.get("exploration_std") is not None:
+            state.exploration = Exploration(scalars["exploration_std"], state.gait.n_joints, state.rng,
+                                            initial_state=np.array(arrays["exploration/state"], dtype=float))
+            state.excitation_next = (np.array(arrays["exploration/next_shape"], dtype=float),
+                                     np.array(arrays["exploration/next_shape_velocity"], dtype=float))
         state.iteration_measured = arrays["iteration_measured"].tolist()
         state.seed_measured = arrays["seed_measured"].tolist()
         state.seed_tracking = arrays["seed_tracking"].tolist()
@@ -1080,6 +1142,11 @@ class _Loop:
 
     def run(self, callback, record) -> InSituResult:
         state, chunks = self.state, []
+        if state.exploration is not None:  # the first cycle's, or the one a checkpoint had commanded
+            if state.excitation_next is None:
+                self._command_excitation()
+            else:
+                self.robot.set_excitation(*state.excitation_next)
         while state.cycle < state.n_cycles:
             chunk = self.robot.next_cycle()
             if record:
@@ -1130,9 +1197,13 @@ class _Loop:
             if not rejected:
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
+                state.iteration_excitation.append(measured.excitation)
                 key = (state.gait, state.period)
                 state.measured.setdefault(key, []).append(value * state.rate(state.period))
                 state.rotations.setdefault(key, []).append(float(measured.net[2]))
+                if not state.climb.active and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration \
+                        and self._unexcited() and optimizer.climb:  # (Γ cannot rise without exploration)
+                    state.climb.start(self._best_key(), optimizer.max_trust_radius * state.scale)
                 if self._gate_open():
                     self._fix_direction()
                     reverted = self._measured_reverts()
@@ -1149,7 +1220,35 @@ class _Loop:
         state.robot_gait = state.gait
         self.robot.set_gait(state.gait)
         self._command_period()
+        self._command_excitation()
         return row
+
+    def _command_excitation(self) -> None:
+        """Send the next cycle's excitation when the optimiser owns the exploration (none while climbing)."""
+        state = self.state
+        if state.exploration is None:
+            return
+        delta, rate = state.exploration.next_cycle(state.robot_period)
+        if state.climb.active:  # the climb measures outcomes: clean cycles, as a black-box method runs them
+            delta, rate = np.zeros_like(delta), np.zeros_like(rate)
+        state.excitation_next = (delta, rate)
+        self.robot.set_excitation(delta, rate)
+
+    def _unexcited(self) -> bool:
+        """The current gait's cycles carried no exploration (below 1 % of shape_scale): say so, once."""
+        state = self.state
+        if not state.iteration_excitation or np.mean(state.iteration_excitation) >= 0.01 * state.scale:
+            return False
+        if not state.warned_no_excitation:
+            warnings.warn(
+                f"InSituOptimizer: the robot's cycles carry no exploration (RMS commanded - nominal shape "
+                f"{np.mean(state.iteration_excitation):.2g}, below 1 % of shape_scale {state.scale:.3g}); the model "
+                "cannot learn the gait's neighbourhood, so it takes no step"
+                + (" (the measured climb does)" if self.optimizer.climb else "")
+                + ". Give the robot set_excitation (geogait then explores) or a perturbation of its own.",
+                GeogaitWarning, stacklevel=4)
+            state.warned_no_excitation = True
+        return True
 
     def _decide(self) -> tuple[str | None, float]:
         """The gate is open: a period trial, a model step or a climb step (or none).
@@ -1163,7 +1262,10 @@ class _Loop:
         if state.period_search is not None and self._period_move():
             return "period", np.nan
         kind, prediction_ok = None, np.nan
-        if not state.climb.active:
+        if not state.climb.active and self._unexcited():
+            if optimizer.climb:
+                state.climb.start(self._best_key(), optimizer.max_trust_radius * state.scale)
+        elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
             state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
             if prediction_ok and optimizer._step(state):
@@ -1422,6 +1524,7 @@ class _Loop:
                "measured_x": net[0], "measured_y": net[1], "measured_heading": net[2],
                "measured_progress": progress, "measured_objective": value,
                "measured_speed": progress / period, "cycle_period": period, "tracking_error": measured.tracking_error,
+               "excitation": measured.excitation,
                "world_x": measured.start[0], "world_y": measured.start[1], "world_heading": measured.start[2]}
         pose, true_value = self.truth(gait, state)
         if self.truth.available:

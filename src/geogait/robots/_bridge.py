@@ -1,14 +1,19 @@
 r"""A robot in any language: a driver process speaking JSON lines over its stdin / stdout.
 
-Protocol ``geogait-robot``, version 1. One JSON object per line, UTF-8, each with a ``type``.
+Protocol ``geogait-robot``, version 2 (version 1 drivers still work). One JSON object per line,
+UTF-8, each with a ``type``.
 
 Driver → geogait, first line::
 
-    {"type": "hello", "protocol": "geogait-robot", "version": 1, "n_joints": 2, "cycle_period": 1.0,
+    {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
      "gait": {"order": 1, "params": [a_00, a_01, b_01, a_10, a_11, b_11]}}
 
-An optional ``"front_back_symmetric": true`` declares a chain with front–back symmetry (the
-optimiser then searches the rotation-free symmetric gait family). ``gait`` is the robot's current
+Optional hello fields: ``"front_back_symmetric": true`` declares a chain with front–back symmetry
+(the optimiser then searches the rotation-free symmetric gait family); ``"joint_ranges": [[low,
+high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits the optimiser
+derives its own from; and, version 2 only, ``"excitation": true`` says the driver runs the
+exploration geogait sends with each cycle (below), so geogait, not the driver, sizes it. ``gait`` is
+the robot's current
 nominal gait, a Fourier series per joint with the flat parameter
 vector of :class:`~geogait.gaits.FourierGait` (per joint ``[a_0, a_1 … a_K, b_1 … b_K]``).
 
@@ -17,6 +22,14 @@ geogait → driver::
     {"type": "set_gait", "order": 1, "params": [...]}   # run this gait from the next cycle on
     {"type": "run_cycle"}                                 # run one whole cycle, send its samples
     {"type": "stop"}                                      # finish; the driver should exit
+
+To a driver that declared ``"excitation": true``, ``run_cycle`` carries the cycle's exploration::
+
+    {"type": "run_cycle", "excitation": {"shape": [[δ_0 ... δ_d-1], ...], "shape_velocity": [[...], ...]}}
+
+δ (shape units) and δ̇ (shape units per second) at M uniform phases 2πk / M of the cycle: the
+driver adds them, interpolated at its own phases, to the commanded shape and rate of that cycle
+only (and reports the sum as ``commanded_shape``), instead of any perturbation of its own.
 
 Driver → geogait, after ``run_cycle``: one line per sample, then the end of the cycle::
 
@@ -63,14 +76,16 @@ import warnings
 import numpy as np
 
 from .._validation import GeogaitError, GeogaitWarning, check_float, fail
-from ..gaits import FourierGait
+from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory
 
-__all__ = ["PROTOCOL", "PROTOCOL_VERSION", "ProcessRobot"]
+__all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
 
 PROTOCOL = "geogait-robot"
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
+#: Protocol versions this geogait speaks (a driver's hello names one).
+PROTOCOL_VERSIONS = (1, 2)
 _MAX_SAMPLES = 1_000_000  # per cycle: a driver that never ends its cycle is an error, not a memory leak
 #: Longest line read from a driver (bytes): one sample of a 200-joint robot is about 10 kB.
 MAX_LINE_BYTES = 1 << 20
@@ -119,6 +134,10 @@ class ProcessRobot:
         Cycles run so far.
     front_back_symmetric : bool or None
         As declared by the driver (None: not said).
+    joint_ranges : ndarray of shape (d, 2) or None
+        As declared by the driver (None: not said).
+    accepts_excitation : bool
+        The driver runs the exploration sent with each cycle (``set_excitation``; version 2).
     cycles_run : int
         Cycles the driver ran, quarantined ones included.
     quarantined : list of str
@@ -157,6 +176,7 @@ class ProcessRobot:
         self._earlier: list[FourierGait] = []  # gaits commanded before the current one (newest last)
         self._ignored = 0
         self._last_pose = None
+        self._excitation = None  # sent with the next run_cycle
         try:
             self._handshake()
         except GeogaitError:
@@ -181,6 +201,20 @@ class ProcessRobot:
                 self._earlier.insert(0, self._hello_gait)
         self._gait = gait
 
+    def set_excitation(self, shape, shape_velocity) -> None:
+        """Send this exploration with the next ``run_cycle`` (drivers that declared ``"excitation": true``).
+
+        Parameters
+        ----------
+        shape, shape_velocity : array-like of shape (M, d)
+            δ (shape units) and δ̇ (per second) at phases 2πk / M (module docstring).
+        """
+        owner = "ProcessRobot.set_excitation"
+        if not self.accepts_excitation:
+            raise fail("self", owner, "a driver whose hello declares \"excitation\": true (protocol version 2)",
+                       f"driver {self._name()}")
+        self._excitation = check_excitation(shape, shape_velocity, self.n_joints, owner)
+
     def next_cycle(self) -> Trajectory:
         """Ask the driver to run one cycle and collect its samples; implausible cycles are quarantined
         (logged in :attr:`quarantined`, warned about, run again; see the module docstring)."""
@@ -193,6 +227,7 @@ class ProcessRobot:
             if reason is None:
                 trajectory.cycle[:] = self.cycle
                 self.cycle += 1
+                self._excitation = None
                 return trajectory
             in_a_row += 1
             self.quarantined.append(f"cycle {self.cycles_run - 1}: {reason}")
@@ -204,7 +239,11 @@ class ProcessRobot:
                           f"again): {reason}", GeogaitWarning, stacklevel=2)
 
     def _run_cycle(self) -> Trajectory:
-        self._send({"type": "run_cycle"})
+        message = {"type": "run_cycle"}
+        if self._excitation is not None:  # (a quarantined cycle is run again with the same exploration)
+            message["excitation"] = {"shape": self._excitation[0].tolist(),
+                                     "shape_velocity": self._excitation[1].tolist()}
+        self._send(message)
         samples = []
         while True:
             message = self._receive()
@@ -404,9 +443,11 @@ class ProcessRobot:
         if hello.get("type") != "hello" or hello.get("protocol") != PROTOCOL:
             raise self._failure(f"the first line must be a '{PROTOCOL}' hello, got {_cut(json.dumps(hello), 80)}")
         version = hello.get("version")
-        if type(version) is not int or version != PROTOCOL_VERSION:
-            raise self._failure(f"protocol version {_cut(repr(version), 40)} (must be the integer {PROTOCOL_VERSION}); "
-                                f"this geogait speaks {PROTOCOL_VERSION}")
+        if type(version) is not int or version not in PROTOCOL_VERSIONS:
+            spoken = " or ".join(map(str, PROTOCOL_VERSIONS))
+            raise self._failure(f"protocol version {_cut(repr(version), 40)} (must be the integer {spoken}); "
+                                f"this geogait speaks {spoken}")
+        self.protocol_version = version
         n_joints = hello.get("n_joints")
         if isinstance(n_joints, bool) or not isinstance(n_joints, int) or not 1 <= n_joints <= 10_000:
             raise self._failure(f"'n_joints' must be an integer in 1..10000, got {_cut(repr(n_joints), 40)}")
@@ -421,6 +462,23 @@ class ProcessRobot:
         if symmetric is not None and not isinstance(symmetric, bool):
             raise self._failure(f"'front_back_symmetric' must be true or false, got {_cut(repr(symmetric), 40)}")
         self.front_back_symmetric = symmetric
+        excitation = hello.get("excitation", False)
+        if not isinstance(excitation, bool) or (excitation and version < 2):
+            raise self._failure(f"'excitation' must be true or false (and true only in protocol version 2), got "
+                                f"{_cut(repr(excitation), 40)} in version {version}")
+        self.accepts_excitation = excitation
+        self.joint_ranges = None
+        if hello.get("joint_ranges") is not None:
+            ranges = hello["joint_ranges"]
+            values = None
+            if isinstance(ranges, list) and len(ranges) == self.n_joints and all(
+                    isinstance(row, list) and len(row) == 2 and all(map(_is_number, row)) for row in ranges):
+                values = np.array(ranges, dtype=float)
+            if values is None or not np.all(np.isfinite(values)) or np.any(values[:, 0] >= 0) \
+                    or np.any(values[:, 1] <= 0):
+                raise self._failure(f"'joint_ranges' must be {self.n_joints} pairs [low, high] with low < 0 < high, "
+                                    f"got {_cut(repr(ranges), 80)}")
+            self.joint_ranges = values
 
     def _read_gait(self, gait) -> FourierGait:
         order = gait.get("order") if isinstance(gait, dict) else None

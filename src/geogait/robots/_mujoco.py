@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
-from ..gaits import FourierGait, Perturbation, seed_gait
+from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at, seed_gait
 from ..simulate import Trajectory
 
 __all__ = ["MujocoRobot", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer", "purcell_swimmer_xml",
@@ -222,6 +222,7 @@ class MujocoRobot:
         self.kp, self.kd = self._resolve_gains(kp, kd)
         self.cycle = 0
         self._elapsed = 0.0  # seconds run before the current cycle (periods may change)
+        self._excitation = None  # (δ, δ̇) on a phase grid for the next cycle, from set_excitation
         self._start(mujoco)
 
     # -- set-up -------------------------------------------------------------------------------
@@ -438,6 +439,16 @@ class MujocoRobot:
         self.samples_per_cycle = samples
         self.cycle_period = samples * unit
 
+    def set_excitation(self, shape, shape_velocity) -> None:
+        """Run the next cycle with this excitation instead of the robot's own perturbation.
+
+        ``shape`` and ``shape_velocity`` (M, d) are δ (rad) and δ̇ (rad/s) at phases 2πk / M; they
+        are interpolated at every physics step and added to the commanded shape and rate (what
+        :class:`~geogait.optimize.InSituOptimizer` sends when it owns the exploration). The
+        robot's own perturbation stream does not advance during that cycle.
+        """
+        self._excitation = check_excitation(shape, shape_velocity, self.n_joints, "MujocoRobot.set_excitation")
+
     def _commands(self, phase: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Commanded shape and rate (rad, rad/s) at ``phase`` (n,) with perturbation ``state`` (n, d, 2)."""
         phase_rate = 2 * np.pi / self.cycle_period
@@ -463,7 +474,11 @@ class MujocoRobot:
         steps = k * n
         d = self.n_joints
         phase = 2 * np.pi * np.arange(steps) / steps
-        state = self._perturbation.run(self._rng.standard_normal((steps, d, 2)))
+        if self._excitation is not None:
+            state = np.stack(excitation_at(phase, *self._excitation), axis=-1)
+            self._excitation = None
+        else:
+            state = self._perturbation.run(self._rng.standard_normal((steps, d, 2)))
         command, command_rate = self._commands(phase, state)
         shape = np.empty((n, d))
         shape_velocity = np.empty((n, d))

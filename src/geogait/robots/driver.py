@@ -35,6 +35,8 @@ def _arguments(argv):
     parser.add_argument("--period", type=float, default=1.0, help="seconds per cycle (default 1)")
     parser.add_argument("--samples-per-cycle", type=int, default=100, help="samples per cycle (default 100)")
     parser.add_argument("--poses-only", action="store_true", help="send poses but no body velocities")
+    parser.add_argument("--protocol", type=int, choices=(1, 2), default=2,
+                        help="protocol version to speak (default 2: the swimmer runs the exploration geogait sends)")
     return parser.parse_args(argv)
 
 
@@ -66,9 +68,13 @@ def main(argv=None) -> int:
     def send(message):
         out.write(json.dumps(message) + "\n")
 
-    send({"type": "hello", "protocol": PROTOCOL, "version": PROTOCOL_VERSION, "n_joints": stream.n_joints,
-          "cycle_period": args.period, "front_back_symmetric": symmetric,
-          "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}})
+    excitation = args.protocol >= 2 and hasattr(stream, "set_excitation")
+    hello = {"type": "hello", "protocol": PROTOCOL, "version": min(args.protocol, PROTOCOL_VERSION),
+             "n_joints": stream.n_joints, "cycle_period": args.period, "front_back_symmetric": symmetric,
+             "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}}
+    if excitation:
+        hello["excitation"] = True
+    send(hello)
     out.flush()
     for line in sys.stdin:
         message = json.loads(line)
@@ -78,6 +84,8 @@ def main(argv=None) -> int:
         if kind == "set_gait":
             stream.set_gait(FourierGait.from_params(message["params"], stream.n_joints))
         elif kind == "run_cycle":
+            if excitation and "excitation" in message:
+                stream.set_excitation(message["excitation"]["shape"], message["excitation"]["shape_velocity"])
             cycle = stream.next_cycle()
             for k in range(cycle.n_samples):
                 sample = {"type": "sample", "time": float(cycle.time[k]), "phase": float(cycle.phase[k]),

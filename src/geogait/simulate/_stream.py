@@ -19,7 +19,7 @@ import numpy as np
 from .. import se2
 from .._seeds import child_seed
 from .._validation import check_float, check_int, fail
-from ..gaits import FourierGait, Perturbation
+from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at
 from ..systems import PurcellSwimmer, System
 from ._trajectory import Trajectory
 
@@ -151,6 +151,7 @@ class SwimmerStream:
         self.cycle = 0
         self.position = 0  # sample index within the current cycle
         self._rms_key = None
+        self._excitation = self._pending_excitation = None  # set_excitation: (δ, δ̇) on a phase grid
 
     @property
     def n_joints(self) -> int:
@@ -171,6 +172,23 @@ class SwimmerStream:
             self._gait = gait
         else:
             self._pending_gait = gait
+
+    def set_excitation(self, shape, shape_velocity) -> None:
+        """Run the next cycle (this one, at a boundary) with this excitation instead of the SDE's.
+
+        ``shape`` and ``shape_velocity`` (M, d) are δ and δ̇ (per second) at phases 2πk / M,
+        interpolated at each sample's phase (what :class:`~geogait.optimize.InSituOptimizer` sends when
+        it owns the exploration). The stream's own perturbation does not advance meanwhile.
+        Single-trial streams only.
+        """
+        owner = "SwimmerStream.set_excitation"
+        if self._batched:
+            raise fail("self", owner, "a single-trial stream (n_trials=None)", "a batched stream")
+        excitation = check_excitation(shape, shape_velocity, self.n_joints, owner)
+        if self.position == 0:
+            self._excitation = excitation
+        else:
+            self._pending_excitation = excitation
 
     @property
     def perturbation_std(self) -> float:
@@ -207,6 +225,9 @@ class SwimmerStream:
                  "pose": self.pose.copy(), "gait": self._gait.coefficients.copy()}
         if self._pending_gait is not None:
             state["pending_gait"] = self._pending_gait.coefficients.copy()
+        for name, excitation in (("excitation", self._excitation), ("pending_excitation", self._pending_excitation)):
+            if excitation is not None:
+                state[f"{name}_shape"], state[f"{name}_shape_velocity"] = (v.copy() for v in excitation)
         return state
 
     def restore_robot_state(self, state: dict) -> None:
@@ -235,6 +256,9 @@ class SwimmerStream:
         self.cycle, self.position, self._gait = cycle, position, gait
         self._pending_gait = FourierGait(np.asarray(state["pending_gait"], dtype=float)) \
             if state.get("pending_gait") is not None else None
+        self._excitation, self._pending_excitation = (
+            (np.asarray(state[f"{name}_shape"], dtype=float), np.asarray(state[f"{name}_shape_velocity"], dtype=float))
+            if state.get(f"{name}_shape") is not None else None for name in ("excitation", "pending_excitation"))
 
     def current_system(self) -> System:
         """The system in force for the current cycle (after the environment schedule)."""
@@ -269,8 +293,11 @@ class SwimmerStream:
         index = self.position + np.arange(m)
         phase = 2 * np.pi * index / self.samples_per_cycle
         time = (self.cycle + index / self.samples_per_cycle) * self.cycle_period
-        white = np.stack([rng.standard_normal((m, d, 2)) for rng in self._perturbation_rngs])
-        state = self._perturbation.run(white)
+        if self._excitation is not None:
+            state = np.stack(excitation_at(phase, *self._excitation), axis=-1)[None]
+        else:
+            white = np.stack([rng.standard_normal((m, d, 2)) for rng in self._perturbation_rngs])
+            state = self._perturbation.run(white)
         shape = gait.shape(phase) + state[..., 0]
         shape_velocity = gait.velocity(phase) * self.phase_rate + state[..., 1]
         body_velocity = -np.einsum("...ij,...j->...i", system.connection(shape), shape_velocity)
@@ -307,6 +334,7 @@ class SwimmerStream:
             self.cycle += 1
             if self._pending_gait is not None:
                 self._gait, self._pending_gait = self._pending_gait, None
+            self._excitation, self._pending_excitation = self._pending_excitation, None
 
 
 def simulate(system: System, gait: FourierGait, n_cycles: int, **options) -> Trajectory:
