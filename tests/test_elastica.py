@@ -161,13 +161,13 @@ def test_optimiser_resumes_a_snake_run_bit_identically(tmp_path):
         return elastica_snake(seed=seed, samples_per_cycle=50)
 
     def stop(row):
-        if row["cycle"] == 4:
+        if row["cycle"] == 8:
             raise KeyboardInterrupt
 
     optimizer = InSituOptimizer(objective="forward", direction_frame="body", min_cycles_per_iteration=1)
-    whole = optimizer.run(make(6), 8)
+    whole = optimizer.run(make(6), 11)
     with pytest.raises(KeyboardInterrupt):
-        optimizer.run(make(6), 8, checkpoint=path, callback=stop)
+        optimizer.run(make(6), 11, checkpoint=path, callback=stop)
     resumed = InSituOptimizer.resume(path, make(123))
     assert whole.n_steps >= 1
     np.testing.assert_array_equal(resumed.final_gait.params, whole.final_gait.params)

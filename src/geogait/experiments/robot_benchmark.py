@@ -442,8 +442,9 @@ _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
 METHODS = ("geogait", "geogait-batch", *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
 
 
-def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, batch: bool) -> _Trace:
+def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, batch: bool, random_state: int) -> _Trace:
     options = {"model": BatchGaitModel(), "gate": "cycles"} if batch else {}
+    options["random_state"] = random_state  # its exploration and climb: the seed's own random numbers
     if case.objective == "forward":
         options.update(objective="forward", direction=case.direction, direction_frame="body")
     if case.period_range is not None:
@@ -466,16 +467,18 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, batch: boo
 
 def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value: float) -> tuple[_Trace, int]:
     """One method's run; returns its trace and the cycles the robot ran."""
+    # the method's own random numbers: a grandchild of the robot's seed (spawn() would change the seed)
+    own = np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 1))
     if method.startswith("geogait"):
         robot = _CountingRobot(case.make_robot(seed, explore=True, noise=True))
-        return _geogait(case, robot, budget, batch=method == "geogait-batch"), robot.cycles
+        trace = _geogait(case, robot, budget, method == "geogait-batch", int(own.generate_state(1)[0]))
+        return trace, robot.cycles
     held = method.endswith("-held")
     robot = _CountingRobot(case.make_robot(seed, explore=False, noise=True))
     family = _Family(case, robot.gait, robot.cycle_period)
     trace = _Trace(robot, family.gait(family.seed_params), family.period(family.seed_params))
     objective = _Objective(case, robot, family, budget, held, seed_value)
-    # the method's own random numbers: a grandchild of the robot's seed (spawn() would change the seed)
-    rng = np.random.default_rng(np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 1)))
+    rng = np.random.default_rng(own)
     BLACK_BOX[method.removesuffix("-held")](objective, trace, rng)
     return trace, robot.cycles
 

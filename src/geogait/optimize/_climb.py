@@ -11,13 +11,13 @@ and measured cycles, and kept when its mean measured objective beats the base's 
 net rotation does not grow beyond noise. σ grows by half on success and shrinks by 0.85 on
 failure (a success rate near 2/7 keeps it steady). After three failures in a row the base is run
 again, so a base that was measured lucky is corrected. Every cycle still trains the model; when it
-predicts the measured gain of two candidates in a row (same sign, within a factor 2), model steps
-resume.
+predicts the measured gain of three candidates in a row (same sign, within a factor 1.5), model
+steps resume.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,6 +44,10 @@ class MeasuredClimb:
         Failures in a row; candidates in a row whose measured gain the model predicted.
     predicted_gain : float
         The model's predicted gain of the candidate being measured.
+    measured, rotations : dict
+        (gait, period) → the measured objective (per second with ``optimize_period``) and net
+        rotation of each cycle run while climbing: the climb compares only like with like (its cycles
+        carry no exploration when the optimiser owns it, unlike the model's).
     """
 
     sigma: float
@@ -57,15 +61,19 @@ class MeasuredClimb:
     failures: int = 0
     agreements: int = 0
     predicted_gain: float = np.nan
+    measured: dict = field(default_factory=dict)
+    rotations: dict = field(default_factory=dict)
 
     def start(self, base: tuple, sigma: float) -> None:
-        """Hand the steps to the climb, from ``base``."""
+        """Hand the steps to the climb, from ``base`` = (gait, period) (measured afresh), at step ``sigma``."""
         self.active, self.base, self.candidate = True, base, None
+        self.measured, self.rotations = {}, {}
         self.sigma = float(np.clip(sigma, self.min_sigma, self.max_sigma))
         self.direction, self.mirror, self.failures, self.agreements = None, False, 0, 0
 
     def next_direction(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """The mirror of the last failed direction, or a fresh random unit direction."""
+        """The mirror of the last failed direction, or a fresh random unit direction of ``n`` coordinates
+        drawn from ``rng``."""
         if self.mirror and self.direction is not None:
             self.direction = -self.direction
         else:
@@ -73,13 +81,26 @@ class MeasuredClimb:
             self.direction = draw / np.linalg.norm(draw)
         return self.direction
 
+    def record(self, key: tuple, value: float, rotation: float) -> None:
+        """One measured cycle of ``key`` = (gait, period) while climbing."""
+        self.measured.setdefault(key, []).append(value)
+        self.rotations.setdefault(key, []).append(rotation)
+
     def judge(self, candidate_value: float, base_value: float, rotation_holds: bool) -> bool:
-        """Record the candidate's outcome; returns whether it becomes the base."""
+        """Record the candidate's outcome; returns whether it becomes the base.
+
+        Parameters
+        ----------
+        candidate_value, base_value : float
+            Mean measured objective of the candidate and of the base.
+        rotation_holds : bool
+            The candidate's measured net rotation did not grow beyond noise.
+        """
         success = bool(candidate_value > base_value and rotation_holds)
         measured_gain = candidate_value - base_value
         predicted = self.predicted_gain
         agrees = (np.isfinite(predicted) and measured_gain != 0 and predicted * measured_gain > 0
-                  and 0.5 <= predicted / measured_gain <= 2.0)
+                  and 2 / 3 <= predicted / measured_gain <= 1.5)
         self.agreements = self.agreements + 1 if agrees else 0
         if success:
             self.base, self.failures, self.mirror = self.candidate, 0, False
@@ -93,4 +114,4 @@ class MeasuredClimb:
 
     @property
     def model_trusted_again(self) -> bool:
-        return self.agreements >= 2
+        return self.agreements >= 3

@@ -997,13 +997,8 @@ class _State:
                   "seed_measured": np.asarray(self.seed_measured, dtype=float),
                   "seed_tracking": np.asarray(self.seed_tracking, dtype=float),
                   "gaits": np.stack([g.coefficients for g in self.gaits])}
-        if self.measured:
-            arrays["measured/gaits"] = np.stack([g.coefficients for g, _ in self.measured])
-            arrays["measured/periods"] = np.array([period for _, period in self.measured], dtype=float)
-            arrays["measured/rotations"] = np.concatenate([np.asarray(self.rotations[k], dtype=float)
-                                                           for k in self.measured])
-            arrays["measured/counts"] = np.array([len(v) for v in self.measured.values()])
-            arrays["measured/values"] = np.concatenate([np.asarray(v, dtype=float) for v in self.measured.values()])
+        arrays.update(_pack_records("measured", self.measured, self.rotations))
+        arrays.update(_pack_records("climb/measured", self.climb.measured, self.climb.rotations))
         for name, value in (("climb/base", self.climb.base), ("climb/candidate", self.climb.candidate)):
             if value is not None:
                 arrays[name] = value[0].coefficients
@@ -1087,14 +1082,9 @@ class _State:
         state.seed_measured = arrays["seed_measured"].tolist()
         state.seed_tracking = arrays["seed_tracking"].tolist()
         state.gaits = [FourierGait(c) for c in arrays["gaits"]]
-        if "measured/gaits" in arrays:  # older checkpoints start the record afresh
-            values = np.split(arrays["measured/values"], np.cumsum(arrays["measured/counts"])[:-1])
-            periods = arrays.get("measured/periods", np.full(len(values), state.period))
-            state.measured = {(FourierGait(c), float(t)): v.tolist()
-                              for c, t, v in zip(arrays["measured/gaits"], periods, values, strict=True)}
-            rotations = (np.split(arrays["measured/rotations"], np.cumsum(arrays["measured/counts"])[:-1])
-                         if "measured/rotations" in arrays else [np.zeros(0)] * len(values))
-            state.rotations = {k: r.tolist() for k, r in zip(state.measured, rotations, strict=True)}
+        state.measured, state.rotations = _unpack_records("measured", arrays, state.period)
+        if state.climb is not None:
+            state.climb.measured, state.climb.rotations = _unpack_records("climb/measured", arrays, state.period)
         names = ("phase", "shape", "shape_velocity", "body_velocity")
         state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
                                 for k in range(scalars["iteration_data"])]
@@ -1103,6 +1093,31 @@ class _State:
         if metadata["model"] is not None:
             state.model = model_from_state(metadata["model"]["metadata"], _prefixed(arrays, "model/"))
         return state
+
+
+def _pack_records(prefix: str, values: dict, rotations: dict) -> dict:
+    """Arrays of a record {(gait, period): [value per cycle]} and its rotations (a checkpoint's)."""
+    if not values:
+        return {}
+    return {f"{prefix}/gaits": np.stack([g.coefficients for g, _ in values]),
+            f"{prefix}/periods": np.array([period for _, period in values], dtype=float),
+            f"{prefix}/counts": np.array([len(v) for v in values.values()]),
+            f"{prefix}/values": np.concatenate([np.asarray(v, dtype=float) for v in values.values()]),
+            f"{prefix}/rotations": np.concatenate([np.asarray(rotations[k], dtype=float) for k in values])}
+
+
+def _unpack_records(prefix: str, arrays: dict, period: float) -> tuple[dict, dict]:
+    """Inverse of :func:`_pack_records`; older checkpoints lack periods (the one period) and rotations."""
+    if f"{prefix}/gaits" not in arrays:
+        return {}, {}
+    split = np.cumsum(arrays[f"{prefix}/counts"])[:-1]
+    values = np.split(arrays[f"{prefix}/values"], split)
+    periods = arrays.get(f"{prefix}/periods", np.full(len(values), period))
+    keys = [(FourierGait(c), float(t)) for c, t in zip(arrays[f"{prefix}/gaits"], periods, strict=True)]
+    rotations = (np.split(arrays[f"{prefix}/rotations"], split) if f"{prefix}/rotations" in arrays
+                 else [np.zeros(0)] * len(values))
+    return ({k: v.tolist() for k, v in zip(keys, values, strict=True)},
+            {k: r.tolist() for k, r in zip(keys, rotations, strict=True)})
 
 
 def _json_float(value):
@@ -1199,11 +1214,14 @@ class _Loop:
                 state.iteration_measured.append(value)
                 state.iteration_excitation.append(measured.excitation)
                 key = (state.gait, state.period)
-                state.measured.setdefault(key, []).append(value * state.rate(state.period))
-                state.rotations.setdefault(key, []).append(float(measured.net[2]))
+                if state.climb.active:
+                    state.climb.record(key, value * state.rate(state.period), float(measured.net[2]))
+                else:
+                    state.measured.setdefault(key, []).append(value * state.rate(state.period))
+                    state.rotations.setdefault(key, []).append(float(measured.net[2]))
                 if not state.climb.active and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration \
                         and self._unexcited() and optimizer.climb:  # (Γ cannot rise without exploration)
-                    state.climb.start(self._best_key(), optimizer.max_trust_radius * state.scale)
+                    self._start_climb()
                 if self._gate_open():
                     self._fix_direction()
                     reverted = self._measured_reverts()
@@ -1259,19 +1277,19 @@ class _Loop:
         state, optimizer = self.state, self.optimizer
         if self.gate == "cycles":
             state.fit_iteration()
-        if state.period_search is not None and self._period_move():
+        if state.period_search is not None and not state.climb.active and self._period_move():
             return "period", np.nan
         kind, prediction_ok = None, np.nan
         if not state.climb.active and self._unexcited():
             if optimizer.climb:
-                state.climb.start(self._best_key(), optimizer.max_trust_radius * state.scale)
+                self._start_climb()
         elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
             state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
             if prediction_ok and optimizer._step(state):
                 kind = "model"
             elif optimizer.climb and (state.distrust >= 2 or state.prediction_failures >= 2):
-                state.climb.start(self._best_key(), optimizer.max_trust_radius * state.scale)
+                self._start_climb()
         if kind is None and state.climb.active and self._climb_move():
             kind = "climb"
         if state.period_search is not None:
@@ -1289,9 +1307,20 @@ class _Loop:
             self.robot.set_cycle_period(state.period)
             realised = float(self.robot.cycle_period)
             if realised != state.period:  # the model was built for the asked period: rebuild it
+                if state.climb.candidate == (state.gait, state.period):
+                    state.climb.candidate = (state.gait, realised)
                 state.period = realised
                 state.model = self.optimizer._new_model(state.gait, realised, state.family, state.scale)
         state.robot_period = state.period
+
+    def _start_climb(self) -> None:
+        """Hand the steps to the measured climb, from the best gait measured so far (measured again:
+        the climb's cycles carry no exploration when the optimiser owns it). A period trial in
+        progress is dropped: while climbing, the period is one of the climb's coordinates."""
+        state = self.state
+        state.climb.start(self._best_key(), self.optimizer.max_trust_radius * state.scale)
+        if state.period_search is not None:
+            state.period_search.trial_from = None
 
     def _best_key(self) -> tuple:
         """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
@@ -1306,21 +1335,21 @@ class _Loop:
         returns whether the gait changed."""
         state, optimizer, climb = self.state, self.optimizer, self.state.climb
         key = (state.gait, state.period)
+        measured = climb.measured
         if climb.candidate is not None:
-            if climb.candidate == key and climb.base in state.measured:
-                climb.judge(float(np.mean(state.measured[key])), float(np.mean(state.measured[climb.base])),
+            if climb.candidate == key and climb.base in measured:
+                climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
                             self._rotation_holds(key, climb.base))
-                if climb.model_trusted_again:  # back to model steps, from the best gait
+                if climb.model_trusted_again:  # back to model steps, from the best gait, on a fresh record
                     climb.active = False
                     state.distrust = state.prediction_failures = 0
                     state.radius = optimizer.trust_radius * state.scale
-                    if key != climb.base:
-                        optimizer._change_gait(state, *climb.base)
-                        return True
-                    return False
-            climb.candidate = None  # a candidate left early (rejected, reverted) is not judged
-        if key != climb.base and (climb.failures >= 3 or climb.base not in state.measured):
-            climb.failures = 0  # measure the base again: it may have been lucky
+                    state.measured, state.rotations = {}, {}
+                    optimizer._change_gait(state, *climb.base)
+                    return True
+            climb.candidate = None  # a candidate left early (rejected) is not judged
+        if climb.base not in measured or (key != climb.base and climb.failures >= 3):
+            climb.failures = 0  # measure the base (again: it may have been lucky)
             optimizer._change_gait(state, *climb.base)
             return True
         return self._climb_candidate()
@@ -1329,22 +1358,29 @@ class _Loop:
         """Command the climb's next candidate: σ from the base in its next direction, shortened until it
         keeps the joint limits and the feasible region."""
         state, optimizer, climb = self.state, self.optimizer, self.state.climb
-        base_gait, period = climb.base
-        family = state.family
+        base_gait, base_period = climb.base
+        family, search = state.family, state.period_search
         base = family.params_of(base_gait, tolerance=1e-8)
-        direction = climb.next_direction(state.rng, base.size)
-        speed = None if optimizer.max_joint_velocity is None else optimizer.max_joint_velocity * period / (2 * np.pi)
-        rows, bounds = joint_limit_constraints(base_gait.n_joints, optimizer.order, state.max_joint_angle, speed)
+        # with optimize_period, log T is one more coordinate (σ / shape_scale in log units)
+        direction = climb.next_direction(state.rng, base.size + (search is not None))
         for shrink in range(6):
-            gait = family.gait(base + climb.sigma * 0.5 ** shrink * direction)
+            length = climb.sigma * 0.5 ** shrink
+            gait = family.gait(base + length * direction[:base.size])
+            period = base_period
+            if search is not None:
+                period = float(np.clip(base_period * np.exp(length * direction[-1] / state.scale),
+                                       search.low, search.high))
+            speed = None if optimizer.max_joint_velocity is None else \
+                optimizer.max_joint_velocity * period / (2 * np.pi)
+            rows, bounds = joint_limit_constraints(base_gait.n_joints, optimizer.order, state.max_joint_angle, speed)
             if np.all(rows @ gait.params <= bounds + 1e-12) and (
                     state.feasibility is None or state.feasibility(gait.params)[0].min() >= 0):
                 break
         else:
             climb.sigma = max(climb.min_sigma, climb.sigma / 2)
             return False
-        rate = state.rate(period)
-        climb.predicted_gain = (optimizer._predict(state, gait)[1] - optimizer._predict(state, base_gait)[1]) * rate
+        climb.predicted_gain = (optimizer._predict(state, gait)[1] * state.rate(period)
+                                - optimizer._predict(state, base_gait)[1] * state.rate(base_period))
         climb.candidate = (gait, period)
         optimizer._change_gait(state, gait, period)
         return True
@@ -1352,7 +1388,8 @@ class _Loop:
     def _rotation_holds(self, key, base) -> bool:
         """The candidate's mean measured net rotation is no larger than the base's (or the rotation
         tolerance) beyond twice its standard error."""
-        rotations, reference = np.asarray(self.state.rotations.get(key, [])), self.state.rotations.get(base, [])
+        records = self.state.climb.rotations
+        rotations, reference = np.asarray(records.get(key, [])), records.get(base, [])
         if rotations.size == 0:
             return True
         limit = max(abs(float(np.mean(reference))) if len(reference) else 0.0, self.optimizer.rotation_tolerance)
@@ -1497,8 +1534,10 @@ class _Loop:
 
     def _gate_open(self) -> bool:
         state = self.state
-        if state.climb.active:  # measured outcomes need measured cycles, not a model's confidence
-            return state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
+        if state.climb.active:  # measured outcomes need measured cycles, not a model's confidence:
+            # one clean cycle (no exploration: the optimiser owns it) or the usual number
+            needed = 1 if state.exploration is not None else self.optimizer.min_cycles_per_iteration
+            return state.cycles_in_iteration >= needed
         if self.gate == "cycles":
             return state.cycles_in_iteration >= self.optimizer.cycles_per_iteration
         return (state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration

@@ -44,7 +44,7 @@ import copy
 import numpy as np
 
 from .._validation import GeogaitError, check_array, check_choice, check_float, check_int, fail
-from ..gaits import FourierGait, Perturbation
+from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at
 from ..simulate import Trajectory
 from .continuum import CurvatureModes, body_pose, body_velocity, curvature_profile, curvature_rate
 
@@ -288,6 +288,7 @@ class ElasticaSnake:
         self.rod, self.simulator = rod, simulator
         self._stepper = ea.PositionVerlet()
         self._time = np.float64(0.0)
+        self._excitation = None  # set_excitation: (δ, δ̇) on a phase grid for the next cycle
         self._masses = np.asarray(rod.mass, dtype=float).copy()
 
     def _warm_up(self) -> None:
@@ -320,11 +321,25 @@ class ElasticaSnake:
         self._check_gait(gait, "ElasticaSnake.set_gait")
         self._gait = gait
 
+    def set_excitation(self, shape, shape_velocity) -> None:
+        """Run the next cycle with this excitation instead of the snake's own perturbation.
+
+        Parameters
+        ----------
+        shape, shape_velocity : array-like of shape (M, d)
+            Modal δ and δ̇ at phases 2πk / M (the rest curvature follows the commanded shape, so
+            δ̇ is checked but not used).
+        """
+        self._excitation = check_excitation(shape, shape_velocity, self.n_joints, "ElasticaSnake.set_excitation")
+
     def _cycle_commands(self) -> tuple[np.ndarray, np.ndarray]:
         steps = self.n_physics_steps
         phase = 2 * np.pi * np.arange(steps) / steps
-        state = self._perturbation.run(self._rng.standard_normal((steps, self.n_joints, 2)))
-        return phase, self._gait.shape(phase) + state[..., 0]
+        if self._excitation is not None:
+            delta, self._excitation = excitation_at(phase, *self._excitation)[0], None
+        else:
+            delta = self._perturbation.run(self._rng.standard_normal((steps, self.n_joints, 2)))[..., 0]
+        return phase, self._gait.shape(phase) + delta
 
     def _nodes(self) -> tuple[np.ndarray, np.ndarray]:
         """Node positions and velocities in geogait's plane, (n + 1, 2) each."""
