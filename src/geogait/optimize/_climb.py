@@ -44,6 +44,9 @@ class MeasuredClimb:
         Failures in a row; candidates in a row whose measured gain the model predicted.
     predicted_gain : float
         The model's predicted gain of the candidate being measured.
+    rotation_limit : float
+        Largest |mean measured net rotation| per cycle of a kept candidate: the start base's (or the
+        optimiser's rotation tolerance, if larger), fixed for the whole climb so it cannot ratchet up.
     measured, rotations : dict
         (gait, period) → the measured objective (per second with ``optimize_period``) and net
         rotation of each cycle run while climbing: the climb compares only like with like (its cycles
@@ -63,10 +66,13 @@ class MeasuredClimb:
     predicted_gain: float = np.nan
     measured: dict = field(default_factory=dict)
     rotations: dict = field(default_factory=dict)
+    rotation_limit: float = np.nan
 
-    def start(self, base: tuple, sigma: float) -> None:
-        """Hand the steps to the climb, from ``base`` = (gait, period) (measured afresh), at step ``sigma``."""
+    def start(self, base: tuple, sigma: float, rotation_limit: float) -> None:
+        """Hand the steps to the climb, from ``base`` = (gait, period) (measured afresh), at step ``sigma``,
+        holding the measured rotation within ``rotation_limit``."""
         self.active, self.base, self.candidate = True, base, None
+        self.rotation_limit = float(rotation_limit)
         self.measured, self.rotations = {}, {}
         self.sigma = float(np.clip(sigma, self.min_sigma, self.max_sigma))
         self.direction, self.mirror, self.failures, self.agreements = None, False, 0, 0

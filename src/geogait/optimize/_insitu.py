@@ -296,11 +296,12 @@ class InSituOptimizer(Estimator):
         (shortest, longest) period in seconds for ``optimize_period``; default half to twice the
         robot's period.
     climb : bool
-        When measured outcomes contradict the model — its promised gains unconfirmed twice in a row
-        at the smallest trust radius, its prediction check failed twice in a row, or a revert to the
-        best gait — take steps from the measured outcomes instead (a
-        mirrored (1+1) evolution strategy, module :mod:`geogait.optimize._climb` in the same family, within the same limits), and return
-        to model steps once the model predicts the measured gains again. Default True.
+        When measured outcomes contradict the model — two broken promises in a row (a promised gain
+        of at least 1 % unconfirmed at the smallest trust radius, or a revert to the best gait), its
+        prediction check failed twice in a row, or cycles without exploration — take steps from the
+        measured outcomes instead (a mirrored (1+1) evolution strategy in the same family and limits,
+        module :mod:`geogait.optimize._climb`), and return to model steps once the model predicts
+        the measured gains again. Default True.
     exploration : "auto", float or None
         Who explores. ``"auto"`` (default): the optimiser commands the excitation of eq. 8
         (δ std 0.15 × ``shape_scale``, two oscillations per cycle; :class:`Exploration`) to robots
@@ -962,7 +963,10 @@ class _State:
             return
         before, promised, boundary = self.promised
         ratio = (value_now - before) / (promised - before) if promised != before else 1.0
-        self.distrust = self.distrust + 1 if ratio < 0.25 and self.radius <= low * (1 + 1e-12) else 0
+        # a promise worth checking (at least 1 %) broken at the smallest radius: the model misleads
+        significant = abs(promised - before) >= 0.01 * abs(before)
+        self.distrust = self.distrust + 1 if ratio < 0.25 and significant and self.radius <= low * (1 + 1e-12) \
+            else 0
         if ratio < 0.25:
             self.radius = max(low, self.radius / 2)
         elif ratio > 0.75 and boundary:
@@ -985,6 +989,7 @@ class _State:
         metadata["climb"] = {"sigma": climb.sigma, "min_sigma": climb.min_sigma, "max_sigma": climb.max_sigma,
                              "active": climb.active, "mirror": climb.mirror, "failures": climb.failures,
                              "agreements": climb.agreements, "predicted_gain": _json_float(climb.predicted_gain),
+                             "rotation_limit": _json_float(climb.rotation_limit),
                              "base_period": None if climb.base is None else climb.base[1],
                              "candidate_period": None if climb.candidate is None else climb.candidate[1]}
         metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
@@ -1054,6 +1059,7 @@ class _State:
                 active=climb["active"], mirror=climb["mirror"], failures=climb["failures"],
                 agreements=climb["agreements"],
                 predicted_gain=np.nan if climb["predicted_gain"] is None else climb["predicted_gain"],
+                rotation_limit=np.nan if climb.get("rotation_limit") is None else climb["rotation_limit"],
                 base=None if climb["base_period"] is None else (FourierGait(arrays["climb/base"]), climb["base_period"]),
                 candidate=None if climb["candidate_period"] is None
                 else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
@@ -1313,12 +1319,15 @@ class _Loop:
                 state.model = self.optimizer._new_model(state.gait, realised, state.family, state.scale)
         state.robot_period = state.period
 
-    def _start_climb(self) -> None:
+    def _start_climb(self, base: tuple | None = None) -> None:
         """Hand the steps to the measured climb, from the best gait measured so far (measured again:
         the climb's cycles carry no exploration when the optimiser owns it). A period trial in
         progress is dropped: while climbing, the period is one of the climb's coordinates."""
         state = self.state
-        state.climb.start(self._best_key(), self.optimizer.max_trust_radius * state.scale)
+        best = self._best_key() if base is None else base
+        rotation = abs(float(np.mean(state.rotations[best]))) if state.rotations.get(best) else 0.0
+        state.climb.start(best, self.optimizer.max_trust_radius * state.scale,
+                          max(rotation, self.optimizer.rotation_tolerance))
         if state.period_search is not None:
             state.period_search.trial_from = None
 
@@ -1386,15 +1395,13 @@ class _Loop:
         return True
 
     def _rotation_holds(self, key, base) -> bool:
-        """The candidate's mean measured net rotation is no larger than the base's (or the rotation
-        tolerance) beyond twice its standard error."""
-        records = self.state.climb.rotations
-        rotations, reference = np.asarray(records.get(key, [])), records.get(base, [])
+        """The candidate's mean measured net rotation is within the climb's rotation limit (the start
+        base's, fixed) beyond twice its standard error."""
+        rotations = np.asarray(self.state.climb.rotations.get(key, []))
         if rotations.size == 0:
             return True
-        limit = max(abs(float(np.mean(reference))) if len(reference) else 0.0, self.optimizer.rotation_tolerance)
         error = float(np.std(rotations, ddof=1) / np.sqrt(rotations.size)) if rotations.size > 1 else 0.0
-        return abs(float(rotations.mean())) <= limit + 2 * error
+        return abs(float(rotations.mean())) <= self.state.climb.rotation_limit + 2 * error
 
     def _period_move(self) -> bool:
         """The period's turn at a gate decision (``optimize_period``): judge the trial in progress, or
@@ -1524,11 +1531,8 @@ class _Loop:
             search.judge(-np.inf, 0.0)
             search.turn = False
         optimizer._change_gait(state, *best)
-        if optimizer.climb and not (search is not None and best[0] == current[0]):  # the model led downhill
-            if not state.climb.active:
-                state.climb.start(best, optimizer.max_trust_radius * state.scale)
-            else:
-                state.climb.base, state.climb.candidate = best, None
+        if not (search is not None and best[0] == current[0]):  # the model led downhill: a broken promise
+            state.distrust += 1
         state.previous_gait = None
         return True
 
