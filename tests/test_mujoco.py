@@ -502,3 +502,27 @@ def test_set_cycle_period_runs_whole_samples_with_continuous_time():
     np.testing.assert_array_equal(other.next_cycle().pose, robot.next_cycle().pose)
     with pytest.raises(GeogaitError, match="'cycle_period'"):
         robot.set_cycle_period(unit)
+
+
+def test_front_back_symmetry_is_read_from_the_model():
+    assert MujocoRobot(purcell_swimmer_xml(3)).front_back_symmetric
+    assert MujocoRobot(purcell_swimmer_xml(4, drag="fluid")).front_back_symmetric
+    assert MujocoRobot(purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.15, 0.3))).front_back_symmetric
+    assert not MujocoRobot(purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1))).front_back_symmetric
+    heavy_tail = purcell_swimmer_xml(3).replace('density="1"/><site name="centre0"', 'density="3"/><site name="centre0"')
+    assert heavy_tail != purcell_swimmer_xml(3)  # the tail link 3x heavier
+    assert not MujocoRobot(heavy_tail).front_back_symmetric
+    shuffled = MujocoRobot(purcell_swimmer_xml(5), joints=["joint0", "joint2", "joint1", "joint3"])
+    assert not shuffled.front_back_symmetric  # shape coordinates out of order along the chain
+    pytest.importorskip("gymnasium")
+    assert gymnasium_swimmer().front_back_symmetric  # three equal capsules
+
+
+def test_optimiser_searches_the_symmetric_family_on_a_symmetric_model():
+    from geogait.gaits import SymmetricGaitFamily
+    from geogait.optimize import InSituOptimizer
+
+    result = InSituOptimizer(objective="forward", direction_frame="body").run(
+        MujocoRobot(purcell_swimmer_xml(3), seed=2), 10)
+    family = SymmetricGaitFamily.from_gait(result.initial_gait, 1)
+    assert result.n_steps >= 1 and max(family.residual(gait) for gait in result.gaits) < 1e-9

@@ -151,3 +151,18 @@ def test_resume_with_a_period_search_is_bit_identical(tmp_path):
     resumed = InSituOptimizer.resume(path, LaggingRobot(seed=4))
     assert len(set(whole.log["cycle_period"])) >= 2
     pd.testing.assert_frame_equal(resumed.log, whole.log, check_dtype=False)
+
+
+def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_model():
+    """After a period change the model starts afresh; if its first cycles are settling or rejected, the
+    next gait change cannot rebase it (nothing learned): it starts a new one."""
+    from geogait.models import AdaptiveGaitModel
+    from geogait.optimize._insitu import _State
+
+    optimizer = InSituOptimizer()
+    gait = seed_gait(2)
+    fresh = AdaptiveGaitModel(gait=gait, phase_rate=2 * np.pi)
+    state = _State(gait=gait, radius=0.1, model=fresh, n_cycles=10, ceiling=None, period=1.0)
+    other = FourierGait(0.9 * gait.coefficients)
+    optimizer._change_gait(state, other)
+    assert state.model is not fresh and state.gait == other and state.previous_gait == gait

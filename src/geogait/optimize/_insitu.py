@@ -715,7 +715,8 @@ class InSituOptimizer(Estimator):
         if period != state.period:  # another period: what was learned need not hold (dynamics)
             state.promised = None
             state.model = self._new_model(gait, period, state.family, state.scale)
-        elif self._gate() == "cycles":
+        elif self._gate() == "cycles" or not getattr(state.model, "__sklearn_is_fitted__", lambda: True)():
+            # (not fitted yet: a fresh model whose first cycles were all settling or rejected)
             state.model = self._new_model(gait, state.period, state.family, state.scale)
         else:
             state.model.rebase(gait, terms=self.rebase, covariance_inflation=self.covariance_inflation,

@@ -326,6 +326,23 @@ class MujocoRobot:
         """
         return self._joint_ranges()
 
+    @property
+    def front_back_symmetric(self) -> bool:
+        """Whether the model is a planar chain that reads the same from both ends, read from its bodies.
+
+        True when the shape joints join d + 1 bodies in one serial chain, numbered in order along it
+        with one sign convention (joint j turns link j + 1 relative to link j), and the chain reversed
+        has the same joint spacing, link masses and rotational inertias, centres of mass mirrored, the
+        same geoms (type, size, fluid coefficients) and the same passive actuator (drag) parameters
+        per link, all to 1e-6. Then the rotation-free symmetric gait family applies
+        (:class:`~geogait.optimize.InSituOptimizer`'s ``family="auto"``): Gymnasium's Swimmer-v5 and
+        ``purcell_swimmer_xml`` with equal links are; unequal links, a head heavier than the tail,
+        or joints numbered out of order are not.
+        """
+        if not hasattr(self, "_symmetric"):
+            self._symmetric = _reads_the_same_from_both_ends(self.model, self._joint_ids)
+        return self._symmetric
+
     def _joint_ranges(self) -> np.ndarray:
         """(d, 2) joint ranges; ±inf for unlimited joints."""
         ranges = np.array([self.model.jnt_range[j] for j in self._joint_ids], dtype=float)
@@ -586,6 +603,76 @@ class MujocoRobot:
 
 
 # -- shipped models -----------------------------------------------------------------------------
+def _chain_links(model, joints) -> tuple[list[int], list[int]] | None:
+    """Bodies (d + 1) and the sign of each shape joint along the serial chain they form, or None."""
+    edges = [(int(model.body_parentid[model.jnt_bodyid[j]]), int(model.jnt_bodyid[j])) for j in joints]
+    bodies = {b for edge in edges for b in edge}
+    if len(bodies) != len(joints) + 1:
+        return None
+    neighbours = {b: [] for b in bodies}
+    for k, (parent, child) in enumerate(edges):
+        neighbours[parent].append((child, k))
+        neighbours[child].append((parent, k))
+    ends = [b for b, n in neighbours.items() if len(n) == 1]
+    if len(ends) != 2 or any(len(n) > 2 for n in neighbours.values()):
+        return None
+    order, used, body = [min(ends)], [], min(ends)
+    while len(order) < len(bodies):
+        body, k = next((b, k) for b, k in neighbours[body] if k not in used)
+        order.append(body)
+        used.append(k)
+    if used != sorted(used) and used != sorted(used, reverse=True):
+        return None  # shape coordinates numbered out of order along the chain
+    if used[0] != 0:  # walk from the end where joint 0 is
+        order, used = order[::-1], used[::-1]
+    signs = []
+    for i, k in enumerate(used):
+        parent, child = edges[k]
+        turns_next = child == order[i + 1]  # joint k turns link i + 1 relative to link i
+        signs.append(np.sign(model.jnt_axis[joints[k]][2]) * (1 if turns_next else -1))
+    return order, signs
+
+
+def _reads_the_same_from_both_ends(model, joints) -> bool:
+    """See :attr:`MujocoRobot.front_back_symmetric`."""
+    mujoco = _mujoco()
+    chain = _chain_links(model, joints)
+    if chain is None:
+        return False
+    links, signs = chain
+    if len(set(signs)) != 1 or signs[0] == 0:
+        return False
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)  # qpos0: the straight chain
+    anchors = np.array([data.xanchor[j][:2] for j in joints])
+    axis = anchors[-1] - anchors[0] if len(joints) > 1 else data.xipos[links[-1]][:2] - anchors[0]
+    if not np.linalg.norm(axis) > 0:
+        return False
+    axis = axis / np.linalg.norm(axis)
+    along = anchors @ axis
+    centre = (along[0] + along[-1]) / 2  # the chain's midpoint: reversal mirrors positions about it
+
+    def link(body, mirror):
+        geoms = range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body])
+        shapes = sorted((int(model.geom_type[g]), *np.round(model.geom_size[g], 9), *np.round(model.geom_fluid[g], 9))
+                        for g in geoms)
+        biases = sorted(tuple(np.round(model.actuator_biasprm[a][:3], 9)) for a in range(model.nu)
+                        if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_SITE
+                        and model.site_bodyid[model.actuator_trnid[a, 0]] == body)
+        com = (float(data.xipos[body][:2] @ axis) - centre) * mirror
+        return np.array([model.body_mass[body], *np.sort(model.body_inertia[body]), com]), shapes, biases
+
+    tolerance = 1e-6
+    spacing = np.diff(along)
+    if not np.allclose(spacing, spacing[::-1], rtol=tolerance, atol=tolerance):
+        return False
+    for front, back in zip(links, links[::-1], strict=True):
+        (a, shapes_a, biases_a), (b, shapes_b, biases_b) = link(front, 1), link(back, -1)
+        if not np.allclose(a, b, rtol=tolerance, atol=tolerance) or shapes_a != shapes_b or biases_a != biases_b:
+            return False
+    return True
+
+
 def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, link_lengths=None,
                         radius: float = 0.025,
                         drag_coefficient: float = 1.0, drag_ratio: float = 2.0, body_density: float | None = None,
