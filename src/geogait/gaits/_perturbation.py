@@ -36,6 +36,8 @@ class Perturbation:
     eta : float >= 0
         Noise amplitude, rad / time^{3/2}. ``eta = 0`` gives no perturbation.
 
+    Notes
+    -----
     Time is measured in gait cycles by the simulators (one cycle = one time unit).
     """
 
