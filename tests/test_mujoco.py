@@ -509,7 +509,8 @@ def test_front_back_symmetry_is_read_from_the_model():
     assert MujocoRobot(purcell_swimmer_xml(4, drag="fluid")).front_back_symmetric
     assert MujocoRobot(purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.15, 0.3))).front_back_symmetric
     assert not MujocoRobot(purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1))).front_back_symmetric
-    heavy_tail = purcell_swimmer_xml(3).replace('density="1"/><site name="centre0"', 'density="3"/><site name="centre0"')
+    tail = '<site name="centre0"'
+    heavy_tail = purcell_swimmer_xml(3).replace(f'density="1"/>{tail}', f'density="3"/>{tail}')
     assert heavy_tail != purcell_swimmer_xml(3)  # the tail link 3x heavier
     assert not MujocoRobot(heavy_tail).front_back_symmetric
     shuffled = MujocoRobot(purcell_swimmer_xml(5), joints=["joint0", "joint2", "joint1", "joint3"])

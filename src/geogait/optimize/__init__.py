@@ -2,6 +2,7 @@
 prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
+from ._exploration import Exploration
 from ._insitu import CycleMeasurement, InSituOptimizer, InSituResult, measure_cycle, symmetric_chain_model
 from ._objective import (
     OBJECTIVES,
@@ -12,7 +13,6 @@ from ._objective import (
     path_length,
     rms_speed,
 )
-from ._exploration import Exploration
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [

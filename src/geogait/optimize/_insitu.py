@@ -68,9 +68,9 @@ from ..models import AdaptiveGaitModel, model_from_state
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ..systems import PurcellSwimmer
-from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
 from ._climb import MeasuredClimb
 from ._exploration import Exploration
+from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
 from ._period import PeriodSearch
 from ._steps import STEP_RULES, StepProblem, take_step
 
@@ -1061,7 +1061,8 @@ class _State:
                 agreements=climb["agreements"],
                 predicted_gain=np.nan if climb["predicted_gain"] is None else climb["predicted_gain"],
                 rotation_limit=np.nan if climb.get("rotation_limit") is None else climb["rotation_limit"],
-                base=None if climb["base_period"] is None else (FourierGait(arrays["climb/base"]), climb["base_period"]),
+                base=None if climb["base_period"] is None
+                else (FourierGait(arrays["climb/base"]), climb["base_period"]),
                 candidate=None if climb["candidate_period"] is None
                 else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
                 direction=arrays.get("climb/direction"))
@@ -1574,8 +1575,8 @@ class _Loop:
         if self.truth.available:
             row.update({"true_x": pose[0], "true_y": pose[1], "true_heading": pose[2],
                         "true_progress": float(np.hypot(pose[0], pose[1])), "true_objective": true_value,
-                        "improvement": true_value * state.rate(period) / (state.seed_value * state.rate(state.seed_period))
-                        - 1})
+                        "improvement": true_value * state.rate(period)
+                        / (state.seed_value * state.rate(state.seed_period)) - 1})
             reference = true_value
         else:
             seed = float(np.mean(state.seed_measured)) if state.seed_measured else np.nan
