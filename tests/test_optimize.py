@@ -254,9 +254,14 @@ def test_shape_scale_makes_the_defaults_work_in_any_shape_unit():
     scaled = FunctionSystem(lambda r: swimmer.connection(r / unit) / unit, n_joints=2, name="scaled")
 
     def improvement(system, gait, std, **options):
-        stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(std), sensor_noise=0.05, seed=2)
-        log = InSituOptimizer(family="free", **options).run(stream, 20).log
-        return log["improvement"].iloc[-1]
+        """Mean over four seeds: one 20-cycle run varies with its draws by ±0.2."""
+        runs = []
+        for seed in range(4):
+            stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(std), sensor_noise=0.05,
+                                   seed=seed)
+            log = InSituOptimizer(family="free", random_state=seed, **options).run(stream, 20).log
+            runs.append(log["improvement"].iloc[-1])
+        return float(np.mean(runs))
 
     radians = improvement(swimmer, seed_gait(2), 0.15)
     in_units = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit, max_joint_angle=unit * 2 * np.pi / 3)
