@@ -182,9 +182,10 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
     for trial, seed in zip(trial_indices, seeds, strict=True):
         stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                sensor_noise=sensor_noise, seed=seed)
-        # the paper's setting: the simulated swimmer explores (eq. 8), the optimiser does not command it
+        # the paper's optimiser in the paper's setting: the simulated swimmer explores (eq. 8), the
+        # optimiser does not command it, and steps come from the model alone (no measured climb)
         optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
-                                    gamma_threshold=gamma_threshold, exploration=None)
+                                    gamma_threshold=gamma_threshold, exploration=None, climb=False)
         log = optimizer.run(stream, n_cycles, ceiling=ceiling).log
         params = [c for c in log.columns if c.startswith("param_")]
         log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction",
