@@ -298,7 +298,8 @@ class InSituOptimizer(Estimator):
     climb : bool
         When measured outcomes contradict the model — two broken promises in a row (a promised gain
         of at least 1 % unconfirmed at the smallest trust radius, or a revert to the best gait), its
-        prediction check failed twice in a row, or cycles without exploration — take steps from the
+        prediction check failed twice in a row, or cycles without exploration — or when the model
+        has levelled off (three gate decisions in a row without a step promising 1 %), take steps from the
         measured outcomes instead (a mirrored (1+1) evolution strategy in the same family and limits,
         module :mod:`geogait.optimize._climb`), and return to model steps once the model predicts
         the measured gains again. Default True.
@@ -901,6 +902,7 @@ class _State:
     rng: np.random.Generator | None = None  # the climb's directions
     distrust: int = 0  # ratio tests failed in a row at the smallest trust radius
     prediction_failures: int = 0  # prediction checks failed in a row
+    stall: int = 0  # gate decisions in a row whose model step was declined or promised under 1 %
     rotations: dict = field(default_factory=dict)  # (gait, period) -> measured net rotation of each learned cycle
     exploration: Exploration | None = None  # the optimiser's own excitation (None: the robot's)
     excitation_next: tuple | None = None  # (δ, δ̇) commanded for the next cycle (re-sent on resume)
@@ -979,7 +981,7 @@ class _State:
                 "settle_left", "last_prediction", "residual_variance", "gamma", "world_heading", "tracking_limit",
                 "seed_value")
     _PERIOD_SCALARS = ("robot_period", "previous_period", "seed_period")  # newer than the checkpoint format
-    _COUNTERS = ("distrust", "prediction_failures")
+    _COUNTERS = ("distrust", "prediction_failures", "stall")
 
     def to_checkpoint(self) -> tuple[dict, dict]:
         metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS + self._PERIOD_SCALARS}
@@ -1294,9 +1296,15 @@ class _Loop:
         elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
             state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
-            if prediction_ok and optimizer._step(state):
+            if optimizer.climb and state.stall >= 3:  # the model has levelled off: climb on from here
+                self._start_climb()
+            elif prediction_ok and optimizer._step(state):
                 kind = "model"
-            elif optimizer.climb and (state.distrust >= 2 or state.prediction_failures >= 2):
+            if prediction_ok and not state.climb.active:  # no step, or one promising under 1 %: level
+                before, promised = state.promised[:2] if kind == "model" else (0.0, 0.0)
+                small = kind is None or abs(promised - before) < 0.01 * abs(before)
+                state.stall = state.stall + 1 if small else 0
+            if kind is None and optimizer.climb and (state.distrust >= 2 or state.prediction_failures >= 2):
                 self._start_climb()
         if kind is None and state.climb.active and self._climb_move():
             kind = "climb"
@@ -1353,7 +1361,7 @@ class _Loop:
                             self._rotation_holds(key, climb.base))
                 if climb.model_trusted_again:  # back to model steps, from the best gait, on a fresh record
                     climb.active = False
-                    state.distrust = state.prediction_failures = 0
+                    state.distrust = state.prediction_failures = state.stall = 0
                     state.radius = optimizer.trust_radius * state.scale
                     state.measured, state.rotations = {}, {}
                     optimizer._change_gait(state, *climb.base)
