@@ -45,8 +45,9 @@ class MeasuredClimb:
     predicted_gain : float
         The model's predicted gain of the candidate being measured.
     rotation_limit : float
-        Largest |mean measured net rotation| per cycle of a kept candidate: the start base's (or the
-        optimiser's rotation tolerance, if larger), fixed for the whole climb so it cannot ratchet up.
+        Largest |mean measured net rotation| per cycle of a kept candidate: the start base's as the
+        climb measures it (clean when the optimiser owns the exploration), or the optimiser's rotation
+        tolerance if larger; fixed for the whole climb so it cannot ratchet up (NaN until measured).
     measured, rotations : dict
         (gait, period) → the measured objective (per second with ``optimize_period``) and net
         rotation of each cycle run while climbing: the climb compares only like with like (its cycles

@@ -1335,9 +1335,8 @@ class _Loop:
         progress is dropped: while climbing, the period is one of the climb's coordinates."""
         state = self.state
         best = self._best_key() if base is None else base
-        rotation = abs(float(np.mean(state.rotations[best]))) if state.rotations.get(best) else 0.0
-        state.climb.start(best, self.optimizer.max_trust_radius * state.scale,
-                          max(rotation, self.optimizer.rotation_tolerance))
+        # the rotation limit is set from the base's first measurement by the climb itself (_climb_move)
+        state.climb.start(best, self.optimizer.max_trust_radius * state.scale, np.nan)
         if state.period_search is not None:
             state.period_search.trial_from = None
 
@@ -1355,6 +1354,9 @@ class _Loop:
         state, optimizer, climb = self.state, self.optimizer, self.state.climb
         key = (state.gait, state.period)
         measured = climb.measured
+        if np.isnan(climb.rotation_limit) and climb.base in measured:  # the start base, measured as the climb
+            rotation = abs(float(np.mean(climb.rotations[climb.base])))  # measures (clean, when it can)
+            climb.rotation_limit = max(rotation, optimizer.rotation_tolerance)
         if climb.candidate is not None:
             if climb.candidate == key and climb.base in measured:
                 climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
