@@ -28,10 +28,14 @@ __all__ = ["Robot", "check_robot", "ROBOT_EXTRAS"]
 #: Optional members, detected by name: a simulator's truth (``current_system() -> System``, the
 #: oracle column of the optimiser's log), bit-identical checkpoints (``robot_state() -> dict`` of
 #: JSON values and arrays, ``restore_robot_state(state)``), ``close()`` to release resources,
+#: ``set_excitation(shape, shape_velocity)`` (run this exploration — δ and δ̇ on M uniform phases —
+#: for the next cycle instead of the robot's own: the optimiser's ``exploration``),
 #: ``set_cycle_period(seconds)`` (run the following cycles at that period, or the nearest the robot
-#: can time, read back from ``cycle_period``: the optimiser's ``optimize_period``), and
-#: ``joint_ranges`` ((d, 2) array of joint limits in shape units: the optimiser's automatic limit).
-ROBOT_EXTRAS = ("current_system", "robot_state", "restore_robot_state", "close", "set_cycle_period", "joint_ranges")
+#: can time, read back from ``cycle_period``: the optimiser's ``optimize_period``), ``joint_ranges``
+#: ((d, 2) array of joint limits in shape units: the optimiser's automatic limit) and
+#: ``front_back_symmetric`` (bool: the symmetric gait family applies).
+ROBOT_EXTRAS = ("current_system", "robot_state", "restore_robot_state", "close", "set_excitation",
+                "set_cycle_period", "joint_ranges", "front_back_symmetric")
 
 
 @runtime_checkable
