@@ -1,6 +1,7 @@
 """What many test files share: the reference swimmer and gait, model arguments from a run, stream
-records and a motion-capture-style log of a run (one copy each; the runs themselves stay per file,
-where their seeds and lengths are part of what a test checks)."""
+records, a motion-capture-style log of a run and the "no null without a reason" check of JSON
+outputs (one copy each; the runs themselves stay per file, where their seeds and lengths are part of
+what a test checks)."""
 
 import json
 
@@ -49,3 +50,14 @@ def mocap_log(run, *, position=0.0, heading=0.0, encoder=0.0, seed=1) -> pd.Data
     yaw = se2.wrap_angle(run.pose[:, 2] + rng.normal(0, heading, n))
     return pd.DataFrame({"t": run.time, "q0": shape[:, 0], "q1": shape[:, 1], "x": xy[:, 0], "y": xy[:, 1],
                          "yaw": yaw})
+
+
+def nulls_without_reason(value) -> list:
+    """Keys of ``value`` (nested dicts and lists of JSON) that are null without a ``{key}_null_reason``
+    beside them: every null of a tracking output says why."""
+    if isinstance(value, list):
+        return [n for v in value for n in nulls_without_reason(v)]
+    if not isinstance(value, dict):
+        return []
+    return [k for k, v in value.items() if v is None and f"{k}_null_reason" not in value] + \
+        [n for v in value.values() for n in nulls_without_reason(v)]

@@ -7,6 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
+from _reference import nulls_without_reason
 from matplotlib.colors import to_rgba
 from typer.testing import CliRunner
 
@@ -128,14 +129,6 @@ def test_track_trials_pairs_seeds_across_controllers_and_reports_each_trial(tmp_
     assert window["adaptive_over_true_per_trial"]["trials"] == [0, 1, 2]
     assert results["drag_change"]["windows"]["cycles_10_29_after"]["adaptive"] is None  # not reached: said why
     assert "before cycle 12" in results["drag_change"]["windows"]["cycles_10_29_after"]["adaptive_null_reason"]
-    def nulls_without_reason(value):  # issue 21: every null of a tracking output says why
-        if isinstance(value, list):
-            return [n for v in value for n in nulls_without_reason(v)]
-        if not isinstance(value, dict):
-            return []
-        return [k for k, v in value.items() if v is None and f"{k}_null_reason" not in value] + \
-            [n for v in value.values() for n in nulls_without_reason(v)]
-
     assert nulls_without_reason(results) == []
     config = _summary(out)["config"]
     assert config["trials"] == 3 and config["seed"] == 5

@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from _reference import nulls_without_reason
 from typer.testing import CliRunner
 
 from geogait.cli import app
@@ -266,14 +267,6 @@ def test_figure_tracking_redraws_from_csv(tmp_path):
     assert result.exit_code == 0, result.output
     manifest = _strict_json(out / "tracking.json")
     assert "3-link circle constant" in manifest["results"]
-
-    def nulls_without_reason(value):  # issue 21: every null of a tracking output says why
-        if isinstance(value, list):
-            return [n for v in value for n in nulls_without_reason(v)]
-        if not isinstance(value, dict):
-            return []
-        return [k for k, v in value.items() if v is None and f"{k}_null_reason" not in value] + \
-            [n for v in value.values() for n in nulls_without_reason(v)]
 
     assert nulls_without_reason(manifest) == []
     assert (out / "tracking.png").stat().st_size > 10_000 and (out / "steering-family.png").stat().st_size > 10_000

@@ -69,11 +69,11 @@ class MeasuredClimb:
     rotations: dict = field(default_factory=dict)
     rotation_limit: float = np.nan
 
-    def start(self, base: tuple, sigma: float, rotation_limit: float) -> None:
-        """Hand the steps to the climb, from ``base`` = (gait, period) (measured afresh), at step ``sigma``,
-        holding the measured rotation within ``rotation_limit``."""
+    def start(self, base: tuple, sigma: float) -> None:
+        """Hand the steps to the climb, from ``base`` = (gait, period) (measured afresh), at step ``sigma``;
+        the rotation limit follows from the base's first measurement by the climb."""
         self.active, self.base, self.candidate = True, base, None
-        self.rotation_limit = float(rotation_limit)
+        self.rotation_limit = np.nan
         self.measured, self.rotations = {}, {}
         self.sigma = float(np.clip(sigma, self.min_sigma, self.max_sigma))
         self.direction, self.mirror, self.failures, self.agreements = None, False, 0, 0

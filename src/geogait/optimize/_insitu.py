@@ -481,7 +481,7 @@ class InSituOptimizer(Estimator):
             raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
                        f"a gait reaching {gait.joint_limit().max():.4g} rad")
         if self.max_joint_velocity is not None:
-            speed = np.abs(gait.velocity(np.linspace(0, 2 * np.pi, 256, endpoint=False))).max() * 2 * np.pi / period
+            speed = _peak_phase_speed(gait) * 2 * np.pi / period
             if speed > self.max_joint_velocity * (1 + 1e-9):
                 raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
                            f"a gait reaching {speed:.4g} rad/s")
@@ -728,6 +728,11 @@ class InSituOptimizer(Estimator):
         state.iteration += 1
         state.restart_iteration()
         state.settle_left = self.settle_cycles
+
+
+def _peak_phase_speed(gait: FourierGait) -> float:
+    """Largest |θ_j'(φ)| of ``gait`` (shape units per radian of phase) on a 256-point phase grid."""
+    return float(np.abs(gait.velocity(np.linspace(0, 2 * np.pi, 256, endpoint=False))).max())
 
 
 def _is_numeric(value) -> bool:
@@ -1335,8 +1340,7 @@ class _Loop:
         progress is dropped: while climbing, the period is one of the climb's coordinates."""
         state = self.state
         best = self._best_key() if base is None else base
-        # the rotation limit is set from the base's first measurement by the climb itself (_climb_move)
-        state.climb.start(best, self.optimizer.max_trust_radius * state.scale, np.nan)
+        state.climb.start(best, self.optimizer.max_trust_radius * state.scale)
         if state.period_search is not None:
             state.period_search.trial_from = None
 
@@ -1433,10 +1437,9 @@ class _Loop:
             return True
         if not search.turn:
             return False
-        shortest = 0.0
+        shortest = 0.0  # the period at which the gait's fastest joint reaches max_joint_velocity
         if self.optimizer.max_joint_velocity is not None:
-            phase = np.linspace(0, 2 * np.pi, 256, endpoint=False)
-            shortest = np.abs(state.gait.velocity(phase)).max() * 2 * np.pi / self.optimizer.max_joint_velocity
+            shortest = _peak_phase_speed(state.gait) * 2 * np.pi / self.optimizer.max_joint_velocity
         period = search.propose(state.period, shortest)
         if period is None:
             search.turn = False
