@@ -19,9 +19,11 @@ def rng():
 
 
 def pytest_configure(config):
-    """Compile the real-time kernel once, before any worker or subprocess needs it: its disk cache is
+    """Compile the kernels once, before any worker or subprocess needs it: its disk cache is
     then only read while tests run in parallel."""
     if not hasattr(config, "workerinput"):
         from geogait.models import _kernels
 
         _kernels.warm_up()
+        _kernels.displacement_kernel()
+        _kernels.nearest_segment_kernel()

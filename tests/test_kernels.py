@@ -227,3 +227,66 @@ def test_geogait_stream_says_in_one_line_when_numba_is_missing(monkeypatch, tmp_
     assert result.exit_code == 0, result.output
     notes = [line for line in result.stderr.splitlines() if "numba" in line]
     assert len(notes) == 1 and "pip install 'geogait[fast]'" in notes[0]
+
+
+# -- the compiled net motion per cycle (steering solves) and nearest-segment search (planning) --------------
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(links=st.sampled_from([2, 3, 5, 9]), interaction=st.booleans(), order=st.sampled_from([1, 2]),
+       resolution=st.sampled_from([8, 64, 128]), jacobian=st.booleans(), seed=st.integers(0, 2**16))
+def test_compiled_and_reference_net_motion_agree(links, interaction, order, resolution, jacobian, seed):
+    from geogait.models import predicted_displacement
+
+    rng = np.random.default_rng(seed)
+    gait = seed_gait(links - 1)
+    run = simulate(PurcellSwimmer(links), gait, 2, seed=seed, sensor_noise=0.1,
+                   perturbation=Perturbation.from_std(0.1))
+    model = AdaptiveGaitModel(gait=gait, interaction=interaction).fit(*fit_args(run))
+    candidate = gait.with_order(order)
+    candidate = candidate.with_params(candidate.params + 0.1 * rng.standard_normal(candidate.params.size))
+    assert _kernels.displacement_kernel() is not None
+    fast = predicted_displacement(model, candidate, resolution=resolution, jacobian=jacobian)
+    enabled, _kernels.ENABLED = _kernels.ENABLED, False
+    try:
+        slow = predicted_displacement(model, candidate, resolution=resolution, jacobian=jacobian)
+    finally:
+        _kernels.ENABLED = enabled
+    for a, b in zip(*((fast, slow) if jacobian else ((fast,), (slow,))), strict=True):
+        assert_close(a, b)
+
+
+def test_a_batched_model_takes_the_reference_net_motion():
+    """The kernel serves one model; a batch of trials gives one answer per trial through NumPy."""
+    from geogait.models import predicted_displacement
+
+    runs = [simulate(SWIMMER, GAIT, 2, seed=seed, sensor_noise=0.1) for seed in (0, 1)]
+    stacked = [np.stack([a for a in arrays]) for arrays in zip(*(fit_args(run) for run in runs), strict=True)]
+    batched = AdaptiveGaitModel(gait=GAIT).fit(*stacked)
+    single = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(runs[1]))
+    pose = predicted_displacement(batched, GAIT)
+    assert pose.shape == (2, 3)
+    assert_close(pose[1], predicted_displacement(single, GAIT))
+
+
+@needs_numba
+@settings(max_examples=15, deadline=None)
+@given(kind=st.sampled_from(["circle", "figure8", "square"]), near=st.one_of(st.none(), st.floats(-5, 30)),
+       window=st.floats(0.05, 3.0), spread=st.floats(0.01, 3.0), seed=st.integers(0, 2**16))
+def test_compiled_nearest_segment_gives_the_reference_bits(kind, near, window, spread, seed):
+    from geogait.control import ReferencePath
+
+    path = {"circle": ReferencePath.circle(2.0), "figure8": ReferencePath.figure8(3.0),
+            "square": ReferencePath.waypoints([[0, 0], [3, 0], [3, 2], [0, 2], [0, 0]])}[kind]
+    positions = path.point(np.random.default_rng(seed).uniform(0, path.length, (3, 7)))[..., None, :] + \
+        spread * np.random.default_rng(seed + 1).standard_normal((3, 7, 5, 2))
+    assert _kernels.nearest_segment_kernel() is not None
+    fast = path.project(positions, near=near, window=window)
+    enabled, _kernels.ENABLED = _kernels.ENABLED, False
+    try:
+        slow = path.project(positions, near=near, window=window)
+    finally:
+        _kernels.ENABLED = enabled
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a, b)

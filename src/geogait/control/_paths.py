@@ -23,6 +23,7 @@ import pandas as pd
 
 from .._files import describe_path_kind
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from ..models._kernels import nearest_segment_kernel
 from ..se2 import wrap_angle
 
 __all__ = ["ReferencePath", "PATH_KINDS"]
@@ -30,6 +31,7 @@ __all__ = ["ReferencePath", "PATH_KINDS"]
 PATH_KINDS = ("line", "circle", "figure8")
 _SPACING = 0.02  # body lengths between polyline vertices of the built-in curves (sagitta < 1e-4 at radius 0.5)
 _MAX_VERTICES = 200_000  # of a built-in curve: beyond, the vertices spread out (sagitta < 1.3e-4 at radius 1e6)
+_COMPILED_FROM = 16  # positions from which a projection runs compiled (below, NumPy's call overhead is smaller)
 #: Largest size (radius, length, |coordinate|) of a path, body lengths.
 MAX_PATH_SIZE = 1e6
 
@@ -263,18 +265,26 @@ class ReferencePath:
         start = self._vertices[candidates]  # (..., k, 2)
         step = self._vertices[candidates + 1] - start
         length = self._lengths[candidates]
-        ex = position[..., 0, None] - start[..., 0]
-        ey = position[..., 1, None] - start[..., 1]
-        fraction = np.clip((ex * step[..., 0] + ey * step[..., 1]) / length**2, 0, 1)
-        ex -= fraction * step[..., 0]
-        ey -= fraction * step[..., 1]
-        best = np.argmin(ex * ex + ey * ey, axis=-1)[..., None]
+        kernel = nearest_segment_kernel() if candidates.ndim == 1 and position.size > 2 * _COMPILED_FROM else None
+        if kernel is not None:  # candidates shared by many positions (a planner's horizon): compiled, same bits
+            flat = np.ascontiguousarray(position.reshape(-1, 2))
+            best, along = np.empty(flat.shape[0], dtype=np.int64), np.empty(flat.shape[0])
+            kernel(flat[:, 0].copy(), flat[:, 1].copy(), start[:, 0].copy(), start[:, 1].copy(), step[:, 0].copy(),
+                   step[:, 1].copy(), length, best, along)
+            best, along = best.reshape(batch + (1,)), along.reshape(batch)
+        else:
+            ex = position[..., 0, None] - start[..., 0]
+            ey = position[..., 1, None] - start[..., 1]
+            fraction = np.clip((ex * step[..., 0] + ey * step[..., 1]) / length**2, 0, 1)
+            ex -= fraction * step[..., 0]
+            ey -= fraction * step[..., 1]
+            best = np.argmin(ex * ex + ey * ey, axis=-1)[..., None]
 
         def pick(values):
             return np.take_along_axis(np.broadcast_to(values, batch + values.shape[-1:]), best, axis=-1)[..., 0]
 
         segment = pick(candidates)
-        along = pick(fraction)
+        along = along if kernel is not None else pick(fraction)
         s = pick(offsets) + self._starts[segment] + along * self._lengths[segment]
         if near is None and self.closed:
             s = np.mod(s, self.length)

@@ -269,8 +269,18 @@ def _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, 
         {"type": "eq", "fun": lambda x: rows @ evaluate(x)[0] - goal, "jac": lambda x: rows @ evaluate(x)[1]},
         {"type": "ineq", "fun": limit_fun, "jac": limit_jac},
     ]
+    iterates = [params]
+
+    def stationary(x):
+        # the Gauss–Newton branch's test (feasible, last step below 1e-8 rad): SLSQP's own test on the
+        # objective can miss at machine precision and then spends its remaining iterations in line searches
+        step, iterates[0] = np.linalg.norm(x - iterates[0]), x.copy()
+        if (step <= 1e-8 and np.max(np.abs(rows @ evaluate(x)[0] - goal), initial=0.0) <= tolerance
+                and np.all(limit_fun(x) >= -1e-9)):
+            raise StopIteration
+
     result = minimize(lambda x: float((x - anchor) @ (x - anchor)), params, jac=lambda x: 2 * (x - anchor),
-                      method="SLSQP", constraints=constraints,
+                      method="SLSQP", constraints=constraints, callback=stationary,
                       options={"maxiter": max(30, 3 * max_iterations), "ftol": 1e-10})
     params = result.x
     pose = motion(reference.with_params(params))

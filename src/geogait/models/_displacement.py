@@ -23,7 +23,8 @@ import numpy as np
 from .._estimator import check_is_fitted
 from .._validation import check_int, fail
 from ..gaits import FourierGait, fourier_basis
-from ..se2 import gauss_phases, integrate_cycle
+from ..se2 import _SMALL, gauss_phases, integrate_cycle
+from . import _kernels
 from ._features import regressors, split_coefficients
 
 __all__ = ["predicted_displacement"]
@@ -107,9 +108,16 @@ def _smoothing(model) -> tuple:
 def displacement_from_terms(terms: ModelTerms, gait: FourierGait, jacobian: bool = False):
     """:func:`predicted_displacement` of ``gait`` from a model's :class:`ModelTerms` (same arithmetic)."""
     resolution = terms.resolution
+    basis, d_basis = _phase_basis(resolution, gait.order, 0), _phase_basis(resolution, gait.order, 1)  # (2n, c)
+    kernel = _kernels.displacement_kernel() if terms.weights.ndim == 3 else None
+    if kernel is not None:  # one unbatched model: the compiled path (same arithmetic, agrees to rounding)
+        coefficients = gait.coefficients
+        pose, pose_jacobian = np.empty(3), np.empty((3, coefficients.size))
+        kernel(coefficients, basis, d_basis, terms.nominal, terms.nominal_rate, terms.weights, terms.interaction,
+               2 * np.pi / resolution, _SMALL, jacobian, pose, pose_jacobian)
+        return (pose, pose_jacobian) if jacobian else pose
     nodes, step = gauss_phases(resolution)
     rate = 2 * np.pi  # the models regress in cycle time (see geogait.models._base)
-    basis, d_basis = _phase_basis(resolution, gait.order, 0), _phase_basis(resolution, gait.order, 1)  # (2n, c)
     delta = basis @ gait.coefficients.T - terms.nominal  # θ(φ) − θ₀(φ)
     delta_rate = (d_basis @ gait.coefficients.T - terms.nominal_rate) * rate
     weights = terms.weights

@@ -32,12 +32,15 @@ import math
 
 import numpy as np
 
-__all__ = ["ENABLED", "fast_path_available", "fast_path_note", "learn_one_kernel", "warm_up"]
+__all__ = ["ENABLED", "displacement_kernel", "fast_path_available", "fast_path_note", "learn_one_kernel", "nearest_segment_kernel",
+           "warm_up"]
 
 #: Use the compiled one-sample path when numba is installed (set to False to force the NumPy reference).
 ENABLED = True
 
 _kernel = None  # the compiled kernel, built on first use
+_displacement_kernel = None  # the compiled net-motion kernel, built on first use
+_segment_kernel = None  # the compiled nearest-segment search, built on first use
 _missing = None  # why numba could not be used (None: not tried yet or available)
 
 
@@ -164,22 +167,176 @@ def _learn_one(phase, shape, rate, velocity, scale, max_phase, max_magnitude, ch
     return 0
 
 
+def _displacement(coefficients, basis, d_basis, nominal, nominal_rate, weights, interaction, step, small,
+                  jacobian, pose, pose_jacobian):
+    """Net motion per cycle of a candidate gait from an unbatched model's terms (the arithmetic of
+    :func:`geogait.models._displacement.displacement_from_terms`: eq. 3 at the Gauss nodes, the
+    fourth-order Magnus step, exact exponentials, and with ``jacobian`` their chain rule).
+
+    ``coefficients`` ``(d, c)``, ``basis`` and ``d_basis`` ``(2n, c)``, ``nominal`` and ``nominal_rate``
+    ``(2n, d)``, ``weights`` ``(2n, r, 3)``; writes ``pose`` ``(3,)`` and ``pose_jacobian`` ``(3, d c)``.
+    """
+    d, c = coefficients.shape
+    n_nodes = basis.shape[0]
+    n_params = d * c
+    rate = 2 * math.pi  # the models regress in cycle time
+    delta, delta_rate = np.empty(d), np.empty(d)
+    velocity = np.empty((n_nodes, 3))
+    velocity_jacobian = np.zeros((n_nodes, 3, n_params))
+    d_delta, d_rate = np.empty((3, d)), np.empty((3, d))
+    for q in range(n_nodes):
+        for j in range(d):
+            value, slope = 0.0, 0.0
+            for k in range(c):
+                value += basis[q, k] * coefficients[j, k]
+                slope += d_basis[q, k] * coefficients[j, k]
+            delta[j] = value - nominal[q, j]
+            delta_rate[j] = (slope - nominal_rate[q, j]) * rate
+        for o in range(3):
+            total = weights[q, 0, o]
+            for j in range(d):
+                total += delta[j] * weights[q, 1 + j, o] + delta_rate[j] * weights[q, 1 + d + j, o]
+            if interaction:
+                for i in range(d):
+                    for j in range(d):
+                        total += delta[i] * delta_rate[j] * weights[q, 1 + 2 * d + i * d + j, o]
+            velocity[q, o] = total / rate
+        if not jacobian:
+            continue
+        for o in range(3):  # dξ/dδ_i = B_i + Σ_j ∂A_ij δ̇_j and dξ/dδ̇_j = A_j + Σ_i ∂A_ij δ_i
+            for i in range(d):
+                d_delta[o, i] = weights[q, 1 + i, o]
+                d_rate[o, i] = weights[q, 1 + d + i, o]
+            if interaction:
+                for i in range(d):
+                    for j in range(d):
+                        bilinear = weights[q, 1 + 2 * d + i * d + j, o]
+                        d_delta[o, i] += bilinear * delta_rate[j]
+                        d_rate[o, j] += bilinear * delta[i]
+            for j in range(d):
+                for k in range(c):
+                    velocity_jacobian[q, o, j * c + k] = (d_delta[o, j] * basis[q, k]
+                                                          + d_rate[o, j] * rate * d_basis[q, k]) / rate
+    # Magnus: Ω = h/2 (ξ₁ + ξ₂) + √3/12 h² [ξ₁, ξ₂], then the product of exponentials
+    half, curvature = step / 2, math.sqrt(3) / 12 * step**2
+    heading = 0.0
+    pose[0], pose[1] = 0.0, 0.0
+    d_heading = np.zeros(n_params)
+    if jacobian:
+        pose_jacobian[:, :] = 0.0
+    for m in range(n_nodes // 2):
+        a, b = 2 * m, 2 * m + 1
+        vx = half * (velocity[a, 0] + velocity[b, 0]) + curvature * (velocity[a, 1] * velocity[b, 2]
+                                                                      - velocity[a, 2] * velocity[b, 1])
+        vy = half * (velocity[a, 1] + velocity[b, 1]) + curvature * (velocity[a, 2] * velocity[b, 0]
+                                                                      - velocity[a, 0] * velocity[b, 2])
+        omega = half * (velocity[a, 2] + velocity[b, 2])
+        w2 = omega * omega
+        if abs(omega) < small:
+            s_coef, c_coef = 1 - w2 / 6 + w2 * w2 / 120, omega / 2 - omega * w2 / 24
+            ds, dc = -omega / 3 + omega * w2 / 30, 0.5 - w2 / 8
+        else:
+            s_coef, c_coef = math.sin(omega) / omega, (1 - math.cos(omega)) / omega
+            ds = (omega * math.cos(omega) - math.sin(omega)) / omega**2
+            dc = (omega * math.sin(omega) - 1 + math.cos(omega)) / omega**2
+        ux, uy = s_coef * vx - c_coef * vy, c_coef * vx + s_coef * vy
+        cos, sin = math.cos(heading), math.sin(heading)
+        rx, ry = cos * ux - sin * uy, sin * ux + cos * uy
+        pose[0] += rx
+        pose[1] += ry
+        if jacobian:
+            for p in range(n_params):
+                fa = (velocity_jacobian[a, 0, p], velocity_jacobian[a, 1, p], velocity_jacobian[a, 2, p])
+                fb = (velocity_jacobian[b, 0, p], velocity_jacobian[b, 1, p], velocity_jacobian[b, 2, p])
+                dvx = half * (fa[0] + fb[0]) + curvature * (
+                    (fa[1] * velocity[b, 2] - fa[2] * velocity[b, 1])
+                    + (velocity[a, 1] * fb[2] - velocity[a, 2] * fb[1]))
+                dvy = half * (fa[1] + fb[1]) + curvature * (
+                    (fa[2] * velocity[b, 0] - fa[0] * velocity[b, 2])
+                    + (velocity[a, 2] * fb[0] - velocity[a, 0] * fb[2]))
+                domega = half * (fa[2] + fb[2])
+                dux = (ds * vx - dc * vy) * domega + s_coef * dvx - c_coef * dvy
+                duy = (dc * vx + ds * vy) * domega + c_coef * dvx + s_coef * dvy
+                pose_jacobian[0, p] += cos * dux - sin * duy - ry * d_heading[p]
+                pose_jacobian[1, p] += sin * dux + cos * duy + rx * d_heading[p]
+                pose_jacobian[2, p] += domega
+                d_heading[p] += domega  # Σ of the steps before the next one
+        heading += omega
+    pose[2] = heading
+
+
+def _nearest_segment(x, y, start_x, start_y, step_x, step_y, length, best, along):
+    """For each position ``(x[i], y[i])``, the first of the shared candidate segments nearest it
+    (``best[i]``) and the fraction along it (``along[i]``): the arithmetic of
+    :meth:`geogait.control.ReferencePath.project`, element by element (so the same bits), without its
+    ``(positions, candidates)`` temporaries."""
+    for i in range(x.shape[0]):
+        nearest, chosen, fraction_chosen = np.inf, 0, 0.0
+        for k in range(start_x.shape[0]):
+            ex, ey = x[i] - start_x[k], y[i] - start_y[k]
+            fraction = min(max((ex * step_x[k] + ey * step_y[k]) / length[k] ** 2, 0.0), 1.0)
+            ex -= fraction * step_x[k]
+            ey -= fraction * step_y[k]
+            distance = ex * ex + ey * ey
+            if distance < nearest:
+                nearest, chosen, fraction_chosen = distance, k, fraction
+        best[i], along[i] = chosen, fraction_chosen
+
+
+def _compile(function):
+    """``function`` compiled by numba (cached on disk where it can be), or None when numba is missing."""
+    global _missing
+    try:
+        import numba
+    except ImportError as error:
+        _missing = str(error)
+        return None
+    try:
+        return numba.njit(cache=True, nogil=True, error_model="numpy")(function)
+    except RuntimeError:  # no writable cache directory (read-only install, no NUMBA_CACHE_DIR): compile per process
+        return numba.njit(nogil=True, error_model="numpy")(function)
+
+
 def learn_one_kernel():
     """The compiled kernel, or None when numba is missing or the fast path is switched off (:data:`ENABLED`)."""
-    global _kernel, _missing
+    global _kernel
     if not ENABLED:
         return None
     if _kernel is None and _missing is None:
-        try:
-            import numba
-        except ImportError as error:
-            _missing = str(error)
-            return None
-        try:
-            _kernel = numba.njit(cache=True, nogil=True, error_model="numpy")(_learn_one)
-        except RuntimeError:  # no writable cache directory (read-only install, no NUMBA_CACHE_DIR): compile per process
-            _kernel = numba.njit(nogil=True, error_model="numpy")(_learn_one)
+        _kernel = _compile(_learn_one)
     return _kernel
+
+
+def nearest_segment_kernel():
+    """The compiled nearest-segment search (:func:`_nearest_segment`), or None as for :func:`learn_one_kernel`."""
+    global _segment_kernel
+    if not ENABLED:
+        return None
+    if _segment_kernel is None and _missing is None:
+        kernel = _compile(_nearest_segment)
+        one = np.ones(1)
+        try:  # load (or compile) now: a broken compile or cache must not stop the reference path
+            kernel(one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64), np.empty(1))
+        except Exception:  # noqa: BLE001
+            return None
+        _segment_kernel = kernel
+    return _segment_kernel
+
+
+def displacement_kernel():
+    """The compiled net-motion kernel (:func:`_displacement`), or None as for :func:`learn_one_kernel`."""
+    global _displacement_kernel
+    if not ENABLED:
+        return None
+    if _displacement_kernel is None and _missing is None:
+        kernel = _compile(_displacement)
+        try:  # load (or compile) now: a broken compile or cache must not stop the reference path
+            kernel(np.zeros((1, 3)), np.ones((2, 3)), np.ones((2, 3)), np.zeros((2, 1)), np.zeros((2, 1)),
+                   np.zeros((2, 4, 3)), True, 1.0, 1e-4, True, np.empty(3), np.empty((3, 3)))
+        except Exception:  # noqa: BLE001
+            return None
+        _displacement_kernel = kernel
+    return _displacement_kernel
 
 
 def warm_up() -> bool:
