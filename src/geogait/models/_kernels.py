@@ -19,6 +19,14 @@ to its own unrolled loops, are summed in plain order here, so the two paths agre
 for bit: BLAS's order depends on the CPU it runs on, so no fixed order could match it everywhere.
 The batched paths (``fit``, a ``partial_fit`` of many samples or trials) always use NumPy.
 
+Two more kernels serve the path-following loop, where the same small computation runs thousands of
+times per cycle: the net motion per cycle of a candidate gait under one model, with its Jacobian
+(:func:`_displacement`, what every steering solve evaluates; it follows
+:func:`geogait.models._displacement.displacement_from_terms` and agrees with it to rounding, tested
+to 1e-12), and the nearest-segment search of :meth:`geogait.control.ReferencePath.project` for the
+planner's many horizon positions (:func:`_nearest_segment`: element-wise arithmetic only, so the same
+bits as NumPy). Both fall back to the NumPy code as the one-sample kernel does.
+
 numba is optional (``pip install geogait[fast]``). Without it, or with :data:`ENABLED` set to
 False, every sample goes through the NumPy reference path (10–30× slower one sample at a time);
 :func:`fast_path_note` says so in one line. The kernel is compiled on first use and cached on disk
@@ -32,8 +40,8 @@ import math
 
 import numpy as np
 
-__all__ = ["ENABLED", "displacement_kernel", "fast_path_available", "fast_path_note", "learn_one_kernel", "nearest_segment_kernel",
-           "warm_up"]
+__all__ = ["ENABLED", "displacement_kernel", "fast_path_available", "fast_path_note", "learn_one_kernel",
+           "nearest_segment_kernel", "warm_up"]
 
 #: Use the compiled one-sample path when numba is installed (set to False to force the NumPy reference).
 ENABLED = True
