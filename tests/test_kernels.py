@@ -237,7 +237,7 @@ def test_geogait_stream_says_in_one_line_when_numba_is_missing(monkeypatch, tmp_
 @given(links=st.sampled_from([2, 3, 5, 9]), interaction=st.booleans(), order=st.sampled_from([1, 2]),
        resolution=st.sampled_from([8, 64, 128]), jacobian=st.booleans(), seed=st.integers(0, 2**16))
 def test_compiled_and_reference_net_motion_agree(links, interaction, order, resolution, jacobian, seed):
-    from geogait.models import predicted_displacement
+    from geogait.models._displacement import ModelTerms, displacement_from_terms
 
     rng = np.random.default_rng(seed)
     gait = seed_gait(links - 1)
@@ -247,27 +247,34 @@ def test_compiled_and_reference_net_motion_agree(links, interaction, order, reso
     candidate = gait.with_order(order)
     candidate = candidate.with_params(candidate.params + 0.1 * rng.standard_normal(candidate.params.size))
     assert _kernels.displacement_kernel() is not None
-    fast = predicted_displacement(model, candidate, resolution=resolution, jacobian=jacobian)
-    enabled, _kernels.ENABLED = _kernels.ENABLED, False
-    try:
-        slow = predicted_displacement(model, candidate, resolution=resolution, jacobian=jacobian)
-    finally:
-        _kernels.ENABLED = enabled
+    terms = ModelTerms.of(model, resolution)
+    fast = displacement_from_terms(terms, candidate, jacobian, compiled=True)
+    slow = displacement_from_terms(terms, candidate, jacobian)
     for a, b in zip(*((fast, slow) if jacobian else ((fast,), (slow,))), strict=True):
         assert_close(a, b)
 
 
 def test_a_batched_model_takes_the_reference_net_motion():
     """The kernel serves one model; a batch of trials gives one answer per trial through NumPy."""
-    from geogait.models import predicted_displacement
+    from geogait.models._displacement import ModelTerms, displacement_from_terms
 
     runs = [simulate(SWIMMER, GAIT, 2, seed=seed, sensor_noise=0.1) for seed in (0, 1)]
     stacked = [np.stack([a for a in arrays]) for arrays in zip(*(fit_args(run) for run in runs), strict=True)]
     batched = AdaptiveGaitModel(gait=GAIT).fit(*stacked)
     single = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(runs[1]))
-    pose = predicted_displacement(batched, GAIT)
+    pose = displacement_from_terms(ModelTerms.of(batched, 64), GAIT, compiled=True)
     assert pose.shape == (2, 3)
-    assert_close(pose[1], predicted_displacement(single, GAIT))
+    assert_close(pose[1], displacement_from_terms(ModelTerms.of(single, 64), GAIT))
+
+
+def test_the_optimiser_keeps_the_reference_net_motion(monkeypatch):
+    """predicted_displacement (the optimiser's and the paper figures' path) never runs compiled, so their
+    published numbers do not move by rounding."""
+    from geogait.models import predicted_displacement
+
+    monkeypatch.setattr(_kernels, "displacement_kernel", lambda: pytest.fail("the kernel was used"))
+    model = AdaptiveGaitModel(gait=GAIT).fit(*fit_args(simulate(SWIMMER, GAIT, 2, seed=0, sensor_noise=0.1)))
+    assert predicted_displacement(model, GAIT, jacobian=True)[1].shape == (3, GAIT.params.size)
 
 
 @needs_numba

@@ -71,7 +71,7 @@ class ModelMotion:
         if terms is None or terms.resolution != self.resolution or not terms.current(self.model):
             check_int(self.resolution, "resolution", "ModelMotion", minimum=4)
             terms = self._terms = ModelTerms.of(self.model, self.resolution)
-        return displacement_from_terms(terms, gait, jacobian)
+        return displacement_from_terms(terms, gait, jacobian, compiled=True)
 
 
 class TrueMotion:

@@ -105,12 +105,17 @@ def _smoothing(model) -> tuple:
     return model.n_windows, model.window_width, model.smoothing_order, model.batch_shape_
 
 
-def displacement_from_terms(terms: ModelTerms, gait: FourierGait, jacobian: bool = False):
-    """:func:`predicted_displacement` of ``gait`` from a model's :class:`ModelTerms` (same arithmetic)."""
+def displacement_from_terms(terms: ModelTerms, gait: FourierGait, jacobian: bool = False, compiled: bool = False):
+    """:func:`predicted_displacement` of ``gait`` from a model's :class:`ModelTerms` (same arithmetic).
+
+    ``compiled`` runs one unbatched model through the compiled kernel where numba is installed (the
+    steering solves of path following, thousands per cycle): the same arithmetic, agreeing to rounding,
+    not bit for bit, so callers whose published results must not move (the optimiser, the paper's
+    figures) keep the NumPy path."""
     resolution = terms.resolution
     basis, d_basis = _phase_basis(resolution, gait.order, 0), _phase_basis(resolution, gait.order, 1)  # (2n, c)
-    kernel = _kernels.displacement_kernel() if terms.weights.ndim == 3 else None
-    if kernel is not None:  # one unbatched model: the compiled path (same arithmetic, agrees to rounding)
+    kernel = _kernels.displacement_kernel() if compiled and terms.weights.ndim == 3 else None
+    if kernel is not None:
         coefficients = gait.coefficients
         pose, pose_jacobian = np.empty(3), np.empty((3, coefficients.size))
         kernel(coefficients, basis, d_basis, terms.nominal, terms.nominal_rate, terms.weights, terms.interaction,
