@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.models import (
@@ -321,7 +323,10 @@ def test_forget_is_weighted_least_squares_with_the_old_evidence_discounted():
         stale.predict_displacement(gait) - truth).max()
 
 
-def test_forget_is_the_same_covariance_scaling_on_both_models_and_checks_its_factor():
+def test_forget_scales_the_informed_directions_on_both_models_and_checks_its_factor():
+    """Where the samples shrank every direction far below the prior (the shape-space model, 2 cycles)
+    the whole covariance is multiplied by the factor; in the window model's sparsely covered windows
+    no direction grows beyond the prior, and none shrinks."""
     run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=2, perturbation=Perturbation.from_std(0.2), seed=0)
     for model in (ShapeSpaceModel(degree=2), AdaptiveGaitModel(gait=seed_gait(2))):
         with pytest.raises(Exception, match="fit"):
@@ -331,8 +336,41 @@ def test_forget_is_the_same_covariance_scaling_on_both_models_and_checks_its_fac
             model.covariance_.copy()]
         model.forget(4.0)
         after = model.covariances_ if hasattr(model, "covariances_") else [model.covariance_]
+        prior = model.initial_covariance
         for old, new in zip(covariance, after, strict=True):
-            np.testing.assert_allclose(new, 4.0 * old)  # the trace clamp is far: the data shrank P
+            grown = np.linalg.eigvalsh(new - old)
+            assert grown.min() > -1e-9 * np.abs(old).max()  # nothing became more certain
+            assert np.linalg.eigvalsh(4.0 * old - new).min() > -1e-9 * np.abs(old).max()  # nor more than 4×
+            assert np.linalg.eigvalsh(new).max() <= max(prior, np.linalg.eigvalsh(old).max()) * (1 + 1e-9)
+            if isinstance(model, ShapeSpaceModel):
+                np.testing.assert_allclose(new, 4.0 * old, rtol=1e-9, atol=1e-12 * np.abs(old).max())
         for bad in (0.5, np.nan, "2"):
             with pytest.raises(ValueError, match="'factor'"):
                 model.forget(bad)
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(3, 12), informed=st.integers(1, 3), factor=st.floats(1.0, 1e4), seed=st.integers(0, 2**16))
+def test_forget_is_not_undone_by_the_trace_clamp(n, informed, factor, seed):
+    """A covariance whose never-excited directions hold the rest of the clamp's budget (steady forgetting
+    with many regressors): the informed directions get ``factor`` times their variance, up to the
+    prior's, then only the clamp's rescaling by the trace they add (multiplying P and clamping, as
+    before, left it unchanged)."""
+    from geogait.models._rls import RLSBank
+
+    informed = min(informed, n - 2)
+    rng = np.random.default_rng(seed)
+    delta = 10.0
+    bank = RLSBank((), 1, n, 3, 0.999, delta)
+    basis, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    variances = np.empty(n)
+    variances[:informed] = delta * 10.0 ** rng.uniform(-6, -1, informed)  # what the samples taught
+    variances[informed:] = (bank.max_trace - variances[:informed].sum()) / (n - informed)  # at the clamp
+    bank.covariance[0] = (basis * variances) @ basis.T
+    bank.forget(factor)
+    raised = np.minimum(factor * variances[:informed], delta)
+    clamp = min(1.0, bank.max_trace / (variances[informed:].sum() + raised.sum()))
+    for k in range(informed):
+        direction = basis[:, k]
+        assert direction @ bank.covariance[0] @ direction == pytest.approx(raised[k] * clamp, rel=1e-6)
+    assert np.trace(bank.covariance[0]) <= bank.max_trace * (1 + 1e-12)

@@ -289,3 +289,35 @@ def test_docs_steering_example_runs(monkeypatch, tmp_path):
     assert stds[19] < 0.07 and stds[21] == pytest.approx(0.15)  # k = 4 from tracking cycle 20: the alarm
     shaped = namespace["shaped"].log
     assert shaped["alarm"].to_numpy().nonzero()[0][0] == 20 and shaped["alarm"].sum() <= 2  # forgot at k = 4
+
+
+@pytest.mark.parametrize("forget", ["directional", "scaled and clamped"])
+def test_five_links_relearn_within_a_few_cycles_of_a_drag_change(monkeypatch, forget):
+    """On the 5-link swimmer the shape-space model's never-excited directions fill the trace clamp's
+    budget, so multiplying the covariance and clamping (the former forget) changed nothing and the
+    predicted step stayed near half the measured one; forgetting direction by direction up to the
+    prior re-learns: predicted / measured ≥ 0.9 within 5 cycles of the change (drag 2 → 4)."""
+    from geogait.control import PathTracker, ReferencePath
+    from geogait.experiments.tracking import feasible_turn_limit, straight_gait, tracking_model
+    from geogait.gaits import Perturbation
+    from geogait.models._rls import RLSBank
+    from geogait.simulate import DragRatioSchedule, SwimmerStream
+
+    if forget != "directional":
+        monkeypatch.setattr(RLSBank, "forget", RLSBank.inflate)
+    system, gait, step = straight_gait(5)
+    change = 12
+    robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(0.05), sensor_noise=0.1,
+                          environment=DragRatioSchedule(system, (2.0, 4.0), 10 + change), seed=0)
+    tracker = PathTracker(warmup_cycles=10, turn_limit=feasible_turn_limit(5), model=tracking_model("shape"),
+                          change_forgetting=100.0)
+    log = tracker.run(robot, ReferencePath.circle(10 * step), change + 6).log
+    predicted = np.hypot(log["predicted_x"], log["predicted_y"])
+    ratio = (predicted / np.hypot(log["measured_x"], log["measured_y"])).to_numpy()
+    assert log["alarm"].to_numpy().nonzero()[0].tolist() == [change]  # the alarm fires on the first changed cycle
+    assert ratio[change] < 0.6  # the change is real: the old model promises about half the step
+    relearned = ratio[change + 2:change + 6].mean()
+    if forget == "directional":
+        assert relearned >= 0.9
+    else:
+        assert relearned < 0.75

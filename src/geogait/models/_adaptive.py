@@ -241,11 +241,14 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     def forget(self, factor: float):
         r"""Discount all evidence so far by ``factor``, at once (covariance resetting).
 
-        RLS with forgetting weighs a sample ``i`` updates old by :math:`\lambda^i`; multiplying every
-        window covariance by ``factor`` (then the trace clamp) divides every past sample's weight by
-        ``factor`` in one go, the weights unchanged: the next samples correct the model as if the old
-        ones were ``log(factor) / (1 - λ)`` updates older. Used after an unannounced change of the
-        environment, so a slow λ need not be traded for fast re-learning.
+        RLS with forgetting weighs a sample ``i`` updates old by :math:`\lambda^i`; multiplying a
+        window covariance by ``factor`` divides every past sample's weight by ``factor`` in one go, the
+        weights unchanged: the next samples correct the model as if the old ones were
+        ``log(factor) / (1 - λ)`` updates older. Each direction of the covariance is raised at most to
+        the prior's (``initial_covariance``), and one already beyond it is kept, so the trace clamp
+        cannot undo the reset where never-excited directions fill its budget
+        (:meth:`RLSBank.forget <geogait.models._rls.RLSBank.forget>`). Used after an unannounced
+        change of the environment, so a slow λ need not be traded for fast re-learning.
 
         Parameters
         ----------
@@ -256,7 +259,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self
         """
         self._check_is_fitted()
-        self.bank_.inflate(check_float(factor, "factor", "AdaptiveGaitModel.forget", low=1))
+        self.bank_.forget(check_float(factor, "factor", "AdaptiveGaitModel.forget", low=1))
         return self
 
     # -- Taylor rebase (eq. 7) ----------------------------------------------------------------

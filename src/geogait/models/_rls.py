@@ -144,6 +144,28 @@ class RLSBank:
         over = trace > self.max_trace
         self.covariance[over] *= (self.max_trace / trace[over])[..., None, None]
 
+    def forget(self, factor: float) -> None:
+        r"""Discount the evidence in every covariance by ``factor`` (≥ 1), no direction beyond the prior.
+
+        In the prior's coordinates, :math:`\tilde P = P_0^{-1/2} P P_0^{-1/2} = V\,\mathrm{diag}(\mu)\,V^T`,
+        each eigenvalue becomes :math:`\max(\mu, \min(f\mu, 1))`: a direction the samples informed
+        gets ``factor`` times its variance, up to the prior's; a direction already at or beyond the
+        prior (never excited, grown by forgetting) keeps its own. Multiplying all of P by ``factor``
+        and re-applying the trace clamp (:meth:`inflate`) does not do this once the unexcited
+        directions hold the clamp's whole budget — as they do under steady forgetting with many
+        regressors — the clamp then scales the product straight back, and nothing is forgotten.
+        """
+        n = self.covariance.shape[-1]
+        root = np.sqrt(np.broadcast_to(np.asarray(self.initial_covariance, dtype=float), (n,)))
+        scale = root[:, None] * root[None, :]
+        eigenvalues, vectors = np.linalg.eigh(self.covariance / scale)
+        eigenvalues = np.maximum(eigenvalues, np.minimum(factor * eigenvalues, 1.0))
+        forgotten = np.einsum("...ik,...k,...jk->...ij", vectors, eigenvalues, vectors) * scale
+        self.covariance[...] = (forgotten + np.swapaxes(forgotten, -1, -2)) / 2
+        trace = np.einsum("...ii->...", self.covariance)
+        over = trace > self.max_trace
+        self.covariance[over] *= (self.max_trace / trace[over])[..., None, None]
+
     def update(self, x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> np.ndarray:
         """One round: every filter with ``valid`` True takes one sample.
 

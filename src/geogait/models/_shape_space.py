@@ -354,12 +354,12 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
 
     def forget(self, factor: float):
         """Discount all evidence so far by ``factor`` at once (:meth:`AdaptiveGaitModel.forget
-        <geogait.models.AdaptiveGaitModel.forget>`): every block covariance times ``factor``, then the trace
-        clamp. Returns ``self``."""
+        <geogait.models.AdaptiveGaitModel.forget>`): every block covariance's informed directions times
+        ``factor``, none beyond the prior. Returns ``self``."""
         self._check_is_fitted()
         factor = check_float(factor, "factor", f"{type(self).__name__}.forget", low=1)
         for bank in self.banks_:
-            bank.inflate(factor)
+            bank.forget(factor)
         return self
 
     def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
