@@ -184,3 +184,43 @@ def test_simulate_rate_names_bad_options(options, match):
     arguments.update({k: options.pop(k) for k in list(options) if k in arguments})
     with pytest.raises(ValueError, match=match):
         simulate_rate(**arguments, **options)
+
+
+def test_a_principally_kinematic_stream_moves_the_same_per_cycle_at_any_period():
+    """ξ = −A(r)ṙ: running the same shape loop faster or slower moves the body by the same amount per
+    cycle (to rounding, with the same samples per cycle), and time runs on without a jump."""
+    from geogait import se2
+
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation(eta=0), seed=0)
+    runs = []
+    for period in (1.0, 2.5, 0.5):
+        stream.set_cycle_period(period)
+        runs.append(stream.next_cycle())
+    nets = [se2.between(run.pose[0], run.pose[-1]) for run in runs]  # to the last sample's start
+    steps = [se2.between(a.pose[0], b.pose[0]) for a, b in zip(runs, runs[1:], strict=False)]
+    np.testing.assert_allclose(steps[0], steps[1], rtol=0, atol=1e-12)  # cycles at 1 s and 2.5 s
+    np.testing.assert_allclose(nets[1], nets[2], rtol=0, atol=1e-12)  # and at 0.5 s
+    np.testing.assert_allclose(steps[0], cycle_displacement(PurcellSwimmer(3), seed_gait(2)), atol=5e-3)
+    assert runs[1].time[0] == pytest.approx(1.0) and runs[2].time[0] == pytest.approx(3.5)
+    np.testing.assert_allclose(np.diff(runs[2].time), 0.005)
+    np.testing.assert_allclose(runs[1].shape_velocity * 2.5, runs[0].shape_velocity, atol=1e-12)
+
+
+def test_the_period_changes_only_at_a_cycle_boundary_and_survives_a_saved_state():
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=3)
+    stream.next_cycle()
+    stream.set_cycle_period(1.7)
+    stream.next_sample()
+    with pytest.raises(ValueError, match="'self'.*cycle boundary"):
+        stream.set_cycle_period(2.0)
+    with pytest.raises(ValueError, match="'seconds'"):
+        SwimmerStream(PurcellSwimmer(3), seed_gait(2)).set_cycle_period(0.0)
+    stream.next_cycle()
+    state = stream.robot_state()
+    expected = stream.next_cycle()
+    copy = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=3)
+    copy.restore_robot_state(state)
+    assert copy.cycle_period == 1.7
+    again = copy.next_cycle()
+    for name in ("time", "shape", "shape_velocity", "body_velocity", "pose"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(expected, name))

@@ -150,6 +150,7 @@ class SwimmerStream:
         self.pose = np.zeros(batch + (3,))
         self.cycle = 0
         self.position = 0  # sample index within the current cycle
+        self._period_since = (0, 0.0)  # the cycle from which the period holds, and its start time
         self._rms_key = None
         self._excitation = self._pending_excitation = None  # set_excitation: (δ, δ̇) on a phase grid
 
@@ -212,6 +213,23 @@ class SwimmerStream:
         self._perturbation = self.perturbation.stream(self.dt, self.n_joints, None, size=state.shape[:-2],
                                                       initial_state=state)
 
+    def set_cycle_period(self, seconds: float) -> None:
+        """Run the following cycles at period ``seconds`` (the same samples per cycle; at a cycle
+        boundary only): the shape path is the same, run faster or slower. The perturbation's SDE state
+        and generators carry over; time goes on from where the last cycle ended."""
+        owner = "SwimmerStream.set_cycle_period"
+        seconds = check_float(seconds, "seconds", owner, low=0, low_open=True)
+        if self.position != 0:
+            raise fail("self", owner, "a stream at a cycle boundary", f"sample {self.position} of a cycle")
+        if seconds == self.cycle_period:
+            return
+        start = (self.cycle - self._period_since[0]) * self.cycle_period + self._period_since[1]
+        self._period_since = (self.cycle, start)
+        self.cycle_period, self.dt, self.phase_rate = seconds, seconds / self.samples_per_cycle, 2 * np.pi / seconds
+        state = self._perturbation.state
+        self._perturbation = self.perturbation.stream(self.dt, self.n_joints, None, size=state.shape[:-2],
+                                                      initial_state=state)
+
     def robot_state(self) -> dict:
         """Everything that determines the rest of the stream: generators, SDE state, δ std, pose, gait.
 
@@ -222,7 +240,8 @@ class SwimmerStream:
                  "perturbation_rngs": [rng.bit_generator.state for rng in self._perturbation_rngs],
                  "noise_rngs": [rng.bit_generator.state for rng in self._noise_rngs],
                  "perturbation_state": self._perturbation.state.copy(), "perturbation_std": self.perturbation_std,
-                 "pose": self.pose.copy(), "gait": self._gait.coefficients.copy()}
+                 "pose": self.pose.copy(), "gait": self._gait.coefficients.copy(),
+                 "cycle_period": self.cycle_period, "period_since": list(self._period_since)}
         if self._pending_gait is not None:
             state["pending_gait"] = self._pending_gait.coefficients.copy()
         for name, excitation in (("excitation", self._excitation), ("pending_excitation", self._pending_excitation)):
@@ -247,8 +266,15 @@ class SwimmerStream:
         gait = FourierGait(arrays["gait"])
         if gait.n_joints != self._gait.n_joints:
             raise fail("state", owner, f"a gait with {self._gait.n_joints} joints", gait.n_joints)
+        period = check_float(state.get("cycle_period", self.cycle_period), "cycle_period", owner, low=0,
+                             low_open=True)
         if state.get("perturbation_std") is not None:  # states saved before sizes could change lack it
             self.set_perturbation_std(state["perturbation_std"])  # checked before anything else changes
+        if period != self.cycle_period:  # states saved before the period could change lack it
+            self.position = 0
+            self.set_cycle_period(period)
+        since = state.get("period_since", (0, 0.0))
+        self._period_since = (int(since[0]), float(since[1]))
         for generator, saved in zip(self._perturbation_rngs + self._noise_rngs, rngs[0] + rngs[1], strict=True):
             generator.bit_generator.state = saved
         self._perturbation.state = arrays["perturbation_state"].copy()
@@ -279,7 +305,7 @@ class SwimmerStream:
 
     def _noise_scale(self, system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-component RMS of ξ, r and ṙ along the nominal gait (cached per system and gait)."""
-        key = (id(system), self._gait)
+        key = (id(system), self._gait, self.cycle_period)
         if self._rms_key != key:
             phase = 2 * np.pi * np.arange(self.samples_per_cycle) / self.samples_per_cycle
             signals = _nominal_signals(system, self._gait, phase, self.phase_rate)
@@ -292,7 +318,8 @@ class SwimmerStream:
         d = gait.n_joints
         index = self.position + np.arange(m)
         phase = 2 * np.pi * index / self.samples_per_cycle
-        time = (self.cycle + index / self.samples_per_cycle) * self.cycle_period
+        time = (self.cycle - self._period_since[0] + index / self.samples_per_cycle) * self.cycle_period \
+            + self._period_since[1]
         if self._excitation is not None:
             state = np.stack(excitation_at(phase, *self._excitation), axis=-1)[None]
         else:
