@@ -157,7 +157,7 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
     """After a period change the model starts afresh; if its first cycles are settling or rejected, the
     next gait change cannot rebase it (nothing learned): it starts a new one."""
     from geogait.models import AdaptiveGaitModel
-    from geogait.optimize._insitu import _State
+    from geogait.optimize._state import _State
 
     optimizer = InSituOptimizer()
     gait = seed_gait(2)

@@ -25,7 +25,8 @@ from ..experiments.optimization import (
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
-from ..optimize._insitu import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, DEFAULT_MAX_JOINT_ANGLE
+from ..optimize._insitu import DEFAULT_MAX_JOINT_ANGLE
+from ..optimize._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,

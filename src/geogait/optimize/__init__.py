@@ -3,7 +3,8 @@ prior-work batch baseline and the trust-region step rules."""
 
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._exploration import Exploration
-from ._insitu import CycleMeasurement, InSituOptimizer, InSituResult, measure_cycle, symmetric_chain_model
+from ._insitu import InSituOptimizer, symmetric_chain_model
+from ._measure import CycleMeasurement, measure_cycle
 from ._objective import (
     OBJECTIVES,
     default_objective,
@@ -13,6 +14,7 @@ from ._objective import (
     path_length,
     rms_speed,
 )
+from ._result import InSituResult
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [

@@ -1,0 +1,509 @@
+"""The per-cycle loop of an in-situ optimisation run over a robot: measure, learn, gate, step, save."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+
+from .. import __version__
+from .._files import write_state
+from .._validation import GeogaitError, GeogaitWarning
+from ..simulate import Trajectory, cycle_displacement
+from ._measure import _peak_phase_speed, measure_cycle
+from ._objective import joint_limit_constraints
+from ._result import InSituResult
+from ._state import _TRACKING_FLOOR, CHECKPOINT_FORMAT, CHECKPOINT_VERSION, _params_to_json
+
+
+class _Loop:
+    """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
+
+    def __init__(self, optimizer, robot, state, checkpoint, checkpoint_every, tag=None):
+        self.optimizer, self.robot, self.state, self.tag = optimizer, robot, state, tag
+        self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
+        self.gate = optimizer._gate()
+        self.truth = _Oracle(robot, optimizer)
+        if not state.gaits:
+            state.gaits = [state.gait]
+            state.robot_gait = state.gait
+            state.seed_value = self.truth(state.gait, state)[1]
+            if optimizer.direction is not None:
+                direction = np.asarray(optimizer.direction, dtype=float)
+                state.direction, state.direction_fixed = direction / np.hypot(*direction), True
+
+    def run(self, callback, record) -> InSituResult:
+        state, chunks = self.state, []
+        if state.exploration is not None:  # the first cycle's, or the one a checkpoint had commanded
+            if state.excitation_next is None:
+                self._command_excitation()
+            else:
+                self.robot.set_excitation(*state.excitation_next)
+        while state.cycle < state.n_cycles:
+            chunk = self.robot.next_cycle()
+            if record:
+                chunks.append(chunk)
+            row = self._cycle(chunk)
+            state.rows.append(row)
+            state.cycle += 1
+            if callback is not None:
+                callback(row)
+            due = state.cycle % self.checkpoint_every == 0 or state.cycle == state.n_cycles
+            if self.checkpoint is not None and due:
+                self._save()
+        # a climb candidate not yet judged is not a result: the base it was drawn from is
+        final, period = state.gait, state.period
+        if state.climb.active and state.climb.candidate is not None:
+            final, period = state.climb.base
+        elif state.period_search is not None and state.period_search.trial_from is not None:
+            period = state.period_search.trial_from
+        return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=final,
+                            cycle_period=period,
+                            gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
+                            shape_scale=state.scale, direction=state.direction,
+                            trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
+
+    def _cycle(self, chunk) -> dict:
+        optimizer, state = self.optimizer, self.state
+        ran, ran_period = state.robot_gait, state.robot_period
+        measured = measure_cycle(chunk, ran, ran_period, "InSituOptimizer.run")
+        search = state.period_search
+        was_trial = search is not None and search.trial_from is not None
+        was_candidate = state.climb.candidate == (ran, ran_period)
+        state.world_heading = float(measured.start[2])
+        settling = state.settle_left > 0
+        rejected = reverted = False
+        kind, prediction_ok = None, np.nan
+        value = np.nan
+        if settling:
+            state.settle_left -= 1
+            state.gamma = np.nan
+        else:
+            self._set_direction(measured)
+            value = optimizer._evaluate(measured.net, np.zeros((3, ran.params.size)), ran, state)[0]
+            if state.iteration == 0:
+                state.seed_measured.append(value)
+                state.seed_tracking.append(measured.tracking_error)
+                state.tracking_limit = max(_TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.seed_tracking)))
+            rejected = self._tracking_rejects(measured)
+            if not rejected:
+                state.learn(chunk, self.gate)
+                state.iteration_measured.append(value)
+                state.iteration_excitation.append(measured.excitation)
+                key = (state.gait, state.period)
+                if state.climb.active:
+                    state.climb.record(key, value * state.rate(state.period), float(measured.net[2]))
+                else:
+                    state.measured.setdefault(key, []).append(value * state.rate(state.period))
+                    state.rotations.setdefault(key, []).append(float(measured.net[2]))
+                if not state.climb.active and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration \
+                        and self._unexcited() and optimizer.climb:  # (Γ cannot rise without exploration)
+                    self._start_climb()
+                if self._gate_open():
+                    self._fix_direction()
+                    reverted = self._measured_reverts()
+                if self._gate_open() and not reverted:
+                    kind, prediction_ok = self._decide()
+        step = kind is not None
+        row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
+                        prediction_ok, measured, value, reverted, ran_period)
+        row.update(climb=kind == "climb", period_change=kind == "period",
+                   candidate=bool(was_candidate and state.climb.base != (ran, ran_period)
+                                  or was_trial and not (search.trial_from is None and state.period == ran_period)))
+        if step or rejected or reverted:
+            state.gaits.append(state.gait)
+        state.robot_gait = state.gait
+        self.robot.set_gait(state.gait)
+        self._command_period()
+        self._command_excitation()
+        return row
+
+    def _command_excitation(self) -> None:
+        """Send the next cycle's excitation when the optimiser owns the exploration (none while climbing)."""
+        state = self.state
+        if state.exploration is None:
+            return
+        delta, rate = state.exploration.next_cycle(state.robot_period)
+        if state.climb.active:  # the climb measures outcomes: clean cycles, as a black-box method runs them
+            delta, rate = np.zeros_like(delta), np.zeros_like(rate)
+        state.excitation_next = (delta, rate)
+        self.robot.set_excitation(delta, rate)
+
+    def _unexcited(self) -> bool:
+        """The current gait's cycles carried no exploration (below 1 % of shape_scale): say so, once."""
+        state = self.state
+        if not state.iteration_excitation or np.mean(state.iteration_excitation) >= 0.01 * state.scale:
+            return False
+        if not state.warned_no_excitation:
+            warnings.warn(
+                f"InSituOptimizer: the robot's cycles carry no exploration (RMS commanded - nominal shape "
+                f"{np.mean(state.iteration_excitation):.2g}, below 1 % of shape_scale {state.scale:.3g}); the model "
+                "cannot learn the gait's neighbourhood, so it takes no step"
+                + (" (the measured climb does)" if self.optimizer.climb else "")
+                + ". Give the robot set_excitation (geogait then explores) or a perturbation of its own.",
+                GeogaitWarning, stacklevel=4)
+            state.warned_no_excitation = True
+        return True
+
+    def _decide(self) -> tuple[str | None, float]:
+        """The gate is open: a period trial, a model step or a climb step (or none).
+
+        Returns the kind of change made (``"period"``, ``"model"``, ``"climb"`` or None) and the
+        prediction check's outcome (NaN when none was made).
+        """
+        state, optimizer = self.state, self.optimizer
+        if self.gate == "cycles":
+            state.fit_iteration()
+        if state.period_search is not None and not state.climb.active and self._period_move():
+            return "period", np.nan
+        kind, prediction_ok = None, np.nan
+        if not state.climb.active and self._unexcited():
+            if optimizer.climb:
+                self._start_climb()
+        elif not state.climb.active:
+            prediction_ok = float(self._prediction_agrees())
+            state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
+            if optimizer.climb and state.stall >= 3:  # the model has levelled off: climb on from here
+                self._start_climb()
+            elif prediction_ok and optimizer._step(state):
+                kind = "model"
+            if prediction_ok and not state.climb.active:  # no step, or one promising under 1 %: level
+                before, promised = state.promised[:2] if kind == "model" else (0.0, 0.0)
+                small = kind is None or abs(promised - before) < 0.01 * abs(before)
+                state.stall = state.stall + 1 if small else 0
+            if kind is None and optimizer.climb and (state.distrust >= 2 or state.prediction_failures >= 2):
+                self._start_climb()
+        if kind is None and state.climb.active and self._climb_move():
+            kind = "climb"
+        if state.period_search is not None:
+            state.period_search.turn = True
+            if kind is not None:
+                state.period_search.gait_changed()
+        if kind is None and self.gate == "cycles":  # prior work: another block of cycles, then retry
+            state.cycles_in_iteration = 0
+        return kind, prediction_ok
+
+    def _command_period(self) -> None:
+        """Command the state's period; the robot may round it (its timing), and the run uses what it runs."""
+        state = self.state
+        if state.period != state.robot_period:
+            self.robot.set_cycle_period(state.period)
+            realised = float(self.robot.cycle_period)
+            if realised != state.period:  # the model was built for the asked period: rebuild it
+                if state.climb.candidate == (state.gait, state.period):
+                    state.climb.candidate = (state.gait, realised)
+                state.period = realised
+                state.model = self.optimizer._new_model(state.gait, realised, state.family, state.scale)
+        state.robot_period = state.period
+
+    def _start_climb(self, base: tuple | None = None) -> None:
+        """Hand the steps to the measured climb, from the best gait measured so far (measured again:
+        the climb's cycles carry no exploration when the optimiser owns it). A period trial in
+        progress is dropped: while climbing, the period is one of the climb's coordinates."""
+        state = self.state
+        best = self._best_key() if base is None else base
+        state.climb.start(best, self.optimizer.max_trust_radius * state.scale)
+        if state.period_search is not None:
+            state.period_search.trial_from = None
+
+    def _best_key(self) -> tuple:
+        """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
+        state = self.state
+        current = (state.gait, state.period)
+        keys = [k for k, v in state.measured.items() if len(v) >= 2 or k == current]
+        return max(keys, key=lambda k: float(np.mean(state.measured[k]))) if keys else current
+
+    def _climb_move(self) -> bool:
+        """The climb's turn at a gate decision (:class:`MeasuredClimb`): judge the candidate just measured,
+        go back to the base to measure it again after three failures, or command the next candidate;
+        returns whether the gait changed."""
+        state, optimizer, climb = self.state, self.optimizer, self.state.climb
+        key = (state.gait, state.period)
+        measured = climb.measured
+        if np.isnan(climb.rotation_limit) and climb.base in measured:  # the start base, measured as the climb
+            rotation = abs(float(np.mean(climb.rotations[climb.base])))  # measures (clean, when it can)
+            climb.rotation_limit = max(rotation, optimizer.rotation_tolerance)
+        if climb.candidate is not None:
+            if climb.candidate == key and climb.base in measured:
+                climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
+                            self._rotation_holds(key, climb.base))
+                if climb.model_trusted_again:  # back to model steps, from the best gait, on a fresh record
+                    climb.active = False
+                    state.distrust = state.prediction_failures = state.stall = 0
+                    state.radius = optimizer.trust_radius * state.scale
+                    state.measured, state.rotations = {}, {}
+                    optimizer._change_gait(state, *climb.base)
+                    return True
+            climb.candidate = None  # a candidate left early (rejected) is not judged
+        if climb.base not in measured or (key != climb.base and climb.failures >= 3):
+            climb.failures = 0  # measure the base (again: it may have been lucky)
+            optimizer._change_gait(state, *climb.base)
+            return True
+        return self._climb_candidate()
+
+    def _climb_candidate(self) -> bool:
+        """Command the climb's next candidate: σ from the base in its next direction, shortened until it
+        keeps the joint limits and the feasible region."""
+        state, optimizer, climb = self.state, self.optimizer, self.state.climb
+        base_gait, base_period = climb.base
+        family, search = state.family, state.period_search
+        base = family.params_of(base_gait, tolerance=1e-8)
+        # with optimize_period, log T is one more coordinate (σ / shape_scale in log units)
+        direction = climb.next_direction(state.rng, base.size + (search is not None))
+        for shrink in range(6):
+            length = climb.sigma * 0.5 ** shrink
+            gait = family.gait(base + length * direction[:base.size])
+            period = base_period
+            if search is not None:
+                period = float(np.clip(base_period * np.exp(length * direction[-1] / state.scale),
+                                       search.low, search.high))
+            speed = None if optimizer.max_joint_velocity is None else \
+                optimizer.max_joint_velocity * period / (2 * np.pi)
+            rows, bounds = joint_limit_constraints(base_gait.n_joints, optimizer.order, state.max_joint_angle, speed)
+            if np.all(rows @ gait.params <= bounds + 1e-12) and (
+                    state.feasibility is None or state.feasibility(gait.params)[0].min() >= 0):
+                break
+        else:
+            climb.sigma = max(climb.min_sigma, climb.sigma / 2)
+            return False
+        climb.predicted_gain = (optimizer._predict(state, gait)[1] * state.rate(period)
+                                - optimizer._predict(state, base_gait)[1] * state.rate(base_period))
+        climb.candidate = (gait, period)
+        optimizer._change_gait(state, gait, period)
+        return True
+
+    def _rotation_holds(self, key, base) -> bool:
+        """The candidate's mean measured net rotation is within the climb's rotation limit (the start
+        base's, fixed) beyond twice its standard error."""
+        rotations = np.asarray(self.state.climb.rotations.get(key, []))
+        if rotations.size == 0:
+            return True
+        error = float(np.std(rotations, ddof=1) / np.sqrt(rotations.size)) if rotations.size > 1 else 0.0
+        return abs(float(rotations.mean())) <= self.state.climb.rotation_limit + 2 * error
+
+    def _period_move(self) -> bool:
+        """The period's turn at a gate decision (``optimize_period``): judge the trial in progress, or
+        start the next one; returns whether the period was changed (counted as a step)."""
+        state, search = self.state, self.state.period_search
+        if search.trial_from is not None:
+            reference = state.measured.get((state.gait, search.trial_from))
+            origin = search.trial_from
+            trial = float(np.mean(state.measured[(state.gait, state.period)]))
+            kept = search.judge(trial, float(np.mean(reference)) if reference else -np.inf)
+            search.turn = False
+            tracking, state.trial_tracking = state.trial_tracking, []
+            if kept:  # the automatic tracking limit follows the period: twice what this one tracks
+                state.tracking_limit = max(_TRACKING_FLOOR * state.scale, 2 * float(np.mean(tracking)))
+                return False
+            self.optimizer._change_gait(state, state.gait, origin)
+            return True
+        if not search.turn:
+            return False
+        shortest = 0.0  # the period at which the gait's fastest joint reaches max_joint_velocity
+        if self.optimizer.max_joint_velocity is not None:
+            shortest = _peak_phase_speed(state.gait) * 2 * np.pi / self.optimizer.max_joint_velocity
+        period = search.propose(state.period, shortest)
+        if period is None:
+            search.turn = False
+            return False
+        search.trial_from = state.period
+        state.trial_tracking = []
+        self.optimizer._change_gait(state, state.gait, period)
+        return True
+
+    def _set_direction(self, measured):
+        """The direction of ``"forward"`` (default): the mean motion of the seed's measured cycles.
+
+        Until the first gate decision it is the running mean of the seed's cycles so far (in the
+        ``direction_frame``); :meth:`_fix_direction` then fixes it from all of them.
+        """
+        state = self.state
+        if self.optimizer.objective != "forward" or state.direction_fixed:
+            return
+        net = measured.net[:2]
+        if self.optimizer.direction_frame == "world":
+            c, s = np.cos(measured.start[2]), np.sin(measured.start[2])
+            net = np.array([c * net[0] - s * net[1], s * net[0] + c * net[1]])
+        state.seed_nets.append(net)
+        mean = np.mean(state.seed_nets, axis=0)
+        norm = np.hypot(*mean)
+        if norm == 0:
+            raise GeogaitError("InSituOptimizer: the seed gait did not move in its measured cycles, so "
+                               "objective 'forward' has no direction; pass 'direction' explicitly.")
+        state.direction = mean / norm
+
+    def _fix_direction(self) -> None:
+        """Fix "forward" from every measured seed cycle, or refuse when their mean motion cannot be told
+        from their spread (|mean| < 2 standard errors along it); re-score the seed's cycles with it."""
+        state = self.state
+        if self.optimizer.objective != "forward" or state.direction_fixed:
+            return
+        nets = np.asarray(state.seed_nets)
+        mean = nets.mean(axis=0)
+        norm = float(np.hypot(*mean))
+        error = float(np.sqrt(state.direction @ np.cov(nets.T) @ state.direction / len(nets))) if len(nets) > 1 \
+            else 0.0
+        if norm < 2 * error:
+            raise GeogaitError(
+                f"InSituOptimizer: the seed gait's mean motion over its {len(nets)} measured cycles "
+                f"({norm:.3g} per cycle, standard error {error:.3g}) cannot be told from noise, so objective "
+                "'forward' has no direction; pass 'direction' explicitly or start from a gait that moves.")
+        state.direction, state.direction_fixed = mean / norm, True
+        values = [float(net @ state.direction) for net in nets]  # "forward" of every seed cycle, fixed direction
+        state.seed_measured = values
+        state.iteration_measured = list(values)
+        state.measured[(state.gait, state.period)] = [v * state.rate(state.period) for v in values]
+
+    def _tracking_rejects(self, measured) -> bool:
+        """Reject the current gait (back to the previous one) if the robot could not follow it."""
+        optimizer, state = self.optimizer, self.state
+        search = state.period_search
+        if search is not None and search.trial_from is not None:
+            state.trial_tracking.append(measured.tracking_error)
+            if optimizer.max_tracking_error == "auto":  # another period tracks otherwise: judged by outcome
+                return False
+        limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
+        if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
+            return False
+        state.promised = None
+        state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
+            state.climb.judge(-np.inf, 0.0, rotation_holds=False)
+        previous = state.previous_gait
+        optimizer._change_gait(state, previous, state.previous_period)
+        if search is not None and search.trial_from is not None:  # a period the robot cannot follow
+            search.judge(-np.inf, 0.0)
+            search.turn = False
+        state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
+        return True
+
+    def _measured_reverts(self) -> bool:
+        """Measured outcomes over the model: go back to the best gait measured so far when the current
+        one is worse beyond noise.
+
+        Each gait's learned cycles give its mean measured objective; σ is the pooled cycle-to-cycle
+        standard deviation within gaits. When the current gait's mean falls below the best other
+        gait's by more than 2 σ √(1/n + 1/n_best), the model's steps have led the robot downhill,
+        whatever the model predicts: the best gait is commanded again (its further cycles refine its
+        mean, so a lucky best is corrected) and the trust radius halves.
+        """
+        state, optimizer = self.state, self.optimizer
+        if state.iteration == 0 or optimizer.revert_tolerance is None or state.climb.active:
+            return False  # (the climb judges its own candidates)
+        current = (state.gait, state.period)
+        counts = {g: len(v) for g, v in state.measured.items() if len(v) >= 2}
+        if current not in counts or len(counts) < 2:
+            return False
+        means = {g: float(np.mean(state.measured[g])) for g in counts}
+        dof = sum(n - 1 for n in counts.values())
+        sigma = np.sqrt(sum(np.var(state.measured[g], ddof=1) * (n - 1) for g, n in counts.items()) / dof)
+        best = max((g for g in counts if g != current), key=means.get)
+        margin = optimizer.revert_tolerance * sigma * np.sqrt(1 / counts[current] + 1 / counts[best])
+        if not means[current] < means[best] - margin:
+            return False
+        state.promised = None
+        state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        search = state.period_search
+        if search is not None and search.trial_from is not None:  # the trial lost beyond noise
+            search.judge(-np.inf, 0.0)
+            search.turn = False
+        optimizer._change_gait(state, *best)
+        if not (search is not None and best[0] == current[0]):  # the model led downhill: a broken promise
+            state.distrust += 1
+        state.previous_gait = None
+        return True
+
+    def _gate_open(self) -> bool:
+        state = self.state
+        if state.climb.active:  # measured outcomes need measured cycles, not a model's confidence:
+            # one clean cycle (no exploration: the optimiser owns it) or the usual number
+            needed = 1 if state.exploration is not None else self.optimizer.min_cycles_per_iteration
+            return state.cycles_in_iteration >= needed
+        if self.gate == "cycles":
+            return state.cycles_in_iteration >= self.optimizer.cycles_per_iteration
+        return (state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
+                and np.isfinite(state.gamma) and state.gamma >= self.optimizer.gamma_threshold)
+
+    def _prediction_agrees(self) -> bool:
+        """Model's predicted objective of the current gait vs the mean measured one (module docstring)."""
+        tolerance = self.optimizer.prediction_tolerance
+        if tolerance is None:
+            return True
+        predicted = self.optimizer._predict(self.state, self.state.gait)[1]
+        measured = float(np.mean(self.state.iteration_measured))
+        return bool(abs(predicted - measured) <= tolerance * abs(measured))
+
+    def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value, reverted, period) -> dict:
+        state = self.state
+        net = measured.net
+        progress = float(np.hypot(net[0], net[1]))
+        row = {"cycle": state.cycle, "iteration": state.iteration - int(step) - int(rejected) - int(reverted),
+               "settling": settling, "gamma": gamma, "step": step, "rejected": rejected, "reverted": reverted,
+               "prediction_ok": prediction_ok,
+               "trust_radius": state.radius, "predicted_objective": state.last_prediction,
+               "measured_x": net[0], "measured_y": net[1], "measured_heading": net[2],
+               "measured_progress": progress, "measured_objective": value,
+               "measured_speed": progress / period, "cycle_period": period, "tracking_error": measured.tracking_error,
+               "excitation": measured.excitation,
+               "world_x": measured.start[0], "world_y": measured.start[1], "world_heading": measured.start[2]}
+        pose, true_value = self.truth(gait, state)
+        if self.truth.available:
+            row.update({"true_x": pose[0], "true_y": pose[1], "true_heading": pose[2],
+                        "true_progress": float(np.hypot(pose[0], pose[1])), "true_objective": true_value,
+                        "improvement": true_value * state.rate(period)
+                        / (state.seed_value * state.rate(state.seed_period)) - 1})
+            reference = true_value
+        else:
+            seed = float(np.mean(state.seed_measured)) if state.seed_measured else np.nan
+            row["improvement"] = (value * state.rate(period) / (seed * state.rate(state.seed_period)) - 1
+                                  if seed else np.nan)
+            reference = value
+        if state.ceiling is not None:
+            row["ceiling_fraction"] = reference / state.ceiling
+        row.update({f"param_{k}": v for k, v in enumerate(gait.params)})
+        return row
+
+    def _save(self):
+        """Write the checkpoint (one atomic ``.npz``: JSON metadata + arrays)."""
+        metadata, arrays = self.state.to_checkpoint()
+        model = self.state.model
+        model_metadata = None
+        if hasattr(model, "get_state") and hasattr(model, "batch_shape_"):  # fitted
+            model_metadata, model_arrays = model.get_state()
+            arrays.update({f"model/{k}": np.asarray(v) for k, v in model_arrays.items()})
+        robot_state = None
+        if hasattr(self.robot, "robot_state"):
+            robot_state = {}
+            for key, value in self.robot.robot_state().items():
+                if isinstance(value, np.ndarray):
+                    arrays[f"robot/{key}"] = value
+                else:
+                    robot_state[key] = value
+        payload = {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION, "geogait": __version__,
+                   "params": _params_to_json(self.optimizer), "state": metadata,
+                   "model": None if model_metadata is None else {"metadata": model_metadata},
+                   "robot_state": robot_state, "checkpoint_every": self.checkpoint_every, "tag": self.tag}
+        write_state(self.checkpoint, payload, arrays)
+
+
+class _Oracle:
+    """True (x, y, heading) and objective per cycle of a gait, when the robot exposes its system."""
+
+    def __init__(self, robot, optimizer):
+        self.system = getattr(robot, "current_system", None)
+        self.available = self.system is not None
+        self.optimizer = optimizer
+        self.cache = {}
+
+    def __call__(self, gait, state):
+        if self.system is None:
+            return np.full(3, np.nan), np.nan
+        system = self.system()
+        key = (id(system), gait)
+        if key not in self.cache:
+            self.cache[key] = cycle_displacement(system, gait, resolution=128)
+        pose = self.cache[key]
+        if self.optimizer.objective == "forward" and state.direction is None:
+            return pose, np.nan
+        return pose, self.optimizer._evaluate(pose, np.zeros((3, gait.params.size)), gait, state)[0]

@@ -1,0 +1,133 @@
+"""The outcome of an in-situ optimisation run: its per-cycle log, gaits and headline numbers."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..gaits import FourierGait
+from ..simulate import Trajectory
+
+__all__ = ["InSituResult"]
+
+
+@dataclass
+class InSituResult:
+    """Outcome of :meth:`InSituOptimizer.run`.
+
+    Attributes
+    ----------
+    log : pandas.DataFrame
+        One row per cycle: ``cycle``, ``iteration``, ``settling`` (a settle cycle after a gait
+        change, not learned from), ``gamma`` (online Γ over the iteration so far; NaN on settle
+        cycles and on the burn-in cycle after a step, which only trains the reset baseline),
+        ``step`` (a step was taken after this cycle), ``rejected`` (this cycle's gait was rejected
+        for poor tracking and the previous one commanded again), ``reverted`` (measured worse than
+        the best gait so far, which was commanded again), ``prediction_ok`` (the prediction
+        check at a gate decision; NaN when none was made), ``trust_radius``,
+        ``predicted_objective`` (the model's estimate for the gait of this cycle at the last step
+        decision); measured from the robot: ``measured_x``, ``measured_y``, ``measured_heading``
+        (net motion of the cycle in the body frame at its start), ``measured_progress`` (its
+        length), ``measured_objective``, ``measured_speed`` (progress per second),
+        ``tracking_error`` (RMS realised − commanded shape, rad), ``world_x``, ``world_y``,
+        ``world_heading`` (pose at the start of the cycle), ``cycle_period`` (s), ``climb`` (the step
+        after this cycle came from the measured climb), ``period_change`` (a period trial started or
+        ended after it), ``candidate`` (this cycle ran a climb candidate or period trial that was
+        not kept: not a result); with a simulator's truth ``true_x``,
+        ``true_y``, ``true_heading``, ``true_progress``, ``true_objective``; ``improvement``
+        (relative to the seed: true values where there is a truth, else the measured objective over
+        the mean measured objective of the seed's cycles so far), ``ceiling_fraction`` (when a
+        ceiling is given), and ``param_*``.
+    initial_gait, final_gait : FourierGait
+    gaits : list of FourierGait
+        Every nominal gait commanded, in order (rejected ones included).
+    trajectory : Trajectory or None
+        Every sample of the run (when ``record=True``; after a resume only the resumed part).
+    max_joint_angle, shape_scale : float or None
+        The joint limit and unit of shape the run used (resolved from the robot for ``"auto"``).
+    direction : ndarray of shape (2,) or None
+        The unit direction of ``"forward"`` the run used (in its ``direction_frame``).
+    cycle_period : float or None
+        The period (s) to run ``final_gait`` at (the robot's, unless ``optimize_period``).
+    model : object or None
+        The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
+        the last fit): what the next step would have used. Inspect it against a simulator's truth,
+        or save it.
+    """
+
+    log: pd.DataFrame
+    initial_gait: FourierGait
+    final_gait: FourierGait
+    gaits: list = field(default_factory=list)
+    trajectory: Trajectory | None = None
+    model: object | None = None
+    max_joint_angle: float | None = None
+    shape_scale: float | None = None
+    direction: np.ndarray | None = None
+    cycle_period: float | None = None
+
+    @property
+    def n_steps(self) -> int:
+        return int(self.log["step"].sum())
+
+    @property
+    def n_rejected(self) -> int:
+        return int(self.log["rejected"].sum())
+
+    def summary(self, ceiling=None) -> dict:
+        """Headline numbers of the run (what ``geogait optimize`` writes to ``summary.json``).
+
+        Measured values average the learned cycles (no settle or rejected cycles) of the seed's
+        iteration and of the last one; with a simulator's truth also the true displacement per cycle
+        of the seed and final gaits and the largest |net rotation| of any commanded gait; with a
+        ``ceiling`` (:class:`~geogait.optimize.Ceiling`) its value, the final share of it and the
+        first cycle at 90 %. Non-finite values become ``None`` (valid JSON).
+        """
+        log = self.log
+        measured = log[~log["settling"] & ~log["rejected"]]
+        if "candidate" in measured:  # the result is the last gait that was not an unjudged climb candidate
+            measured = measured[~measured["candidate"].astype(bool)]
+        seed_rows = measured["iteration"] == 0
+        final_rows = measured["iteration"] == measured["iteration"].iloc[-1]
+        seed = measured.loc[seed_rows, "measured_objective"].mean()
+        final = measured.loc[final_rows, "measured_objective"].mean()
+        # per second: the same ratio at a fixed period, the objective's own with optimize_period
+        periods = measured["cycle_period"] if "cycle_period" in measured else pd.Series(1.0, measured.index)
+        seed_rate = (measured["measured_objective"] / periods)[seed_rows].mean()
+        final_rate = (measured["measured_objective"] / periods)[final_rows].mean()
+        summary = {
+            "seed_measured_objective": _finite(seed),
+            "final_measured_objective": _finite(final),
+            "final_measured_improvement": _finite(final_rate / seed_rate - 1),
+            "seed_cycle_period": _finite(periods[seed_rows].mean()),
+            "final_cycle_period": _finite(periods[final_rows].mean()),
+            "steps": self.n_steps,
+            "rejected_steps": self.n_rejected,
+            "reverted_to_best": int(self.log["reverted"].sum()) if "reverted" in self.log else 0,
+            "max_tracking_error_rad": _finite(log["tracking_error"].max()),
+            "max_joint_angle": _finite(self.max_joint_angle),
+            "shape_scale": _finite(self.shape_scale),
+            "forward_direction": None if self.direction is None else [float(v) for v in self.direction],
+            "final_gait_params": self.final_gait.params.tolist(),
+        }
+        if "true_objective" in log:
+            summary.update({
+                "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),
+                "final_displacement_per_cycle": _finite(log["true_objective"].iloc[-1]),
+                "final_improvement": _finite(log["improvement"].iloc[-1]),
+                "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
+            })
+        if ceiling is not None:
+            first_90 = log.index[log["ceiling_fraction"] >= 0.9]
+            summary.update({
+                "ceiling_displacement_per_cycle": ceiling.value,
+                "final_ceiling_fraction": _finite(log["ceiling_fraction"].iloc[-1]),
+                "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
+            })
+        return summary
+
+
+def _finite(value):
+    return None if value is None or not np.isfinite(value) else float(value)

@@ -1,0 +1,336 @@
+"""The state an in-situ optimisation run carries from cycle to cycle, and its checkpoint."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .. import models
+from .._validation import fail
+from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
+from ..models import model_from_state
+from ._climb import MeasuredClimb
+from ._exploration import Exploration
+from ._period import PeriodSearch
+
+CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
+CHECKPOINT_VERSION = 1
+_TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never falls below this
+
+
+@dataclass
+class _State:
+    """Everything a run carries from cycle to cycle (and saves in its checkpoint)."""
+
+    gait: FourierGait
+    radius: float
+    model: object
+    n_cycles: int
+    ceiling: float | None
+    period: float
+    cycle: int = 0
+    iteration: int = 0
+    cycles_in_iteration: int = 0
+    settle_left: int = 0
+    last_prediction: float = np.nan
+    promised: tuple | None = None  # (value before the step, predicted value after, at the boundary)
+    previous_gait: FourierGait | None = None
+    robot_gait: FourierGait | None = None  # gait the robot runs next
+    iteration_data: list = field(default_factory=list)  # the "cycles" gate's samples of this iteration
+    iteration_measured: list = field(default_factory=list)  # measured objective of this iteration's cycles
+    residual_variance: float = np.nan  # recent mean squared a-priori error of ω
+    gamma: float = np.nan
+    direction: np.ndarray | None = None
+    world_heading: float = 0.0
+    tracking_limit: float = np.nan
+    seed_measured: list = field(default_factory=list)
+    seed_tracking: list = field(default_factory=list)  # tracking errors of the seed's measured cycles
+    seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
+    rows: list = field(default_factory=list)
+    gaits: list = field(default_factory=list)
+    family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
+    measured: dict = field(default_factory=dict)  # gait -> measured objective of each of its learned cycles
+    feasibility: object = None  # the system's feasible region as step constraints (None: none declared)
+    seed_nets: list = field(default_factory=list)  # the seed's measured motion per cycle, direction frame
+    direction_fixed: bool = False  # "forward" fixed (given, or from all the seed's cycles at the first gate)
+    max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
+    scale: float = 1.0  # the robot's unit of shape (shape_scale)
+    robot_period: float = np.nan  # period the robot runs next (s)
+    previous_period: float = np.nan
+    seed_period: float = np.nan
+    period_search: PeriodSearch | None = None  # optimize_period's line search (None: period fixed)
+    trial_tracking: list = field(default_factory=list)  # tracking errors of a period trial's cycles
+    climb: MeasuredClimb | None = None  # steps from measured outcomes (the climb parameter)
+    rng: np.random.Generator | None = None  # the climb's directions
+    distrust: int = 0  # ratio tests failed in a row at the smallest trust radius
+    prediction_failures: int = 0  # prediction checks failed in a row
+    stall: int = 0  # gate decisions in a row whose model step was declined or promised under 1 %
+    rotations: dict = field(default_factory=dict)  # (gait, period) -> measured net rotation of each learned cycle
+    exploration: Exploration | None = None  # the optimiser's own excitation (None: the robot's)
+    excitation_next: tuple | None = None  # (δ, δ̇) commanded for the next cycle (re-sent on resume)
+    iteration_excitation: list = field(default_factory=list)  # excitation RMS of this iteration's cycles
+    warned_no_excitation: bool = False
+
+    def rate(self, period: float) -> float:
+        """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
+        optimised (a rate), else 1."""
+        return 1.0 / period if self.period_search is not None else 1.0
+
+    def restart_iteration(self):
+        self.cycles_in_iteration = 0
+        self.iteration_data = []
+        self.iteration_measured = []
+        self.iteration_excitation = []
+
+    def learn(self, chunk, gate):
+        self.cycles_in_iteration += 1
+        args = (chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
+        if gate == "cycles":
+            self.iteration_data.append(args)
+            return
+        self.model.partial_fit(*args)
+        error = float(np.mean((self.model.prior_prediction_[..., 2] - chunk.body_velocity[..., 2]) ** 2))
+        previous = self.residual_variance
+        self.residual_variance = error if np.isnan(previous) else 0.8 * previous + 0.2 * error
+        if self.iteration > 0 and self.cycles_in_iteration == 1:
+            self.model.reset_gamma()  # the fresh baseline has now seen the new gait once
+            self.gamma = np.nan
+        else:
+            self.gamma = float(self.model.gamma_)
+
+    def fit_iteration(self):
+        """The ``"cycles"`` gate: fit the model on this iteration's cycles from scratch."""
+        self.model.fit(*(np.concatenate(parts) for parts in zip(*self.iteration_data, strict=True)))
+
+    def rotation_std(self) -> float:
+        """Standard error of the model's predicted net rotation of its own nominal gait.
+
+        At δ = 0 the predicted rotation is ≈ Σ_m C_m,ω · 2π / (M φ̇) (the smoothed constant terms'
+        mean over a cycle), so its variance is ≈ σ_ω² (2π / (M φ̇))² Σ_m P_m[0, 0], with σ_ω² the
+        recent mean squared a-priori error of ω. Only a predicted rotation beyond twice this is
+        treated as real and restored. Models without RLS covariances report 0.
+        """
+        if hasattr(self.model, "rotation_std"):  # models that know their own error (ShapeSpaceModel)
+            return float(self.model.rotation_std(self.gait, self.residual_variance)) \
+                if np.isfinite(self.residual_variance) else np.inf
+        covariance = getattr(self.model, "covariance_", None)
+        if covariance is None or not hasattr(self.model, "phase_rate"):
+            return 0.0
+        if not np.isfinite(self.residual_variance):
+            return np.inf
+        p00 = covariance[..., 0, 0]
+        scale = 2 * np.pi / (p00.shape[-1] * self.model.phase_rate)
+        return float(np.sqrt(self.residual_variance * p00.sum()) * scale)
+
+    def update_radius(self, value_now, low, high):
+        """Ratio test: compare the gain the last step promised with what the new model sees."""
+        if self.promised is None:
+            return
+        before, promised, boundary = self.promised
+        ratio = (value_now - before) / (promised - before) if promised != before else 1.0
+        # a promise worth checking (at least 1 %) broken at the smallest radius: the model misleads
+        significant = abs(promised - before) >= 0.01 * abs(before)
+        self.distrust = self.distrust + 1 if ratio < 0.25 and significant and self.radius <= low * (1 + 1e-12) \
+            else 0
+        if ratio < 0.25:
+            self.radius = max(low, self.radius / 2)
+        elif ratio > 0.75 and boundary:
+            self.radius = min(high, self.radius * 1.5)
+        self.promised = None
+
+    # -- checkpoint ---------------------------------------------------------------------------
+    _SCALARS = ("radius", "n_cycles", "ceiling", "period", "cycle", "iteration", "cycles_in_iteration",
+                "settle_left", "last_prediction", "residual_variance", "gamma", "world_heading", "tracking_limit",
+                "seed_value")
+    _PERIOD_SCALARS = ("robot_period", "previous_period", "seed_period")  # newer than the checkpoint format
+    _COUNTERS = ("distrust", "prediction_failures", "stall")
+
+    def to_checkpoint(self) -> tuple[dict, dict]:
+        metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS + self._PERIOD_SCALARS}
+        metadata["period_search"] = None if self.period_search is None else self.period_search.to_json()
+        metadata.update({name: int(getattr(self, name)) for name in self._COUNTERS})
+        metadata["rng"] = self.rng.bit_generator.state
+        climb = self.climb
+        metadata["climb"] = {"sigma": climb.sigma, "min_sigma": climb.min_sigma, "max_sigma": climb.max_sigma,
+                             "active": climb.active, "mirror": climb.mirror, "failures": climb.failures,
+                             "agreements": climb.agreements, "predicted_gain": _json_float(climb.predicted_gain),
+                             "rotation_limit": _json_float(climb.rotation_limit),
+                             "base_period": None if climb.base is None else climb.base[1],
+                             "candidate_period": None if climb.candidate is None else climb.candidate[1]}
+        metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
+        family = self.family
+        metadata["family"] = {"kind": "symmetric" if isinstance(family, SymmetricGaitFamily) else "free",
+                              "n_joints": family.n_joints, "order": family.order,
+                              "center": float(getattr(family, "center", 0.0))}
+        arrays = {"gait": self.gait.coefficients, "robot_gait": self.robot_gait.coefficients,
+                  "iteration_measured": np.asarray(self.iteration_measured, dtype=float),
+                  "seed_measured": np.asarray(self.seed_measured, dtype=float),
+                  "seed_tracking": np.asarray(self.seed_tracking, dtype=float),
+                  "gaits": np.stack([g.coefficients for g in self.gaits])}
+        arrays.update(_pack_records("measured", self.measured, self.rotations))
+        arrays.update(_pack_records("climb/measured", self.climb.measured, self.climb.rotations))
+        for name, value in (("climb/base", self.climb.base), ("climb/candidate", self.climb.candidate)):
+            if value is not None:
+                arrays[name] = value[0].coefficients
+        if self.climb.direction is not None:
+            arrays["climb/direction"] = self.climb.direction
+        if self.previous_gait is not None:
+            arrays["previous_gait"] = self.previous_gait.coefficients
+        if self.direction is not None:
+            arrays["direction"] = self.direction
+        if self.seed_nets:
+            arrays["seed_nets"] = np.asarray(self.seed_nets, dtype=float)
+        if self.trial_tracking:
+            arrays["trial_tracking"] = np.asarray(self.trial_tracking, dtype=float)
+        arrays["iteration_excitation"] = np.asarray(self.iteration_excitation, dtype=float)
+        metadata["warned_no_excitation"] = bool(self.warned_no_excitation)
+        if self.exploration is not None:
+            metadata["exploration_std"] = self.exploration.std
+            arrays["exploration/state"] = self.exploration.state
+            arrays["exploration/next_shape"], arrays["exploration/next_shape_velocity"] = self.excitation_next
+        metadata["direction_fixed"] = bool(self.direction_fixed)
+        for k, parts in enumerate(self.iteration_data):
+            for name, value in zip(("phase", "shape", "shape_velocity", "body_velocity"), parts, strict=True):
+                arrays[f"iteration_data/{k}/{name}"] = value
+        frame = pd.DataFrame(self.rows)
+        for column in frame.columns:
+            arrays[f"log/{column}"] = frame[column].to_numpy()
+        metadata["log_columns"] = list(frame.columns)
+        metadata["iteration_data"] = len(self.iteration_data)
+        return metadata, arrays
+
+    @classmethod
+    def from_checkpoint(cls, metadata: dict, arrays: dict) -> _State:
+        scalars = metadata["state"]
+        state = cls(gait=FourierGait(arrays["gait"]), radius=0.0, model=None, n_cycles=1, ceiling=None,
+                    period=1.0)
+        for name in cls._SCALARS:
+            value = scalars[name]
+            setattr(state, name, np.nan if value is None and name not in ("ceiling",) else value)
+        for name in cls._PERIOD_SCALARS:  # checkpoints before the period could change: the one period
+            value = scalars.get(name, state.period)
+            setattr(state, name, np.nan if value is None else value)
+        search = scalars.get("period_search")
+        state.period_search = None if search is None else PeriodSearch.from_json(search)
+        for name in cls._COUNTERS:
+            setattr(state, name, int(scalars.get(name, 0)))
+        state.rng = np.random.default_rng()
+        if scalars.get("rng") is not None:
+            state.rng.bit_generator.state = scalars["rng"]
+        climb = scalars.get("climb")
+        if climb is not None:
+            state.climb = MeasuredClimb(
+                sigma=climb["sigma"], min_sigma=climb["min_sigma"], max_sigma=climb["max_sigma"],
+                active=climb["active"], mirror=climb["mirror"], failures=climb["failures"],
+                agreements=climb["agreements"],
+                predicted_gain=np.nan if climb["predicted_gain"] is None else climb["predicted_gain"],
+                rotation_limit=np.nan if climb.get("rotation_limit") is None else climb["rotation_limit"],
+                base=None if climb["base_period"] is None
+                else (FourierGait(arrays["climb/base"]), climb["base_period"]),
+                candidate=None if climb["candidate_period"] is None
+                else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
+                direction=arrays.get("climb/direction"))
+        state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
+        promised = scalars["promised"]
+        state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
+        state.robot_gait = FourierGait(arrays["robot_gait"])
+        family = scalars.get("family") or {"kind": "free", "n_joints": state.gait.n_joints, "order": state.gait.order}
+        state.family = (SymmetricGaitFamily(family["n_joints"], family["order"], family["center"])
+                        if family["kind"] == "symmetric" else FreeGaitFamily(family["n_joints"], family["order"]))
+        state.previous_gait = FourierGait(arrays["previous_gait"]) if "previous_gait" in arrays else None
+        state.direction = arrays.get("direction")
+        # checkpoints before the averaged direction fixed it at the first measured cycle
+        state.direction_fixed = bool(scalars.get("direction_fixed", state.direction is not None))
+        state.seed_nets = list(arrays["seed_nets"]) if "seed_nets" in arrays else []
+        state.trial_tracking = arrays["trial_tracking"].tolist() if "trial_tracking" in arrays else []
+        state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
+        state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
+        if scalars.get("exploration_std") is not None:
+            state.exploration = Exploration(scalars["exploration_std"], state.gait.n_joints, state.rng,
+                                            initial_state=np.array(arrays["exploration/state"], dtype=float))
+            state.excitation_next = (np.array(arrays["exploration/next_shape"], dtype=float),
+                                     np.array(arrays["exploration/next_shape_velocity"], dtype=float))
+        state.iteration_measured = arrays["iteration_measured"].tolist()
+        state.seed_measured = arrays["seed_measured"].tolist()
+        state.seed_tracking = arrays["seed_tracking"].tolist()
+        state.gaits = [FourierGait(c) for c in arrays["gaits"]]
+        state.measured, state.rotations = _unpack_records("measured", arrays, state.period)
+        if state.climb is not None:
+            state.climb.measured, state.climb.rotations = _unpack_records("climb/measured", arrays, state.period)
+        names = ("phase", "shape", "shape_velocity", "body_velocity")
+        state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
+                                for k in range(scalars["iteration_data"])]
+        columns = scalars["log_columns"]
+        state.rows = pd.DataFrame({c: arrays[f"log/{c}"] for c in columns}).to_dict("records")
+        if metadata["model"] is not None:
+            state.model = model_from_state(metadata["model"]["metadata"], _prefixed(arrays, "model/"))
+        return state
+
+
+def _pack_records(prefix: str, values: dict, rotations: dict) -> dict:
+    """Arrays of a record {(gait, period): [value per cycle]} and its rotations (a checkpoint's)."""
+    if not values:
+        return {}
+    return {f"{prefix}/gaits": np.stack([g.coefficients for g, _ in values]),
+            f"{prefix}/periods": np.array([period for _, period in values], dtype=float),
+            f"{prefix}/counts": np.array([len(v) for v in values.values()]),
+            f"{prefix}/values": np.concatenate([np.asarray(v, dtype=float) for v in values.values()]),
+            f"{prefix}/rotations": np.concatenate([np.asarray(rotations[k], dtype=float) for k in values])}
+
+
+def _unpack_records(prefix: str, arrays: dict, period: float) -> tuple[dict, dict]:
+    """Inverse of :func:`_pack_records`; older checkpoints lack periods (the one period) and rotations."""
+    if f"{prefix}/gaits" not in arrays:
+        return {}, {}
+    split = np.cumsum(arrays[f"{prefix}/counts"])[:-1]
+    values = np.split(arrays[f"{prefix}/values"], split)
+    periods = arrays.get(f"{prefix}/periods", np.full(len(values), period))
+    keys = [(FourierGait(c), float(t)) for c, t in zip(arrays[f"{prefix}/gaits"], periods, strict=True)]
+    rotations = (np.split(arrays[f"{prefix}/rotations"], split) if f"{prefix}/rotations" in arrays
+                 else [np.zeros(0)] * len(values))
+    return ({k: v.tolist() for k, v in zip(keys, values, strict=True)},
+            {k: r.tolist() for k, r in zip(keys, rotations, strict=True)})
+
+
+def _json_float(value):
+    if isinstance(value, float | np.floating) and not np.isfinite(value):
+        return None
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _prefixed(arrays: dict, prefix: str) -> dict:
+    return {k.removeprefix(prefix): v for k, v in arrays.items() if k.startswith(prefix)}
+
+
+def _checkpoint_path(checkpoint, owner):
+    if checkpoint is None:
+        return None
+    path = Path(checkpoint)
+    if path.is_dir() or not path.parent.is_dir():
+        raise fail("checkpoint", owner, "a file path in an existing folder", str(path))
+    return path
+
+
+def _params_to_json(optimizer) -> dict:
+    """Hyper-parameters as JSON values; the model template as its class name and parameters."""
+    params = optimizer.get_params(deep=False)
+    if params["model"] is not None:
+        model = params["model"]
+        params["model"] = {"class": type(model).__name__,
+                           "params": {k: v for k, v in model.get_params(deep=False).items() if k != "gait"}}
+    if params["direction"] is not None:
+        params["direction"] = [float(v) for v in np.asarray(params["direction"], dtype=float)]
+    return params
+
+
+def _params_from_json(params: dict) -> dict:
+    params = dict(params)
+    if params.get("model") is not None:
+        name = params["model"]["class"]
+        if name not in models.__all__:
+            raise ValueError(f"unknown model class {name!r}")
+        params["model"] = getattr(models, name)(**params["model"]["params"])
+    return params
