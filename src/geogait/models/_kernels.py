@@ -47,8 +47,7 @@ __all__ = ["ENABLED", "displacement_kernel", "fast_path_available", "fast_path_n
 ENABLED = True
 
 _kernel = None  # the compiled kernel, built on first use
-_displacement_kernel = None  # the compiled net-motion kernel, built on first use
-_segment_kernel = None  # the compiled nearest-segment search, built on first use
+_kernels_loaded = {}  # name -> the path-following kernels, loaded on first use (None: not available)
 _missing = None  # why numba could not be used (None: not tried yet or available)
 
 
@@ -317,34 +316,34 @@ def learn_one_kernel():
 
 def nearest_segment_kernel():
     """The compiled nearest-segment search (:func:`_nearest_segment`), or None as for :func:`learn_one_kernel`."""
-    global _segment_kernel
-    if not ENABLED:
-        return None
-    if _segment_kernel is None and _missing is None:
-        kernel = _compile(_nearest_segment)
-        one = np.ones(1)
-        try:  # load (or compile) now: a broken compile or cache must not stop the reference path
-            kernel(one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64), np.empty(1))
-        except Exception:  # noqa: BLE001
-            return None
-        _segment_kernel = kernel
-    return _segment_kernel
+    one = np.ones(1)
+    return _loaded(_nearest_segment, lambda: (one, one, one, one, one, one, one, np.zeros(1, dtype=np.int64),
+                                              np.empty(1)))
 
 
 def displacement_kernel():
     """The compiled net-motion kernel (:func:`_displacement`), or None as for :func:`learn_one_kernel`."""
-    global _displacement_kernel
+    return _loaded(_displacement, lambda: (np.zeros((1, 3)), np.ones((2, 3)), np.ones((2, 3)), np.zeros((2, 1)),
+                                           np.zeros((2, 1)), np.zeros((2, 4, 3)), True, 1.0, 1e-4, True,
+                                           np.empty(3), np.empty((3, 3))))
+
+
+def _loaded(function, trial_arguments):
+    """``function`` compiled and loaded (one trial call on ``trial_arguments()``), built once per process;
+    None when switched off, when numba is missing, or when the compile or its cache is broken (then the
+    NumPy reference path serves, and the load is not tried again)."""
     if not ENABLED:
         return None
-    if _displacement_kernel is None and _missing is None:
-        kernel = _compile(_displacement)
-        try:  # load (or compile) now: a broken compile or cache must not stop the reference path
-            kernel(np.zeros((1, 3)), np.ones((2, 3)), np.ones((2, 3)), np.zeros((2, 1)), np.zeros((2, 1)),
-                   np.zeros((2, 4, 3)), True, 1.0, 1e-4, True, np.empty(3), np.empty((3, 3)))
-        except Exception:  # noqa: BLE001
-            return None
-        _displacement_kernel = kernel
-    return _displacement_kernel
+    name = function.__name__
+    if name not in _kernels_loaded:
+        kernel = _compile(function) if _missing is None else None
+        if kernel is not None:
+            try:
+                kernel(*trial_arguments())
+            except Exception:  # noqa: BLE001  a broken compile or cache must not stop the reference path
+                kernel = None
+        _kernels_loaded[name] = kernel
+    return _kernels_loaded[name]
 
 
 def warm_up() -> bool:
