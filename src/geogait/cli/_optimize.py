@@ -13,6 +13,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from .._defaults import window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, output_set, read_state, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
@@ -241,7 +242,7 @@ def _optimizer(settings) -> InSituOptimizer:
         raise typer.BadParameter("applies to --method adaptive or shape; auto chooses its model's own",
                                  param_hint="--forgetting-factor")
     if settings["method"] == "adaptive" and forgetting is None and settings["robot"] is None:
-        forgetting = 1 - 0.1 / (settings["links"] - 1)  # a robot's d is known once it is connected (_run)
+        forgetting = window_forgetting_factor(settings["links"] - 1)  # a robot's d is known once it is connected (_run)
     model = {"auto": lambda: None,
              "batch": lambda: BatchGaitModel(),
              "shape": lambda: _shape_model(settings["links"], settings["robot"] is not None, forgetting),
@@ -300,7 +301,7 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
 
         checkpoint = folder / CHECKPOINT_FILE
         if settings["method"] == "adaptive" and optimizer.model is None:  # the window model, λ = 1 − 0.1 / d
-            optimizer.set_params(model=AdaptiveGaitModel(forgetting_factor=1 - 0.1 / robot.n_joints))
+            optimizer.set_params(model=AdaptiveGaitModel(forgetting_factor=window_forgetting_factor(robot.n_joints)))
         if resumed:
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,

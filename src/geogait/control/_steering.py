@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
+from .._defaults import MAX_JOINT_ANGLE
 from .._validation import check_array, check_float, check_int, fail
 from ..gaits import FourierGait
 from ..models import predicted_displacement
@@ -36,7 +37,7 @@ from ..simulate import cycle_displacement
 __all__ = ["ModelMotion", "TrueMotion", "SteeringSolution", "SteeringFamily", "travel_rows",
            "solve_steering_gait", "steering_family", "max_step_family", "max_feasible_turn", "TURN_SPACING"]
 
-DEFAULT_MAX_JOINT_ANGLE = 2 * np.pi / 3
+DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 TURN_SPACING = 0.1
 """Spacing of a steering family's turns (rad per cycle) where none is given."""
 

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._defaults import window_forgetting_factor
 from .._docs import fill_doc
 from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
@@ -138,7 +139,7 @@ def in_situ_model(name: str, n_links: int):
         return symmetric_chain_model(n_links - 1)
     if name == "shape":
         return ShapeSpaceModel(degree=3)
-    return AdaptiveGaitModel(forgetting_factor=1 - 0.1 / (n_links - 1))
+    return AdaptiveGaitModel(forgetting_factor=window_forgetting_factor(n_links - 1))
 
 
 def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, method: str, sensor_noise: float,

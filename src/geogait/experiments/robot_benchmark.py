@@ -56,6 +56,7 @@ import numpy as np
 import pandas as pd
 
 from .. import __version__
+from .._defaults import MAX_JOINT_ANGLE
 from .._files import write_text
 from .._validation import GeogaitError, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
@@ -71,7 +72,7 @@ __all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", 
 
 _OWNER = "run_robot_benchmark"
 #: Joint limit of geogait's design (rad), used by the built-in and MuJoCo Purcell swimmers.
-_R_MAX = 2 * np.pi / 3
+_R_MAX = MAX_JOINT_ANGLE
 #: Link lengths (tail first) of the unequal MuJoCo Purcell swimmer: no front–back symmetry.
 UNEQUAL_LINKS = (0.3, 0.15, 0.2, 0.25, 0.1)
 #: Gymnasium's Swimmer-v5: 1000 steps of 4 × 0.01 s; reward x-velocity − 1e-4 |a|².

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
+from .._defaults import MAX_JOINT_ANGLE
 from .._files import write_json
 from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, SymmetricGaitFamily, seed_gait
@@ -99,7 +100,7 @@ def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matri
 
 
 def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | None = None,
-                     max_joint_angle: float = 2 * np.pi / 3, starts: int = 8, seed: int = 0,
+                     max_joint_angle: float = MAX_JOINT_ANGLE, starts: int = 8, seed: int = 0,
                      resolution: int = 128, family: str = "free", start: FourierGait | None = None) -> Ceiling:
     r"""Maximise the objective over Fourier gaits of ``order`` with the true connection.
 

@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import models
+from .._defaults import MAX_JOINT_ANGLE, window_forgetting_factor
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
@@ -85,7 +86,7 @@ from ._steps import STEP_RULES, StepProblem, take_step
 __all__ = ["InSituOptimizer", "symmetric_chain_model"]
 
 #: r_max of a robot that declares no joint ranges (the design's 2π/3).
-DEFAULT_MAX_JOINT_ANGLE = 2 * np.pi / 3
+DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 
 
 class InSituOptimizer(Estimator):
@@ -521,7 +522,7 @@ class InSituOptimizer(Estimator):
         if self.model is None:
             if isinstance(family, SymmetricGaitFamily):
                 return symmetric_chain_model(gait.n_joints, shape_scale=scale)
-            return AdaptiveGaitModel(gait=gait, forgetting_factor=1 - 0.1 / gait.n_joints,
+            return AdaptiveGaitModel(gait=gait, forgetting_factor=window_forgetting_factor(gait.n_joints),
                                      phase_rate=2 * np.pi / period)
         params = self.model.get_params(deep=False)
         params.update({k: v for k, v in (("gait", gait), ("phase_rate", 2 * np.pi / period)) if k in params})

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from .. import models
+from .._defaults import MAX_JOINT_ANGLE
 from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ..models import model_from_state
@@ -56,7 +57,7 @@ class _State:
     feasibility: object = None  # the system's feasible region as step constraints (None: none declared)
     seed_nets: list = field(default_factory=list)  # the seed's measured motion per cycle, direction frame
     direction_fixed: bool = False  # "forward" fixed (given, or from all the seed's cycles at the first gate)
-    max_joint_angle: float = 2 * np.pi / 3  # r_max in force (resolved from the robot for "auto")
+    max_joint_angle: float = MAX_JOINT_ANGLE  # r_max in force (resolved from the robot for "auto")
     scale: float = 1.0  # the robot's unit of shape (shape_scale)
     robot_period: float = np.nan  # period the robot runs next (s)
     previous_period: float = np.nan

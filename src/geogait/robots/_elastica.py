@@ -43,6 +43,7 @@ import copy
 
 import numpy as np
 
+from .._defaults import MAX_JOINT_ANGLE
 from .._validation import GeogaitError, check_array, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at
 from ..simulate import Trajectory
@@ -165,7 +166,7 @@ class ElasticaSnake:
                  cycle_period: float = 1.0, samples_per_cycle: int = 100, timestep: float = 2.5e-4,
                  n_elements: int = 20, length: float = 0.35, radius: float | None = None, density: float = 1000.0,
                  youngs_modulus: float = 1e6, poisson_ratio: float = 0.5, friction=None, damping: float = 2e-3,
-                 perturbation: Perturbation | None = None, max_joint_angle: float = 2 * np.pi / 3,
+                 perturbation: Perturbation | None = None, max_joint_angle: float = MAX_JOINT_ANGLE,
                  warmup_cycles: int = 1, planar: bool = True, seed=None):
         owner = "ElasticaSnake"
         d = check_int(n_modes, "n_modes", owner, minimum=2)

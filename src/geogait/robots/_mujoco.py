@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._defaults import MAX_JOINT_ANGLE
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at, seed_gait
 from ..simulate import Trajectory
@@ -677,7 +678,7 @@ def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 
                         radius: float = 0.025,
                         drag_coefficient: float = 1.0, drag_ratio: float = 2.0, body_density: float | None = None,
                         fluid_density: float = 4000.0, viscosity: float = 0.0, timestep: float = 0.002,
-                        armature: float = 1e-4, joint_range: float = 2 * np.pi / 3, actuator: str = "motor",
+                        armature: float = 1e-4, joint_range: float = MAX_JOINT_ANGLE, actuator: str = "motor",
                         ctrl_limit: float | None = None, position_gain: float | None = None) -> str:
     r"""MJCF of an N-link Purcell swimmer (the models shipped as ``geogait:purcell3`` / ``geogait:purcell5``).
 
