@@ -236,3 +236,27 @@ def test_an_estimator_without_a_saved_form_says_so(tmp_path):
     with pytest.raises(GeogaitError, match="PerfectInformationModel cannot be saved"):
         model.save(tmp_path / "perfect.npz")
     assert not (tmp_path / "perfect.npz").exists()
+
+
+def test_the_gait_model_contract_is_checked_in_one_place():
+    """check_gait_model: unfitted built-in models pass (gamma_ is a property of their class); anything
+    lacking a member gets the standard error naming it, from the optimiser and the tracker alike."""
+    from geogait.control import PathTracker
+    from geogait.models import AdaptiveGaitModel, ShapeSpaceModel, check_gait_model
+    from geogait.optimize import InSituOptimizer
+
+    for model in (AdaptiveGaitModel(), ShapeSpaceModel()):
+        check_gait_model(model, ("partial_fit", "predict_displacement", "forget", "reset_gamma", "gamma_"), "test")
+
+    class Partial:
+        def partial_fit(self, *args):
+            return self
+
+    with pytest.raises(GeogaitError, match=r"'model' parameter of test .*without predict_displacement\(\)"):
+        check_gait_model(Partial(), ("partial_fit", "predict_displacement"), "test")
+    with pytest.raises(GeogaitError, match="without gamma_"):
+        check_gait_model(Partial(), ("partial_fit", "gamma_"), "test")
+    with pytest.raises(GeogaitError, match=r"'model' parameter of InSituOptimizer.*without get_params\(\)"):
+        InSituOptimizer(model=Partial(), gate="cycles").validate()
+    with pytest.raises(GeogaitError, match=r"'model' parameter of PathTracker.*None or an unfitted gait model"):
+        PathTracker(model=Partial())._validate()

@@ -50,7 +50,7 @@ import pandas as pd
 from .. import se2
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
-from ..models import AdaptiveGaitModel
+from ..models import AdaptiveGaitModel, check_gait_model
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
@@ -259,11 +259,7 @@ class PathTracker:
         if self.model is not None:
             needs = ("get_params", "partial_fit", "predict_displacement") + (("forget",) if self.change_forgetting > 1
                                                                               else ())
-            for member in needs:
-                if not callable(getattr(self.model, member, None)):
-                    raise fail("model", owner, "None or an unfitted gait model with "
-                               + ", ".join(f"{m}()" for m in needs) + " (e.g. AdaptiveGaitModel, ShapeSpaceModel)",
-                               f"a {type(self.model).__name__} without {member}()")
+            check_gait_model(self.model, needs, owner, prefix="None or an unfitted")
 
     def _new_model(self, reference: FourierGait, period: float):
         """A fresh learning model: the window model of ``forgetting_factor`` and ``n_windows`` centred on

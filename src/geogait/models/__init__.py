@@ -2,7 +2,7 @@
 the batch baseline, the phase model and the Γ metric."""
 
 from ._adaptive import AdaptiveGaitModel
-from ._base import MAX_PHASE, gamma, load_model, model_from_state
+from ._base import MAX_PHASE, check_gait_model, gamma, load_model, model_from_state
 from ._batch import BatchGaitModel
 from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
@@ -20,6 +20,7 @@ __all__ = [
     "PhaseWindows",
     "RLSBank",
     "ShapeSpaceModel",
+    "check_gait_model",
     "gamma",
     "load_model",
     "monomial_exponents",

@@ -23,7 +23,8 @@ from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
-__all__ = ["GaitModelBase", "SampleModel", "PhaseWindowModel", "check_samples", "gamma", "load_model",
+__all__ = ["GaitModelBase", "SampleModel", "PhaseWindowModel", "check_gait_model", "check_samples", "gamma",
+           "load_model",
            "model_from_state"]
 
 FORMAT = "geogait-model"
@@ -45,6 +46,45 @@ GAIT_MODEL_CONSTRAINTS = {
     "phase_rate": Real(low=0, low_open=True),
     "interaction": Boolean(),
 }
+
+
+def check_gait_model(model, members, owner: str, parameter: str = "model", prefix: str = "a") -> None:
+    """The gait-model contract, checked in one place: raise the standard error when ``model`` lacks any of
+    ``members`` (methods must be callable; names ending in ``_``, learned attributes such as ``gamma_``,
+    must be properties of its class, so an unfitted model passes).
+
+    What geogait's consumers need: :class:`~geogait.optimize.InSituOptimizer` ``get_params``,
+    ``predict_displacement`` and ``partial_fit`` + ``rebase`` (online gate) or ``fit`` (``"cycles"``
+    gate), with ``reset_gamma`` + ``gamma_`` for the online Γ; :class:`~geogait.control.PathTracker`
+    ``get_params``, ``partial_fit``, ``predict_displacement`` and ``forget`` (covariance resetting).
+
+    Parameters
+    ----------
+    model : object
+    members : sequence of str
+    owner : str
+        Who asks (named in the error).
+    parameter : str
+        The parameter the model came in.
+    prefix : str
+        What the expected value is said to be before "gait model" (e.g. "None or an unfitted").
+    """
+    for member in members:
+        present = hasattr(type(model), member) if member.endswith("_") else callable(getattr(model, member, None))
+        if not present:
+            listed = ", ".join(m if m.endswith("_") else f"{m}()" for m in members)
+            raise fail(parameter, owner, f"{prefix} gait model with {listed} (e.g. AdaptiveGaitModel, "
+                       "ShapeSpaceModel)", f"a {type(model).__name__} without {member}" + ("" if member.endswith("_")
+                                                                                          else "()"))
+
+
+def has_gait_model_members(model, members) -> bool:
+    """Whether ``model`` offers all of ``members`` (:func:`check_gait_model`'s test, without the error)."""
+    try:
+        check_gait_model(model, members, "has_gait_model_members")
+    except ValueError:
+        return False
+    return True
 
 
 def gamma(error_model, error_baseline) -> np.ndarray:

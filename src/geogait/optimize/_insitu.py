@@ -62,7 +62,8 @@ from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
-from ..models import AdaptiveGaitModel
+from ..models import AdaptiveGaitModel, check_gait_model
+from ..models._base import has_gait_model_members
 from ..robots import check_robot
 from ..systems import PurcellSwimmer
 from ._climb import MeasuredClimb
@@ -85,6 +86,8 @@ from ._steps import STEP_RULES, StepProblem, take_step
 
 __all__ = ["InSituOptimizer", "symmetric_chain_model"]
 
+#: What a model needs for the online gate (``gate="gamma"``).
+ONLINE_GAMMA = ("partial_fit", "reset_gamma", "gamma_")
 #: r_max of a robot that declares no joint ranges (the design's 2π/3).
 DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 
@@ -286,11 +289,8 @@ class InSituOptimizer(Estimator):
         if self.gate == "gamma" and not _has_online_gamma(self._model_template()):
             raise fail("gate", owner, "'cycles' for a model without an online Γ (gamma_, reset_gamma)", self.gate)
         if self.model is not None:
-            needs = ("get_params", "predict_displacement") + (
-                ("partial_fit", "rebase") if self._gate() == "gamma" else ("fit",))
-            for member in needs:
-                if not hasattr(self.model, member):
-                    raise fail("model", owner, f"a gait model with {member}() (e.g. AdaptiveGaitModel)", self.model)
+            check_gait_model(self.model, ("get_params", "predict_displacement") + (
+                ("partial_fit", "rebase") if self._gate() == "gamma" else ("fit",)), owner)
         if self.direction is not None:
             direction = np.asarray(self.direction, dtype=float) if _is_numeric(self.direction) else None
             if direction is None or direction.shape != (2,) or not np.all(np.isfinite(direction)) \
@@ -669,5 +669,5 @@ def _feasibility(robot, gait: FourierGait, order: int):
 
 
 def _has_online_gamma(model) -> bool:
-    return hasattr(model, "reset_gamma") and hasattr(type(model), "gamma_") and hasattr(model, "partial_fit")
+    return has_gait_model_members(model, ONLINE_GAMMA)
 
