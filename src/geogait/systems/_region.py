@@ -1,0 +1,148 @@
+r"""A feasible shape region of the user's on any system (a joint that must stay bent one way, a
+self-collision, a singular set the user knows).
+
+The user gives a smooth margin :math:`g(r)`, positive inside the region (radians for a distance);
+:class:`RegionSystem` makes the system a :class:`~geogait.systems.FeasibleSystem`, so that
+:func:`~geogait.optimize.optimize_ceiling`, the trust-region step rules and
+:class:`~geogait.optimize.InSituOptimizer` (on a simulator) keep every gait inside it on their phase
+grids, as they keep the joint limits. Its gradient is the user's, or central differences.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable
+
+import numpy as np
+
+from .._validation import GeogaitError, fail
+from ..gaits import FourierGait
+from ._base import check_shapes
+
+__all__ = ["RegionSystem"]
+
+_STEP = 1e-6  # central differences of the margin (error ~1e-10 for a smooth g of unit scale)
+_CHECK_PHASES = 1024  # the seed gait is checked on this many phases
+
+
+class RegionSystem:
+    r"""A system restricted to the shapes where a margin function is non-negative (module docstring).
+
+    Parameters
+    ----------
+    system : System
+        Any system (its connection is used unchanged).
+    feasibility : callable
+        ``g(shapes (..., d)) -> (...,)``, ≥ 0 inside the region, smooth across its boundary.
+    seed : FourierGait
+        A gait inside the region (checked on 1024 phases): where the ceiling and the optimiser start.
+    gradient : callable, optional
+        ``∂g/∂r (shapes (..., d)) -> (..., d)``; central differences (step 1e-6) by default.
+    name : str, optional
+        Default: the system's name with " (region)".
+
+    Examples
+    --------
+    >>> from geogait.gaits import seed_gait
+    >>> from geogait.systems import PurcellSwimmer
+    >>> bent_right = RegionSystem(PurcellSwimmer(3), lambda r: 0.8 - r[..., 0], seed=seed_gait(2, amplitude=0.7))
+    >>> bool(bent_right.feasible([0.5, 1.5])), bool(bent_right.feasible([0.9, 0.0]))
+    (True, False)
+    """
+
+    def __init__(self, system, feasibility: Callable, *, seed: FourierGait, gradient: Callable | None = None,
+                 name: str | None = None):
+        owner = "RegionSystem"
+        if not callable(getattr(system, "connection", None)) or not hasattr(system, "n_joints"):
+            raise fail("system", owner, "a System (connection(shapes), n_joints)", type(system).__name__)
+        for parameter, value in (("feasibility", feasibility), ("gradient", gradient)):
+            if value is not None and not callable(value):
+                raise fail(parameter, owner, "a callable of shapes (..., d)", value)
+        self.system, self.n_joints = system, int(system.n_joints)
+        self.name = name or f"{getattr(system, 'name', 'system')} (region)"
+        self._margin, self._gradient = feasibility, gradient
+        if not isinstance(seed, FourierGait) or seed.n_joints != self.n_joints:
+            raise fail("seed", owner, f"a FourierGait with {self.n_joints} joints", seed)
+        lowest = float(self.feasibility(seed.shape(np.linspace(0, 2 * np.pi, _CHECK_PHASES, endpoint=False))).min())
+        if lowest < 0:
+            raise fail("seed", owner, "a gait inside the region (feasibility ≥ 0 at every phase)",
+                       f"a gait whose feasibility falls to {lowest:.4g}")
+        self._seed = seed
+        probe = np.random.default_rng(0).uniform(-np.pi, np.pi, (64, self.n_joints))
+        digest = hashlib.sha256(np.ascontiguousarray(self.feasibility(probe)).tobytes())
+        digest.update(seed.coefficients.tobytes())
+        self._digest = digest.hexdigest()[:16]  # in the repr: the ceiling cache keys on it
+
+    def __repr__(self) -> str:
+        return f"RegionSystem({self.system!r}, name={self.name!r}, sha256={self._digest})"
+
+    def connection(self, shapes) -> np.ndarray:
+        """The system's connection ``(..., 3, d)``, unchanged.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+        """
+        return self.system.connection(shapes)
+
+    def feasibility(self, shapes, jacobian: bool = False):
+        """The user's margin g(r) ``(...,)`` (and ∂g/∂r ``(..., d)`` with ``jacobian``), checked.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+        jacobian : bool, default False
+        """
+        shapes = check_shapes(shapes, self.n_joints, f"{self.name}.feasibility")
+        value = self._evaluate(self._margin, shapes, shapes.shape[:-1], "feasibility")
+        if not jacobian:
+            return value
+        if self._gradient is not None:
+            return value, self._evaluate(self._gradient, shapes, shapes.shape, "gradient")
+        steps = np.eye(self.n_joints) * _STEP
+        gradient = np.stack([(self._evaluate(self._margin, shapes + e, shapes.shape[:-1], "feasibility")
+                              - self._evaluate(self._margin, shapes - e, shapes.shape[:-1], "feasibility"))
+                             / (2 * _STEP) for e in steps], axis=-1)
+        return value, gradient
+
+    def feasible(self, shapes) -> np.ndarray:
+        """``feasibility(shapes) >= 0`` as bool ``(...,)``.
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+        """
+        return self.feasibility(shapes) >= 0
+
+    def seed_gait(self, amplitude: float | None = None, order: int = 1) -> FourierGait:
+        """The seed, in Fourier order ``order``; with ``amplitude``, its oscillation about its offsets
+        rescaled so that the largest joint amplitude is ``amplitude`` (it must stay inside the region).
+
+        Parameters
+        ----------
+        amplitude : float, optional
+        order : int, default 1
+        """
+        gait = self._seed.with_order(order)
+        if amplitude is not None:
+            coefficients = gait.coefficients.copy()
+            largest = float(np.max(gait.joint_limit() - np.abs(coefficients[:, 0])))
+            if not amplitude > 0 or largest == 0:
+                raise fail("amplitude", f"{self.name}.seed_gait", "a positive amplitude of an oscillating seed",
+                           amplitude)
+            coefficients[:, 1:] *= amplitude / largest
+            gait = FourierGait(coefficients)
+            shapes = gait.shape(np.linspace(0, 2 * np.pi, _CHECK_PHASES, endpoint=False))
+            if np.any(self.feasibility(shapes) < 0):
+                raise fail("amplitude", f"{self.name}.seed_gait", "an amplitude that keeps the seed inside the region",
+                           amplitude)
+        return gait
+
+    def _evaluate(self, function, shapes, expected, what):
+        value = np.asarray(function(shapes), dtype=float)
+        if value.shape != expected:
+            raise GeogaitError(f"The '{what}' callable of {self.name} must return an array of shape {expected} for "
+                               f"shapes of shape {shapes.shape}. Got shape {value.shape} instead.")
+        if not np.all(np.isfinite(value)):
+            raise GeogaitError(f"The '{what}' callable of {self.name} must return finite values. Got NaN or inf.")
+        return value
