@@ -374,3 +374,16 @@ def test_forget_is_not_undone_by_the_trace_clamp(n, informed, factor, seed):
         direction = basis[:, k]
         assert direction @ bank.covariance[0] @ direction == pytest.approx(raised[k] * clamp, rel=1e-6)
     assert np.trace(bank.covariance[0]) <= bank.max_trace * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("symmetry", ["mirror", "mirror+reversal"])
+def test_a_degree_that_leaves_an_output_without_weights_is_refused_before_anything_changes(symmetry):
+    """Degree 0 (a constant connection) under the mirror symmetry has no feature for the x output (odd
+    in r): a clear error naming 'degree', not a reshape failure, and the model stays unfitted."""
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=1, seed=0)
+    model = ShapeSpaceModel(degree=0, symmetry=symmetry)
+    with pytest.raises(ValueError, match=r"'degree' parameter of ShapeSpaceModel.*output x without any weight"):
+        model.fit(*samples(run))
+    with pytest.raises(ValueError, match="not fitted"):
+        model.predict_displacement(seed_gait(2))
+    assert ShapeSpaceModel(degree=0).fit(*samples(run)).weights_.shape[0] == 1  # without symmetry: fine

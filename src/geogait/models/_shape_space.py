@@ -281,10 +281,17 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, batch: tuple, n_joints: int):
         self.validate()
-        self.exponents_ = monomial_exponents(n_joints, self.degree)
+        exponents = monomial_exponents(n_joints, self.degree)
+        blocks = symmetry_blocks(exponents, self.symmetry)
+        empty = [int(k) for outputs, basis in blocks if basis.shape[1] == 0 for k in outputs]
+        if empty:  # (checked before anything changes: a failed fit leaves the model as it was)
+            raise fail("degree", type(self).__name__, f"at least 1 with symmetry {self.symmetry!r} (at degree "
+                       f"{self.degree} it leaves output {', '.join('xyθ'[k] for k in empty)} without any weight)",
+                       self.degree)
+        self.exponents_ = exponents
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
-        self.blocks_ = symmetry_blocks(self.exponents_, self.symmetry)
+        self.blocks_ = blocks
         self._gathers = [_gather(basis) for _, basis in self.blocks_]
         self.banks_ = [RLSBank(batch, 1, basis.shape[1], len(outputs), self.forgetting_factor, self._prior(basis))
                        for outputs, basis in self.blocks_]
