@@ -106,9 +106,9 @@ def test_fig5_models_per_swimmer():
 def test_shape_method_model_for_swimmer_and_robot():
     """--method shape: Fig. 5's model on the built-in swimmer; degree 3 without symmetry for a robot, whose
     symmetries are not known; --forgetting-factor overrides λ in both."""
-    from geogait.cli._optimize import _shape_model
+    from geogait.experiments.optimization import shape_method_model
 
-    swimmer = _shape_model(9, robot=False, forgetting=None)
+    swimmer = shape_method_model(9)
     assert (swimmer.degree, swimmer.symmetry, swimmer.forgetting_factor) == (4, "mirror+reversal", 0.9999)
-    robot = _shape_model(9, robot=True, forgetting=0.99)
+    robot = shape_method_model(9, robot=True, forgetting_factor=0.99)
     assert (robot.degree, robot.symmetry, robot.degree_shrinkage, robot.forgetting_factor) == (3, None, 1.0, 0.99)

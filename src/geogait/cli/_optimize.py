@@ -20,11 +20,11 @@ from ..experiments.optimization import (
     OptimizationConfig,
     OptimizationResult,
     default_budget,
-    in_situ_model,
     run_optimization,
+    shape_method_model,
 )
 from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
+from ..models import AdaptiveGaitModel, BatchGaitModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
 from ..optimize._insitu import DEFAULT_MAX_JOINT_ANGLE
 from ..optimize._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION
@@ -245,7 +245,8 @@ def _optimizer(settings) -> InSituOptimizer:
         forgetting = window_forgetting_factor(settings["links"] - 1)  # a robot's d is known once it is connected (_run)
     model = {"auto": lambda: None,
              "batch": lambda: BatchGaitModel(),
-             "shape": lambda: _shape_model(settings["links"], settings["robot"] is not None, forgetting),
+             "shape": lambda: shape_method_model(settings["links"], robot=settings["robot"] is not None,
+                                                 forgetting_factor=forgetting),
              "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
              }[settings["method"]]()
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
@@ -259,13 +260,6 @@ def _optimizer(settings) -> InSituOptimizer:
                            # the built-in swimmer: --perturbation sizes the exploration geogait commands
                            exploration="auto" if settings["robot"] is not None else settings["perturbation"],
                            random_state=settings.get("seed") or 0).validate()
-
-
-def _shape_model(links: int, robot: bool, forgetting: float | None) -> ShapeSpaceModel:
-    """Fig. 5's model on the built-in swimmer; for a robot, whose symmetries are not known, degree 3 without
-    symmetry (degree 4 without it would be 4 × the weights)."""
-    model = ShapeSpaceModel(degree=3) if robot else in_situ_model("auto", links)
-    return model if forgetting is None else model.set_params(forgetting_factor=forgetting)
 
 
 def _ceiling_kind(settings) -> str:

@@ -50,7 +50,7 @@ from ._common import (
 )
 
 __all__ = ["OptimizationConfig", "OptimizationResult", "default_budget", "optimization_trials", "run_optimization",
-           "optimization_summary", "plot_optimization"]
+           "optimization_summary", "plot_optimization", "in_situ_model", "shape_method_model"]
 
 _OWNER = "OptimizationConfig"
 PAPER = {3: "≈ 50 % improvement in 40 cycles", 5: "(shown, no number in the text)",
@@ -140,6 +140,14 @@ def in_situ_model(name: str, n_links: int):
     if name == "shape":
         return ShapeSpaceModel(degree=3)
     return AdaptiveGaitModel(forgetting_factor=window_forgetting_factor(n_links - 1))
+
+
+def shape_method_model(n_links: int, *, robot: bool = False, forgetting_factor: float | None = None):
+    """The model of ``geogait optimize --method shape``: Fig. 5's symmetric shape-space model on the built-in
+    swimmer; for a robot, whose symmetries are not known, degree 3 without symmetry (degree 4 without it
+    would be 4 × the weights). ``forgetting_factor`` overrides λ (``--forgetting-factor``)."""
+    model = ShapeSpaceModel(degree=3) if robot else in_situ_model("auto", n_links)
+    return model if forgetting_factor is None else model.set_params(forgetting_factor=forgetting_factor)
 
 
 def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, method: str, sensor_noise: float,
