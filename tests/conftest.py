@@ -27,3 +27,4 @@ def pytest_configure(config):
         _kernels.warm_up()
         _kernels.displacement_kernel()
         _kernels.nearest_segment_kernel()
+        _kernels.shape_space_kernel()

@@ -297,3 +297,38 @@ def test_compiled_nearest_segment_gives_the_reference_bits(kind, near, window, s
         _kernels.ENABLED = enabled
     for a, b in zip(fast, slow, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(links=st.sampled_from([3, 5, 9]), degree=st.integers(1, 3), symmetry=st.sampled_from([None, "mirror"]),
+       order=st.sampled_from([1, 2]), jacobian=st.booleans(), seed=st.integers(0, 2**16))
+def test_compiled_and_reference_shape_space_net_motion_agree(links, degree, symmetry, order, jacobian, seed):
+    """(Not 2 links: one joint's loop encloses no area, both paths give rounding noise around zero.)"""
+    from geogait.models import ShapeSpaceModel
+
+    rng = np.random.default_rng(seed)
+    gait = seed_gait(links - 1)
+    run = simulate(PurcellSwimmer(links), gait, 2, seed=seed, sensor_noise=0.1, perturbation=Perturbation.from_std(0.1))
+    model = ShapeSpaceModel(degree=degree, symmetry=symmetry, shape_scale=float(rng.uniform(0.5, 2.0)))
+    model.fit(*fit_args(run))
+    candidate = gait.with_order(order)
+    candidate = candidate.with_params(candidate.params + 0.1 * rng.standard_normal(candidate.params.size))
+    assert _kernels.shape_space_kernel() is not None
+    fast = model.predict_displacement(candidate, jacobian=jacobian, compiled=True)
+    slow = model.predict_displacement(candidate, jacobian=jacobian)
+    for a, b in zip(*((fast, slow) if jacobian else ((fast,), (slow,))), strict=True):
+        assert_close(a, b)
+
+
+def test_the_shape_space_model_predicts_through_numpy_unless_asked(monkeypatch):
+    """The optimiser's path (compiled=False, the default) and batched models never run the kernel."""
+    from geogait.models import ShapeSpaceModel
+
+    run = simulate(SWIMMER, GAIT, 2, seed=0, sensor_noise=0.1)
+    monkeypatch.setattr(_kernels, "shape_space_kernel", lambda: pytest.fail("the kernel was used"))
+    ShapeSpaceModel().fit(*fit_args(run)).predict_displacement(GAIT, jacobian=True)
+    runs = [simulate(SWIMMER, GAIT, 2, seed=seed, sensor_noise=0.1) for seed in (0, 1)]
+    stacked = [np.stack(arrays) for arrays in zip(*(fit_args(r) for r in runs), strict=True)]
+    monkeypatch.setattr(_kernels, "shape_space_kernel", lambda: None)  # (what a missing numba gives)
+    assert ShapeSpaceModel().fit(*stacked).predict_displacement(GAIT, compiled=True).shape == (2, 3)

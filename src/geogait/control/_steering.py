@@ -63,7 +63,7 @@ class ModelMotion:
     def __call__(self, gait: FourierGait, jacobian: bool = False):
         """``(Δx, Δy, Δθ)`` ``(3,)`` of one cycle of ``gait`` (and ``(3, p)`` Jacobian)."""
         if not hasattr(self.model, "gait_"):  # a connection over shape space: no nominal gait to expand about
-            return self.model.predict_displacement(gait, jacobian=jacobian)
+            return self.model.predict_displacement(gait, jacobian=jacobian, compiled=True)
         if not isinstance(gait, FourierGait) or gait.n_joints != getattr(self.model, "n_joints_", None):
             return predicted_displacement(self.model, gait, resolution=self.resolution, jacobian=jacobian)  # its errors
         # what depends on the model alone (nominal gait and smoothed weights at the nodes) is computed once

@@ -19,12 +19,14 @@ to its own unrolled loops, are summed in plain order here, so the two paths agre
 for bit: BLAS's order depends on the CPU it runs on, so no fixed order could match it everywhere.
 The batched paths (``fit``, a ``partial_fit`` of many samples or trials) always use NumPy.
 
-Two more kernels serve the path-following loop, where the same small computation runs thousands of
+More kernels serve the path-following loop, where the same small computation runs thousands of
 times per cycle: the net motion per cycle of a candidate gait under one model, with its Jacobian
-(:func:`_displacement`, what every steering solve evaluates; it follows
-:func:`geogait.models._displacement.displacement_from_terms` and agrees with it to rounding, tested
-to 1e-12), and the nearest-segment search of :meth:`geogait.control.ReferencePath.project` for the
-planner's many horizon positions (:func:`_nearest_segment`: element-wise arithmetic only, so the same
+(what every steering solve evaluates: :func:`_displacement` for the window model, following
+:func:`geogait.models._displacement.displacement_from_terms`, and :func:`_shape_space_displacement`
+for :class:`~geogait.models.ShapeSpaceModel`, both ending in the Magnus integration of
+:func:`_integrate`; they agree with the NumPy code to rounding, tested to 1e-12), and the
+nearest-segment search of :meth:`geogait.control.ReferencePath.project` for the planner's many
+horizon positions (:func:`_nearest_segment`: element-wise arithmetic only, so the same
 bits as NumPy). Both fall back to the NumPy code as the one-sample kernel does.
 
 numba is optional (``pip install geogait[fast]``). Without it, or with :data:`ENABLED` set to
@@ -41,7 +43,7 @@ import math
 import numpy as np
 
 __all__ = ["ENABLED", "displacement_kernel", "fast_path_available", "fast_path_note", "learn_one_kernel",
-           "nearest_segment_kernel", "warm_up"]
+           "nearest_segment_kernel", "shape_space_kernel", "warm_up"]
 
 #: Use the compiled one-sample path when numba is installed (set to False to force the NumPy reference).
 ENABLED = True
@@ -224,6 +226,63 @@ def _displacement(coefficients, basis, d_basis, nominal, nominal_rate, weights, 
                 for k in range(c):
                     velocity_jacobian[q, o, j * c + k] = (d_delta[o, j] * basis[q, k]
                                                           + d_rate[o, j] * rate * d_basis[q, k]) / rate
+    _integrate(velocity, velocity_jacobian, step, small, jacobian, pose, pose_jacobian)
+
+
+def _shape_space_displacement(shape, rate, weights, lower, variable, degree, order, exponents, scale, basis, d_basis,
+                              step, small, jacobian, pose, pose_jacobian):
+    """Net motion per cycle of a gait under an unbatched :class:`~geogait.models.ShapeSpaceModel` (the
+    arithmetic of its ``predict_displacement``): the monomials f(θ/s) degree by degree
+    (``f_l = f_{l − e_i} r_i``, ``order`` = the monomials sorted by degree), ξ = Σ W f θ' at the Gauss
+    nodes, and with ``jacobian`` ∂ξ/∂c = U b + V b' (U = Σ W ∂f/∂r θ'/s, V = Σ W f); then
+    :func:`_integrate`. ``shape`` and ``rate`` ``(2n, d)``, ``weights`` ``(m, d, 3)``."""
+    n_nodes, d = shape.shape
+    m, c = weights.shape[0], basis.shape[1]
+    n_params = d * c
+    values, slopes, along = np.empty(m), np.empty((m, d)), np.empty((m, 3))
+    u, v, scaled = np.empty((3, d)), np.empty((3, d)), np.empty(d)
+    velocity = np.empty((n_nodes, 3))
+    velocity_jacobian = np.zeros((n_nodes, 3, n_params))
+    for q in range(n_nodes):
+        for i in range(d):
+            scaled[i] = shape[q, i] / scale
+        for index in range(m):
+            l = order[index]
+            values[l] = 1.0 if degree[l] == 0 else values[lower[l, variable[l]]] * scaled[variable[l]]
+        for l in range(m):
+            for k in range(3):
+                total = 0.0
+                for j in range(d):
+                    total += rate[q, j] * weights[l, j, k]
+                along[l, k] = total
+        for k in range(3):
+            total = 0.0
+            for l in range(m):
+                total += values[l] * along[l, k]
+            velocity[q, k] = total
+        if not jacobian:
+            continue
+        for l in range(m):
+            for i in range(d):
+                slopes[l, i] = exponents[l, i] * values[lower[l, i]]
+        for k in range(3):
+            for i in range(d):
+                first, second = 0.0, 0.0
+                for l in range(m):
+                    first += slopes[l, i] * along[l, k]
+                    second += values[l] * weights[l, i, k]
+                u[k, i], v[k, i] = first / scale, second
+        for k in range(3):
+            for i in range(d):
+                for cc in range(c):
+                    velocity_jacobian[q, k, i * c + cc] = u[k, i] * basis[q, cc] + v[k, i] * d_basis[q, cc]
+    _integrate(velocity, velocity_jacobian, step, small, jacobian, pose, pose_jacobian)
+
+def _integrate(velocity, velocity_jacobian, step, small, jacobian, pose, pose_jacobian):
+    """The net motion of one cycle from body velocities per unit phase at the Gauss nodes ``(2n, 3)`` (and
+    their derivatives ``(2n, 3, p)``): :func:`geogait.se2.integrate_cycle`'s arithmetic (fourth-order
+    Magnus steps, exact exponentials, their chain rule); writes ``pose`` ``(3,)`` and ``pose_jacobian``."""
+    n_nodes, n_params = velocity.shape[0], velocity_jacobian.shape[2]
     # Magnus: Ω = h/2 (ξ₁ + ξ₂) + √3/12 h² [ξ₁, ξ₂], then the product of exponentials
     half, curvature = step / 2, math.sqrt(3) / 12 * step**2
     heading = 0.0
@@ -291,17 +350,24 @@ def _nearest_segment(x, y, start_x, start_y, step_x, step_y, length, best, along
 
 
 def _compile(function):
-    """``function`` compiled by numba (cached on disk where it can be), or None when numba is missing."""
-    global _missing
+    """``function`` compiled by numba (cached on disk where it can be), or None when numba is missing. The
+    net-motion kernels call :func:`_integrate`, compiled (once) before them."""
+    global _missing, _integrate
     try:
         import numba
     except ImportError as error:
         _missing = str(error)
         return None
-    try:
-        return numba.njit(cache=True, nogil=True, error_model="numpy")(function)
-    except RuntimeError:  # no writable cache directory (read-only install, no NUMBA_CACHE_DIR): compile per process
-        return numba.njit(nogil=True, error_model="numpy")(function)
+
+    def jit(python_function):
+        try:
+            return numba.njit(cache=True, nogil=True, error_model="numpy")(python_function)
+        except RuntimeError:  # no writable cache directory (read-only install, no NUMBA_CACHE_DIR): compile per process
+            return numba.njit(nogil=True, error_model="numpy")(python_function)
+
+    if function is not _learn_one and not hasattr(_integrate, "py_func"):
+        _integrate = jit(_integrate)
+    return jit(function)
 
 
 def learn_one_kernel():
@@ -326,6 +392,16 @@ def displacement_kernel():
     return _loaded(_displacement, lambda: (np.zeros((1, 3)), np.ones((2, 3)), np.ones((2, 3)), np.zeros((2, 1)),
                                            np.zeros((2, 1)), np.zeros((2, 4, 3)), True, 1.0, 1e-4, True,
                                            np.empty(3), np.empty((3, 3))))
+
+
+def shape_space_kernel():
+    """The compiled net motion of a shape-space model (:func:`_shape_space_displacement`), or None as for
+    :func:`learn_one_kernel`."""
+    index = np.zeros((1, 1), dtype=np.int64)
+    return _loaded(_shape_space_displacement, lambda: (
+        np.zeros((2, 1)), np.ones((2, 1)), np.zeros((1, 1, 3)), index, np.zeros(1, dtype=np.int64),
+        np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), index, 1.0, np.ones((2, 3)), np.ones((2, 3)), 1.0,
+        1e-4, True, np.empty(3), np.empty((3, 3))))
 
 
 def _loaded(function, trial_arguments):

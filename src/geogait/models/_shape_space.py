@@ -57,8 +57,10 @@ from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
 from .._validation import GeogaitError, check_array, check_float, fail
 from ..gaits import FourierGait
-from ..se2 import gauss_phases, integrate_cycle
+from ..se2 import _SMALL, gauss_phases, integrate_cycle
+from . import _kernels
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_finite_banks, check_samples, check_stored_sizes
+from ._displacement import _phase_basis
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
@@ -476,7 +478,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         prediction = np.einsum("...ni,...ij->...nj", self._features(shape, shape_velocity), self._flat_weights())
         return prediction[..., 0, :] if self._single else prediction
 
-    def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
+    def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False, compiled: bool = False):
         r"""Net ``(x, y, heading)`` per cycle of ``gait`` under the learned connection.
 
         Integrates :math:`\hat\xi(\phi) = \sum_{l,j} W_{lj\cdot} f_l(\theta(\phi)/s)\,\theta_j'(\phi)` over one
@@ -487,6 +489,15 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
            U_{ki} = \sum_{l,j} W_{ljk}\, \frac{\partial f_l}{\partial r_i}\frac{\theta_j'}{s},\quad
            V_{ki} = \sum_l W_{lik} f_l.
 
+        Parameters
+        ----------
+        gait : FourierGait
+        jacobian : bool, default False
+        compiled : bool, default False
+            Run an unbatched model through the compiled kernel where numba is installed (the same
+            arithmetic, agreeing to rounding, not bit for bit: the path-following solves use it; the
+            optimiser keeps the NumPy path, so its results do not move).
+
         Returns
         -------
         pose : ndarray of shape batch + (3,)
@@ -496,6 +507,9 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints_:
             raise fail("gait", f"{type(self).__name__}.predict_displacement",
                        f"a FourierGait with {self.n_joints_} joints", gait)
+        kernel = _kernels.shape_space_kernel() if compiled and not self.batch_shape_ else None
+        if kernel is not None:
+            return self._compiled_displacement(kernel, gait, jacobian)
         nodes, step = gauss_phases(self.resolution)
         shape, rate = gait.shape(nodes), gait.velocity(nodes)  # (n, 2, d)
         weights = self.weights_  # batch + (m, d, 3)
@@ -512,6 +526,27 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
         velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
         return integrate_cycle(velocity, step, velocity_jacobian)
+
+
+    def _compiled_displacement(self, kernel, gait: FourierGait, jacobian: bool):
+        """:meth:`predict_displacement` of an unbatched model by the compiled kernel
+        (:func:`geogait.models._kernels._shape_space_displacement`)."""
+        exponents = np.ascontiguousarray(self.exponents_, dtype=np.int64)
+        m, d = exponents.shape
+        lower, variable, degree, order = _kernel_lowering(exponents.tobytes(), m, d)
+        basis, d_basis = _phase_basis(self.resolution, gait.order, 0), _phase_basis(self.resolution, gait.order, 1)
+        coefficients = gait.coefficients.T
+        pose, pose_jacobian = np.empty(3), np.empty((3, gait.params.size))
+        kernel(basis @ coefficients, d_basis @ coefficients, self.weights_, lower, variable, degree, order,
+               exponents, float(self.shape_scale), basis, d_basis, 2 * np.pi / self.resolution, _SMALL, jacobian,
+               pose, pose_jacobian)
+        return (pose, pose_jacobian) if jacobian else pose
+
+@functools.lru_cache(maxsize=32)
+def _kernel_lowering(key: bytes, m: int, d: int) -> tuple:
+    """:func:`_lowering` as int64 arrays, with the monomials in order of degree (what the kernel walks)."""
+    lower, variable, degree = (np.ascontiguousarray(a, dtype=np.int64) for a in _lowering(key, m, d))
+    return lower, variable, degree, np.argsort(degree, kind="stable")
 
 
 def _gather(basis: np.ndarray) -> tuple | None:
