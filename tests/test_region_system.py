@@ -85,3 +85,29 @@ def test_the_in_situ_optimiser_keeps_the_region_on_a_simulator(bent):
     assert result.n_steps >= 2
     assert max(gait.shape(phases)[:, 0].max() for gait in result.gaits) <= LIMIT
     assert result.log["true_objective"].iloc[-1] > result.log["true_objective"].iloc[0]
+
+
+def test_the_tracker_keeps_a_simulators_region_in_every_steering_gait(bent):
+    """Steering gaits (family members and each cycle's solve) keep the region, as they keep the joint
+    limits: the straight gait is the region's ceiling gait, so the region binds from the first turn."""
+    from geogait.control import PathTracker, ReferencePath
+    from geogait.simulate import SwimmerStream, cycle_displacement
+
+    straight = optimize_ceiling(bent, starts=2).gait
+    step = float(np.hypot(*cycle_displacement(bent, straight)[:2]))
+    stream = SwimmerStream(bent, straight, sensor_noise=0.05, seed=0)
+    result = PathTracker(controller="true", turn_limit=0.3).run(stream, ReferencePath.circle(6 * step), 12)
+    phases = np.linspace(0, 2 * np.pi, 2048, endpoint=False)
+    commanded = result.log.filter(like="param_").to_numpy()
+    assert result.log["solved"].any()
+    for params in commanded:
+        assert straight.with_params(params).shape(phases)[:, 0].max() <= LIMIT
+    for gait, feasible in zip(result.family.gaits, result.family.feasible, strict=True):
+        if feasible:
+            assert gait.shape(phases)[:, 0].max() <= LIMIT
+    free = PathTracker(controller="true", turn_limit=0.3).run(
+        SwimmerStream(SWIMMER, straight, sensor_noise=0.05, seed=0), ReferencePath.circle(6 * step), 12)
+    assert max(straight.with_params(p).shape(phases)[:, 0].max() for p in free.log.filter(like="param_").to_numpy()) \
+        > LIMIT  # without the region the same steering leaves it
+    with pytest.raises(GeogaitError, match="'gait'.*feasible region"):
+        PathTracker(controller="true").run(SwimmerStream(bent, seed_gait(2), seed=0), ReferencePath.circle(1.0), 2)

@@ -138,7 +138,7 @@ def _check_target(target, owner) -> np.ndarray:
 
 def solve_steering_gait(motion, reference: FourierGait, target, *, direction: float = 0.0,
                         start: FourierGait | None = None, max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE,
-                        tolerance: float = 1e-7, max_iterations: int = 20) -> SteeringSolution:
+                        tolerance: float = 1e-7, max_iterations: int = 20, feasibility=None) -> SteeringSolution:
     r"""The gait nearest ``reference`` whose motion per cycle matches ``target`` (module docstring).
 
     Parameters
@@ -162,6 +162,10 @@ def solve_steering_gait(motion, reference: FourierGait, target, *, direction: fl
         solution is stationary: :math:`p - p^*` lies in the row space of :math:`J`).
     max_iterations : int
         Gauss–Newton iterations (then SLSQP iterations when a joint limit is active).
+    feasibility : callable, optional
+        A feasible shape region as rows on a phase grid (:func:`geogait.optimize.feasibility_constraint`
+        of a :class:`~geogait.systems.FeasibleSystem`): the solution keeps it, as it keeps the joint
+        limits (SLSQP inequalities; a Gauss–Newton solution outside it goes to SLSQP).
 
     Returns
     -------
@@ -191,8 +195,9 @@ def solve_steering_gait(motion, reference: FourierGait, target, *, direction: fl
     goal = raw[keep]
     anchor = reference.params
     params = start.params
-    if start.joint_limit().max() > r_max - 1e-6:  # a joint limit is active at the warm start
-        return _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, max_iterations)
+    region = _Region(feasibility)
+    if start.joint_limit().max() > r_max - 1e-6 or region.active(params):  # a limit is active at the warm start
+        return _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, max_iterations, region)
     for _ in range(max_iterations):
         pose, jacobian = motion(reference.with_params(params), jacobian=True)
         residual = rows @ pose - goal
@@ -208,9 +213,29 @@ def solve_steering_gait(motion, reference: FourierGait, target, *, direction: fl
         params = params + (change if norm <= 0.5 else change * 0.5 / norm)  # at most 0.5 rad per iteration
     pose = motion(reference.with_params(params))
     residual = float(np.max(np.abs(rows @ pose - goal), initial=0.0))
-    if _within_limits(reference.with_params(params), r_max) and residual <= tolerance:
+    if _within_limits(reference.with_params(params), r_max) and region.holds(params) and residual <= tolerance:
         return SteeringSolution(reference.with_params(params), pose, residual, True)
-    return _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, max_iterations)
+    return _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, max_iterations, region)
+
+
+class _Region:
+    """A feasible region's rows (or none) for the steering solves: the SLSQP inequality and the checks."""
+
+    def __init__(self, feasibility):
+        if feasibility is not None and not callable(feasibility):
+            raise fail("feasibility", "solve_steering_gait", "None or rows from feasibility_constraint", feasibility)
+        self.rows = feasibility
+
+    def active(self, params) -> bool:
+        return self.rows is not None and float(self.rows(params)[0].min()) <= 1e-6
+
+    def holds(self, params, slack: float = 1e-9) -> bool:
+        return self.rows is None or float(self.rows(params)[0].min()) >= -slack
+
+    def constraints(self) -> list:
+        if self.rows is None:
+            return []
+        return [{"type": "ineq", "fun": lambda x: self.rows(x)[0], "jac": lambda x: self.rows(x)[1]}]
 
 
 def _within_limits(gait: FourierGait, r_max: float) -> bool:
@@ -250,8 +275,8 @@ def _limit_inequalities(reference: FourierGait, r_max: float):
     return fun, jac
 
 
-def _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, max_iterations):
-    """SLSQP with the joint-limit inequalities, from the given point pulled inside the limits."""
+def _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, max_iterations, region):
+    """SLSQP with the joint-limit (and region) inequalities, from the given point pulled inside the limits."""
     excess = reference.with_params(params).joint_limit().max() / r_max
     if excess > 1:  # joint limits are |θ_j| <= r_max: shrink towards zero offset and amplitude
         params = params / (excess * (1 + 1e-6))
@@ -269,6 +294,7 @@ def _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, 
     constraints = [
         {"type": "eq", "fun": lambda x: rows @ evaluate(x)[0] - goal, "jac": lambda x: rows @ evaluate(x)[1]},
         {"type": "ineq", "fun": limit_fun, "jac": limit_jac},
+        *region.constraints(),
     ]
     iterates = [params]
 
@@ -277,7 +303,7 @@ def _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, 
         # objective can miss at machine precision and then spends its remaining iterations in line searches
         step, iterates[0] = np.linalg.norm(x - iterates[0]), x.copy()
         if (step <= 1e-8 and np.max(np.abs(rows @ evaluate(x)[0] - goal), initial=0.0) <= tolerance
-                and np.all(limit_fun(x) >= -1e-9)):
+                and np.all(limit_fun(x) >= -1e-9) and region.holds(x)):
             raise StopIteration
 
     result = minimize(lambda x: float((x - anchor) @ (x - anchor)), params, jac=lambda x: 2 * (x - anchor),
@@ -287,7 +313,8 @@ def _solve_with_limits(motion, reference, rows, goal, r_max, params, tolerance, 
     pose = motion(reference.with_params(params))
     residual = float(np.max(np.abs(rows @ pose - goal), initial=0.0))
     return SteeringSolution(reference.with_params(params), pose, residual,
-                            _within_limits(reference.with_params(params), r_max) and residual <= max(tolerance, 1e-6))
+                            _within_limits(reference.with_params(params), r_max) and region.holds(params, 1e-6)
+                            and residual <= max(tolerance, 1e-6))
 
 
 @dataclass(frozen=True)
@@ -378,7 +405,7 @@ class SteeringFamily:
 
 def steering_family(motion, reference: FourierGait, turns, *, direction: float = 0.0, step: float | None = None,
                     previous: SteeringFamily | None = None, max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE,
-                    max_iterations: int = 20, contiguous: bool = False) -> SteeringFamily:
+                    max_iterations: int = 20, contiguous: bool = False, feasibility=None) -> SteeringFamily:
     """Steering gaits for each commanded turn (nearest ``reference``, module docstring).
 
     Parameters
@@ -402,6 +429,8 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
         members beyond it (which :meth:`SteeringFamily.interpolate` never uses) are marked
         infeasible and copy that member's gait and motion. Saves the slow failing solves when the
         joint limits cut the family short.
+    feasibility : callable, optional
+        A feasible shape region every member keeps (:func:`solve_steering_gait`).
 
     Returns
     -------
@@ -423,13 +452,15 @@ def steering_family(motion, reference: FourierGait, turns, *, direction: float =
             start = gaits[min(solved, key=lambda k: abs(turns[k] - turns[index]))] if solved else reference
         target = [np.nan if step is None else step, np.nan, turns[index]]
         solution = solve_steering_gait(motion, reference, target, direction=direction, start=start,
-                                       max_joint_angle=max_joint_angle, max_iterations=max_iterations)
+                                       max_joint_angle=max_joint_angle, max_iterations=max_iterations,
+                                       feasibility=feasibility)
         gaits[index], poses[index], feasible[index] = solution.gait, solution.pose, solution.converged
     return SteeringFamily(turns=turns, gaits=tuple(gaits), poses=poses, feasible=feasible, direction=float(direction))
 
 
 def max_feasible_turn(motion, reference: FourierGait, *, direction: float = 0.0, upper: float = 1.0,
-                      spacing: float = TURN_SPACING, max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE) -> float:
+                      spacing: float = TURN_SPACING, max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE,
+                      feasibility=None) -> float:
     """Largest multiple of ``spacing`` up to ``upper`` that ``motion`` turns per cycle in both directions
     with a steering gait within the joint limits (a contiguous family, solved outwards from zero turn).
 
@@ -447,6 +478,8 @@ def max_feasible_turn(motion, reference: FourierGait, *, direction: float = 0.0,
         Spacing of the turns tried (rad per cycle).
     max_joint_angle : float
         r_max (rad) of every steering gait.
+    feasibility : callable, optional
+        A feasible shape region every steering gait keeps (:func:`solve_steering_gait`).
 
     Returns
     -------
@@ -458,7 +491,7 @@ def max_feasible_turn(motion, reference: FourierGait, *, direction: float = 0.0,
     upper = check_float(upper, "upper", owner, low=spacing, high=np.pi)
     n = int(np.floor(upper / spacing + 1e-9))
     family = steering_family(motion, reference, spacing * np.arange(-n, n + 1), direction=direction,
-                             max_joint_angle=max_joint_angle, contiguous=True)
+                             max_joint_angle=max_joint_angle, contiguous=True, feasibility=feasibility)
     if not family.feasible[n]:
         return 0.0
     low, high = family.turn_range

@@ -51,6 +51,7 @@ from .. import se2
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model
+from ..optimize import feasibility_constraint
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
@@ -294,7 +295,7 @@ class PathTracker:
         limit = self.turn_limit
         if limit is None:
             limit = max_feasible_turn(motion, reference, direction=direction, upper=DEFAULT_TURN_LIMIT,
-                                      max_joint_angle=self.max_joint_angle)
+                                      max_joint_angle=self.max_joint_angle, feasibility=self._region)
             if limit == 0:
                 raise GeogaitError("No steering gait turns by 0.1 rad per cycle within the joint limits "
                                    "(give turn_limit, or relax max_joint_angle).")
@@ -345,6 +346,12 @@ class PathTracker:
             raise fail("gait", owner, f"a gait within max_joint_angle = {self.max_joint_angle:.4g}",
                        f"a gait reaching {reference.joint_limit().max():.4g} rad")
         oracle = getattr(robot, "current_system", None)
+        # a simulator's feasible region (FeasibleSystem): every steering gait keeps it, as the joint limits
+        self._region = feasibility_constraint(oracle(), reference.n_joints, reference.order) if callable(oracle) \
+            else None
+        if self._region is not None and self._region(reference.params)[0].min() < 0:
+            raise fail("gait", owner, "a straight gait inside the system's feasible region",
+                       f"a gait whose feasibility falls to {self._region(reference.params)[0].min():.4g}")
         if self.controller == "true" and not callable(oracle):
             raise GeogaitError(f"The 'true' controller of {owner} needs a simulated robot with current_system(); "
                                f"{type(robot).__name__} has none. Use controller='adaptive' or 'frozen'.")
@@ -393,7 +400,8 @@ class PathTracker:
             window = 0.3 + 1.5 * self.horizon * float(np.hypot(family.poses[:, 0], family.poses[:, 1]).max())
             turn = self._plan(pose, s, family, path, step_length, window)
             solution = solve_steering_gait(motion, reference, [np.nan, np.nan, turn], direction=direction,
-                                           start=family.start_for(turn), max_joint_angle=self.max_joint_angle)
+                                           start=family.start_for(turn), max_joint_angle=self.max_joint_angle,
+                                           feasibility=self._region)
             command = solution.gait if solution.converged else family.start_for(turn)
             predicted = solution.pose if solution.converged else family.interpolate(turn)
             truth = (cycle_displacement(system, command, resolution=self.resolution)
@@ -442,7 +450,8 @@ class PathTracker:
 
     def _family(self, motion, reference, direction, previous, turns) -> SteeringFamily:
         family = steering_family(motion, reference, turns, direction=direction, previous=previous,
-                                 max_joint_angle=self.max_joint_angle, max_iterations=20, contiguous=True)
+                                 max_joint_angle=self.max_joint_angle, max_iterations=20, contiguous=True,
+                                 feasibility=self._region)
         if not family.feasible[turns.size // 2]:
             raise GeogaitError("No straight steering gait: the model's zero-turn gait is out of reach within "
                                "the joint limits (warm up for more cycles or relax max_joint_angle).")
