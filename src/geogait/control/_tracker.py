@@ -349,9 +349,10 @@ class PathTracker:
         # a simulator's feasible region (FeasibleSystem): every steering gait keeps it, as the joint limits
         self._region = feasibility_constraint(oracle(), reference.n_joints, reference.order) if callable(oracle) \
             else None
-        if self._region is not None and self._region(reference.params)[0].min() < 0:
+        lowest = float(self._region(reference.params)[0].min()) if self._region is not None else 0.0
+        if lowest < 0:
             raise fail("gait", owner, "a straight gait inside the system's feasible region",
-                       f"a gait whose feasibility falls to {self._region(reference.params)[0].min():.4g}")
+                       f"a gait whose feasibility falls to {lowest:.4g}")
         if self.controller == "true" and not callable(oracle):
             raise GeogaitError(f"The 'true' controller of {owner} needs a simulated robot with current_system(); "
                                f"{type(robot).__name__} has none. Use controller='adaptive' or 'frozen'.")

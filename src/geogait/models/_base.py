@@ -69,22 +69,22 @@ def check_gait_model(model, members, owner: str, parameter: str = "model", prefi
     prefix : str
         What the expected value is said to be before "gait model" (e.g. "None or an unfitted").
     """
-    for member in members:
-        present = hasattr(type(model), member) if member.endswith("_") else callable(getattr(model, member, None))
-        if not present:
-            listed = ", ".join(m if m.endswith("_") else f"{m}()" for m in members)
-            raise fail(parameter, owner, f"{prefix} gait model with {listed} (e.g. AdaptiveGaitModel, "
-                       "ShapeSpaceModel)", f"a {type(model).__name__} without {member}" + ("" if member.endswith("_")
-                                                                                          else "()"))
+    member = _first_missing(model, members)
+    if member is not None:
+        named = [m if m.endswith("_") else f"{m}()" for m in (*members, member)]
+        raise fail(parameter, owner, f"{prefix} gait model with {', '.join(named[:-1])} (e.g. AdaptiveGaitModel, "
+                   "ShapeSpaceModel)", f"a {type(model).__name__} without {named[-1]}")
 
 
 def has_gait_model_members(model, members) -> bool:
     """Whether ``model`` offers all of ``members`` (:func:`check_gait_model`'s test, without the error)."""
-    try:
-        check_gait_model(model, members, "has_gait_model_members")
-    except ValueError:
-        return False
-    return True
+    return _first_missing(model, members) is None
+
+
+def _first_missing(model, members) -> str | None:
+    """The first of ``members`` that ``model`` lacks (methods callable, learned attributes on the class)."""
+    return next((m for m in members if not (hasattr(type(model), m) if m.endswith("_")
+                                            else callable(getattr(model, m, None)))), None)
 
 
 def gamma(error_model, error_baseline) -> np.ndarray:

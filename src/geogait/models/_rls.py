@@ -140,9 +140,7 @@ class RLSBank:
     def inflate(self, factor: float) -> None:
         """Multiply every covariance by ``factor`` (≥ 1), then re-apply the trace clamp."""
         self.covariance *= factor
-        trace = np.einsum("...ii->...", self.covariance)
-        over = trace > self.max_trace
-        self.covariance[over] *= (self.max_trace / trace[over])[..., None, None]
+        self._clamp_trace()
 
     def forget(self, factor: float) -> None:
         r"""Discount the evidence in every covariance by ``factor`` (≥ 1), no direction beyond the prior.
@@ -162,6 +160,10 @@ class RLSBank:
         eigenvalues = np.maximum(eigenvalues, np.minimum(factor * eigenvalues, 1.0))
         forgotten = np.einsum("...ik,...k,...jk->...ij", vectors, eigenvalues, vectors) * scale
         self.covariance[...] = (forgotten + np.swapaxes(forgotten, -1, -2)) / 2
+        self._clamp_trace()
+
+    def _clamp_trace(self) -> None:
+        """Scale every covariance whose trace exceeds the clamp back onto it."""
         trace = np.einsum("...ii->...", self.covariance)
         over = trace > self.max_trace
         self.covariance[over] *= (self.max_trace / trace[over])[..., None, None]

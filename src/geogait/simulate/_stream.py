@@ -209,9 +209,7 @@ class SwimmerStream:
         base = self.perturbation
         eta = std * np.sqrt(2 * base.alpha * base.beta)  # stationary std of δ: η / √(2αβ)
         self.perturbation = Perturbation(alpha=base.alpha, beta=base.beta, eta=eta)
-        state = self._perturbation.state
-        self._perturbation = self.perturbation.stream(self.dt, self.n_joints, None, size=state.shape[:-2],
-                                                      initial_state=state)
+        self._restart_perturbation()
 
     def set_cycle_period(self, seconds: float) -> None:
         """Run the following cycles at period ``seconds`` (the same samples per cycle; at a cycle
@@ -225,7 +223,14 @@ class SwimmerStream:
             return
         start = (self.cycle - self._period_since[0]) * self.cycle_period + self._period_since[1]
         self._period_since = (self.cycle, start)
+        self._apply_period(seconds)
+
+    def _apply_period(self, seconds: float) -> None:
         self.cycle_period, self.dt, self.phase_rate = seconds, seconds / self.samples_per_cycle, 2 * np.pi / seconds
+        self._restart_perturbation()
+
+    def _restart_perturbation(self) -> None:
+        """The SDE stream anew for the current δ size and time step, from the state it has reached."""
         state = self._perturbation.state
         self._perturbation = self.perturbation.stream(self.dt, self.n_joints, None, size=state.shape[:-2],
                                                       initial_state=state)
@@ -271,8 +276,7 @@ class SwimmerStream:
         if state.get("perturbation_std") is not None:  # states saved before sizes could change lack it
             self.set_perturbation_std(state["perturbation_std"])  # checked before anything else changes
         if period != self.cycle_period:  # states saved before the period could change lack it
-            self.position = 0
-            self.set_cycle_period(period)
+            self._apply_period(period)
         since = state.get("period_since", (0, 0.0))
         self._period_since = (int(since[0]), float(since[1]))
         for generator, saved in zip(self._perturbation_rngs + self._noise_rngs, rngs[0] + rngs[1], strict=True):
