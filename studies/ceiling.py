@@ -18,7 +18,9 @@ what a rotating gait actually gains along a straight line (equal to ‖t‖ at �
 CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sqp, shape-linear,
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
 (ShapeSpaceModel of degree 3 with the swimmer's mirror and reversal symmetries built in,
-``symmetry="mirror+reversal"``), perfect-linear, perfect-sqp (true connection, trust radius up to
+``symmetry="mirror+reversal"``), resistance-linear, resistance-sqp (:class:`~geogait.models.ResistanceModel`: the
+swimmer's geometry given, its drags learned), hybrid-linear, hybrid-sqp (the same with a degree-2 symmetric residual
+model), perfect-linear, perfect-sqp (true connection, trust radius up to
 0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5); each suffix ``,KEY=VALUE``
 sets an ``InSituOptimizer`` option KEY, or a hyper-parameter NAME of the model when KEY is
 ``model.NAME`` (models named in the config only), e.g.
@@ -32,13 +34,14 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from geogait.gaits import seed_gait
-from geogait.models import PerfectInformationModel, ShapeSpaceModel
+from geogait.models import PerfectInformationModel, ResistanceModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer, cached_ceiling
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
 CONFIGS = ("free-linear", "symmetric-linear", "symmetric-sqp", "shape-linear", "shape-sqp", "mirror-linear",
-           "mirror-sqp", "perfect-linear", "perfect-sqp")
+           "mirror-sqp", "resistance-linear", "resistance-sqp", "hybrid-linear", "hybrid-sqp", "perfect-linear",
+           "perfect-sqp")
 
 
 def optimizer(config, links):
@@ -52,11 +55,17 @@ def optimizer(config, links):
         options["model"] = ShapeSpaceModel(degree=3 if links < 9 else 2)
     if model == "mirror":
         options["model"] = ShapeSpaceModel(degree=3, symmetry="mirror+reversal")
+    if model == "resistance":  # the chain's geometry known, its drags learned
+        options["model"] = ResistanceModel.from_swimmer(PurcellSwimmer(links))
+    if model == "hybrid":
+        options["model"] = ResistanceModel.from_swimmer(PurcellSwimmer(links), residual_degree=2,
+                                                        residual_symmetry="mirror+reversal")
     if model == "perfect":
         options.update(model=PerfectInformationModel(system=PurcellSwimmer(links)), max_trust_radius=0.5)
     for setting in settings:
         key, _, value = setting.partition("=")
-        value = int(value) if value.isdigit() else float(value)
+        value = {"none": None, "false": False, "true": True}[value] if value in ("none", "false", "true") \
+            else int(value) if value.isdigit() else float(value)
         if key.startswith("model."):
             options["model"].set_params(**{key.removeprefix("model."): value})
         else:

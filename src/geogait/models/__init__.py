@@ -8,6 +8,7 @@ from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._perfect import PerfectInformationModel
 from ._phase import PhaseModel
+from ._resistance import ResistanceModel
 from ._rls import RLSBank
 from ._shape_space import ShapeSpaceModel, monomial_exponents, monomials, symmetry_blocks
 
@@ -19,6 +20,7 @@ __all__ = [
     "PhaseModel",
     "PhaseWindows",
     "RLSBank",
+    "ResistanceModel",
     "ShapeSpaceModel",
     "check_gait_model",
     "gamma",

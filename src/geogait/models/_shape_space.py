@@ -510,13 +510,17 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         kernel = _kernels.shape_space_kernel() if compiled and not self.batch_shape_ else None
         if kernel is not None:
             return self._compiled_displacement(kernel, gait, jacobian)
+        return integrate_cycle(*self._cycle_velocity(gait, jacobian))
+
+    def _cycle_velocity(self, gait: FourierGait, jacobian: bool):
+        """Predicted ξ at the Magnus nodes of one cycle of ``gait`` and the step (and ∂ξ/∂params):
+        :func:`~geogait.se2.integrate_cycle`'s arguments."""
         nodes, step = gauss_phases(self.resolution)
         shape, rate = gait.shape(nodes), gait.velocity(nodes)  # (n, 2, d)
         weights = self.weights_  # batch + (m, d, 3)
         if not jacobian:
             f = monomials(shape / self.shape_scale, self.exponents_)
-            velocity = np.einsum("npl,npj,...ljk->...npk", f, rate, weights, optimize=True)
-            return integrate_cycle(velocity, step)
+            return np.einsum("npl,npj,...ljk->...npk", f, rate, weights, optimize=True), step
         f, df = monomials(shape / self.shape_scale, self.exponents_, derivative=True)  # (n,2,m), (n,2,m,d)
         along = np.einsum("npj,...ljk->...nplk", rate, weights, optimize=True)  # Σ_j W_ljk θ_j': contract once, reuse
         velocity = np.einsum("npl,...nplk->...npk", f, along, optimize=True)
@@ -524,8 +528,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         v = np.einsum("npl,...lik->...npki", f, weights, optimize=True)
         basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
         velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
-        velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
-        return integrate_cycle(velocity, step, velocity_jacobian)
+        return velocity, step, velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
 
 
     def _compiled_displacement(self, kernel, gait: FourierGait, jacobian: bool):

@@ -23,6 +23,7 @@ from ..systems import System
 
 __all__ = ["cycle_displacement"]
 
+
 def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256, jacobian: bool = False):
     """Net SE(2) motion ``(x, y, heading)`` over one cycle of ``gait`` on ``system``.
 
@@ -49,12 +50,22 @@ def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256,
     if not isinstance(gait, FourierGait) or gait.n_joints != system.n_joints:
         raise fail("gait", "cycle_displacement", f"a FourierGait with {system.n_joints} joints (the system's)",
                    gait if not isinstance(gait, FourierGait) else f"{gait.n_joints} joints")
+    return integrate_cycle(*cycle_velocity(system, gait, resolution, jacobian))
+
+
+def cycle_velocity(system: System, gait: FourierGait, resolution: int, jacobian: bool = False):
+    """Body velocity ξ = −A(θ)θ' at the Magnus nodes of one cycle of ``gait`` (what
+    :func:`cycle_displacement` integrates; a sum of connections integrates the sum of these).
+
+    Returns ``(velocity (n, 2, 3), step)``, or with ``jacobian`` ``(velocity, step, ∂velocity/∂params
+    (n, 2, 3, p))``: the arguments of :func:`~geogait.se2.integrate_cycle`.
+    """
     phases, step = gauss_phases(resolution)
     shape, rate = gait.shape(phases), gait.velocity(phases)
     connection = system.connection(shape)  # (n, 2, 3, d)
     velocity = -np.einsum("...ij,...j->...i", connection, rate)
     if not jacobian:
-        return integrate_cycle(velocity, step)
+        return velocity, step
     d = gait.n_joints
     h = 1e-6
     offsets = h * np.eye(d)
@@ -64,5 +75,4 @@ def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256,
     basis, d_basis = gait.basis(phases), gait.basis(phases, 1)  # (n, 2, c)
     velocity_jacobian = (d_velocity_d_shape[..., :, :, None] * basis[..., None, None, :]
                          - connection[..., :, :, None] * d_basis[..., None, None, :])  # (n, 2, 3, d, c)
-    velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
-    return integrate_cycle(velocity, step, velocity_jacobian)
+    return velocity, step, velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))

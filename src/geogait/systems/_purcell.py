@@ -58,6 +58,10 @@ class PurcellSwimmer:
         oriented along the mean of the two middle links). ``"center_of_mass"``: length-weighted
         centroid of the link centres, oriented along the length-weighted mean link angle.
         ``"tail"``: centre and orientation of the first link.
+    link_drag_scale : array-like of shape (n_links, 2), optional
+        Per-link multipliers (positive, in [1e-6, 1e6]) of the longitudinal drag ``c`` and the lateral
+        drag ``k c`` (the rotational drag ``k c l³/12`` scales with the lateral one): links of different
+        surface or medium. All ones by default.
 
     Examples
     --------
@@ -73,6 +77,7 @@ class PurcellSwimmer:
     drag_coefficient: float = 1.0
     drag_ratio: float = 2.0
     body_frame: str = "middle"
+    link_drag_scale: tuple[tuple[float, float], ...] | None = None
     _geometry: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -96,6 +101,13 @@ class PurcellSwimmer:
         for name in ("drag_coefficient", "drag_ratio"):
             check_float(getattr(self, name), name, owner, low=SCALE_RANGE[0], high=SCALE_RANGE[1])
         check_choice(self.body_frame, "body_frame", owner, BODY_FRAMES)
+        if self.link_drag_scale is not None:
+            scale = check_array(self.link_drag_scale, "link_drag_scale", owner, ndim=2)
+            if scale.shape != (n, 2) or scale.min() < SCALE_RANGE[0] or scale.max() > SCALE_RANGE[1]:
+                raise fail("link_drag_scale", owner, f"an array of shape ({n}, 2) with entries in "
+                           f"[{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}] (longitudinal, lateral per link)",
+                           self.link_drag_scale)
+            object.__setattr__(self, "link_drag_scale", tuple(tuple(float(x) for x in row) for row in scale))
         object.__setattr__(self, "link_lengths", tuple(float(x) for x in lengths))
         object.__setattr__(self, "_geometry", _chain_geometry(lengths, self.body_frame))
 
@@ -166,9 +178,56 @@ class PurcellSwimmer:
                            cos_b[..., None], sin_b[..., None])  # (..., 2, N)
         transform = _adjoint_of_inverse(rel[..., 0, :], rel[..., 1, :], angle - frame_angle[..., None])
         jacobian = link_jac - transform @ frame_jac[..., None, :, :]
+        return transform, jacobian, self._link_drag()
+
+    def _link_drag(self) -> np.ndarray:
+        """Diagonal RFT drag of each link ``(N, 3)``: c (l, k l, k l³/12), times the per-link scales."""
+        lengths = np.asarray(self.link_lengths)
         c, k = self.drag_coefficient, self.drag_ratio
         drag = c * np.stack([lengths, k * lengths, k * lengths**3 / 12], axis=-1)
-        return transform, jacobian, drag
+        if self.link_drag_scale is not None:
+            drag = drag * np.asarray(self.link_drag_scale)[:, [0, 1, 1]]
+        return drag
+
+    def drag_sensitivity(self, shapes, shape_velocity) -> tuple[np.ndarray, np.ndarray]:
+        r"""Body velocity ξ = −A(r)ṙ and its derivative with respect to each link's log drag.
+
+        With link twists :math:`v_i = J_i\dot r + T_i\xi` (what each link feels), a change of link i's
+        drag :math:`D_i` moves the connection by
+        :math:`\partial A = \omega_\xi^{-1} T_i^T\,\partial D_i\,(J_i - T_i A)`, so
+
+        .. math:: \frac{\partial\xi}{\partial\log D_{i,\parallel}} = -\omega_\xi^{-1} T_{i,x}^T D_{i,x} v_{i,x},
+           \qquad \frac{\partial\xi}{\partial\log D_{i,\perp}}
+           = -\omega_\xi^{-1} \sum_{k\in\{y,\omega\}} T_{i,k}^T D_{i,k} v_{i,k}.
+
+        ξ is unchanged when every drag is scaled alike (the derivatives sum to zero): the motion sees
+        only ratios of drags.
+
+        Parameters
+        ----------
+        shapes, shape_velocity : array-like of shape (..., d)
+            Joint angles r (rad) and their rates ṙ (rad per unit time).
+
+        Returns
+        -------
+        body_velocity : ndarray of shape (..., 3)
+        sensitivity : ndarray of shape (..., 3, N, 2)
+            ∂ξ / ∂(log longitudinal, log lateral drag) of each link.
+        """
+        owner = "PurcellSwimmer.drag_sensitivity"
+        shapes = check_shapes(shapes, self.n_joints, owner)
+        shape_velocity = check_shapes(shape_velocity, self.n_joints, owner)
+        transform, jacobian, drag = self._link_terms(shapes)
+        weighted = transform * drag[..., :, None]
+        resistance = _link_sum(weighted, transform)  # ω_ξ
+        connection = np.linalg.solve(resistance, _link_sum(weighted, jacobian))
+        body_velocity = -np.einsum("...kj,...j->...k", connection, shape_velocity)
+        twist = (np.einsum("...ikj,...j->...ik", jacobian, shape_velocity)
+                 + np.einsum("...ikl,...l->...ik", transform, body_velocity))  # v_i (..., N, 3)
+        rows = transform * (drag * twist)[..., :, None]  # row k of link i: T_ik D_ik v_ik (..., N, 3, 3)
+        per_link = np.stack([rows[..., 0, :], rows[..., 1, :] + rows[..., 2, :]], axis=-1)  # (..., N, 3, 2)
+        sensitivity = -np.einsum("...kl,...ilm->...kim", np.linalg.inv(resistance), per_link)
+        return body_velocity, sensitivity
 
 
 def _rotate_back(vectors, cos, sin):

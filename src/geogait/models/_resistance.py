@@ -1,0 +1,476 @@
+r"""Learn the resistance, not the connection: a structured gait model for chains in resistive media.
+
+For a planar chain of straight links in a resistive medium (low-Reynolds-number swimmers, resistive
+force theory for snakes on sand or in granular media) the connection is
+:math:`A(r) = \omega_\xi^{-1}(r)\,\omega_r(r)`, both matrices sums of the links' drag
+:math:`D_i = \mathrm{diag}(c_{\parallel,i} l_i,\ c_{\perp,i} l_i,\ c_{\perp,i} l_i^3/12)` transported by the
+chain's geometry (:class:`~geogait.systems.PurcellSwimmer`). With the geometry known (link lengths, body
+frame) the only unknowns are the drag coefficients, and only their ratios matter (A is unchanged
+when every drag is scaled alike). :class:`ResistanceModel` learns them:
+
+* **parameters** :math:`u`: the log lateral/longitudinal ratio shared by all links, and per-link log
+  deviations of each link's longitudinal and lateral drag, with a Gaussian prior
+  :math:`u \sim N(0, P_0)` — the ratio around ``drag_ratio`` (spread ``ratio_spread``), the per-link
+  deviations around zero (spread ``link_variation``; 0 fits the shared ratio alone). The prior pulls
+  the links towards shared coefficients and fixes the unobservable overall scale.
+* **output error**: the predicted body velocity :math:`\hat\xi(u) = -A(r; u)\dot r` is fitted to the
+  measured one over the last ``memory`` samples by Gauss–Newton (MAP, each output weighted by its
+  residual variance), warm-started from the previous fit, with the analytic derivative
+  :meth:`PurcellSwimmer.drag_sensitivity <geogait.systems.PurcellSwimmer.drag_sensitivity>`. Fitting the
+  force balance instead (linear least squares) would be biased by the noise in ξ, which enters that
+  regression as an error in the regressors.
+* **uncertainty**: the parameters' covariance :math:`(J^T W J + P_0^{-1})^{-1}`, and from it the standard
+  error of the predicted net rotation per cycle (:meth:`ResistanceModel.rotation_std`).
+* **hybrid** (``residual_degree``): a :class:`~geogait.models.ShapeSpaceModel` learns what the resistive
+  structure leaves, :math:`\xi - \hat\xi(u)`, so where the medium is not resistive (quadratic drag,
+  dry friction, inertia) the data still shape the prediction; its prior keeps it near zero where the
+  structure is right.
+
+Because A follows from a handful of coefficients everywhere in shape space, the model knows the
+objective's gradient far from the gaits it has seen — which a local polynomial fitted to a few
+cycles does not (docs/results/paper-figures.md, "Where the model runs out").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._docs import fill_doc
+from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
+from .._validation import check_array, check_float, fail
+from ..gaits import FourierGait
+from ..se2 import gauss_phases, integrate_cycle
+from ..simulate._oracle import cycle_velocity
+from ..systems import PurcellSwimmer
+from ..systems._purcell import BODY_FRAMES
+from ._shape_space import SYMMETRIES, ShapeSpaceModel
+from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
+from ._online_gamma import OnlineGamma
+from ._phase import PhaseModel
+
+__all__ = ["ResistanceModel"]
+
+#: Largest |log| of a drag multiplier a Gauss–Newton step may reach (drags within e^±12 of each other).
+_LOG_DRAG_BOUND = 12.0
+
+
+class _LinkLengths:
+    """Constraint: None or at least two positive, finite link lengths."""
+
+    def __call__(self, value, name: str, owner: str) -> None:
+        if value is None:
+            return
+        try:
+            lengths = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise fail(name, owner, "a sequence of at least 2 positive link lengths", value) from None
+        if lengths.ndim != 1 or lengths.size < 2 or not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
+            raise fail(name, owner, "a sequence of at least 2 positive link lengths", value)
+
+
+@fill_doc
+class ResistanceModel(OnlineGamma, SampleModel, Estimator):
+    r"""The connection of a chain in a resistive medium, learned as its drag coefficients (module docstring).
+
+    Parameters
+    ----------
+    link_lengths : sequence of float
+        The chain's link lengths, tail first (N links, N − 1 joints): the geometry the model takes as
+        known (:class:`~geogait.systems.PurcellSwimmer`'s, a MuJoCo chain's). Required.
+    body_frame : {"middle", "center_of_mass", "tail"}
+        Where the robot's body velocity is measured (as :class:`~geogait.systems.PurcellSwimmer`).
+    drag_ratio : float in [1e-3, 1e3]
+        Prior mean of the lateral over longitudinal drag ratio k (2 for slender bodies at low Reynolds
+        number; larger on granular media).
+    ratio_spread : float in (0, 10]
+        Prior standard deviation of log k.
+    link_variation : float in [0, 10]
+        Prior standard deviation of each link's log longitudinal and log lateral drag about the shared
+        values; 0 learns the shared ratio alone (one parameter).
+    memory : int >= 16
+        Most recent samples the output error is fitted to.
+    iterations : int >= 1
+        Most Gauss–Newton iterations per :meth:`partial_fit` (warm-started; fewer once the cost stops falling).
+    residual_degree : int, optional
+        The hybrid: a :class:`~geogait.models.ShapeSpaceModel` of this degree learns the residual
+        :math:`\xi - \hat\xi(u)` (None: the resistive structure alone).
+    residual_symmetry : {None, "mirror", "mirror+reversal"}
+        Symmetry of the residual model's basis (``ShapeSpaceModel.symmetry``).
+    residual_shrinkage : float > 0
+        ``degree_shrinkage`` of the residual model: its higher degrees stay near zero until the data
+        demand them.
+    shape_scale : float in [1e-6, 1e6]
+        The residual model's unit of shape.
+    gamma_forgetting : float in (0, 1]
+        λ_Γ of the online Γ (eq. 6).
+    n_windows, smoothing_order : int
+        Phase windows and smoothing of the phase model ξ_T (the Γ baseline).
+    baseline_forgetting : float in (0, 1]
+        Forgetting of the phase model, per window update.
+    resolution : int
+        Magnus steps per cycle in :meth:`predict_displacement`.
+
+    Attributes
+    ----------
+    log_drag_ : ndarray of shape (N, 2)
+        Fitted log longitudinal and log lateral drag per unit length of each link, relative to a
+        longitudinal drag of 1 (only differences are observable; the prior fixes the mean).
+    parameters_ : ndarray of shape (n_parameters,)
+        u: the log ratio's deviation from log ``drag_ratio``, then the per-link deviations.
+    parameter_covariance_ : ndarray of shape (n_parameters, n_parameters)
+        Posterior covariance of u.
+    noise_std_ : ndarray of shape (3,)
+        RMS output error of each body-velocity component over the memory after the last fit.
+    system_ : PurcellSwimmer
+        The fitted chain (its ``connection`` is the model's resistive A(r)).
+    residual_model_ : ShapeSpaceModel or None
+        The hybrid's residual model.
+    phase_model_ : PhaseModel
+    gamma_ : float
+        Online Γ after the last sample (eq. 6).
+    prior_prediction_ : ndarray of shape (n, 3)
+        A-priori predictions of the samples of the last ``partial_fit`` call.
+    n_joints_ : int
+    batch_shape_ : tuple
+        Always ``()``: one robot per model.
+    n_samples_seen_ : int
+
+    Examples
+    --------
+    >>> from geogait.systems import PurcellSwimmer
+    >>> from geogait.gaits import seed_gait
+    >>> from geogait.simulate import simulate, cycle_displacement
+    >>> swimmer, gait = PurcellSwimmer(5, drag_ratio=3.0), seed_gait(4)
+    >>> run = simulate(swimmer, gait, n_cycles=4, seed=0)
+    >>> model = ResistanceModel(link_lengths=swimmer.link_lengths)
+    >>> model = model.fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    >>> ratio = np.exp(model.log_drag_[:, 1] - model.log_drag_[:, 0])
+    >>> bool(np.all(np.abs(ratio - 3.0) < 0.3))
+    True
+    """
+
+    _format = FORMAT
+    _format_version = FORMAT_VERSION
+    _parameter_constraints = {
+        "link_lengths": _LinkLengths(),
+        "body_frame": Options(BODY_FRAMES),
+        "drag_ratio": Real(low=1e-3, high=1e3),
+        "ratio_spread": Real(low=0, high=10, low_open=True),
+        "link_variation": Real(low=0, high=10),
+        "memory": Integer(minimum=16),
+        "iterations": Integer(minimum=1),
+        "residual_degree": Integer(minimum=0, none=True),
+        "residual_symmetry": Options(SYMMETRIES),
+        "residual_shrinkage": Real(low=0, low_open=True),
+        "shape_scale": Real(low=1e-6, high=1e6),
+        "gamma_forgetting": Real(low=0, high=1, low_open=True),
+        "n_windows": Integer(minimum=1),
+        "smoothing_order": Integer(minimum=0),
+        "baseline_forgetting": Real(low=0, high=1, low_open=True),
+        "resolution": Integer(minimum=4),
+    }
+
+    def __init__(self, *, link_lengths=None, body_frame: str = "middle", drag_ratio: float = 2.0,
+                 ratio_spread: float = 1.0, link_variation: float = 0.3, memory: int = 4096, iterations: int = 3,
+                 residual_degree: int | None = None, residual_symmetry: str | None = None,
+                 residual_shrinkage: float = 30.0, shape_scale: float = 1.0, gamma_forgetting: float = 0.995,
+                 n_windows: int = 20, smoothing_order: int = 5, baseline_forgetting: float = 0.99,
+                 resolution: int = 128):
+        self.link_lengths = link_lengths
+        self.body_frame = body_frame
+        self.drag_ratio = drag_ratio
+        self.ratio_spread = ratio_spread
+        self.link_variation = link_variation
+        self.memory = memory
+        self.iterations = iterations
+        self.residual_degree = residual_degree
+        self.residual_symmetry = residual_symmetry
+        self.residual_shrinkage = residual_shrinkage
+        self.shape_scale = shape_scale
+        self.gamma_forgetting = gamma_forgetting
+        self.n_windows = n_windows
+        self.smoothing_order = smoothing_order
+        self.baseline_forgetting = baseline_forgetting
+        self.resolution = resolution
+
+    @classmethod
+    def from_swimmer(cls, swimmer: PurcellSwimmer, **params) -> ResistanceModel:
+        """A model of ``swimmer``'s geometry (link lengths and body frame; its drags are not told)."""
+        if not isinstance(swimmer, PurcellSwimmer):
+            raise fail("swimmer", "ResistanceModel.from_swimmer", "a PurcellSwimmer", swimmer)
+        return cls(link_lengths=swimmer.link_lengths, body_frame=swimmer.body_frame, **params)
+
+    # -- validation ---------------------------------------------------------------------------
+    def _check_param_combinations(self) -> None:
+        if self.link_lengths is None:
+            raise fail("link_lengths", type(self).__name__, "the chain's link lengths (the model's known geometry; "
+                       "e.g. ResistanceModel.from_swimmer(swimmer))", None)
+
+    def _check_samples(self, phase, *arrays, names, owner):
+        *out, self._single = check_samples(self, phase, *arrays, names=names, owner=owner)
+        if out[0].ndim != 1:
+            raise fail("phase", owner, "samples of one robot, shape (n,) (the resistance model has no trial axes)",
+                       f"shape {out[0].shape}")
+        return out
+
+    # -- the parametrisation --------------------------------------------------------------------
+    @property
+    def _n_links(self) -> int:
+        return len(self.link_lengths)
+
+    def _design(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """θ = θ₀ + G u (θ: log drag multipliers, link-major (N, 2) flattened) and the prior variance of u."""
+        n = self._n_links
+        theta0 = np.tile([0.0, np.log(self.drag_ratio)], n)
+        shared = np.tile([0.0, 1.0], n)[:, None]  # the common log ratio moves every lateral drag
+        if self.link_variation == 0:
+            return theta0, shared, np.array([self.ratio_spread**2])
+        design = np.hstack([shared, np.eye(2 * n)])
+        return theta0, design, np.concatenate([[self.ratio_spread**2], np.full(2 * n, self.link_variation**2)])
+
+    def _chain(self, parameters: np.ndarray) -> PurcellSwimmer:
+        theta0, design, _ = self._design()
+        log_drag = (theta0 + design @ parameters).reshape(-1, 2)
+        return PurcellSwimmer(self._n_links, link_lengths=self.link_lengths, body_frame=self.body_frame,
+                              drag_ratio=1.0, link_drag_scale=np.exp(log_drag - log_drag[:, 0].mean()))
+
+    # -- fitting ------------------------------------------------------------------------------
+    def _reset(self, n_joints: int):
+        self.validate()
+        if n_joints != self._n_links - 1:
+            raise fail("shape", f"{type(self).__name__}.partial_fit",
+                       f"{self._n_links - 1} joints (link_lengths gives {self._n_links} links)", f"{n_joints} joints")
+        _, design, prior = self._design()
+        self.n_joints_ = n_joints
+        self.batch_shape_ = ()
+        self.parameters_ = np.zeros(design.shape[1])
+        self.parameter_covariance_ = np.diag(prior)
+        self.noise_std_ = np.full(3, np.nan)
+        self._memory = np.zeros((0, 2 * n_joints + 3))
+        self.residual_model_ = None if self.residual_degree is None else ShapeSpaceModel(
+            degree=self.residual_degree, symmetry=self.residual_symmetry, shape_scale=self.shape_scale,
+            degree_shrinkage=self.residual_shrinkage, resolution=self.resolution)
+        self.phase_model_ = PhaseModel(n_windows=self.n_windows, forgetting_factor=self.baseline_forgetting,
+                                       smoothing_order=self.smoothing_order).start(())
+        self.psi_ = np.zeros(2)
+        self.n_samples_seen_ = 0
+        self._system = None
+
+    def partial_fit(self, phase, shape, shape_velocity, body_velocity):
+        """Predict the new samples (for Γ), add them to the memory and refit the drag coefficients.
+
+        Parameters
+        ----------
+        %(samples)s
+
+        Returns
+        -------
+        self
+        """
+        phase, shape, shape_velocity, body_velocity = self._check_samples(
+            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
+            owner=f"{type(self).__name__}.partial_fit")
+        if not hasattr(self, "batch_shape_"):
+            self._reset(shape.shape[-1])
+        elif shape.shape[-1] != self.n_joints_:
+            raise fail("shape", f"{type(self).__name__}.partial_fit", f"{self.n_joints_} joints",
+                       f"{shape.shape[-1]} joints")
+        prior = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+        samples = np.concatenate([shape, shape_velocity, body_velocity], axis=-1)
+        self._memory = np.concatenate([self._memory, samples])[-self.memory:]
+        self._fit_drag()
+        if self.residual_model_ is not None:
+            resistive = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+            self.residual_model_.partial_fit(phase, shape, shape_velocity, body_velocity - resistive)
+            prior = prior + self.residual_model_.prior_prediction_
+        baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
+        self._update_gamma(prior, baseline, body_velocity)
+        self.prior_prediction_ = prior
+        self.n_samples_seen_ += phase.shape[-1]
+        return self
+
+    def _fit_drag(self):
+        """Gauss–Newton (MAP) on the output error over the memory, from the current parameters."""
+        d = self.n_joints_
+        shape, shape_velocity, measured = np.split(self._memory, [d, 2 * d], axis=-1)
+        _, design, prior = self._design()
+        precision = 1.0 / prior
+        parameters = self.parameters_
+        scale = np.sqrt(np.mean(measured**2, axis=0)) + 1e-300
+
+        def weights(residual):  # each output by its residual variance (iteratively reweighted)
+            return 1.0 / np.maximum(np.sqrt(np.mean(residual**2, axis=0)), 1e-6 * scale) ** 2
+
+        def cost(predicted, u):
+            return float(np.sum((measured - predicted) ** 2 * weight) + u @ (precision * u))
+
+        predicted, sensitivity = self._chain(parameters).drag_sensitivity(shape, shape_velocity)
+        for _ in range(self.iterations):
+            weight = weights(measured - predicted)
+            current = cost(predicted, parameters)
+            jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design  # (n, 3, k)
+            weighted = jacobian * weight[:, None]
+            information = np.einsum("nki,nkj->ij", weighted, jacobian) + np.diag(precision)
+            gradient = np.einsum("nki,nk->i", weighted, measured - predicted) - precision * parameters
+            step = np.linalg.solve(information, gradient)
+            for _ in range(8):  # backtrack until the MAP cost falls (the model is nonlinear in u)
+                trial = parameters + step
+                if np.abs(design @ trial).max() <= _LOG_DRAG_BOUND:
+                    trial_predicted, trial_sensitivity = self._chain(trial).drag_sensitivity(shape, shape_velocity)
+                    trial_cost = cost(trial_predicted, trial)
+                    if trial_cost <= current:
+                        break
+                step = step / 2
+            else:
+                break
+            converged = current - trial_cost <= 1e-12 * current
+            parameters, predicted, sensitivity, current = trial, trial_predicted, trial_sensitivity, trial_cost
+            if converged:
+                break
+        jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design
+        residual = measured - predicted
+        self.noise_std_ = np.sqrt(np.mean(residual**2, axis=0))
+        information = np.einsum("nki,nk,nkj->ij", jacobian, np.broadcast_to(weights(residual), residual.shape),
+                                jacobian)
+        self.parameters_ = parameters
+        self.parameter_covariance_ = np.linalg.inv(information + np.diag(precision))
+        self._system = None
+
+    def forget(self, factor: float):
+        """Discount the evidence so far by ``factor`` at once: keep the newest 1 / ``factor`` of the memory
+        (a fresh change of medium is then learned from fewer, newer samples). Returns ``self``."""
+        self._check_is_fitted()
+        factor = check_float(factor, "factor", f"{type(self).__name__}.forget", low=1)
+        keep = int(np.ceil(len(self._memory) / factor))
+        self._memory = self._memory[len(self._memory) - keep:]
+        if self.residual_model_ is not None:
+            self.residual_model_.forget(factor)
+        return self
+
+    def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
+        """A new nominal gait: the drag coefficients hold everywhere in shape space and need no re-centring.
+
+        The phase model ξ_T starts afresh (``baseline="reset"``) or is kept (``"keep"``); other options of
+        the local models' rebase are accepted and ignored. Returns ``self``.
+        """
+        self._check_is_fitted()
+        if baseline not in ("reset", "keep"):
+            raise fail("baseline", f"{type(self).__name__}.rebase", "one of 'reset', 'keep'", baseline)
+        if baseline == "reset":
+            self.phase_model_.start(())
+        if self.residual_model_ is not None:
+            self.residual_model_.rebase(gait, baseline="keep")
+        return self
+
+    # -- prediction ---------------------------------------------------------------------------
+    @property
+    def system_(self) -> PurcellSwimmer:
+        self._check_is_fitted()
+        if self._system is None:
+            self._system = self._chain(self.parameters_)
+        return self._system
+
+    @property
+    def log_drag_(self) -> np.ndarray:
+        self._check_is_fitted()
+        return np.log(np.asarray(self.system_.link_drag_scale))
+
+    def connection(self, shape) -> np.ndarray:
+        """The model's connection A(r) at ``shape`` ``(..., d)`` (rad) → ``(..., 3, d)``, ξ = −A ṙ (resistive part
+        plus, for the hybrid, the residual model's)."""
+        shape = check_array(shape, "shape", f"{type(self).__name__}.connection", trailing=(self.n_joints_,))
+        connection = self.system_.connection(shape)
+        if self.residual_model_ is not None:
+            connection = connection + self.residual_model_.connection(shape)
+        return connection
+
+    def predict(self, phase, shape, shape_velocity) -> np.ndarray:
+        """Predicted body velocity ξ̂ = −A(r)ṙ of samples ``(n, d)`` → ``(n, 3)`` (``phase`` only checked).
+
+        Parameters
+        ----------
+        phase : array-like of shape (n,)
+        shape, shape_velocity : array-like of shape (n, d)
+            Joint angles (rad) and rates (rad per unit time).
+        """
+        self._check_is_fitted()
+        phase, shape, shape_velocity = self._check_samples(phase, shape, shape_velocity,
+                                                           names=("shape", "shape_velocity"),
+                                                           owner=f"{type(self).__name__}.predict")
+        prediction = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+        if self.residual_model_ is not None:
+            prediction = prediction + self.residual_model_.predict(phase, shape, shape_velocity)
+        return prediction[0] if self._single else prediction
+
+    def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
+        """Net ``(x, y, heading)`` per cycle of ``gait`` under the fitted connection (and its ``(3, p)``
+        derivative with respect to ``gait.params``): the resistive and residual body velocities summed at
+        the Magnus nodes, then integrated (fourth-order Magnus, exact exponentials).
+
+        Parameters
+        ----------
+        gait : FourierGait
+        jacobian : bool, default False
+        """
+        self._check_is_fitted()
+        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints_:
+            raise fail("gait", f"{type(self).__name__}.predict_displacement",
+                       f"a FourierGait with {self.n_joints_} joints", gait)
+        parts = cycle_velocity(self.system_, gait, self.resolution, jacobian)
+        if self.residual_model_ is not None:
+            residual = self.residual_model_._cycle_velocity(gait, jacobian)
+            parts = (parts[0] + residual[0], parts[1], *((parts[2] + residual[2],) if jacobian else ()))
+        return integrate_cycle(*parts)
+
+    def rotation_std(self, gait: FourierGait, residual_variance) -> float:
+        r"""Standard error of the predicted net rotation per cycle of ``gait``.
+
+        The heading of the Magnus integration is exactly linear in the ω-component of ξ, so its
+        derivative with respect to u is :math:`g = \frac h2\sum_{\text{nodes}} \partial\xi_\omega/\partial u`
+        and its standard error :math:`\sqrt{g^T C g}` with the parameters' covariance C (which already
+        carries the measured noise). The hybrid adds the residual model's, given ``residual_variance``
+        (σ²_ω of the a-priori error of ω), in quadrature.
+        """
+        self._check_is_fitted()
+        nodes, step = gauss_phases(self.resolution)
+        _, sensitivity = self.system_.drag_sensitivity(gait.shape(nodes), gait.velocity(nodes))
+        _, design, _ = self._design()
+        g = (sensitivity[..., 2, :, :].reshape(nodes.shape + (-1,)) @ design).sum(axis=(0, 1)) * step / 2
+        variance = float(g @ self.parameter_covariance_ @ g)
+        if self.residual_model_ is not None:
+            variance += float(self.residual_model_.rotation_std(gait, residual_variance)) ** 2
+        return float(np.sqrt(variance))
+
+    # -- persistence --------------------------------------------------------------------------
+    def _metadata(self) -> dict:
+        return {"n_joints": self.n_joints_, "batch_shape": []}
+
+    def _state(self) -> dict:
+        arrays = {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_, "parameters": self.parameters_,
+                  "parameter_covariance": self.parameter_covariance_, "noise_std": self.noise_std_,
+                  "memory": self._memory,
+                  **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
+        if self.residual_model_ is not None:
+            arrays.update({f"residual/{k}": v for k, v in self.residual_model_.get_state()[1].items()})
+        return arrays
+
+    def _set_state(self, state: dict, metadata: dict) -> None:
+        self._reset(int(metadata["n_joints"]))
+        parameters = np.asarray(state["parameters"], dtype=float)
+        if parameters.shape != self.parameters_.shape:
+            raise ValueError(f"array 'parameters' has shape {parameters.shape}, expected {self.parameters_.shape}")
+        self.parameters_ = parameters
+        self.parameter_covariance_ = np.asarray(state["parameter_covariance"], dtype=float).reshape(
+            2 * parameters.shape[:1])
+        self.noise_std_ = np.asarray(state["noise_std"], dtype=float).reshape(3)
+        self._memory = np.asarray(state["memory"], dtype=float).reshape(-1, 2 * self.n_joints_ + 3)
+        self._set_gamma_state(state)
+        self.n_samples_seen_ = int(state["n_samples_seen"])
+        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
+        if self.residual_model_ is not None:
+            residual = {k.removeprefix("residual/"): v for k, v in state.items() if k.startswith("residual/")}
+            if not residual:
+                raise ValueError("the hybrid's residual model is missing from the stored arrays")
+            self.residual_model_._set_state(residual, {"n_joints": self.n_joints_, "batch_shape": []})
+        self._system = None

@@ -1,0 +1,206 @@
+"""The resistance model: drag sensitivities against finite differences, recovery of known drags from noisy
+data, predictions against the true system's oracle, the hybrid's residual, uncertainty, and the optimiser
+on it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from geogait import GeogaitError
+from geogait.gaits import seed_gait
+from geogait.models import ResistanceModel
+from geogait.optimize import InSituOptimizer, cached_ceiling
+from geogait.simulate import SwimmerStream, cycle_displacement, simulate
+from geogait.systems import FunctionSystem, PurcellSwimmer
+
+RNG_SEED = 7
+
+
+def unequal_swimmer(n_links, rng, drag_ratio=2.5, spread=0.3):
+    lengths = rng.uniform(0.5, 1.5, n_links)
+    return PurcellSwimmer(n_links, link_lengths=lengths / lengths.sum(), drag_ratio=drag_ratio,
+                          link_drag_scale=np.exp(rng.normal(0, spread, (n_links, 2))))
+
+
+def fit_by_cycles(model, run, n_cycles):
+    per = len(run.phase) // n_cycles
+    for c in range(n_cycles):
+        part = slice(c * per, (c + 1) * per)
+        model.partial_fit(run.phase[part], run.shape[part], run.shape_velocity[part], run.body_velocity[part])
+    return model
+
+
+def connection_error(model, system, rng, n=400, reach=2.0):
+    shapes = rng.uniform(-reach, reach, (n, system.n_joints))
+    truth = system.connection(shapes)
+    return np.linalg.norm(model.connection(shapes) - truth, axis=(-1, -2)) / np.linalg.norm(truth, axis=(-1, -2))
+
+
+def test_drag_sensitivity_is_the_derivative_of_the_body_velocity():
+    rng = np.random.default_rng(RNG_SEED)
+    swimmer = unequal_swimmer(5, rng)
+    shapes, rates = rng.uniform(-1.5, 1.5, (6, 4)), rng.normal(size=(6, 4))
+    velocity, sensitivity = swimmer.drag_sensitivity(shapes, rates)
+    np.testing.assert_allclose(velocity, -np.einsum("nkj,nj->nk", swimmer.connection(shapes), rates), atol=1e-15)
+    scale, h = np.asarray(swimmer.link_drag_scale), 1e-6
+    for link in range(5):
+        for kind in range(2):
+            up, down = scale.copy(), scale.copy()
+            up[link, kind] *= np.exp(h)
+            down[link, kind] *= np.exp(-h)
+            moved = [PurcellSwimmer(5, link_lengths=swimmer.link_lengths, drag_ratio=2.5, link_drag_scale=s)
+                     .drag_sensitivity(shapes, rates)[0] for s in (up, down)]
+            np.testing.assert_allclose((moved[0] - moved[1]) / (2 * h), sensitivity[..., link, kind], atol=1e-8)
+
+
+@settings(max_examples=25, deadline=None)
+@given(n_links=st.integers(2, 7), factor=st.floats(1e-3, 1e3), seed=st.integers(0, 2**16))
+def test_only_ratios_of_drags_move_the_body(n_links, factor, seed):
+    """Scaling every drag alike leaves A unchanged, so the sensitivities sum to zero (a gauge the prior fixes)."""
+    rng = np.random.default_rng(seed)
+    swimmer = unequal_swimmer(n_links, rng)
+    scaled = PurcellSwimmer(n_links, link_lengths=swimmer.link_lengths, drag_ratio=2.5,
+                            drag_coefficient=factor, link_drag_scale=swimmer.link_drag_scale)
+    shapes, rates = rng.uniform(-2, 2, (3, n_links - 1)), rng.normal(size=(3, n_links - 1))
+    np.testing.assert_allclose(scaled.connection(shapes), swimmer.connection(shapes), rtol=1e-9, atol=1e-12)
+    _, sensitivity = swimmer.drag_sensitivity(shapes, rates)
+    assert np.abs(sensitivity.sum(axis=(-1, -2))).max() < 1e-12
+
+
+@pytest.mark.parametrize(("n_links", "link_variation", "limit"), [(5, 0.3, 0.04), (9, 0.3, 0.04)])
+def test_per_link_drags_are_recovered_from_noisy_data(n_links, link_variation, limit):
+    """10 % sensor noise, four cycles of the seed gait with the stream's perturbations: the connection is
+    right everywhere in [-2, 2]^d, far beyond the ±1 rad the data visit."""
+    rng = np.random.default_rng(RNG_SEED + n_links)
+    swimmer = unequal_swimmer(n_links, rng)
+    run = simulate(swimmer, seed_gait(n_links - 1), n_cycles=4, sensor_noise=0.1, seed=1)
+    model = fit_by_cycles(ResistanceModel(link_lengths=swimmer.link_lengths, link_variation=link_variation), run, 4)
+    error = connection_error(model, swimmer, rng)
+    assert np.median(error) < limit
+    assert 0.5 < model.gamma_ < 1  # noise bounds Γ below 1; the model beats the phase average
+
+
+def test_a_shared_drag_ratio_is_one_parameter_recovered_to_a_percent():
+    swimmer = PurcellSwimmer(5, drag_ratio=3.0)
+    run = simulate(swimmer, seed_gait(4), n_cycles=2, sensor_noise=0.1, seed=2)
+    model = ResistanceModel.from_swimmer(swimmer, link_variation=0.0).fit(run.phase, run.shape,
+                                                                          run.shape_velocity, run.body_velocity)
+    assert model.parameters_.shape == (1,)
+    ratio = np.exp(model.log_drag_[:, 1] - model.log_drag_[:, 0])
+    np.testing.assert_allclose(ratio, 3.0, rtol=0.01)
+    spread = np.sqrt(model.parameter_covariance_[0, 0])  # of log k: its error is within its uncertainty
+    assert spread < 0.02 and abs(np.log(ratio[0] / 3.0)) < 3 * spread
+
+
+def test_predicted_motion_and_gradient_agree_with_the_true_system():
+    rng = np.random.default_rng(RNG_SEED)
+    swimmer = unequal_swimmer(4, rng)
+    run = simulate(swimmer, seed_gait(3), n_cycles=3, seed=3)  # noise-free: the fit is exact
+    model = ResistanceModel.from_swimmer(swimmer, link_variation=1.0, iterations=30).fit(
+        run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    other = seed_gait(3, amplitude=1.4)  # a gait the data never visited
+    np.testing.assert_allclose(model.predict_displacement(other), cycle_displacement(swimmer, other, resolution=128),
+                               atol=1e-6)
+    pose, jacobian = model.predict_displacement(other, jacobian=True)
+    h = 1e-6
+    for k in range(other.params.size):
+        step = np.zeros(other.params.size)
+        step[k] = h
+        difference = (model.predict_displacement(other.with_params(other.params + step))
+                      - model.predict_displacement(other.with_params(other.params - step))) / (2 * h)
+        np.testing.assert_allclose(jacobian[:, k], difference, atol=1e-7)
+
+
+def test_rotation_std_is_the_linear_spread_of_the_predicted_heading():
+    """σ_θ = √(gᵀ C g) with g the derivative of the predicted net rotation in the parameters, here taken
+    by finite differences of predict_displacement (independent of the model's closed form)."""
+    rng = np.random.default_rng(RNG_SEED)
+    swimmer = unequal_swimmer(5, rng)
+    run = simulate(swimmer, seed_gait(4), n_cycles=2, sensor_noise=0.1, seed=4)
+    model = ResistanceModel.from_swimmer(swimmer).fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    gait = seed_gait(4).with_params(seed_gait(4).params + rng.normal(0, 0.2, seed_gait(4).params.size))
+    base, h = model.parameters_.copy(), 1e-6
+    g = np.empty(base.size)
+    for k in range(base.size):
+        headings = []
+        for sign in (1, -1):
+            model.parameters_ = base + sign * h * np.eye(base.size)[k]
+            model._system = None
+            headings.append(model.predict_displacement(gait)[2])
+        g[k] = (headings[0] - headings[1]) / (2 * h)
+    model.parameters_, model._system = base, None
+    np.testing.assert_allclose(model.rotation_std(gait, 0.0), np.sqrt(g @ model.parameter_covariance_ @ g),
+                               rtol=1e-5)
+
+
+def test_the_hybrid_learns_what_the_resistive_structure_misses():
+    """A medium that is not resistive (an extra smooth, shape-dependent drift): the hybrid's residual model
+    predicts it, the structure alone cannot; on a resistive medium both are as good."""
+    swimmer = PurcellSwimmer(3)
+
+    def skewed(shapes):
+        extra = np.zeros(np.shape(shapes)[:-1] + (3, 2))
+        extra[..., 0, :] = 0.05 * np.cos(shapes)  # a forward drift no chain of drag coefficients makes
+        return swimmer.connection(shapes) + extra
+
+    medium = FunctionSystem(skewed, 2)
+    gait = seed_gait(2)
+    train = simulate(medium, gait, n_cycles=20, sensor_noise=0.05, seed=5)
+    test = simulate(medium, gait, n_cycles=2, sensor_noise=0.0, seed=6)
+    errors = {}
+    for name, degree in (("structure", None), ("hybrid", 2)):
+        model = fit_by_cycles(ResistanceModel.from_swimmer(swimmer, residual_degree=degree), train, 20)
+        predicted = model.predict(test.phase, test.shape, test.shape_velocity)
+        errors[name] = np.sqrt(np.mean((predicted - test.body_velocity) ** 2))
+    assert errors["hybrid"] < 0.5 * errors["structure"]
+    resistive = simulate(swimmer, gait, n_cycles=4, sensor_noise=0.05, seed=5)
+    rng = np.random.default_rng(RNG_SEED)
+    alone, hybrid = (fit_by_cycles(ResistanceModel.from_swimmer(swimmer, residual_degree=d), resistive, 4)
+                     for d in (None, 2))
+    assert np.median(connection_error(hybrid, swimmer, rng, reach=1.0)) < 0.05
+    assert np.median(connection_error(alone, swimmer, rng, reach=1.0)) < 0.02
+
+
+def test_forgetting_relearns_a_changed_medium():
+    gait = seed_gait(4)
+    before = simulate(PurcellSwimmer(5, drag_ratio=2.0), gait, n_cycles=8, sensor_noise=0.05, seed=8)
+    after = simulate(PurcellSwimmer(5, drag_ratio=4.0), gait, n_cycles=1, sensor_noise=0.05, seed=9)
+    model = ResistanceModel.from_swimmer(PurcellSwimmer(5), link_variation=0.0)
+    fit_by_cycles(model, before, 8)
+    model.forget(8.0)  # keep an eighth of the memory: one cycle of the old medium against one of the new
+    model.partial_fit(after.phase, after.shape, after.shape_velocity, after.body_velocity)
+    ratio = float(np.exp(np.mean(model.log_drag_[:, 1] - model.log_drag_[:, 0])))
+    assert 2.6 < ratio < 4.0  # without forgetting: eight old cycles against one new keep it near 2.2
+    model_kept = fit_by_cycles(ResistanceModel.from_swimmer(PurcellSwimmer(5), link_variation=0.0), before, 8)
+    model_kept.partial_fit(after.phase, after.shape, after.shape_velocity, after.body_velocity)
+    kept = float(np.exp(np.mean(model_kept.log_drag_[:, 1] - model_kept.log_drag_[:, 0])))
+    assert kept < ratio
+
+
+def test_bad_input_is_named():
+    run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=1, seed=0)
+    args = (run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    with pytest.raises(GeogaitError, match="'link_lengths' parameter of ResistanceModel"):
+        ResistanceModel().fit(*args)
+    with pytest.raises(GeogaitError, match="'shape' parameter .* 4 joints"):
+        ResistanceModel(link_lengths=[0.2] * 5).fit(*args)
+    with pytest.raises(GeogaitError, match="'phase' parameter .* no trial axes"):
+        ResistanceModel(link_lengths=[0.3] * 3).fit(*(np.stack([a, a]) for a in args))
+    with pytest.raises(GeogaitError, match="'swimmer' parameter"):
+        ResistanceModel.from_swimmer("purcell")
+
+
+def test_the_optimiser_reaches_the_ceiling_with_the_resistance_model():
+    """Five links, 10 % sensor noise: with the chain's geometry known and its drags learned, SQP steps over
+    a large trust region reach the rotation-free ceiling (the window and shape-space models stop near
+    95 %)."""
+    swimmer = PurcellSwimmer(5)
+    stream = SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=0)
+    optimizer = InSituOptimizer(model=ResistanceModel.from_swimmer(swimmer), step_rule="sqp",
+                                max_trust_radius=0.5, climb=False)
+    log = optimizer.run(stream, 24, ceiling=cached_ceiling(swimmer).value).log
+    assert log["ceiling_fraction"].iloc[-1] > 0.98
+    assert np.abs(log["true_heading"]).max() < 1e-9  # the symmetric family (the swimmer declares it)
