@@ -43,10 +43,10 @@ from ..se2 import gauss_phases, integrate_cycle
 from ..simulate._oracle import cycle_velocity
 from ..systems import PurcellSwimmer
 from ..systems._purcell import BODY_FRAMES
-from ._shape_space import SYMMETRIES, ShapeSpaceModel
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
+from ._shape_space import SYMMETRIES, ShapeSpaceModel
 
 __all__ = ["ResistanceModel"]
 

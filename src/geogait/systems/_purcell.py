@@ -155,7 +155,6 @@ class PurcellSwimmer:
         geo = self._geometry
         n, d = self.n_links, self.n_joints
         batch = shapes.shape[:-1]
-        lengths = np.asarray(self.link_lengths)
         angle = shapes @ geo["incidence"].T  # (..., N) link angles in link 0's frame
         cos, sin = np.cos(angle), np.sin(angle)
         unit = np.stack([cos, sin], axis=-2)  # (..., 2, N)
