@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from geogait import GeogaitError
 from geogait.gaits import FourierGait, seed_gait
 from geogait.simulate import cycle_displacement
 from geogait.systems import FunctionSystem, PurcellSwimmer, System
@@ -195,3 +196,28 @@ def test_height_function_is_the_curl_of_the_connection_by_stokes():
         xi = -np.einsum("nkj,nj->nk", swimmer.connection(shape), rate)
         line_integral = xi[:, :2].mean(axis=0) * 2 * np.pi @ direction
         np.testing.assert_allclose(line_integral, np.pi * epsilon**2 * values[i, j], rtol=1e-3)
+
+
+def test_a_frame_offset_conjugates_the_net_motion_and_link_frames_match_the_named_ones():
+    """The net motion per cycle seen from a frame o rigidly attached to the body frame is o⁻¹ g o (a
+    group identity, independent of the connection's arithmetic); link-index frames are the named ones."""
+    from geogait import se2
+    from geogait.gaits import seed_gait
+    from geogait.simulate import cycle_displacement
+
+    lengths = (0.3, 0.15, 0.2, 0.25, 0.1)
+    gait = seed_gait(4)
+    named = PurcellSwimmer(5, link_lengths=lengths)
+    np.testing.assert_array_equal(PurcellSwimmer(5, link_lengths=lengths, body_frame=2).connection([[0.3] * 4]),
+                                  named.connection([[0.3] * 4]))
+    np.testing.assert_array_equal(PurcellSwimmer(5, link_lengths=lengths, body_frame=0).connection([[0.3] * 4]),
+                                  PurcellSwimmer(5, link_lengths=lengths, body_frame="tail").connection([[0.3] * 4]))
+    offset = np.array([0.12, -0.05, 2.5])
+    moved = PurcellSwimmer(5, link_lengths=lengths, frame_offset=offset)
+    g = cycle_displacement(named, gait)
+    expected = se2.compose(se2.compose(se2.inverse(offset), g), offset)
+    np.testing.assert_allclose(cycle_displacement(moved, gait), expected, atol=1e-9)
+    with pytest.raises(GeogaitError, match="'body_frame' parameter"):
+        PurcellSwimmer(5, body_frame=5)
+    with pytest.raises(GeogaitError, match="'frame_offset' parameter"):
+        PurcellSwimmer(5, frame_offset=(1.0, 2.0))

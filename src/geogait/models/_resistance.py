@@ -54,6 +54,30 @@ __all__ = ["ResistanceModel"]
 _LOG_DRAG_BOUND = 12.0
 
 
+class _BodyFrame:
+    """Constraint: one of PurcellSwimmer's body frames, or a link index."""
+
+    def __call__(self, value, name: str, owner: str) -> None:
+        if isinstance(value, int | np.integer) and not isinstance(value, bool) and value >= 0:
+            return
+        if value not in BODY_FRAMES:
+            raise fail(name, owner, f"one of {', '.join(map(repr, BODY_FRAMES))} or a link index >= 0", value)
+
+
+class _FrameOffset:
+    """Constraint: None or a finite (x, y, angle)."""
+
+    def __call__(self, value, name: str, owner: str) -> None:
+        if value is None:
+            return
+        try:
+            offset = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            offset = None
+        if offset is None or offset.shape != (3,) or not np.all(np.isfinite(offset)):
+            raise fail(name, owner, "None or a finite (x, y, angle)", value)
+
+
 class _LinkLengths:
     """Constraint: None or at least two positive, finite link lengths."""
 
@@ -77,8 +101,13 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     link_lengths : sequence of float
         The chain's link lengths, tail first (N links, N − 1 joints): the geometry the model takes as
         known (:class:`~geogait.systems.PurcellSwimmer`'s, a MuJoCo chain's). Required.
-    body_frame : {"middle", "center_of_mass", "tail"}
-        Where the robot's body velocity is measured (as :class:`~geogait.systems.PurcellSwimmer`).
+    body_frame : {"middle", "center_of_mass", "tail"} or int
+        Where the robot's body velocity is measured (as :class:`~geogait.systems.PurcellSwimmer`: a named
+        frame or a link index).
+    frame_offset : (x, y, angle), optional
+        The robot's frame relative to ``body_frame`` (:class:`~geogait.systems.PurcellSwimmer`). A MuJoCo
+        chain gives all three: ``ResistanceModel(**robot.chain_geometry())``
+        (:meth:`MujocoRobot.chain_geometry <geogait.robots.MujocoRobot.chain_geometry>`).
     drag_ratio : float in [1e-3, 1e3]
         Prior mean of the lateral over longitudinal drag ratio k (2 for slender bodies at low Reynolds
         number; larger on granular media).
@@ -153,7 +182,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     _format_version = FORMAT_VERSION
     _parameter_constraints = {
         "link_lengths": _LinkLengths(),
-        "body_frame": Options(BODY_FRAMES),
+        "body_frame": _BodyFrame(),
+        "frame_offset": _FrameOffset(),
         "drag_ratio": Real(low=1e-3, high=1e3),
         "ratio_spread": Real(low=0, high=10, low_open=True),
         "link_variation": Real(low=0, high=10),
@@ -170,7 +200,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         "resolution": Integer(minimum=4),
     }
 
-    def __init__(self, *, link_lengths=None, body_frame: str = "middle", drag_ratio: float = 2.0,
+    def __init__(self, *, link_lengths=None, body_frame: str | int = "middle", frame_offset=None,
+                 drag_ratio: float = 2.0,
                  ratio_spread: float = 1.0, link_variation: float = 0.3, memory: int = 4096, iterations: int = 3,
                  residual_degree: int | None = None, residual_symmetry: str | None = None,
                  residual_shrinkage: float = 30.0, shape_scale: float = 1.0, gamma_forgetting: float = 0.995,
@@ -178,6 +209,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
                  resolution: int = 128):
         self.link_lengths = link_lengths
         self.body_frame = body_frame
+        self.frame_offset = frame_offset
         self.drag_ratio = drag_ratio
         self.ratio_spread = ratio_spread
         self.link_variation = link_variation
@@ -198,13 +230,17 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         """A model of ``swimmer``'s geometry (link lengths and body frame; its drags are not told)."""
         if not isinstance(swimmer, PurcellSwimmer):
             raise fail("swimmer", "ResistanceModel.from_swimmer", "a PurcellSwimmer", swimmer)
-        return cls(link_lengths=swimmer.link_lengths, body_frame=swimmer.body_frame, **params)
+        return cls(link_lengths=swimmer.link_lengths, body_frame=swimmer.body_frame,
+                   frame_offset=swimmer.frame_offset, **params)
 
     # -- validation ---------------------------------------------------------------------------
     def _check_param_combinations(self) -> None:
         if self.link_lengths is None:
             raise fail("link_lengths", type(self).__name__, "the chain's link lengths (the model's known geometry; "
                        "e.g. ResistanceModel.from_swimmer(swimmer))", None)
+        if isinstance(self.body_frame, int | np.integer) and self.body_frame >= len(self.link_lengths):
+            raise fail("body_frame", type(self).__name__, f"a link index below {len(self.link_lengths)} (the links "
+                       "given)", self.body_frame)
 
     def _check_samples(self, phase, *arrays, names, owner):
         *out, self._single = check_samples(self, phase, *arrays, names=names, owner=owner)
@@ -232,7 +268,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         theta0, design, _ = self._design()
         log_drag = (theta0 + design @ parameters).reshape(-1, 2)
         return PurcellSwimmer(self._n_links, link_lengths=self.link_lengths, body_frame=self.body_frame,
-                              drag_ratio=1.0, link_drag_scale=np.exp(log_drag - log_drag[:, 0].mean()))
+                              frame_offset=self.frame_offset, drag_ratio=1.0,
+                              link_drag_scale=np.exp(log_drag - log_drag[:, 0].mean()))
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, n_joints: int):

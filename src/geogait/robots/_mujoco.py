@@ -344,6 +344,61 @@ class MujocoRobot:
             self._symmetric = _reads_the_same_from_both_ends(self.model, self._joint_ids)
         return self._symmetric
 
+    def chain_geometry(self) -> dict:
+        """The robot as a chain of straight links, for :class:`~geogait.models.ResistanceModel`, read from its bodies.
+
+        At the model's reference pose (the straight chain), link lengths are the spacing of the shape joints'
+        anchors, and for the two end links the distance from their joint to the far end of their geoms (a
+        capsule's or cylinder's segment, other geoms' bounding boxes). The robot's body must be a link of the
+        chain; its frame is given relative to that link's centre, oriented from tail to head.
+
+        Returns
+        -------
+        dict
+            ``link_lengths`` (tail first: the link before joint 0), ``body_frame`` (the body's link index) and
+            ``frame_offset`` (x, y, angle): keyword arguments of :class:`~geogait.models.ResistanceModel`
+            and :class:`~geogait.systems.PurcellSwimmer`.
+
+        Raises
+        ------
+        GeogaitError
+            When the shape joints do not form one planar serial chain numbered in order with a common
+            axis sign, or the body is not one of its links.
+        """
+        mujoco = _mujoco()
+        model, joints = self.model, self._joint_ids
+        chain = _chain_links(model, joints)
+        if chain is None or len(set(chain[1])) != 1 or chain[1][0] != 1:
+            raise GeogaitError("MujocoRobot.chain_geometry: the shape joints do not form one planar serial chain "
+                               "numbered in order along it with +z axes (joint j turning link j + 1 relative to "
+                               "link j), which a chain of links needs.")
+        links = chain[0]
+        if self._body not in links:
+            raise GeogaitError(f"MujocoRobot.chain_geometry: the body {self.body_name!r} is not a link of the chain "
+                               f"({', '.join(_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in links)}).")
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        anchors = np.array([data.xanchor[j][:2] for j in joints])
+        ends = [_geom_extent(model, data, links[0]), _geom_extent(model, data, links[-1])]
+        axis = anchors[-1] - anchors[0] if len(joints) > 1 else ends[1].mean(axis=0) - ends[0].mean(axis=0)
+        axis = axis / np.linalg.norm(axis)
+        along = anchors @ axis
+        tail = along[0] - min(ends[0] @ axis)
+        head = max(ends[1] @ axis) - along[-1]
+        lengths = np.concatenate([[tail], np.diff(along), [head]])
+        if np.any(lengths <= 0):
+            raise GeogaitError(f"MujocoRobot.chain_geometry: link lengths {np.round(lengths, 6).tolist()} read from "
+                               "the model are not all positive.")
+        b = links.index(self._body)
+        starts = np.concatenate([[along[0] - tail], along])
+        centre = (starts[b] + lengths[b] / 2) * axis + (anchors[0] - along[0] * axis)  # the link's centre, world
+        normal = np.array([-axis[1], axis[0]])
+        offset = data.xpos[self._body][:2] - centre
+        heading = float(np.arctan2(data.xmat[self._body, 3], data.xmat[self._body, 0]))
+        angle = float(np.angle(np.exp(1j * (heading - np.arctan2(axis[1], axis[0])))))
+        return {"link_lengths": tuple(float(x) for x in lengths), "body_frame": b,
+                "frame_offset": (float(offset @ axis), float(offset @ normal), angle)}
+
     def _joint_ranges(self) -> np.ndarray:
         """(d, 2) joint ranges; ±inf for unlimited joints."""
         ranges = np.array([self.model.jnt_range[j] for j in self._joint_ids], dtype=float)
@@ -632,6 +687,25 @@ def _chain_links(model, joints) -> tuple[list[int], list[int]] | None:
         turns_next = child == order[i + 1]  # joint k turns link i + 1 relative to link i
         signs.append(np.sign(model.jnt_axis[joints[k]][2]) * (1 if turns_next else -1))
     return order, signs
+
+
+def _geom_extent(model, data, body) -> np.ndarray:
+    """World (x, y) points bounding a body's geoms: a capsule's or cylinder's segment ends, else its box corners."""
+    mujoco = _mujoco()
+    points = []
+    for g in range(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body]):
+        rotation, centre = data.geom_xmat[g].reshape(3, 3), data.geom_xpos[g]
+        if int(model.geom_type[g]) in (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER)):
+            half = rotation[:, 2] * model.geom_size[g][1]
+            points += [centre + half, centre - half]
+        else:
+            box_centre, half = model.geom_aabb[g][:3], model.geom_aabb[g][3:]
+            signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+            points += list(centre + (box_centre + signs * half) @ rotation.T)
+    if not points:
+        raise GeogaitError(f"MujocoRobot.chain_geometry: the end link {_name(model, mujoco.mjtObj.mjOBJ_BODY, body)!r} "
+                           "has no geom to measure its length from.")
+    return np.array(points)[:, :2]
 
 
 def _reads_the_same_from_both_ends(model, joints) -> bool:

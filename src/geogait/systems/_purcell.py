@@ -41,7 +41,7 @@ MAX_LENGTH_RATIO = 1e4
 
 @dataclass(frozen=True)
 class PurcellSwimmer:
-    """N-link Purcell swimmer (a :class:`~geogait.systems.System`).
+    r"""N-link Purcell swimmer (a :class:`~geogait.systems.System`).
 
     Parameters
     ----------
@@ -53,11 +53,16 @@ class PurcellSwimmer:
         Longitudinal drag per unit length ``c``.
     drag_ratio : float in [1e-6, 1e6]
         Lateral over longitudinal drag ``k`` (classically 2; ``k = 1`` cannot swim).
-    body_frame : {"middle", "center_of_mass", "tail"}
+    body_frame : {"middle", "center_of_mass", "tail"} or int
         ``"middle"``: centre and orientation of the middle link (for even N: the middle joint,
         oriented along the mean of the two middle links). ``"center_of_mass"``: length-weighted
         centroid of the link centres, oriented along the length-weighted mean link angle.
-        ``"tail"``: centre and orientation of the first link.
+        ``"tail"``: centre and orientation of the first link. An int i in [0, n_links): centre and
+        orientation of link i (links numbered from the tail).
+    frame_offset : (x, y, angle), optional
+        Pose of the frame the body velocity is given in, relative to ``body_frame`` (in its axes: x along
+        the link, towards the head): a robot whose body frame sits off the link's centre or points
+        backwards. ξ and A are transformed by :math:`\mathrm{Ad}_{o^{-1}}`. None: the body frame itself.
     link_drag_scale : array-like of shape (n_links, 2), optional
         Per-link multipliers (positive, in [1e-6, 1e6]) of the longitudinal drag ``c`` and the lateral
         drag ``k c`` (the rotational drag ``k c l³/12`` scales with the lateral one): links of different
@@ -76,7 +81,8 @@ class PurcellSwimmer:
     link_lengths: tuple[float, ...] | None = None
     drag_coefficient: float = 1.0
     drag_ratio: float = 2.0
-    body_frame: str = "middle"
+    body_frame: str | int = "middle"
+    frame_offset: tuple[float, float, float] | None = None
     link_drag_scale: tuple[tuple[float, float], ...] | None = None
     _geometry: dict = field(init=False, repr=False, compare=False)
 
@@ -100,7 +106,18 @@ class PurcellSwimmer:
                            self.link_lengths)
         for name in ("drag_coefficient", "drag_ratio"):
             check_float(getattr(self, name), name, owner, low=SCALE_RANGE[0], high=SCALE_RANGE[1])
-        check_choice(self.body_frame, "body_frame", owner, BODY_FRAMES)
+        if isinstance(self.body_frame, int | np.integer) and not isinstance(self.body_frame, bool):
+            if not 0 <= self.body_frame < n:
+                raise fail("body_frame", owner, f"one of {', '.join(BODY_FRAMES)} or a link index in [0, {n})",
+                           self.body_frame)
+            object.__setattr__(self, "body_frame", int(self.body_frame))
+        else:
+            check_choice(self.body_frame, "body_frame", owner, BODY_FRAMES)
+        if self.frame_offset is not None:
+            offset = check_array(self.frame_offset, "frame_offset", owner, ndim=1)
+            if offset.shape != (3,):
+                raise fail("frame_offset", owner, "(x, y, angle) of the frame on the body frame", self.frame_offset)
+            object.__setattr__(self, "frame_offset", tuple(float(x) for x in offset))
         if self.link_drag_scale is not None:
             scale = check_array(self.link_drag_scale, "link_drag_scale", owner, ndim=2)
             if scale.shape != (n, 2) or scale.min() < SCALE_RANGE[0] or scale.max() > SCALE_RANGE[1]:
@@ -134,7 +151,13 @@ class PurcellSwimmer:
         """Local connection A(r): shapes ``(..., d)`` → ``(..., 3, d)``, with ξ = -A ṙ (eq. 1)."""
         shapes = check_shapes(shapes, self.n_joints, "PurcellSwimmer.connection")
         transform, jacobian, drag = self._link_terms(shapes)
-        return _solve_connection(transform, jacobian, drag)
+        return self._to_frame(_solve_connection(transform, jacobian, drag))
+
+    def _to_frame(self, body):
+        """Ad_{o⁻¹} applied along axis -2 of ``body`` (..., 3, k): body-frame twists into the offset frame."""
+        if self.frame_offset is None:
+            return body
+        return _adjoint_of_inverse(*self.frame_offset) @ body
 
     def metric(self, shapes) -> np.ndarray:
         """Dissipation metric M(r) ``(..., d, d)``: power = ṙᵀ M ṙ at ξ = -A ṙ.
@@ -226,7 +249,9 @@ class PurcellSwimmer:
         rows = transform * (drag * twist)[..., :, None]  # row k of link i: T_ik D_ik v_ik (..., N, 3, 3)
         per_link = np.stack([rows[..., 0, :], rows[..., 1, :] + rows[..., 2, :]], axis=-1)  # (..., N, 3, 2)
         sensitivity = -np.einsum("...kl,...ilm->...kim", np.linalg.inv(resistance), per_link)
-        return body_velocity, sensitivity
+        flat = sensitivity.reshape(sensitivity.shape[:-2] + (-1,))
+        return (self._to_frame(body_velocity[..., None])[..., 0],
+                self._to_frame(flat).reshape(sensitivity.shape))
 
 
 def _rotate_back(vectors, cos, sin):
@@ -261,7 +286,7 @@ def _adjoint_of_inverse(x, y, angle):
     return out
 
 
-def _chain_geometry(lengths: np.ndarray, body_frame: str) -> dict:
+def _chain_geometry(lengths: np.ndarray, body_frame: str | int) -> dict:
     """Constant matrices describing the chain in the frame of link 0.
 
     ``incidence`` S (N, d): link angle β_i = Σ_j S_ij r_j. ``centres`` C (N, N): centre of link i
@@ -274,7 +299,9 @@ def _chain_geometry(lengths: np.ndarray, body_frame: str) -> dict:
         centres[i] = centres[i - 1]
         centres[i, i - 1] += lengths[i - 1] / 2
         centres[i, i] += lengths[i] / 2
-    if body_frame == "middle" and n % 2:
+    if isinstance(body_frame, int):
+        point, angle = centres[body_frame], np.eye(n)[body_frame]
+    elif body_frame == "middle" and n % 2:
         point, angle = centres[n // 2], np.eye(n)[n // 2]
     elif body_frame == "middle":
         m = n // 2
