@@ -8,6 +8,9 @@ robot run** — settling cycles included. Methods:
 * ``geogait`` — :class:`~geogait.optimize.InSituOptimizer` with its defaults (the case only declares
   what a user must: objective, joint limit, settling cycles); the robot explores with its own
   perturbation (eq. 8), which is how geogait learns;
+* ``geogait-resistance`` — the same with :class:`~geogait.models.ResistanceModel` on the chain geometry the
+  robot gives (``chain_geometry()``: the built-in and MuJoCo chains), SQP steps over a trust radius up to 0.5
+  and no measured climb (:data:`RESISTANCE_OPTIONS`); cases whose robot gives none skip it;
 * ``geogait-batch`` — the prior-work batch method (Bittner et al. 2018): a
   :class:`~geogait.models.BatchGaitModel` refit every 30 perturbed cycles;
 * ``cmaes`` / ``cmaes-tuned`` — CMA-ES (the ``cma`` package) from the seed gait: σ₀ = r_max / 3 and
@@ -60,7 +63,7 @@ from .._defaults import MAX_JOINT_ANGLE
 from .._files import write_text
 from .._validation import GeogaitError, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
-from ..models import BatchGaitModel
+from ..models import BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle
 from ..plotting import plt, save_figure
 from ..simulate import SwimmerStream
@@ -439,13 +442,32 @@ BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmae
              "random": partial(_random, tuned=False)}
 #: Optional module each black-box method needs (``pip install 'geogait[baselines]'``).
 _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
-#: Method names: geogait's two and each black-box method free and held to the rotation limit.
-METHODS = ("geogait", "geogait-batch", *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
+#: Method names: geogait (its default model, the resistance model on a chain whose geometry the robot gives, the
+#: prior work's batch model) and each black-box method free and held to the rotation limit.
+METHODS = ("geogait", "geogait-resistance", "geogait-batch",
+           *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
+#: What geogait-resistance changes: the structured model, SQP steps over a trust region up to 0.5 (the model
+#: holds far from the data), no measured climb (its steps leave an accurate model for noisy single cycles).
+RESISTANCE_OPTIONS = {"step_rule": "sqp", "max_trust_radius": 0.5, "climb": False}
 
 
-def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, batch: bool, random_state: int) -> _Trace:
-    # the prior work (Bittner et al. 2018) as published: a batch model, no measured climb
-    options = {"model": BatchGaitModel(), "gate": "cycles", "climb": False} if batch else {}
+def _variant_options(robot, variant: str) -> dict | None:
+    """InSituOptimizer options of a geogait variant; None when the robot cannot run it (no chain geometry)."""
+    if variant == "batch":  # the prior work (Bittner et al. 2018) as published: a batch model, no measured climb
+        return {"model": BatchGaitModel(), "gate": "cycles", "climb": False}
+    if variant == "resistance":
+        try:
+            geometry = robot.chain_geometry()
+        except (AttributeError, GeogaitError):
+            return None
+        return {"model": ResistanceModel(**geometry), **RESISTANCE_OPTIONS}
+    return {}
+
+
+def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: str, random_state: int) -> _Trace:
+    options = _variant_options(robot.robot, variant)
+    if options is None:
+        raise GeogaitError(f"geogait-{variant} needs a robot that gives its chain geometry")
     options["random_state"] = random_state  # its exploration and climb: the seed's own random numbers
     if case.objective == "forward":
         options.update(objective="forward", direction=case.direction, direction_frame="body")
@@ -473,7 +495,8 @@ def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value:
     own = np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 1))
     if method.startswith("geogait"):
         robot = _CountingRobot(case.make_robot(seed, explore=True, noise=True))
-        trace = _geogait(case, robot, budget, method == "geogait-batch", int(own.generate_state(1)[0]))
+        trace = _geogait(case, robot, budget, method.removeprefix("geogait").removeprefix("-"),
+                         int(own.generate_state(1)[0]))
         return trace, robot.cycles
     held = method.endswith("-held")
     robot = _CountingRobot(case.make_robot(seed, explore=False, noise=True))
@@ -567,7 +590,11 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
             case = dataclasses.replace(case, direction=seed_direction(case))
         # in a rotation-free family the held variants would repeat the free runs exactly
         case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
-        seed_gait_ = case.make_robot(None, explore=False, noise=False).gait
+        probe = case.make_robot(None, explore=False, noise=False)
+        if "geogait-resistance" in case_methods and _variant_options(probe, "resistance") is None:
+            log(f"skipped method geogait-resistance on {name}: its robot gives no chain geometry")
+            case_methods.remove("geogait-resistance")
+        seed_gait_ = probe.gait
         seed_result = evaluate_gait(case, seed_gait_)
         ceiling = evaluate_gait(case, case.ceiling()) if case.ceiling is not None else None
         described[name] = {"description": case.description, "objective": case.objective,

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import se2
 from .._seeds import child_seed
-from .._validation import check_float, check_int, fail
+from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at
 from ..systems import PurcellSwimmer, System
 from ._trajectory import Trajectory
@@ -289,6 +289,19 @@ class SwimmerStream:
         self._excitation, self._pending_excitation = (
             (np.asarray(state[f"{name}_shape"], dtype=float), np.asarray(state[f"{name}_shape_velocity"], dtype=float))
             if state.get(f"{name}_shape") is not None else None for name in ("excitation", "pending_excitation"))
+
+    def chain_geometry(self) -> dict:
+        """The swimmer's link lengths, body frame and frame offset: the geometry
+        :class:`~geogait.models.ResistanceModel` takes as known (``ResistanceModel(**stream.chain_geometry())``).
+
+        Raises :class:`~geogait.GeogaitError` when the stream's system is not a
+        :class:`~geogait.systems.PurcellSwimmer`.
+        """
+        if not isinstance(self.system, PurcellSwimmer):
+            raise GeogaitError(f"SwimmerStream.chain_geometry: the stream's system is a {type(self.system).__name__}, "
+                               "not a chain of links (PurcellSwimmer).")
+        return {"link_lengths": self.system.link_lengths, "body_frame": self.system.body_frame,
+                "frame_offset": self.system.frame_offset}
 
     def current_system(self) -> System:
         """The system in force for the current cycle (after the environment schedule)."""
