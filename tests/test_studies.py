@@ -1,5 +1,5 @@
-"""Studies run end to end on a tiny budget: the issue-10 plateau study (it leans on private optimiser hooks)
-and the issue-25 online phase study."""
+"""Studies run end to end on a tiny budget: the issue-10 plateau study (it leans on private optimiser hooks),
+the online phase study and the resistance model's geometry-error study."""
 
 import re
 import subprocess
@@ -31,3 +31,18 @@ def test_online_phase_study_quick_meets_the_acceptance_bars():
         assert noise in (0.0, 0.1) and online_median <= 2 * offline_median and online_p95 <= 0.3
         assert abs(delay) < 3  # samples (8-cycle records: the ±20 % ramp is steep)
     assert output[-1].endswith("met in every setting")
+
+
+def test_resistance_study_writes_every_trial(tmp_path):
+    """The geometry-error study on 3 links: a hybrid told link lengths 10 % wrong still climbs from half the
+    ceiling to over 90 % in 12 cycles."""
+    import json
+
+    out = tmp_path / "resistance.json"
+    subprocess.run([sys.executable, str(STUDIES / "resistance.py"), "3", "12", "1", "--errors", "0.1", "--models",
+                    "hybrid", "--checkpoints", "12", "--out", str(out)], capture_output=True, text=True, check=True,
+                   timeout=300)
+    result = json.loads(out.read_text())
+    (record,) = result["records"]
+    assert record["model"] == "hybrid" and record["geometry_error"] == 0.1 and len(record["ceiling_fraction"]) == 12
+    assert record["ceiling_fraction"][0] < 0.6 < 0.9 < record["ceiling_fraction"][-1]
