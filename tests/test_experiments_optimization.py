@@ -82,6 +82,30 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
     assert len(pd.read_csv(tmp_path / "cycles.csv")) == 12
 
 
+def test_optimize_command_with_the_resistance_model(tmp_path):
+    """--method resistance: the swimmer's geometry, its drags learned; SQP up to R 0.5 without the climb unless a
+    step rule is given; refused with one line for a --robot (which declares no geometry)."""
+    result = CliRunner().invoke(app, ["optimize", "--links", "5", "--cycles", "14", "--method", "resistance",
+                                      "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    optimizer = summary["config"]["optimizer"]
+    assert optimizer["model"]["class"] == "ResistanceModel" and len(optimizer["model"]["params"]["link_lengths"]) == 5
+    assert (optimizer["step_rule"], optimizer["max_trust_radius"], optimizer["climb"]) == ("sqp", 0.5, False)
+    assert summary["results"]["final_ceiling_fraction"] > 0.9  # 5 links from 42 % in 14 cycles
+    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "16"])
+    assert resumed.exit_code == 0, resumed.output
+    assert len(pd.read_csv(tmp_path / "cycles.csv")) == 16
+    linear = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "2", "--method", "resistance",
+                                      "--step-rule", "linear", "--out", str(tmp_path / "linear")])
+    assert linear.exit_code == 0, linear.output
+    assert json.loads((tmp_path / "linear" / "summary.json").read_text())["config"]["optimizer"]["step_rule"] == \
+        "linear"
+    refused = CliRunner().invoke(app, ["optimize", "--method", "resistance", "--robot", "python driver.py",
+                                       "--out", str(tmp_path / "robot")])
+    assert refused.exit_code == 1 and "needs the built-in swimmer's geometry" in refused.stderr
+
+
 def test_bad_figure_options_are_reported(tmp_path):
     result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
                                       str(tmp_path)])

@@ -2,17 +2,24 @@
 
 The design's choices (``DESIGN.md``): the joint limit r_max of a robot that declares none, and the
 window model's forgetting factor for d joints (its memory, ≈ 10 d window updates, grows with the
-number of weights it must learn).
+number of weights it must learn); the optimiser's settings for a model that holds far from its data
+(the resistance model).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_JOINT_ANGLE", "window_forgetting_factor"]
+__all__ = ["MAX_JOINT_ANGLE", "STRUCTURED_MODEL_STEPS", "window_forgetting_factor"]
 
 #: r_max (rad) of a robot or system that declares no joint ranges: 120°.
 MAX_JOINT_ANGLE = 2 * np.pi / 3
+
+
+#: InSituOptimizer settings for :class:`~geogait.models.ResistanceModel`: SQP on its nonlinear prediction over a
+#: trust region up to 0.5 (it holds far from the data: the 9-link optimum lies along a curved ridge that only
+#: large SQP steps follow), and no measured climb (single noisy cycles would lead an accurate model astray).
+STRUCTURED_MODEL_STEPS = {"step_rule": "sqp", "max_trust_radius": 0.5, "climb": False}
 
 
 def window_forgetting_factor(n_joints: int) -> float:

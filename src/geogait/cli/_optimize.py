@@ -13,7 +13,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._defaults import window_forgetting_factor
+from .._defaults import STRUCTURED_MODEL_STEPS, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, output_set, read_state, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
@@ -24,7 +24,7 @@ from ..experiments.optimization import (
     shape_method_model,
 )
 from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, BatchGaitModel
+from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
 from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
 from ..optimize._insitu import DEFAULT_MAX_JOINT_ANGLE
 from ..optimize._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION
@@ -44,7 +44,7 @@ from ._app import app, figure_app
 from ._common import claim_output, comma_list, console, listed, output_folder, progress_bar, write_manifest
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
-_METHODS = ("auto", "adaptive", "shape", "batch")
+_METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
@@ -87,12 +87,16 @@ def optimize(
         help="Model: auto (the library's default: Fig. 5's symmetric shape-space model in the rotation-free "
              "symmetric family, else the window model), adaptive (this paper's RLS window model), shape "
              "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
-             "symmetries; for --robot degree 3 without) or batch (Bittner 2018).",
+             "symmetries; for --robot degree 3 without), resistance (the swimmer's drag coefficients learned on its "
+             "known geometry, SQP steps up to 0.5, no measured climb; built-in swimmer only) or batch "
+             "(Bittner 2018).",
     )] = "auto",
     family: Annotated[str, typer.Option(
         help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
              "symmetric.")] = "auto",
-    step_rule: Annotated[str, typer.Option(help="Step rule: linear (linearised, constrained) or sqp.")] = "linear",
+    step_rule: Annotated[str | None, typer.Option(
+        help="Step rule: linear (linearised, constrained) or sqp [default: sqp for --method resistance, else "
+             "linear].")] = None,
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
@@ -241,6 +245,12 @@ def _optimizer(settings) -> InSituOptimizer:
     if settings["method"] == "auto" and forgetting is not None:
         raise typer.BadParameter("applies to --method adaptive or shape; auto chooses its model's own",
                                  param_hint="--forgetting-factor")
+    if settings["method"] == "resistance" and settings["robot"] is not None:
+        raise typer.BadParameter("needs the built-in swimmer's geometry (a --robot declares no chain geometry; "
+                                 "from Python: ResistanceModel(**robot.chain_geometry()))", param_hint="--method")
+    if settings["method"] == "resistance" and forgetting is not None:
+        raise typer.BadParameter("applies to --method adaptive or shape; the resistance model keeps a memory of "
+                                 "samples", param_hint="--forgetting-factor")
     if settings["method"] == "adaptive" and forgetting is None and settings["robot"] is None:
         forgetting = window_forgetting_factor(settings["links"] - 1)  # a robot's d is known once it is connected (_run)
     model = {"auto": lambda: None,
@@ -248,14 +258,18 @@ def _optimizer(settings) -> InSituOptimizer:
              "shape": lambda: shape_method_model(settings["links"], robot=settings["robot"] is not None,
                                                  forgetting_factor=forgetting),
              "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
+             "resistance": lambda: ResistanceModel.from_swimmer(PurcellSwimmer(settings["links"])),
              }[settings["method"]]()
+    steps = dict(STRUCTURED_MODEL_STEPS) if settings["method"] == "resistance" else {"step_rule": "linear"}
+    if settings.get("step_rule") is not None:
+        steps["step_rule"] = settings["step_rule"]
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,
                            direction_frame=settings.get("direction_frame", "world"),
                            max_joint_velocity=settings["max_joint_velocity"],
                            settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
-                           step_rule=settings.get("step_rule", "linear"),
+                           **steps,
                            max_tracking_error=None if tracking == "off" else tracking,
                            # the built-in swimmer: --perturbation sizes the exploration geogait commands
                            exploration="auto" if settings["robot"] is not None else settings["perturbation"],
@@ -313,7 +327,7 @@ _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise
                   "forgetting_factor": (int, float, None), "order": (int,), "objective": (str,),
                   "max_joint_angle": (int, float, None), "max_joint_velocity": (int, float, None),
                   "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
-                  "step_rule": (str,), "robot": (str, None), "robot_timeout": (int, float),
+                  "step_rule": (str, None), "robot": (str, None), "robot_timeout": (int, float),
                   "checkpoint_every": (int,)}
 
 

@@ -59,7 +59,7 @@ import numpy as np
 import pandas as pd
 
 from .. import __version__
-from .._defaults import MAX_JOINT_ANGLE
+from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._files import write_text
 from .._validation import GeogaitError, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
@@ -446,9 +446,8 @@ _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
 #: prior work's batch model) and each black-box method free and held to the rotation limit.
 METHODS = ("geogait", "geogait-resistance", "geogait-batch",
            *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
-#: What geogait-resistance changes: the structured model, SQP steps over a trust region up to 0.5 (the model
-#: holds far from the data), no measured climb (its steps leave an accurate model for noisy single cycles).
-RESISTANCE_OPTIONS = {"step_rule": "sqp", "max_trust_radius": 0.5, "climb": False}
+#: What geogait-resistance changes besides the model (``geogait._defaults.STRUCTURED_MODEL_STEPS``).
+RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
 
 
 def _variant_options(robot, variant: str) -> dict | None:
