@@ -204,3 +204,26 @@ def test_the_optimiser_reaches_the_ceiling_with_the_resistance_model():
     log = optimizer.run(stream, 24, ceiling=cached_ceiling(swimmer).value).log
     assert log["ceiling_fraction"].iloc[-1] > 0.98
     assert np.abs(log["true_heading"]).max() < 1e-9  # the symmetric family (the swimmer declares it)
+
+
+def test_the_path_tracker_follows_a_path_and_relearns_a_drag_change_with_it():
+    """The tracker takes the resistance model unchanged: after a drag change 2 → 4 the alarm's forgetting and
+    a cycle of new data put the predicted step within 10 % of the measured one (the drag ratio is one of the
+    model's few parameters)."""
+    from geogait.control import PathTracker, ReferencePath
+    from geogait.experiments.tracking import feasible_turn_limit, straight_gait
+    from geogait.gaits import Perturbation
+    from geogait.simulate import DragRatioSchedule
+
+    system, gait, step = straight_gait(5)
+    change = 12
+    robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(0.05), sensor_noise=0.1,
+                          environment=DragRatioSchedule(system, (2.0, 4.0), 10 + change), seed=0)
+    tracker = PathTracker(warmup_cycles=10, turn_limit=feasible_turn_limit(5),
+                          model=ResistanceModel.from_swimmer(system), change_forgetting=100.0)
+    log = tracker.run(robot, ReferencePath.circle(10 * step), change + 4).log
+    predicted = np.hypot(log["predicted_x"], log["predicted_y"])
+    ratio = (predicted / np.hypot(log["measured_x"], log["measured_y"])).to_numpy()
+    assert np.all(np.abs(ratio[:change] - 1) < 0.1)  # before the change the model's steps are the measured ones
+    assert abs(ratio[change] - 1) > 0.2  # the change is real
+    assert np.all(np.abs(ratio[change + 2:] - 1) < 0.1)

@@ -439,7 +439,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
             prediction = prediction + self.residual_model_.predict(phase, shape, shape_velocity)
         return prediction[0] if self._single else prediction
 
-    def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False):
+    def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False, compiled: bool = False):
         """Net ``(x, y, heading)`` per cycle of ``gait`` under the fitted connection (and its ``(3, p)``
         derivative with respect to ``gait.params``): the resistive and residual body velocities summed at
         the Magnus nodes, then integrated (fourth-order Magnus, exact exponentials).
@@ -448,6 +448,9 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         ----------
         gait : FourierGait
         jacobian : bool, default False
+        compiled : bool, default False
+            Accepted for the common interface of the shape-space models (the path tracker asks for it); the
+            resistance model has one path.
         """
         self._check_is_fitted()
         if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints_:
