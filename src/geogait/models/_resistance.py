@@ -21,10 +21,12 @@ when every drag is scaled alike). :class:`ResistanceModel` learns them:
   regression as an error in the regressors.
 * **uncertainty**: the parameters' covariance :math:`(J^T W J + P_0^{-1})^{-1}`, and from it the standard
   error of the predicted net rotation per cycle (:meth:`ResistanceModel.rotation_std`).
-* **hybrid** (``residual_degree``): a :class:`~geogait.models.ShapeSpaceModel` learns what the resistive
-  structure leaves, :math:`\xi - \hat\xi(u)`, so where the medium is not resistive (quadratic drag,
-  dry friction, inertia) the data still shape the prediction; its prior keeps it near zero where the
-  structure is right.
+* **hybrid** (``residual_degree``): a polynomial connection (:class:`~geogait.models.ShapeSpaceModel`'s basis,
+  with its symmetries and graded prior) is added to the resistive one and fitted *jointly* with the drag
+  parameters, in the same Gauss–Newton problem: where the medium is not resistive (quadratic drag, dry
+  friction, inertia) the data still shape the prediction, and its prior — a residual of about
+  ``residual_prior`` times the data's connection, less per degree — keeps it near zero where the
+  structure explains the data, so the drags explain first.
 
 Because A follows from a handful of coefficients everywhere in shape space, the model knows the
 objective's gradient far from the gaits it has seen — which a local polynomial fitted to a few
@@ -46,7 +48,14 @@ from ..systems._purcell import BODY_FRAMES
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
-from ._shape_space import SYMMETRIES, ShapeSpaceModel
+from ._shape_space import (
+    SYMMETRIES,
+    monomial_exponents,
+    monomials,
+    polynomial_cycle_velocity,
+    polynomial_features,
+    symmetry_blocks,
+)
 
 __all__ = ["ResistanceModel"]
 
@@ -121,15 +130,17 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     iterations : int >= 1
         Most Gauss–Newton iterations per :meth:`partial_fit` (warm-started; fewer once the cost stops falling).
     residual_degree : int, optional
-        The hybrid: a :class:`~geogait.models.ShapeSpaceModel` of this degree learns the residual
-        :math:`\xi - \hat\xi(u)` (None: the resistive structure alone).
+        The hybrid: a polynomial connection of this total degree in r/s added to the resistive one and
+        fitted with it (None: the resistive structure alone).
     residual_symmetry : {None, "mirror", "mirror+reversal"}
-        Symmetry of the residual model's basis (``ShapeSpaceModel.symmetry``).
+        Symmetry of the residual's basis (:func:`~geogait.models.symmetry_blocks`).
+    residual_prior : float in (0, 1e3]
+        Prior standard deviation of the residual's degree-0 weights, relative to the data's connection
+        scale :math:`\sqrt{\overline{|\xi|^2} / \overline{|\dot r|^2}}` (measured on the first samples).
     residual_shrinkage : float > 0
-        ``degree_shrinkage`` of the residual model: its higher degrees stay near zero until the data
-        demand them.
+        Each higher degree q of the residual has prior variance b^−q times the degree-0 one.
     shape_scale : float in [1e-6, 1e6]
-        The residual model's unit of shape.
+        The residual's unit of shape.
     gamma_forgetting : float in (0, 1]
         λ_Γ of the online Γ (eq. 6).
     n_windows, smoothing_order : int
@@ -145,15 +156,18 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         Fitted log longitudinal and log lateral drag per unit length of each link, relative to a
         longitudinal drag of 1 (only differences are observable; the prior fixes the mean).
     parameters_ : ndarray of shape (n_parameters,)
-        u: the log ratio's deviation from log ``drag_ratio``, then the per-link deviations.
+        u: the log ratio's deviation from log ``drag_ratio``, then the per-link deviations; for the hybrid
+        then the residual's weights, output by output in its symmetry basis.
     parameter_covariance_ : ndarray of shape (n_parameters, n_parameters)
         Posterior covariance of u.
     noise_std_ : ndarray of shape (3,)
         RMS output error of each body-velocity component over the memory after the last fit.
     system_ : PurcellSwimmer
         The fitted chain (its ``connection`` is the model's resistive A(r)).
-    residual_model_ : ShapeSpaceModel or None
-        The hybrid's residual model.
+    residual_weights_ : ndarray of shape (m, d, 3) or None
+        The hybrid's residual connection: :math:`\hat\xi_{res} = W^T (f(r/s) \otimes \dot r)` (None without).
+    residual_scale_ : float
+        The data's connection scale the residual prior is relative to.
     phase_model_ : PhaseModel
     gamma_ : float
         Online Γ after the last sample (eq. 6).
@@ -191,6 +205,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         "iterations": Integer(minimum=1),
         "residual_degree": Integer(minimum=0, none=True),
         "residual_symmetry": Options(SYMMETRIES),
+        "residual_prior": Real(low=0, high=1e3, low_open=True),
         "residual_shrinkage": Real(low=0, low_open=True),
         "shape_scale": Real(low=1e-6, high=1e6),
         "gamma_forgetting": Real(low=0, high=1, low_open=True),
@@ -204,7 +219,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
                  drag_ratio: float = 2.0,
                  ratio_spread: float = 1.0, link_variation: float = 0.3, memory: int = 4096, iterations: int = 3,
                  residual_degree: int | None = None, residual_symmetry: str | None = None,
-                 residual_shrinkage: float = 30.0, shape_scale: float = 1.0, gamma_forgetting: float = 0.995,
+                 residual_prior: float = 0.1, residual_shrinkage: float = 30.0, shape_scale: float = 1.0,
+                 gamma_forgetting: float = 0.995,
                  n_windows: int = 20, smoothing_order: int = 5, baseline_forgetting: float = 0.99,
                  resolution: int = 128):
         self.link_lengths = link_lengths
@@ -217,6 +233,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self.iterations = iterations
         self.residual_degree = residual_degree
         self.residual_symmetry = residual_symmetry
+        self.residual_prior = residual_prior
         self.residual_shrinkage = residual_shrinkage
         self.shape_scale = shape_scale
         self.gamma_forgetting = gamma_forgetting
@@ -266,10 +283,40 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
 
     def _chain(self, parameters: np.ndarray) -> PurcellSwimmer:
         theta0, design, _ = self._design()
-        log_drag = (theta0 + design @ parameters).reshape(-1, 2)
+        log_drag = (theta0 + design @ parameters[:design.shape[1]]).reshape(-1, 2)
         return PurcellSwimmer(self._n_links, link_lengths=self.link_lengths, body_frame=self.body_frame,
                               frame_offset=self.frame_offset, drag_ratio=1.0,
                               link_drag_scale=np.exp(log_drag - log_drag[:, 0].mean()))
+
+    def _residual_structure(self, n_joints: int) -> tuple[np.ndarray, list]:
+        """Monomial exponents and, per output k, the basis ``(m d, n_k)`` of its residual weights."""
+        exponents = monomial_exponents(n_joints, self.residual_degree)
+        per_output = [None] * 3
+        for outputs, basis in symmetry_blocks(exponents, self.residual_symmetry):
+            for k in outputs:
+                per_output[k] = basis
+        return exponents, per_output
+
+    def _residual_prior(self, scale: float) -> np.ndarray:
+        """Prior variance of every residual weight: (prior · scale)² b^{−q} by the degree q of its column."""
+        degree = np.repeat(self._exponents.sum(axis=1), self.n_joints_)
+        variances = []
+        for basis in self._bases:
+            magnitude = np.abs(basis)
+            q = degree @ magnitude / magnitude.sum(axis=0)
+            variances.append((self.residual_prior * scale) ** 2 * self.residual_shrinkage ** -q)
+        return np.concatenate(variances)
+
+    def _residual_jacobian(self, shape, shape_velocity) -> np.ndarray:
+        """∂ξ̂_res/∂(residual weights) ``(n, 3, n_v)``: output k's regressors in its own slot (ξ̂_res is linear)."""
+        features = polynomial_features(shape, shape_velocity, self._exponents, self.shape_scale)
+        sizes = [b.shape[1] for b in self._bases]
+        jacobian = np.zeros(features.shape[:-1] + (3, sum(sizes)))
+        start = 0
+        for k, basis in enumerate(self._bases):
+            jacobian[..., k, start:start + sizes[k]] = features @ basis
+            start += sizes[k]
+        return jacobian
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, n_joints: int):
@@ -280,13 +327,20 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         _, design, prior = self._design()
         self.n_joints_ = n_joints
         self.batch_shape_ = ()
-        self.parameters_ = np.zeros(design.shape[1])
+        self.residual_scale_ = 1.0
+        self._exponents, self._bases = (None, []) if self.residual_degree is None else \
+            self._residual_structure(n_joints)
+        if self.residual_degree is not None:
+            empty = [k for k, basis in enumerate(self._bases) if basis.shape[1] == 0]
+            if empty:
+                raise fail("residual_degree", type(self).__name__, f"at least 1 with symmetry "
+                           f"{self.residual_symmetry!r} (it leaves output {', '.join('xyθ'[k] for k in empty)} "
+                           "without any weight)", self.residual_degree)
+            prior = np.concatenate([prior, self._residual_prior(1.0)])
+        self.parameters_ = np.zeros(prior.size)
         self.parameter_covariance_ = np.diag(prior)
         self.noise_std_ = np.full(3, np.nan)
         self._memory = np.zeros((0, 2 * n_joints + 3))
-        self.residual_model_ = None if self.residual_degree is None else ShapeSpaceModel(
-            degree=self.residual_degree, symmetry=self.residual_symmetry, shape_scale=self.shape_scale,
-            degree_shrinkage=self.residual_shrinkage, resolution=self.resolution)
         self.phase_model_ = PhaseModel(n_windows=self.n_windows, forgetting_factor=self.baseline_forgetting,
                                        smoothing_order=self.smoothing_order).start(())
         self.psi_ = np.zeros(2)
@@ -309,29 +363,46 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
             owner=f"{type(self).__name__}.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(shape.shape[-1])
+            if self.residual_degree is not None:  # the residual prior relative to this robot's connection scale
+                rate = np.mean(np.sum(shape_velocity**2, axis=-1))
+                self.residual_scale_ = float(np.sqrt(np.mean(np.sum(body_velocity**2, axis=-1)) / rate)) \
+                    if rate > 0 else 1.0
         elif shape.shape[-1] != self.n_joints_:
             raise fail("shape", f"{type(self).__name__}.partial_fit", f"{self.n_joints_} joints",
                        f"{shape.shape[-1]} joints")
-        prior = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+        prior = self._predict(shape, shape_velocity)
         samples = np.concatenate([shape, shape_velocity, body_velocity], axis=-1)
         self._memory = np.concatenate([self._memory, samples])[-self.memory:]
-        self._fit_drag()
-        if self.residual_model_ is not None:
-            resistive = self.system_.drag_sensitivity(shape, shape_velocity)[0]
-            self.residual_model_.partial_fit(phase, shape, shape_velocity, body_velocity - resistive)
-            prior = prior + self.residual_model_.prior_prediction_
+        self._fit()
         baseline = self.phase_model_.partial_fit_predict(phase, body_velocity)
         self._update_gamma(prior, baseline, body_velocity)
         self.prior_prediction_ = prior
         self.n_samples_seen_ += phase.shape[-1]
         return self
 
-    def _fit_drag(self):
-        """Gauss–Newton (MAP) on the output error over the memory, from the current parameters."""
+    def _prior_variance(self) -> np.ndarray:
+        prior = self._design()[2]
+        return prior if self.residual_degree is None else \
+            np.concatenate([prior, self._residual_prior(self.residual_scale_)])
+
+    def _model(self, parameters, shape, shape_velocity, residual_jacobian):
+        """Predicted ξ ``(n, 3)`` and its Jacobian ``(n, 3, n_parameters)`` at ``parameters``."""
+        _, design, _ = self._design()
+        velocity, sensitivity = self._chain(parameters).drag_sensitivity(shape, shape_velocity)
+        jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design
+        if residual_jacobian is None:
+            return velocity, jacobian
+        residual = np.einsum("nkv,v->nk", residual_jacobian, parameters[design.shape[1]:])
+        return velocity + residual, np.concatenate([jacobian, residual_jacobian], axis=-1)
+
+    def _fit(self):
+        """Gauss–Newton (MAP) on the output error over the memory, from the current parameters (drags and,
+        for the hybrid, the residual's weights together)."""
         d = self.n_joints_
         shape, shape_velocity, measured = np.split(self._memory, [d, 2 * d], axis=-1)
-        _, design, prior = self._design()
-        precision = 1.0 / prior
+        _, design, _ = self._design()
+        precision = 1.0 / self._prior_variance()
+        residual_jacobian = None if self.residual_degree is None else self._residual_jacobian(shape, shape_velocity)
         parameters = self.parameters_
         scale = np.sqrt(np.mean(measured**2, axis=0)) + 1e-300
 
@@ -341,19 +412,18 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         def cost(predicted, u):
             return float(np.sum((measured - predicted) ** 2 * weight) + u @ (precision * u))
 
-        predicted, sensitivity = self._chain(parameters).drag_sensitivity(shape, shape_velocity)
+        predicted, jacobian = self._model(parameters, shape, shape_velocity, residual_jacobian)
         for _ in range(self.iterations):
             weight = weights(measured - predicted)
             current = cost(predicted, parameters)
-            jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design  # (n, 3, k)
             weighted = jacobian * weight[:, None]
             information = np.einsum("nki,nkj->ij", weighted, jacobian) + np.diag(precision)
             gradient = np.einsum("nki,nk->i", weighted, measured - predicted) - precision * parameters
             step = np.linalg.solve(information, gradient)
-            for _ in range(8):  # backtrack until the MAP cost falls (the model is nonlinear in u)
+            for _ in range(8):  # backtrack until the MAP cost falls (the model is nonlinear in the drags)
                 trial = parameters + step
-                if np.abs(design @ trial).max() <= _LOG_DRAG_BOUND:
-                    trial_predicted, trial_sensitivity = self._chain(trial).drag_sensitivity(shape, shape_velocity)
+                if np.abs(design @ trial[:design.shape[1]]).max() <= _LOG_DRAG_BOUND:
+                    trial_predicted, trial_jacobian = self._model(trial, shape, shape_velocity, residual_jacobian)
                     trial_cost = cost(trial_predicted, trial)
                     if trial_cost <= current:
                         break
@@ -361,16 +431,14 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
             else:
                 break
             converged = current - trial_cost <= 1e-12 * current
-            parameters, predicted, sensitivity, current = trial, trial_predicted, trial_sensitivity, trial_cost
+            parameters, predicted, jacobian, current = trial, trial_predicted, trial_jacobian, trial_cost
             if converged:
                 break
-        jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design
         residual = measured - predicted
         self.noise_std_ = np.sqrt(np.mean(residual**2, axis=0))
-        information = np.einsum("nki,nk,nkj->ij", jacobian, np.broadcast_to(weights(residual), residual.shape),
-                                jacobian)
+        weighted = jacobian * weights(residual)[:, None]
         self.parameters_ = parameters
-        self.parameter_covariance_ = np.linalg.inv(information + np.diag(precision))
+        self.parameter_covariance_ = np.linalg.inv(np.einsum("nki,nkj->ij", weighted, jacobian) + np.diag(precision))
         self._system = None
 
     def forget(self, factor: float):
@@ -380,8 +448,6 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         factor = check_float(factor, "factor", f"{type(self).__name__}.forget", low=1)
         keep = int(np.ceil(len(self._memory) / factor))
         self._memory = self._memory[len(self._memory) - keep:]
-        if self.residual_model_ is not None:
-            self.residual_model_.forget(factor)
         return self
 
     def rebase(self, gait: FourierGait | None = None, *, baseline: str = "reset", **options):
@@ -395,8 +461,6 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
             raise fail("baseline", f"{type(self).__name__}.rebase", "one of 'reset', 'keep'", baseline)
         if baseline == "reset":
             self.phase_model_.start(())
-        if self.residual_model_ is not None:
-            self.residual_model_.rebase(gait, baseline="keep")
         return self
 
     # -- prediction ---------------------------------------------------------------------------
@@ -412,13 +476,34 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self._check_is_fitted()
         return np.log(np.asarray(self.system_.link_drag_scale))
 
+    @property
+    def residual_weights_(self) -> np.ndarray | None:
+        self._check_is_fitted()
+        if self.residual_degree is None:
+            return None
+        weights = np.zeros((len(self._exponents) * self.n_joints_, 3))
+        start = self._design()[1].shape[1]
+        for k, basis in enumerate(self._bases):
+            weights[:, k] = basis @ self.parameters_[start:start + basis.shape[1]]
+            start += basis.shape[1]
+        return weights.reshape(len(self._exponents), self.n_joints_, 3)
+
+    def _predict(self, shape, shape_velocity) -> np.ndarray:
+        prediction = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+        if self.residual_degree is not None:
+            features = polynomial_features(shape, shape_velocity, self._exponents, self.shape_scale)
+            prediction = prediction + features @ self.residual_weights_.reshape(-1, 3)
+        return prediction
+
     def connection(self, shape) -> np.ndarray:
         """The model's connection A(r) at ``shape`` ``(..., d)`` (rad) → ``(..., 3, d)``, ξ = −A ṙ (resistive part
-        plus, for the hybrid, the residual model's)."""
+        plus, for the hybrid, the residual)."""
+        self._check_is_fitted()
         shape = check_array(shape, "shape", f"{type(self).__name__}.connection", trailing=(self.n_joints_,))
         connection = self.system_.connection(shape)
-        if self.residual_model_ is not None:
-            connection = connection + self.residual_model_.connection(shape)
+        if self.residual_degree is not None:
+            f = monomials(shape / self.shape_scale, self._exponents)
+            connection = connection - np.einsum("...l,ljk->...kj", f, self.residual_weights_)
         return connection
 
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
@@ -434,9 +519,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         phase, shape, shape_velocity = self._check_samples(phase, shape, shape_velocity,
                                                            names=("shape", "shape_velocity"),
                                                            owner=f"{type(self).__name__}.predict")
-        prediction = self.system_.drag_sensitivity(shape, shape_velocity)[0]
-        if self.residual_model_ is not None:
-            prediction = prediction + self.residual_model_.predict(phase, shape, shape_velocity)
+        prediction = self._predict(shape, shape_velocity)
         return prediction[0] if self._single else prediction
 
     def predict_displacement(self, gait: FourierGait, *, jacobian: bool = False, compiled: bool = False):
@@ -457,42 +540,40 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
             raise fail("gait", f"{type(self).__name__}.predict_displacement",
                        f"a FourierGait with {self.n_joints_} joints", gait)
         parts = cycle_velocity(self.system_, gait, self.resolution, jacobian)
-        if self.residual_model_ is not None:
-            residual = self.residual_model_._cycle_velocity(gait, jacobian)
+        if self.residual_degree is not None:
+            residual = polynomial_cycle_velocity(self.residual_weights_, self._exponents, self.shape_scale, gait,
+                                                 self.resolution, jacobian)
             parts = (parts[0] + residual[0], parts[1], *((parts[2] + residual[2],) if jacobian else ()))
         return integrate_cycle(*parts)
 
-    def rotation_std(self, gait: FourierGait, residual_variance) -> float:
+    def rotation_std(self, gait: FourierGait, residual_variance=None) -> float:
         r"""Standard error of the predicted net rotation per cycle of ``gait``.
 
         The heading of the Magnus integration is exactly linear in the ω-component of ξ, so its
-        derivative with respect to u is :math:`g = \frac h2\sum_{\text{nodes}} \partial\xi_\omega/\partial u`
-        and its standard error :math:`\sqrt{g^T C g}` with the parameters' covariance C (which already
-        carries the measured noise). The hybrid adds the residual model's, given ``residual_variance``
-        (σ²_ω of the a-priori error of ω), in quadrature.
+        derivative with respect to the parameters is
+        :math:`g = \frac h2\sum_{\text{nodes}} \partial\xi_\omega/\partial p` and its standard error
+        :math:`\sqrt{g^T C g}` with the parameters' covariance C, which already carries the measured noise
+        (``residual_variance``, the optimiser's σ²_ω, is accepted for the common interface and not needed).
         """
         self._check_is_fitted()
         nodes, step = gauss_phases(self.resolution)
-        _, sensitivity = self.system_.drag_sensitivity(gait.shape(nodes), gait.velocity(nodes))
+        shape, rate = gait.shape(nodes), gait.velocity(nodes)
+        _, sensitivity = self.system_.drag_sensitivity(shape, rate)
         _, design, _ = self._design()
         g = (sensitivity[..., 2, :, :].reshape(nodes.shape + (-1,)) @ design).sum(axis=(0, 1)) * step / 2
-        variance = float(g @ self.parameter_covariance_ @ g)
-        if self.residual_model_ is not None:
-            variance += float(self.residual_model_.rotation_std(gait, residual_variance)) ** 2
-        return float(np.sqrt(variance))
+        if self.residual_degree is not None:
+            g = np.concatenate([g, self._residual_jacobian(shape, rate)[..., 2, :].sum(axis=(0, 1)) * step / 2])
+        return float(np.sqrt(g @ self.parameter_covariance_ @ g))
 
     # -- persistence --------------------------------------------------------------------------
     def _metadata(self) -> dict:
         return {"n_joints": self.n_joints_, "batch_shape": []}
 
     def _state(self) -> dict:
-        arrays = {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_, "parameters": self.parameters_,
-                  "parameter_covariance": self.parameter_covariance_, "noise_std": self.noise_std_,
-                  "memory": self._memory,
-                  **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
-        if self.residual_model_ is not None:
-            arrays.update({f"residual/{k}": v for k, v in self.residual_model_.get_state()[1].items()})
-        return arrays
+        return {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_, "parameters": self.parameters_,
+                "parameter_covariance": self.parameter_covariance_, "noise_std": self.noise_std_,
+                "memory": self._memory, "residual_scale": self.residual_scale_,
+                **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
 
     def _set_state(self, state: dict, metadata: dict) -> None:
         self._reset(int(metadata["n_joints"]))
@@ -508,9 +589,5 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self.n_samples_seen_ = int(state["n_samples_seen"])
         own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
         self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
-        if self.residual_model_ is not None:
-            residual = {k.removeprefix("residual/"): v for k, v in state.items() if k.startswith("residual/")}
-            if not residual:
-                raise ValueError("the hybrid's residual model is missing from the stored arrays")
-            self.residual_model_._set_state(residual, {"n_joints": self.n_joints_, "batch_shape": []})
+        self.residual_scale_ = float(state["residual_scale"])
         self._system = None

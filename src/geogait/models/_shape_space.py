@@ -312,8 +312,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
 
     def _features(self, shape, shape_velocity) -> np.ndarray:
         """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
-        f = monomials(shape / self.shape_scale, self.exponents_)
-        return (f[..., :, None] * shape_velocity[..., None, :]).reshape(f.shape[:-1] + (-1,))
+        return polynomial_features(shape, shape_velocity, self.exponents_, self.shape_scale)
 
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
@@ -515,20 +514,8 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
     def _cycle_velocity(self, gait: FourierGait, jacobian: bool):
         """Predicted ξ at the Magnus nodes of one cycle of ``gait`` and the step (and ∂ξ/∂params):
         :func:`~geogait.se2.integrate_cycle`'s arguments."""
-        nodes, step = gauss_phases(self.resolution)
-        shape, rate = gait.shape(nodes), gait.velocity(nodes)  # (n, 2, d)
-        weights = self.weights_  # batch + (m, d, 3)
-        if not jacobian:
-            f = monomials(shape / self.shape_scale, self.exponents_)
-            return np.einsum("npl,npj,...ljk->...npk", f, rate, weights, optimize=True), step
-        f, df = monomials(shape / self.shape_scale, self.exponents_, derivative=True)  # (n,2,m), (n,2,m,d)
-        along = np.einsum("npj,...ljk->...nplk", rate, weights, optimize=True)  # Σ_j W_ljk θ_j': contract once, reuse
-        velocity = np.einsum("npl,...nplk->...npk", f, along, optimize=True)
-        u = np.einsum("npli,...nplk->...npki", df, along, optimize=True) / self.shape_scale  # batch+(n,2,3,d)
-        v = np.einsum("npl,...lik->...npki", f, weights, optimize=True)
-        basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
-        velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
-        return velocity, step, velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
+        return polynomial_cycle_velocity(self.weights_, self.exponents_, self.shape_scale, gait, self.resolution,
+                                         jacobian)
 
 
     def _compiled_displacement(self, kernel, gait: FourierGait, jacobian: bool):
@@ -544,6 +531,37 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
                exponents, float(self.shape_scale), basis, d_basis, 2 * np.pi / self.resolution, _SMALL, jacobian,
                pose, pose_jacobian)
         return (pose, pose_jacobian) if jacobian else pose
+
+
+def polynomial_features(shape, shape_velocity, exponents: np.ndarray, shape_scale: float) -> np.ndarray:
+    """Regressors x = f(r/s) ⊗ ṙ ``(..., m d)`` of the polynomial connection (entry l d + j is f_l ṙ_j)."""
+    f = monomials(shape / shape_scale, exponents)
+    return (f[..., :, None] * shape_velocity[..., None, :]).reshape(f.shape[:-1] + (-1,))
+
+
+def polynomial_cycle_velocity(weights: np.ndarray, exponents: np.ndarray, shape_scale: float, gait: FourierGait,
+                              resolution: int, jacobian: bool = False):
+    r"""ξ̂ = Wᵀ(f(θ/s) ⊗ θ') of a polynomial connection with weights ``batch + (m, d, 3)`` at the Magnus nodes of one
+    cycle of ``gait``, and the step (and the exact ∂ξ̂/∂params): :func:`~geogait.se2.integrate_cycle`'s arguments.
+
+    With basis :math:`b_c(\phi)` of joint i's coefficients,
+    :math:`\partial\hat\xi_k/\partial c_{ic} = U_{ki} b_c + V_{ki} b_c'`,
+    :math:`U_{ki} = \sum_{l,j} W_{ljk}\,\partial f_l/\partial r_i\,\theta_j'/s`, :math:`V_{ki} = \sum_l W_{lik} f_l`.
+    """
+    nodes, step = gauss_phases(resolution)
+    shape, rate = gait.shape(nodes), gait.velocity(nodes)  # (n, 2, d)
+    if not jacobian:
+        f = monomials(shape / shape_scale, exponents)
+        return np.einsum("npl,npj,...ljk->...npk", f, rate, weights, optimize=True), step
+    f, df = monomials(shape / shape_scale, exponents, derivative=True)  # (n,2,m), (n,2,m,d)
+    along = np.einsum("npj,...ljk->...nplk", rate, weights, optimize=True)  # Σ_j W_ljk θ_j': contract once, reuse
+    velocity = np.einsum("npl,...nplk->...npk", f, along, optimize=True)
+    u = np.einsum("npli,...nplk->...npki", df, along, optimize=True) / shape_scale  # batch+(n,2,3,d)
+    v = np.einsum("npl,...lik->...npki", f, weights, optimize=True)
+    basis, d_basis = gait.basis(nodes), gait.basis(nodes, 1)  # (n, 2, c)
+    velocity_jacobian = u[..., None] * basis[:, :, None, None, :] + v[..., None] * d_basis[:, :, None, None, :]
+    return velocity, step, velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
+
 
 @functools.lru_cache(maxsize=32)
 def _kernel_lowering(key: bytes, m: int, d: int) -> tuple:
