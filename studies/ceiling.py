@@ -19,8 +19,9 @@ CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sq
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
 (ShapeSpaceModel of degree 3 with the swimmer's mirror and reversal symmetries built in,
 ``symmetry="mirror+reversal"``), resistance-linear, resistance-sqp (:class:`~geogait.models.ResistanceModel`: the
-swimmer's geometry given, its drags learned), hybrid-linear, hybrid-sqp (the same with a degree-2 symmetric residual
-model), perfect-linear, perfect-sqp (true connection, trust radius up to
+swimmer's geometry given, its drags learned; with ``geogait._defaults.STRUCTURED_MODEL_STEPS``: trust radius
+0.25 to 0.5, no measured climb), hybrid-linear, hybrid-sqp (the same with a degree-2 symmetric residual),
+perfect-linear, perfect-sqp (true connection, trust radius up to
 0.5); NAME@R sets the largest trust radius R (e.g. symmetric-sqp@0.5); each suffix ``,KEY=VALUE``
 sets an ``InSituOptimizer`` option KEY, or a hyper-parameter NAME of the model when KEY is
 ``model.NAME`` (models named in the config only), e.g.
@@ -33,6 +34,7 @@ import time
 import numpy as np
 from joblib import Parallel, delayed
 
+from geogait._defaults import STRUCTURED_MODEL_STEPS
 from geogait.gaits import seed_gait
 from geogait.models import PerfectInformationModel, ResistanceModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer, cached_ceiling
@@ -55,11 +57,10 @@ def optimizer(config, links):
         options["model"] = ShapeSpaceModel(degree=3 if links < 9 else 2)
     if model == "mirror":
         options["model"] = ShapeSpaceModel(degree=3, symmetry="mirror+reversal")
-    if model == "resistance":  # the chain's geometry known, its drags learned
-        options["model"] = ResistanceModel.from_swimmer(PurcellSwimmer(links))
-    if model == "hybrid":
-        options["model"] = ResistanceModel.from_swimmer(PurcellSwimmer(links), residual_degree=2,
-                                                        residual_symmetry="mirror+reversal")
+    if model in ("resistance", "hybrid"):  # the chain's geometry known, its drags learned (and a residual)
+        residual = {"residual_degree": 2, "residual_symmetry": "mirror+reversal"} if model == "hybrid" else {}
+        options = {**STRUCTURED_MODEL_STEPS, **options,
+                   "model": ResistanceModel.from_swimmer(PurcellSwimmer(links), **residual)}
     if model == "perfect":
         options.update(model=PerfectInformationModel(system=PurcellSwimmer(links)), max_trust_radius=0.5)
     for setting in settings:

@@ -1,12 +1,12 @@
 """The resistance model on the built-in swimmers: share of the ceiling against the error in the geometry it is given.
 
 For each geometry error e, model (``resistance``: the drags learned on the given geometry; ``hybrid``: the same plus
-a degree-2 symmetric shape-space model of the residual) and trial i, an in-situ optimisation of the LINKS-link
+a degree-2 symmetric polynomial residual fitted with the drags) and trial i, an in-situ optimisation of the LINKS-link
 swimmer in Fig. 5's setting (sensor noise 0.1, the stream's perturbations, seed gait, stream seed i) with
-``InSituOptimizer(step_rule="sqp", max_trust_radius=0.5, climb=False)``. The model is told link lengths each
-exactly e wrong: length j times (1 + e s_j), signs s_j = ±1 drawn per trial (seed 1000 + i), so the chain's
-proportions and its total length are both off. Prints the median [25-75 %] share of the rotation-free ceiling at
-each checkpoint and writes every trial to ``--out`` (JSON).
+``geogait._defaults.STRUCTURED_MODEL_STEPS`` (SQP, trust radius 0.25 to 0.5, no measured climb). The model is
+told link lengths each exactly e wrong: length j times (1 + e s_j), signs s_j = ±1 drawn per trial (seed
+1000 + i), so the chain's proportions and its total length are both off. Prints the median [25-75 %] share of
+the rotation-free ceiling at each checkpoint and writes every trial to ``--out`` (JSON).
 
     python studies/resistance.py LINKS CYCLES TRIALS [--errors 0 0.05 0.1 0.2] [--models resistance hybrid]
                                  [--checkpoints 30 60] [--jobs 2] [--out FILE]
@@ -20,6 +20,7 @@ import time
 import numpy as np
 from joblib import Parallel, delayed
 
+from geogait._defaults import STRUCTURED_MODEL_STEPS
 from geogait.gaits import seed_gait
 from geogait.models import ResistanceModel
 from geogait.optimize import InSituOptimizer, cached_ceiling
@@ -39,7 +40,7 @@ def one(links, cycles, model, error, trial, ceiling):
     swimmer = PurcellSwimmer(links)
     stream = SwimmerStream(swimmer, seed_gait(links - 1), sensor_noise=0.1, seed=trial)
     estimator = ResistanceModel(link_lengths=wrong_lengths(swimmer, error, trial), **MODELS[model])
-    optimizer = InSituOptimizer(model=estimator, step_rule="sqp", max_trust_radius=0.5, climb=False)
+    optimizer = InSituOptimizer(model=estimator, **STRUCTURED_MODEL_STEPS)
     log = optimizer.run(stream, cycles, ceiling=ceiling).log
     return {"model": model, "geometry_error": error, "trial": trial,
             "ceiling_fraction": log["ceiling_fraction"].round(6).tolist(),
