@@ -10,7 +10,9 @@ robot run** — settling cycles included. Methods:
   perturbation (eq. 8), which is how geogait learns;
 * ``geogait-resistance`` — the same with :class:`~geogait.models.ResistanceModel` on the chain geometry the
   robot gives (``chain_geometry()``: the built-in and MuJoCo chains), SQP steps over a trust radius up to 0.5
-  and no measured climb (:data:`RESISTANCE_OPTIONS`); cases whose robot gives none skip it;
+  and no measured climb (:data:`RESISTANCE_OPTIONS`); ``geogait-hybrid`` the same with a degree-2 polynomial
+  residual fitted with the drags (mirror-symmetric where the robot's frame is on the chain's axis); cases whose
+  robot gives no chain geometry skip both;
 * ``geogait-batch`` — the prior-work batch method (Bittner et al. 2018): a
   :class:`~geogait.models.BatchGaitModel` refit every 30 perturbed cycles;
 * ``cmaes`` / ``cmaes-tuned`` — CMA-ES (the ``cma`` package) from the seed gait: σ₀ = r_max / 3 and
@@ -444,7 +446,7 @@ BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmae
 _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
 #: Method names: geogait (its default model, the resistance model on a chain whose geometry the robot gives, the
 #: prior work's batch model) and each black-box method free and held to the rotation limit.
-METHODS = ("geogait", "geogait-resistance", "geogait-batch",
+METHODS = ("geogait", "geogait-resistance", "geogait-hybrid", "geogait-batch",
            *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
 #: What geogait-resistance changes besides the model (``geogait._defaults.STRUCTURED_MODEL_STEPS``).
 RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
@@ -454,12 +456,17 @@ def _variant_options(robot, variant: str) -> dict | None:
     """InSituOptimizer options of a geogait variant; None when the robot cannot run it (no chain geometry)."""
     if variant == "batch":  # the prior work (Bittner et al. 2018) as published: a batch model, no measured climb
         return {"model": BatchGaitModel(), "gate": "cycles", "climb": False}
-    if variant == "resistance":
+    if variant in ("resistance", "hybrid"):
         try:
             geometry = robot.chain_geometry()
         except (AttributeError, GeogaitError):
             return None
-        return {"model": ResistanceModel(**geometry), **RESISTANCE_OPTIONS}
+        residual = {}
+        if variant == "hybrid":  # a frame on the chain's axis keeps the mirror symmetry (A_x odd, A_y and A_θ even)
+            x, y, angle = geometry["frame_offset"] or (0.0, 0.0, 0.0)
+            on_axis = abs(y) < 1e-9 and min(abs(np.sin(angle)), 1.0) < 1e-9
+            residual = {"residual_degree": 2, "residual_symmetry": "mirror" if on_axis else None}
+        return {"model": ResistanceModel(**geometry, **residual), **RESISTANCE_OPTIONS}
     return {}
 
 
@@ -590,9 +597,10 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         # in a rotation-free family the held variants would repeat the free runs exactly
         case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
         probe = case.make_robot(None, explore=False, noise=False)
-        if "geogait-resistance" in case_methods and _variant_options(probe, "resistance") is None:
-            log(f"skipped method geogait-resistance on {name}: its robot gives no chain geometry")
-            case_methods.remove("geogait-resistance")
+        for method in ("geogait-resistance", "geogait-hybrid"):
+            if method in case_methods and _variant_options(probe, "resistance") is None:
+                log(f"skipped method {method} on {name}: its robot gives no chain geometry")
+                case_methods.remove(method)
         seed_gait_ = probe.gait
         seed_result = evaluate_gait(case, seed_gait_)
         ceiling = evaluate_gait(case, case.ceiling()) if case.ceiling is not None else None
