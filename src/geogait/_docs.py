@@ -42,6 +42,15 @@ sensor_noise : float
     Std of the noise on measured ξ, as a fraction of its RMS.
 perturbation : float
     Stationary std (rad) of the shape perturbation δ of eq. 8.""",
+    "online_gamma_params": """\
+gamma_forgetting : float in (0, 1]
+    λ_Γ of the online Γ (eq. 6).
+n_windows, smoothing_order : int
+    Phase windows and smoothing of the phase model ξ_T (the Γ baseline).
+baseline_forgetting : float in (0, 1]
+    Forgetting of the phase model, per window update.
+resolution : int
+    Magnus steps per cycle in :meth:`predict_displacement`.""",
     "step": """\
 problem : StepProblem
     The predictor, family, objective, rotation row and joint limits of this step.

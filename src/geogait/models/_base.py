@@ -216,6 +216,15 @@ class SampleModel:
                 self.__dict__.pop(name, None)
             return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
+    def _baseline_state(self) -> dict:
+        """The phase model's arrays, prefixed for storage beside the gait model's own."""
+        return {f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}
+
+    def _set_baseline_state(self, state: dict) -> None:
+        """Inverse of :meth:`_baseline_state` (on a model whose ``phase_model_`` was just started)."""
+        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
+        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
+
     def score(self, phase, shape, shape_velocity, body_velocity, baseline=None):
         """Γ on held-out samples (eq. 5) against the phase model of the training data.
 
@@ -314,16 +323,6 @@ class GaitModelBase(SampleModel, PhaseWindowModel):
         parts = split_coefficients(self.smoothed_weights(phase), self.n_joints_)
         scale = self._time_scale()  # C and B are velocities (cycle time inside); A and ∂A are rate-free
         return {**parts, "C": parts["C"] * scale, "B": parts["B"] * scale}
-
-    # -- the baseline and persistence ---------------------------------------------------------
-    def _baseline_state(self) -> dict:
-        """The phase model's arrays, prefixed for storage beside the gait model's own."""
-        return {f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}
-
-    def _set_baseline_state(self, state: dict) -> None:
-        """Inverse of :meth:`_baseline_state` (on a model whose ``phase_model_`` was just started)."""
-        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
 
     def predict_displacement(self, gait: FourierGait | None = None, *, jacobian: bool = False):
         """Net ``(x, y, heading)`` per cycle of ``gait`` predicted by the model (and its Jacobian).

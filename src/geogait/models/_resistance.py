@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._docs import fill_doc
-from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
+from .._estimator import Estimator, Integer, Options, Real
 from .._validation import check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
@@ -141,14 +141,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         Each higher degree q of the residual has prior variance b^−q times the degree-0 one.
     shape_scale : float in [1e-6, 1e6]
         The residual's unit of shape.
-    gamma_forgetting : float in (0, 1]
-        λ_Γ of the online Γ (eq. 6).
-    n_windows, smoothing_order : int
-        Phase windows and smoothing of the phase model ξ_T (the Γ baseline).
-    baseline_forgetting : float in (0, 1]
-        Forgetting of the phase model, per window update.
-    resolution : int
-        Magnus steps per cycle in :meth:`predict_displacement`.
+    %(online_gamma_params)s
 
     Attributes
     ----------
@@ -572,8 +565,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     def _state(self) -> dict:
         return {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_, "parameters": self.parameters_,
                 "parameter_covariance": self.parameter_covariance_, "noise_std": self.noise_std_,
-                "memory": self._memory, "residual_scale": self.residual_scale_,
-                **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
+                "memory": self._memory, "residual_scale": self.residual_scale_, **self._baseline_state()}
 
     def _set_state(self, state: dict, metadata: dict) -> None:
         self._reset(int(metadata["n_joints"]))
@@ -586,8 +578,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self.noise_std_ = np.asarray(state["noise_std"], dtype=float).reshape(3)
         self._memory = np.asarray(state["memory"], dtype=float).reshape(-1, 2 * self.n_joints_ + 3)
         self._set_gamma_state(state)
+        self._set_baseline_state(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
-        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
         self.residual_scale_ = float(state["residual_scale"])
         self._system = None

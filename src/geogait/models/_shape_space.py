@@ -54,7 +54,7 @@ import itertools
 import numpy as np
 
 from .._docs import fill_doc
-from .._estimator import Estimator, Integer, Options, Real, estimator_from_state
+from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import _SMALL, gauss_phases, integrate_cycle
@@ -201,14 +201,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         that grows by b per degree (b = 1: the same for all). With b > 1 a high degree can be afforded:
         its weights stay near zero until the data demand them (the Taylor coefficients of an analytic
         connection shrink with degree in the same way).
-    gamma_forgetting : float in (0, 1]
-        λ_Γ of the online Γ (eq. 6).
-    n_windows, smoothing_order : int
-        Phase windows and smoothing of the phase model ξ_T (the Γ baseline).
-    baseline_forgetting : float in (0, 1]
-        Forgetting of the phase model, per window update.
-    resolution : int
-        Magnus steps per cycle in :meth:`predict_displacement`.
+    %(online_gamma_params)s
 
     Attributes
     ----------
@@ -427,8 +420,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         return {"n_joints": self.n_joints_, "batch_shape": list(self.batch_shape_)}
 
     def _state(self) -> dict:
-        arrays = {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_,
-                  **{f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}}
+        arrays = {**self._gamma_state(), "n_samples_seen": self.n_samples_seen_, **self._baseline_state()}
         for b, bank in enumerate(self.banks_):
             arrays.update(bank.state(_block_prefix(b)))
         return arrays
@@ -454,9 +446,8 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
             bank.assign(state, _block_prefix(b))
         self._flat = None
         self._set_gamma_state(state)
+        self._set_baseline_state(state)
         self.n_samples_seen_ = int(state["n_samples_seen"])
-        own = {k.removeprefix("phase_model/"): v for k, v in state.items() if k.startswith("phase_model/")}
-        self.phase_model_ = estimator_from_state(self.phase_model_.get_state()[0], own)
 
     # -- prediction ---------------------------------------------------------------------------
     def connection(self, shape) -> np.ndarray:
