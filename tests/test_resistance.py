@@ -227,3 +227,16 @@ def test_the_path_tracker_follows_a_path_and_relearns_a_drag_change_with_it():
     assert np.all(np.abs(ratio[:change] - 1) < 0.1)  # before the change the model's steps are the measured ones
     assert abs(ratio[change] - 1) > 0.2  # the change is real
     assert np.all(np.abs(ratio[change + 2:] - 1) < 0.1)
+
+
+def test_a_stream_gives_its_swimmers_geometry_and_refuses_other_systems():
+    swimmer = PurcellSwimmer(4, link_lengths=(0.4, 0.2, 0.3, 0.1), body_frame="tail", frame_offset=(0.05, 0.0, 0.0))
+    geometry = SwimmerStream(swimmer, seed_gait(3), seed=0).chain_geometry()
+    model = ResistanceModel(**geometry, link_variation=0.0, drag_ratio=swimmer.drag_ratio)
+    run = simulate(swimmer, seed_gait(3), n_cycles=1, seed=0)
+    model.fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    shapes = np.random.default_rng(0).uniform(-1, 1, (5, 3))
+    np.testing.assert_allclose(model.connection(shapes), swimmer.connection(shapes), rtol=1e-6, atol=1e-9)
+    other = SwimmerStream(FunctionSystem(PurcellSwimmer(3).connection, 2), seed_gait(2), seed=0)
+    with pytest.raises(GeogaitError, match="not a chain of links"):
+        other.chain_geometry()
