@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from geogait.gaits import Perturbation, seed_gait
+from geogait.models import ResistanceModel
 from geogait.optimize import InSituOptimizer
 from geogait.robots import ProcessRobot, Robot
 from geogait.simulate import SwimmerStream
@@ -65,6 +66,40 @@ def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
     with pytest.raises(ValueError, match="'excitation'.*version 2"):
         ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, version=1, excitation=True)!r}), "
                                        "flush=True)\ntime.sleep(5)\n"))
+
+
+def test_hello_declares_a_chain_for_the_resistance_model(tmp_path):
+    """The reference driver declares its swimmer's chain; the resistance model built from it is the swimmer's own
+    (its connection equals PurcellSwimmer's at the default drags); a malformed chain is refused naming the field."""
+    with ProcessRobot(DRIVER + ["--links", "4"]) as robot:
+        geometry = robot.chain_geometry()
+    assert geometry == {"link_lengths": (0.25,) * 4, "body_frame": "middle", "frame_offset": None}
+    shapes = np.random.default_rng(0).uniform(-1, 1, (5, 3))
+    np.testing.assert_allclose(ResistanceModel(**geometry).fit(*_swimmer_samples(4)).system_.connection(shapes),
+                               PurcellSwimmer(4).connection(shapes), rtol=0.05, atol=0.02)
+    hello = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
+             "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}}
+    chain = {"link_lengths": [0.3, 0.4, 0.3], "body_frame": 1, "frame_offset": [0.1, 0, 3.14159]}
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=chain)!r}), flush=True)\n"
+                                        "sys.stdin.readline()\n")) as robot:
+        assert robot.chain_geometry() == {"link_lengths": (0.3, 0.4, 0.3), "body_frame": 1,
+                                          "frame_offset": (0.1, 0.0, 3.14159)}
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
+        with pytest.raises(ValueError, match="declares no chain geometry"):
+            robot.chain_geometry()
+    for bad in ({"link_lengths": [0.3, 0.4]}, {"link_lengths": [0.3, -0.4, 0.3]}, {"link_lengths": [0.3, 0.4, "a"]},
+                dict(chain, body_frame=3), dict(chain, body_frame="head"), dict(chain, frame_offset=[0, 0]),
+                dict(chain, links=3)):
+        with pytest.raises(ValueError, match="'chain' must be"):
+            ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=bad)!r}), flush=True)\n"
+                                           "time.sleep(5)\n"))
+
+
+def _swimmer_samples(n_links, n=400):
+    """Noise-free samples of the built-in swimmer along its seed gait with exploration."""
+    stream = SwimmerStream(PurcellSwimmer(n_links), seed_gait(n_links - 1), sensor_noise=0.0, seed=1)
+    cycles = stream.next_cycles(n // stream.samples_per_cycle)
+    return cycles.phase, cycles.shape, cycles.shape_velocity, cycles.body_velocity
 
 
 @pytest.mark.slow
@@ -123,6 +158,12 @@ def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
     assert declared["max_joint_angle_used"] == pytest.approx(2 * np.pi / 3)  # the driver declares no ranges
     assert not {"links", "noise", "perturbation", "period", "seed"} & set(summary["config"])
     assert len(pd.read_csv(tmp_path / "r" / "cycles.csv")) == 6
+    structured = subprocess.run(GEOGAIT + ["optimize", "--robot", " ".join(DRIVER + ["--links", "5"]), "--method",
+                                           "resistance", "--cycles", "4", "--out", str(tmp_path / "s")],
+                                capture_output=True, text=True, timeout=120)
+    assert structured.returncode == 0, structured.stderr  # the chain the driver declared
+    model = json.loads((tmp_path / "s" / "summary.json").read_text())["config"]["optimizer"]["model"]
+    assert model["class"] == "ResistanceModel" and model["params"]["link_lengths"] == [0.2] * 5
     broken = subprocess.run(GEOGAIT + ["optimize", "--robot", "false", "--cycles", "3", "--out", str(tmp_path / "b")],
                             capture_output=True, text=True, timeout=60)
     assert broken.returncode == 1 and broken.stderr.strip().splitlines()[-1].startswith("error: robot driver 'false'")

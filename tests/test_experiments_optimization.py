@@ -1,4 +1,5 @@
 import json
+import sys
 
 import numpy as np
 import pandas as pd
@@ -84,7 +85,7 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
 
 def test_optimize_command_with_the_resistance_model(tmp_path):
     """--method resistance: the swimmer's geometry, its drags learned; SQP up to R 0.5 without the climb unless a
-    step rule is given; refused with one line for a --robot (which declares no geometry)."""
+    step rule is given; refused with one line for a --robot whose driver declares no chain."""
     result = CliRunner().invoke(app, ["optimize", "--links", "5", "--cycles", "14", "--method", "resistance",
                                       "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
@@ -101,9 +102,14 @@ def test_optimize_command_with_the_resistance_model(tmp_path):
     assert linear.exit_code == 0, linear.output
     assert json.loads((tmp_path / "linear" / "summary.json").read_text())["config"]["optimizer"]["step_rule"] == \
         "linear"
-    refused = CliRunner().invoke(app, ["optimize", "--method", "resistance", "--robot", "python driver.py",
+    hello = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
+             "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}}  # no "chain"
+    script = tmp_path / "driver.py"
+    script.write_text(f"import json, sys\nprint(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")
+    driver = f"{sys.executable} {script}"
+    refused = CliRunner().invoke(app, ["optimize", "--method", "resistance", "--robot", driver,
                                        "--out", str(tmp_path / "robot")])
-    assert refused.exit_code == 1 and "needs the built-in swimmer's geometry" in refused.stderr
+    assert refused.exit_code == 1 and "declares no chain geometry" in refused.stderr, refused.output
 
 
 def test_bad_figure_options_are_reported(tmp_path):

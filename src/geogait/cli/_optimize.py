@@ -87,8 +87,9 @@ def optimize(
         help="Model: auto (the library's default: Fig. 5's symmetric shape-space model in the rotation-free "
              "symmetric family, else the window model), adaptive (this paper's RLS window model), shape "
              "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
-             "symmetries; for --robot degree 3 without), resistance (the swimmer's drag coefficients learned on its "
-             "known geometry, SQP steps up to 0.5, no measured climb; built-in swimmer only) or batch "
+             "symmetries; for --robot degree 3 without), resistance (the chain's drag coefficients learned on its "
+             "known geometry: the swimmer's, or the chain a --robot driver declares in its hello; SQP steps up to "
+             "0.5, no measured climb) or batch "
              "(Bittner 2018).",
     )] = "auto",
     family: Annotated[str, typer.Option(
@@ -245,9 +246,6 @@ def _optimizer(settings) -> InSituOptimizer:
     if settings["method"] == "auto" and forgetting is not None:
         raise typer.BadParameter("applies to --method adaptive or shape; auto chooses its model's own",
                                  param_hint="--forgetting-factor")
-    if settings["method"] == "resistance" and settings["robot"] is not None:
-        raise typer.BadParameter("needs the built-in swimmer's geometry (a --robot declares no chain geometry; "
-                                 "from Python: ResistanceModel(**robot.chain_geometry()))", param_hint="--method")
     if settings["method"] == "resistance" and forgetting is not None:
         raise typer.BadParameter("applies to --method adaptive or shape; the resistance model keeps a memory of "
                                  "samples", param_hint="--forgetting-factor")
@@ -258,7 +256,9 @@ def _optimizer(settings) -> InSituOptimizer:
              "shape": lambda: shape_method_model(settings["links"], robot=settings["robot"] is not None,
                                                  forgetting_factor=forgetting),
              "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
-             "resistance": lambda: ResistanceModel.from_swimmer(PurcellSwimmer(settings["links"])),
+             # a --robot's chain is known once it is connected (_run)
+             "resistance": lambda: None if settings["robot"] is not None
+             else ResistanceModel.from_swimmer(PurcellSwimmer(settings["links"])),
              }[settings["method"]]()
     steps = dict(STRUCTURED_MODEL_STEPS) if settings["method"] == "resistance" else {"step_rule": "linear"}
     if settings.get("step_rule") is not None:
@@ -310,6 +310,8 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
         checkpoint = folder / CHECKPOINT_FILE
         if settings["method"] == "adaptive" and optimizer.model is None:  # the window model, λ = 1 − 0.1 / d
             optimizer.set_params(model=AdaptiveGaitModel(forgetting_factor=window_forgetting_factor(robot.n_joints)))
+        if settings["method"] == "resistance" and optimizer.model is None:  # the chain the driver declares
+            optimizer.set_params(model=ResistanceModel(**robot.chain_geometry()))
         if resumed:
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,

@@ -43,8 +43,7 @@ from .._validation import check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..simulate._oracle import cycle_velocity
-from ..systems import PurcellSwimmer
-from ..systems._purcell import BODY_FRAMES
+from ..systems import BODY_FRAMES, PurcellSwimmer
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel

@@ -11,7 +11,11 @@ Driver → geogait, first line::
 Optional hello fields: ``"front_back_symmetric": true`` declares a chain with front–back symmetry
 (the optimiser then searches the rotation-free symmetric gait family); ``"joint_ranges": [[low,
 high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits the optimiser
-derives its own from; and, version 2 only, ``"excitation": true`` says the driver runs the
+derives its own from; ``"chain": {"link_lengths": [...], "body_frame": "middle", "frame_offset": [x, y,
+angle]}`` the robot as a chain of straight links (n_joints + 1 lengths, tail first; ``body_frame`` one of
+:class:`~geogait.systems.PurcellSwimmer`'s frames or a link index, default ``"middle"``; ``frame_offset``
+optional), which :class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`);
+and, version 2 only, ``"excitation": true`` says the driver runs the
 exploration geogait sends with each cycle (below), so geogait, not the driver, sizes it. ``gait`` is
 the robot's current
 nominal gait, a Fourier series per joint with the flat parameter
@@ -79,6 +83,7 @@ from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory
+from ..systems import BODY_FRAMES
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
 
@@ -136,6 +141,8 @@ class ProcessRobot:
         As declared by the driver (None: not said).
     joint_ranges : ndarray of shape (d, 2) or None
         As declared by the driver (None: not said).
+    chain : dict or None
+        The chain geometry the driver declared (None: not said); see :meth:`chain_geometry`.
     accepts_excitation : bool
         The driver runs the exploration sent with each cycle (``set_excitation``; version 2).
     cycles_run : int
@@ -214,6 +221,25 @@ class ProcessRobot:
             raise fail("self", owner, "a driver whose hello declares \"excitation\": true (protocol version 2)",
                        f"driver {self._name()}")
         self._excitation = check_excitation(shape, shape_velocity, self.n_joints, owner)
+
+    def chain_geometry(self) -> dict:
+        """The robot as a chain of straight links, as its driver's hello declared it (``"chain"``).
+
+        Returns
+        -------
+        dict
+            ``link_lengths``, ``body_frame`` and ``frame_offset``: keyword arguments of
+            :class:`~geogait.models.ResistanceModel` (``ResistanceModel(**robot.chain_geometry())``).
+
+        Raises
+        ------
+        GeogaitError
+            When the hello declared no chain.
+        """
+        if self.chain is None:
+            raise GeogaitError(f"the robot driver {self._name()} declares no chain geometry (add \"chain\": "
+                               "{\"link_lengths\": [...], \"body_frame\": ..., \"frame_offset\": [...]} to its hello)")
+        return {**self.chain, "link_lengths": tuple(self.chain["link_lengths"])}
 
     def next_cycle(self) -> Trajectory:
         """Ask the driver to run one cycle and collect its samples; implausible cycles are quarantined
@@ -479,6 +505,26 @@ class ProcessRobot:
                 raise self._failure(f"'joint_ranges' must be {self.n_joints} pairs [low, high] with low < 0 < high, "
                                     f"got {_cut(repr(ranges), 80)}")
             self.joint_ranges = values
+        self.chain = None if hello.get("chain") is None else self._read_chain(hello["chain"])
+
+    def _read_chain(self, chain) -> dict:
+        """The hello's ``chain``: n_joints + 1 positive link lengths, a body frame, an optional frame offset."""
+        expected = (f"'chain' must be {{'link_lengths': {self.n_joints + 1} positive numbers, 'body_frame': one of "
+                    f"{', '.join(BODY_FRAMES)} or a link index in 0..{self.n_joints}, 'frame_offset': [x, y, angle] "
+                    f"or null}}, got {_cut(repr(chain), 120)}")
+        if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset"}:
+            raise self._failure(expected)
+        lengths, frame, offset = chain.get("link_lengths"), chain.get("body_frame", "middle"), chain.get("frame_offset")
+        if not (isinstance(lengths, list) and len(lengths) == self.n_joints + 1 and all(map(_is_number, lengths))
+                and all(np.isfinite(v) and v > 0 for v in lengths)):
+            raise self._failure(expected)
+        if not (frame in BODY_FRAMES or type(frame) is int and 0 <= frame <= self.n_joints):
+            raise self._failure(expected)
+        if offset is not None and not (isinstance(offset, list) and len(offset) == 3 and all(map(_is_number, offset))
+                                       and all(np.isfinite(v) for v in offset)):
+            raise self._failure(expected)
+        return {"link_lengths": [float(v) for v in lengths], "body_frame": frame,
+                "frame_offset": None if offset is None else tuple(float(v) for v in offset)}
 
     def _read_gait(self, gait) -> FourierGait:
         order = gait.get("order") if isinstance(gait, dict) else None

@@ -74,6 +74,10 @@ def main(argv=None) -> int:
              "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}}
     if excitation:
         hello["excitation"] = True
+    if hasattr(stream, "chain_geometry"):  # the swimmer: its chain, for the resistance model
+        geometry = stream.chain_geometry()
+        hello["chain"] = {"link_lengths": [float(v) for v in geometry["link_lengths"]],
+                          "body_frame": geometry["body_frame"], "frame_offset": geometry["frame_offset"]}
     send(hello)
     out.flush()
     for line in sys.stdin:
