@@ -84,12 +84,17 @@ def test_hello_declares_a_chain_for_the_resistance_model(tmp_path):
                                         "sys.stdin.readline()\n")) as robot:
         assert robot.chain_geometry() == {"link_lengths": (0.3, 0.4, 0.3), "body_frame": 1,
                                           "frame_offset": (0.1, 0.0, 3.14159)}
+        assert not robot.resistive_medium  # not said: the data-driven default model
+    resistive = dict(chain, resistive=True)
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=resistive)!r}), flush=True)\n"
+                                        "sys.stdin.readline()\n")) as robot:
+        assert robot.resistive_medium and "resistive" not in robot.chain_geometry()
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
         with pytest.raises(ValueError, match="declares no chain geometry"):
             robot.chain_geometry()
     for bad in ({"link_lengths": [0.3, 0.4]}, {"link_lengths": [0.3, -0.4, 0.3]}, {"link_lengths": [0.3, 0.4, "a"]},
                 dict(chain, body_frame=3), dict(chain, body_frame="head"), dict(chain, frame_offset=[0, 0]),
-                dict(chain, links=3)):
+                dict(chain, links=3), dict(chain, resistive="yes")):
         with pytest.raises(ValueError, match="'chain' must be"):
             ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=bad)!r}), flush=True)\n"
                                            "time.sleep(5)\n"))

@@ -1,6 +1,7 @@
 """MujocoRobot: the Robot contract, physics checked against independent facts, state, errors."""
 
 import json
+import re
 import sys
 
 import numpy as np
@@ -395,7 +396,8 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
         error = np.sqrt(np.mean((run.shape - run.commanded_shape) ** 2))
         return np.hypot(*net_motion(run, 0, robot.samples_per_cycle)[:2]), error
 
-    options = dict(objective="forward", direction_frame="body")
+    # the window model (the default on a chain that declares no resistive medium): small steps near the limit
+    options = dict(objective="forward", direction_frame="body", model=AdaptiveGaitModel(forgetting_factor=0.95))
     checked = InSituOptimizer(max_tracking_error=0.1, **options).run(_saturating_swimmer(), 30)
     log = checked.log
     assert checked.n_rejected >= 3  # measured 9
@@ -416,6 +418,19 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
     assert unchecked.final_gait.joint_limit().max() > 1.5  # far beyond the seed's 1 rad
     assert unchecked.log["tracking_error"].iloc[-10:].mean() > 3 * 0.1
     assert (unchecked.log["prediction_ok"] == 0).sum() >= 5  # measured 13
+
+
+def test_the_structured_default_shortens_its_steps_after_gaits_the_actuators_cannot_follow():
+    """The resistance model (the default on this RFT chain) steps with a trust radius of at least 0.25; a gait the
+    saturated motors cannot follow halves it even below that floor (a rejection is measured, not a noisy ratio)."""
+    from geogait.optimize import InSituOptimizer
+
+    result = InSituOptimizer(max_tracking_error=0.1, objective="forward", direction_frame="body").run(
+        _saturating_swimmer(), 12)
+    log = result.log
+    assert type(result.model).__name__ == "ResistanceModel" and log["trust_radius"].iloc[0] == 0.25
+    assert log["rejected"].sum() >= 2 and np.all(log.loc[log["rejected"], "tracking_error"] > 0.1)
+    assert log["trust_radius"].iloc[-1] <= 0.0625  # 0.25 halved at each of the rejections (measured: 4 by cycle 12)
 
 
 def test_optimiser_resumes_a_mujoco_run_bit_identically(tmp_path):
@@ -556,3 +571,25 @@ def test_chain_geometry_of_a_frame_off_its_link_and_of_a_non_chain():
     shuffled = MujocoRobot(purcell_swimmer_xml(5), joints=["joint0", "joint2", "joint1", "joint3"])
     with pytest.raises(GeogaitError, match="chain_geometry: the shape joints do not form one planar serial chain"):
         shuffled.chain_geometry()
+
+
+def test_a_resistive_medium_is_read_from_the_model_and_chooses_the_default_model():
+    """Linear drag on every link (purcell_swimmer_xml's RFT actuators) is a resistive medium; quadratic fluid drag,
+    a link without its dampers, or Gymnasium's swimmer is not. The default model follows: ResistanceModel on the
+    chain's geometry, with the structured steps, only where the medium is resistive."""
+    from geogait.optimize import InSituOptimizer
+
+    assert mujoco_swimmer(3).resistive_medium and mujoco_swimmer(5).resistive_medium
+    assert not MujocoRobot(purcell_swimmer_xml(3, drag="fluid")).resistive_medium
+    undamped = re.sub(r'\s*<general name="drag2_y"[^>]*/>', "", purcell_swimmer_xml(3))  # one link free sideways
+    assert "drag2_x" in undamped and "drag2_y" not in undamped and not MujocoRobot(undamped).resistive_medium
+    explicit = InSituOptimizer(model=AdaptiveGaitModel(forgetting_factor=0.95)).run(mujoco_swimmer(3, seed=1), 3)
+    assert type(explicit.model).__name__ == "AdaptiveGaitModel"  # a model given is the model used
+    structured = InSituOptimizer().run(mujoco_swimmer(3, seed=1), 3)
+    assert type(structured.model).__name__ == "ResistanceModel" and structured.log["trust_radius"].iloc[0] == 0.25
+    assert structured.model.link_lengths == tuple(mujoco_swimmer(3).chain_geometry()["link_lengths"])
+    kept = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3).run(mujoco_swimmer(3, seed=1), 3)
+    assert kept.log["trust_radius"].iloc[0] == 0.15  # a trust region given is the user's
+    pytest.importorskip("gymnasium")
+    assert not gymnasium_swimmer().resistive_medium
+    assert type(InSituOptimizer().run(gymnasium_swimmer(seed=1), 3).model).__name__ != "ResistanceModel"

@@ -51,13 +51,14 @@ Safety (the robot is not the model):
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from .. import models
-from .._defaults import MAX_JOINT_ANGLE, window_forgetting_factor
+from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
@@ -104,7 +105,14 @@ class InSituOptimizer(Estimator):
         ``reset_gamma`` it can use the Γ gate. Default: in the symmetric family (a front–back
         symmetric chain), the symmetric shape-space model of :func:`symmetric_chain_model`; otherwise
         ``AdaptiveGaitModel`` with λ = 1 − 0.1 / d for shape dimension d (0.95, 0.975 and 0.9875 for 2,
-        4 and 8 joints: the filters must remember more samples when they have more weights).
+        4 and 8 joints: the filters must remember more samples when they have more weights). A robot
+        that declares a chain in a resistive medium (a truthy ``resistive_medium`` and
+        ``chain_geometry()``: :class:`~geogait.robots.MujocoRobot` reads both from its model, a bridge
+        driver declares them in its hello) gets :class:`~geogait.models.ResistanceModel` on its geometry
+        instead, with the structured model's step settings (``geogait._defaults.STRUCTURED_MODEL_STEPS``:
+        SQP, trust radius 0.25–0.5, no measured climb) for those of ``step_rule``, ``climb`` and the trust
+        region (``trust_radius``, ``min_trust_radius``, ``max_trust_radius``, taken together) left at
+        their defaults.
     gate : {"gamma", "cycles"}, optional
         ``"gamma"`` (paper): a step as soon as the online Γ over the current iteration reaches
         ``gamma_threshold``. ``"cycles"`` (Bittner et al. 2018): ``cycles_per_iteration`` cycles,
@@ -360,6 +368,11 @@ class InSituOptimizer(Estimator):
             raise fail("checkpoint", owner, f"None for a {type(template).__name__}, which cannot be saved",
                        str(checkpoint))
         check_robot(robot, owner)
+        structured = self._structured_default(robot)
+        if structured is not None:
+            return structured.run(robot, n_cycles, ceiling=ceiling, callback=callback, record=record,
+                                  checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+                                  checkpoint_tag=checkpoint_tag)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
         gait = robot.gait.with_order(self.order)
         r_max = self._joint_limit(robot, owner)
@@ -514,6 +527,20 @@ class InSituOptimizer(Estimator):
         return symmetric if member and _declares_symmetry(robot) else FreeGaitFamily(gait.n_joints, self.order)
 
     # -- model --------------------------------------------------------------------------------
+    def _structured_default(self, robot):
+        """This optimiser with the structured model, for the default model on a declared resistive chain (the
+        ``model`` parameter); None otherwise."""
+        if self.model is not None or not getattr(robot, "resistive_medium", False) \
+                or not callable(getattr(robot, "chain_geometry", None)):
+            return None
+        defaults = {name: p.default for name, p in inspect.signature(type(self).__init__).parameters.items()}
+        steps = {}
+        for group in (("step_rule",), ("climb",), ("trust_radius", "min_trust_radius", "max_trust_radius")):
+            if all(getattr(self, name) == defaults[name] for name in group):  # a trust region given is kept whole
+                steps.update({name: STRUCTURED_MODEL_STEPS[name] for name in group})
+        return type(self)(**{**self.get_params(deep=False), **steps,
+                             "model": models.ResistanceModel(**robot.chain_geometry())}).validate()
+
     def _model_template(self):
         # both default models offer the same protocol (online Γ, partial_fit, rebase, saving)
         return self.model if self.model is not None else AdaptiveGaitModel()

@@ -14,7 +14,7 @@ from ..simulate import Trajectory, cycle_displacement
 from ._measure import _peak_phase_speed, measure_cycle
 from ._objective import joint_limit_constraints
 from ._result import InSituResult
-from ._state import _TRACKING_FLOOR, CHECKPOINT_FORMAT, CHECKPOINT_VERSION, _params_to_json
+from ._state import _REJECTION_FLOOR, _TRACKING_FLOOR, CHECKPOINT_FORMAT, CHECKPOINT_VERSION, _params_to_json
 
 
 class _Loop:
@@ -367,7 +367,7 @@ class _Loop:
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
         state.promised = None
-        state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        state.radius = max(min(optimizer.min_trust_radius, _REJECTION_FLOOR) * state.scale, state.radius / 2)
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
         previous = state.previous_gait

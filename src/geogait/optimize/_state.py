@@ -20,6 +20,9 @@ from ._period import PeriodSearch
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
 CHECKPOINT_VERSION = 1
 _TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never falls below this
+#: shape_scale units: after a gait the robot could not follow, the trust radius halves down to this even below
+#: min_trust_radius (a rejection is a measured fact, not a noisy ratio test); the default min_trust_radius.
+_REJECTION_FLOOR = 0.02
 
 
 @dataclass
@@ -136,8 +139,8 @@ class _State:
         significant = abs(promised - before) >= 0.01 * abs(before)
         self.distrust = self.distrust + 1 if ratio < 0.25 and significant and self.radius <= low * (1 + 1e-12) \
             else 0
-        if ratio < 0.25:
-            self.radius = max(low, self.radius / 2)
+        if ratio < 0.25:  # (a radius a rejection took below low stays there)
+            self.radius = max(min(low, self.radius), self.radius / 2)
         elif ratio > 0.75 and boundary:
             self.radius = min(high, self.radius * 1.5)
         self.promised = None

@@ -14,7 +14,9 @@ high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits
 derives its own from; ``"chain": {"link_lengths": [...], "body_frame": "middle", "frame_offset": [x, y,
 angle]}`` the robot as a chain of straight links (n_joints + 1 lengths, tail first; ``body_frame`` one of
 :class:`~geogait.systems.PurcellSwimmer`'s frames or a link index, default ``"middle"``; ``frame_offset``
-optional), which :class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`);
+optional; ``"resistive": true`` when the medium is resistive — drag linear in velocity —, which makes
+:class:`~geogait.models.ResistanceModel` the optimiser's default model), which
+:class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`);
 and, version 2 only, ``"excitation": true`` says the driver runs the
 exploration geogait sends with each cycle (below), so geogait, not the driver, sizes it. ``gait`` is
 the robot's current
@@ -143,6 +145,8 @@ class ProcessRobot:
         As declared by the driver (None: not said).
     chain : dict or None
         The chain geometry the driver declared (None: not said); see :meth:`chain_geometry`.
+    resistive_medium : bool
+        The driver's chain declared ``"resistive": true``.
     accepts_excitation : bool
         The driver runs the exploration sent with each cycle (``set_excitation``; version 2).
     cycles_run : int
@@ -239,7 +243,8 @@ class ProcessRobot:
         if self.chain is None:
             raise GeogaitError(f"the robot driver {self._name()} declares no chain geometry (add \"chain\": "
                                "{\"link_lengths\": [...], \"body_frame\": ..., \"frame_offset\": [...]} to its hello)")
-        return {**self.chain, "link_lengths": tuple(self.chain["link_lengths"])}
+        return {name: tuple(value) if name == "link_lengths" else value for name, value in self.chain.items()
+                if name != "resistive"}
 
     def next_cycle(self) -> Trajectory:
         """Ask the driver to run one cycle and collect its samples; implausible cycles are quarantined
@@ -506,15 +511,18 @@ class ProcessRobot:
                                     f"got {_cut(repr(ranges), 80)}")
             self.joint_ranges = values
         self.chain = None if hello.get("chain") is None else self._read_chain(hello["chain"])
+        self.resistive_medium = bool(self.chain and self.chain["resistive"])
 
     def _read_chain(self, chain) -> dict:
         """The hello's ``chain``: n_joints + 1 positive link lengths, a body frame, an optional frame offset."""
         expected = (f"'chain' must be {{'link_lengths': {self.n_joints + 1} positive numbers, 'body_frame': one of "
                     f"{', '.join(BODY_FRAMES)} or a link index in 0..{self.n_joints}, 'frame_offset': [x, y, angle] "
-                    f"or null}}, got {_cut(repr(chain), 120)}")
-        if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset"}:
+                    f"or null, 'resistive': true or false}}, got {_cut(repr(chain), 120)}")
+        if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset", "resistive"}:
             raise self._failure(expected)
         lengths, frame, offset = chain.get("link_lengths"), chain.get("body_frame", "middle"), chain.get("frame_offset")
+        if not isinstance(chain.get("resistive", False), bool):
+            raise self._failure(expected)
         if not (isinstance(lengths, list) and len(lengths) == self.n_joints + 1 and all(map(_is_number, lengths))
                 and all(np.isfinite(v) and v > 0 for v in lengths)):
             raise self._failure(expected)
@@ -524,7 +532,8 @@ class ProcessRobot:
                                        and all(np.isfinite(v) for v in offset)):
             raise self._failure(expected)
         return {"link_lengths": [float(v) for v in lengths], "body_frame": frame,
-                "frame_offset": None if offset is None else tuple(float(v) for v in offset)}
+                "frame_offset": None if offset is None else tuple(float(v) for v in offset),
+                "resistive": chain.get("resistive", False)}
 
     def _read_gait(self, gait) -> FourierGait:
         order = gait.get("order") if isinstance(gait, dict) else None

@@ -344,6 +344,21 @@ class MujocoRobot:
             self._symmetric = _reads_the_same_from_both_ends(self.model, self._joint_ids)
         return self._symmetric
 
+    @property
+    def resistive_medium(self) -> bool:
+        """Whether the chain moves in a resistive medium (forces linear in velocity), read from the model.
+
+        True when every link of the chain carries passive linear dampers along its own x, y and rz axes — site
+        actuators with zero gain and an affine bias −c v (how ``purcell_swimmer_xml(drag="rft")`` puts resistive
+        force theory on every link) — and MuJoCo's quadratic fluid model is off (``density`` 0). Gymnasium's
+        swimmer and ``drag="fluid"`` models are not: their drag is quadratic. A robot that declares a resistive
+        chain gets :class:`~geogait.models.ResistanceModel` from :class:`~geogait.optimize.InSituOptimizer`'s
+        default (``model=None``).
+        """
+        if not hasattr(self, "_resistive"):
+            self._resistive = _carries_linear_drag(self.model, self._joint_ids)
+        return self._resistive
+
     def chain_geometry(self) -> dict:
         """The robot as a chain of straight links, for :class:`~geogait.models.ResistanceModel`, read from its bodies.
 
@@ -687,6 +702,28 @@ def _chain_links(model, joints) -> tuple[list[int], list[int]] | None:
         turns_next = child == order[i + 1]  # joint k turns link i + 1 relative to link i
         signs.append(np.sign(model.jnt_axis[joints[k]][2]) * (1 if turns_next else -1))
     return order, signs
+
+
+def _carries_linear_drag(model, joints) -> bool:
+    """Every chain link has passive linear dampers on its x, y and rz axes, and MuJoCo's fluid drag is off."""
+    mujoco = _mujoco()
+    chain = _chain_links(model, joints)
+    if chain is None or model.opt.density != 0:
+        return False
+    axes = {body: set() for body in chain[0]}
+    unit = np.eye(6)
+    for a in range(model.nu):
+        bias = model.actuator_biasprm[a]
+        if (int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_SITE) or model.actuator_gainprm[a][0] != 0
+                or int(model.actuator_biastype[a]) != int(mujoco.mjtBias.mjBIAS_AFFINE)
+                or bias[0] != 0 or bias[1] != 0 or not bias[2] < 0):
+            continue
+        body = int(model.site_bodyid[model.actuator_trnid[a][0]])
+        gear = model.actuator_gear[a]
+        for axis in (0, 1, 5):  # x, y, rz of the site's frame
+            if body in axes and np.allclose(gear, unit[axis]):
+                axes[body].add(axis)
+    return all(found == {0, 1, 5} for found in axes.values())
 
 
 def _geom_extent(model, data, body) -> np.ndarray:
