@@ -84,7 +84,8 @@ def optimize(
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
     method: Annotated[str, typer.Option(
-        help="Model: auto (the library's default: Fig. 5's symmetric shape-space model in the rotation-free "
+        help="Model: auto (the library's default: the resistance model on a --robot that declares a resistive "
+             "chain, else Fig. 5's symmetric shape-space model in the rotation-free "
              "symmetric family, else the window model), adaptive (this paper's RLS window model), shape "
              "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
              "symmetries; for --robot degree 3 without), resistance (the chain's drag coefficients learned on its "
