@@ -398,3 +398,18 @@ def test_the_climb_carries_on_where_the_model_levels_off():
     assert 0.9 < levelled < 0.99 and final > levelled + 0.005
     assert log.loc[first + 1:, "excitation"].median() < 1e-12  # climb cycles run clean
     assert not (log.loc[:first - 1, "climb"]).any()
+
+
+def test_a_contradicted_climb_leaves_a_model_that_levels_off_at_its_optimum():
+    """climb="contradicted": the measured climb starts only when measured outcomes contradict the model. The
+    perfect-information model levels off at the optimum without being contradicted: with climb=True the steps
+    pass to the climb (measured: at cycle 20 of 30), with "contradicted" they never do."""
+    from geogait.models import PerfectInformationModel
+
+    logs = {}
+    for climb in (True, "contradicted"):
+        stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=1)
+        model = PerfectInformationModel(system=stream.current_system())
+        logs[climb] = InSituOptimizer(climb=climb, model=model).run(stream, 30).log
+    assert logs[True]["climb"].any() and not logs["contradicted"]["climb"].any()
+    assert logs["contradicted"]["step"].sum() >= 5  # the model's own steps carried it

@@ -164,7 +164,8 @@ class _Loop:
         elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
             state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
-            if optimizer.climb and state.stall >= 3:  # the model has levelled off: climb on from here
+            levelled = state.stall >= 3 and not isinstance(optimizer.climb, str)  # (not for "contradicted")
+            if optimizer.climb and levelled:  # the model has levelled off: climb on from here
                 self._start_climb()
             elif prediction_ok and optimizer._step(state):
                 kind = "model"
