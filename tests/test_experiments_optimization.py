@@ -84,15 +84,15 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
 
 
 def test_optimize_command_with_the_resistance_model(tmp_path):
-    """--method resistance: the swimmer's geometry, its drags learned; SQP up to R 0.5 without the climb unless a
-    step rule is given; refused with one line for a --robot whose driver declares no chain."""
+    """--method resistance: the swimmer's geometry, its drags learned; SQP up to R 0.5, the climb only when
+    contradicted, unless a step rule is given; refused with one line for a --robot whose driver declares no chain."""
     result = CliRunner().invoke(app, ["optimize", "--links", "5", "--cycles", "14", "--method", "resistance",
                                       "--out", str(tmp_path)])
     assert result.exit_code == 0, result.output
     summary = json.loads((tmp_path / "summary.json").read_text())
     optimizer = summary["config"]["optimizer"]
     assert optimizer["model"]["class"] == "ResistanceModel" and len(optimizer["model"]["params"]["link_lengths"]) == 5
-    assert (optimizer["step_rule"], optimizer["max_trust_radius"], optimizer["climb"]) == ("sqp", 0.5, False)
+    assert (optimizer["step_rule"], optimizer["max_trust_radius"], optimizer["climb"]) == ("sqp", 0.5, "contradicted")
     assert summary["results"]["final_ceiling_fraction"] > 0.9  # 5 links from 42 % in 14 cycles
     resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "16"])
     assert resumed.exit_code == 0, resumed.output

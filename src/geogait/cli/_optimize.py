@@ -90,7 +90,7 @@ def optimize(
              "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
              "symmetries; for --robot degree 3 without), resistance (the chain's drag coefficients learned on its "
              "known geometry: the swimmer's, or the chain a --robot driver declares in its hello; SQP steps up to "
-             "0.5, no measured climb) or batch "
+             "0.5, the measured climb only when contradicted) or batch "
              "(Bittner 2018).",
     )] = "auto",
     family: Annotated[str, typer.Option(

@@ -10,7 +10,8 @@ robot run** — settling cycles included. Methods:
   perturbation (eq. 8), which is how geogait learns;
 * ``geogait-resistance`` — the same with :class:`~geogait.models.ResistanceModel` on the chain geometry the
   robot gives (``chain_geometry()``: the built-in and MuJoCo chains), SQP steps over a trust radius up to 0.5
-  and no measured climb (:data:`RESISTANCE_OPTIONS`); ``geogait-hybrid`` the same with a degree-2 polynomial
+  and the measured climb only when contradicted (:data:`RESISTANCE_OPTIONS`); ``geogait-hybrid`` the same with a
+  degree-2 polynomial
   residual fitted with the drags (mirror-symmetric where the robot's frame is on the chain's axis); cases whose
   robot gives no chain geometry skip both;
 * ``geogait-batch`` — the prior-work batch method (Bittner et al. 2018): a
