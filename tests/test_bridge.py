@@ -162,13 +162,18 @@ def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
     assert declared["n_joints"] == 2 and declared["cycle_period_s"] == 0.5
     assert declared["max_joint_angle_used"] == pytest.approx(2 * np.pi / 3)  # the driver declares no ranges
     assert not {"links", "noise", "perturbation", "period", "seed"} & set(summary["config"])
+    assert summary["results"]["model_used"] == "ShapeSpaceModel"  # the symmetric chain's default
     assert len(pd.read_csv(tmp_path / "r" / "cycles.csv")) == 6
     structured = subprocess.run(GEOGAIT + ["optimize", "--robot", " ".join(DRIVER + ["--links", "5"]), "--method",
                                            "resistance", "--cycles", "4", "--out", str(tmp_path / "s")],
                                 capture_output=True, text=True, timeout=120)
     assert structured.returncode == 0, structured.stderr  # the chain the driver declared
-    model = json.loads((tmp_path / "s" / "summary.json").read_text())["config"]["optimizer"]["model"]
+    structured_summary = json.loads((tmp_path / "s" / "summary.json").read_text())
+    model = structured_summary["config"]["optimizer"]["model"]
     assert model["class"] == "ResistanceModel" and model["params"]["link_lengths"] == [0.2] * 5
+    declared = structured_summary["results"]["robot"]
+    assert declared["chain"]["link_lengths"] == [0.2] * 5 and declared["resistive_medium"] is False
+    assert structured_summary["results"]["model_used"] == "ResistanceModel"
     broken = subprocess.run(GEOGAIT + ["optimize", "--robot", "false", "--cycles", "3", "--out", str(tmp_path / "b")],
                             capture_output=True, text=True, timeout=60)
     assert broken.returncode == 1 and broken.stderr.strip().splitlines()[-1].startswith("error: robot driver 'false'")

@@ -158,6 +158,7 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
         quarantined = list(getattr(robot_driver, "quarantined", []))
         declared = _declared(robot_driver, result)
     summary = result.summary(ceiling)
+    summary["model_used"] = type(result.model).__name__  # (the default depends on what the robot declares)
     config = dict(settings)
     if settings["robot"] is not None:
         summary["quarantined_cycles"] = len(quarantined)
@@ -183,7 +184,8 @@ def _declared(robot, result) -> dict:
     return {"n_joints": int(robot.n_joints), "cycle_period_s": float(robot.cycle_period),
             "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
             "seed_gait_params": result.initial_gait.params.tolist(),
-            "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale}
+            "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
+            "chain": getattr(robot, "chain", None), "resistive_medium": bool(getattr(robot, "resistive_medium", False))}
 
 
 def _run_id(settings: dict) -> str:
