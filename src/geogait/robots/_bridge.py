@@ -12,11 +12,11 @@ Optional hello fields: ``"front_back_symmetric": true`` declares a chain with fr
 (the optimiser then searches the rotation-free symmetric gait family); ``"joint_ranges": [[low,
 high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits the optimiser
 derives its own from; ``"chain": {"link_lengths": [...], "body_frame": "middle", "frame_offset": [x, y,
-angle]}`` the robot as a chain of straight links (n_joints + 1 lengths, tail first; ``body_frame`` one of
-:class:`~geogait.systems.PurcellSwimmer`'s frames or a link index, default ``"middle"``; ``frame_offset``
-optional; ``"resistive": true`` when the medium is resistive — drag linear in velocity —, which makes
-:class:`~geogait.models.ResistanceModel` the optimiser's default model), which
-:class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`);
+angle], "resistive": true}`` the robot as a chain of straight links, which
+:class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`): n_joints + 1
+lengths, tail first; ``body_frame`` one of :class:`~geogait.systems.PurcellSwimmer`'s frames or a link
+index (default ``"middle"``); ``frame_offset`` optional; ``resistive`` (default false) says the medium's
+drag is linear in velocity, which makes that model the optimiser's default;
 and, version 2 only, ``"excitation": true`` says the driver runs the
 exploration geogait sends with each cycle (below), so geogait, not the driver, sizes it. ``gait`` is
 the robot's current
