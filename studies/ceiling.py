@@ -19,7 +19,7 @@ CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sq
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
 (ShapeSpaceModel of degree 3 with the swimmer's mirror and reversal symmetries built in,
 ``symmetry="mirror+reversal"``), resistance-linear, resistance-sqp (:class:`~geogait.models.ResistanceModel`: the
-swimmer's geometry given, its drags learned; with ``geogait._defaults.STRUCTURED_MODEL_STEPS``: trust radius
+swimmer's geometry given, its drags learned; with ``geogait.optimize.STRUCTURED_MODEL_STEPS``: trust radius
 0.25 to 0.5, the measured climb only when contradicted), hybrid-linear, hybrid-sqp (the same with a degree-2
 symmetric residual),
 perfect-linear, perfect-sqp (true connection, trust radius up to

@@ -3,7 +3,7 @@
 For each geometry error e, model (``resistance``: the drags learned on the given geometry; ``hybrid``: the same plus
 a degree-2 symmetric polynomial residual fitted with the drags) and trial i, an in-situ optimisation of the LINKS-link
 swimmer in Fig. 5's setting (sensor noise 0.1, the stream's perturbations, seed gait, stream seed i) with
-``geogait._defaults.STRUCTURED_MODEL_STEPS`` (SQP, trust radius 0.25 to 0.5, the measured climb only when
+``geogait.optimize.STRUCTURED_MODEL_STEPS`` (SQP, trust radius 0.25 to 0.5, the measured climb only when
 contradicted). The model is
 told link lengths each exactly e wrong: length j times (1 + e s_j), signs s_j = ±1 drawn per trial (seed
 1000 + i), so the chain's proportions and its total length are both off. Prints the median [25-75 %] share of

@@ -449,7 +449,7 @@ _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
 #: prior work's batch model) and each black-box method free and held to the rotation limit.
 METHODS = ("geogait", "geogait-resistance", "geogait-hybrid", "geogait-batch",
            *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
-#: What geogait-resistance changes besides the model (``geogait._defaults.STRUCTURED_MODEL_STEPS``).
+#: What geogait-resistance changes besides the model (``geogait.optimize.STRUCTURED_MODEL_STEPS``).
 RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
 
 

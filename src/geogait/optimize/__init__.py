@@ -1,6 +1,7 @@
 """Gait optimisation: the in-situ optimiser (paper Fig. 4), the model-based ceiling, the
 prior-work batch baseline and the trust-region step rules."""
 
+from .._defaults import STRUCTURED_MODEL_STEPS
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._exploration import Exploration
 from ._insitu import InSituOptimizer, symmetric_chain_model
@@ -20,6 +21,7 @@ from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_s
 __all__ = [
     "OBJECTIVES",
     "STEP_RULES",
+    "STRUCTURED_MODEL_STEPS",
     "Ceiling",
     "CycleMeasurement",
     "Exploration",

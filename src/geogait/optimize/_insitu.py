@@ -109,7 +109,7 @@ class InSituOptimizer(Estimator):
         that declares a chain in a resistive medium (a truthy ``resistive_medium`` and
         ``chain_geometry()``: :class:`~geogait.robots.MujocoRobot` reads both from its model, a bridge
         driver declares them in its hello) gets :class:`~geogait.models.ResistanceModel` on its geometry
-        instead, with the structured model's step settings (``geogait._defaults.STRUCTURED_MODEL_STEPS``:
+        instead, with the structured model's step settings (``geogait.optimize.STRUCTURED_MODEL_STEPS``:
         SQP, trust radius 0.25–0.5, the measured climb only when contradicted) for those of
         ``step_rule``, ``climb`` and the trust region (``trust_radius``, ``min_trust_radius``,
         ``max_trust_radius``, taken together) left at their defaults.
