@@ -144,7 +144,7 @@ class ProcessRobot:
     joint_ranges : ndarray of shape (d, 2) or None
         As declared by the driver (None: not said).
     chain : dict or None
-        The chain geometry the driver declared (None: not said); see :meth:`chain_geometry`.
+        The chain geometry the driver declared (None: not said): :meth:`chain_geometry`'s keyword arguments.
     resistive_medium : bool
         The driver's chain declared ``"resistive": true``.
     accepts_excitation : bool
@@ -243,8 +243,7 @@ class ProcessRobot:
         if self.chain is None:
             raise GeogaitError(f"the robot driver {self._name()} declares no chain geometry (add \"chain\": "
                                "{\"link_lengths\": [...], \"body_frame\": ..., \"frame_offset\": [...]} to its hello)")
-        return {name: tuple(value) if name == "link_lengths" else value for name, value in self.chain.items()
-                if name != "resistive"}
+        return {**self.chain, "link_lengths": tuple(self.chain["link_lengths"])}
 
     def next_cycle(self) -> Trajectory:
         """Ask the driver to run one cycle and collect its samples; implausible cycles are quarantined
@@ -510,11 +509,12 @@ class ProcessRobot:
                 raise self._failure(f"'joint_ranges' must be {self.n_joints} pairs [low, high] with low < 0 < high, "
                                     f"got {_cut(repr(ranges), 80)}")
             self.joint_ranges = values
-        self.chain = None if hello.get("chain") is None else self._read_chain(hello["chain"])
-        self.resistive_medium = bool(self.chain and self.chain["resistive"])
+        self.chain, self.resistive_medium = (None, False) if hello.get("chain") is None \
+            else self._read_chain(hello["chain"])
 
-    def _read_chain(self, chain) -> dict:
-        """The hello's ``chain``: n_joints + 1 positive link lengths, a body frame, an optional frame offset."""
+    def _read_chain(self, chain) -> tuple[dict, bool]:
+        """The hello's ``chain`` (n_joints + 1 positive link lengths, a body frame, an optional frame offset) and
+        whether it declares a resistive medium."""
         expected = (f"'chain' must be {{'link_lengths': {self.n_joints + 1} positive numbers, 'body_frame': one of "
                     f"{', '.join(BODY_FRAMES)} or a link index in 0..{self.n_joints}, 'frame_offset': [x, y, angle] "
                     f"or null, 'resistive': true or false}}, got {_cut(repr(chain), 120)}")
@@ -531,9 +531,9 @@ class ProcessRobot:
         if offset is not None and not (isinstance(offset, list) and len(offset) == 3 and all(map(_is_number, offset))
                                        and all(np.isfinite(v) for v in offset)):
             raise self._failure(expected)
-        return {"link_lengths": [float(v) for v in lengths], "body_frame": frame,
-                "frame_offset": None if offset is None else tuple(float(v) for v in offset),
-                "resistive": chain.get("resistive", False)}
+        return ({"link_lengths": [float(v) for v in lengths], "body_frame": frame,
+                 "frame_offset": None if offset is None else tuple(float(v) for v in offset)},
+                chain.get("resistive", False))
 
     def _read_gait(self, gait) -> FourierGait:
         order = gait.get("order") if isinstance(gait, dict) else None

@@ -719,10 +719,9 @@ def _carries_linear_drag(model, joints) -> bool:
                 or bias[0] != 0 or bias[1] != 0 or not bias[2] < 0):
             continue
         body = int(model.site_bodyid[model.actuator_trnid[a][0]])
-        gear = model.actuator_gear[a]
-        for axis in (0, 1, 5):  # x, y, rz of the site's frame
-            if body in axes and np.allclose(gear, unit[axis]):
-                axes[body].add(axis)
+        axis = next((k for k in (0, 1, 5) if np.allclose(model.actuator_gear[a], unit[k])), None)  # x, y, rz
+        if body in axes and axis is not None:
+            axes[body].add(axis)
     return all(found == {0, 1, 5} for found in axes.values())
 
 
