@@ -8,8 +8,9 @@ import numpy as np
 import padasip
 from run import best_time
 
+from geogait import _kernels
 from geogait.gaits import seed_gait
-from geogait.models import AdaptiveGaitModel, RLSBank, ShapeSpaceModel, _kernels
+from geogait.models import AdaptiveGaitModel, RLSBank, ShapeSpaceModel
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 

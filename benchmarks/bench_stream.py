@@ -19,9 +19,10 @@ from pathlib import Path
 
 from run import best_time
 
+from geogait import _kernels
 from geogait.gaits import seed_gait
 from geogait.io import StreamLearner, run_stream
-from geogait.models import AdaptiveGaitModel, _kernels
+from geogait.models import AdaptiveGaitModel
 from geogait.phase import Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer

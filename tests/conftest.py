@@ -22,7 +22,7 @@ def pytest_configure(config):
     """Compile the kernels once, before any worker or subprocess needs it: its disk cache is
     then only read while tests run in parallel."""
     if not hasattr(config, "workerinput"):
-        from geogait.models import _kernels
+        from geogait import _kernels
 
         _kernels.warm_up()
         _kernels.displacement_kernel()

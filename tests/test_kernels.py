@@ -1,4 +1,4 @@
-"""The compiled one-sample path (geogait.models._kernels) against the NumPy reference path, and the
+"""The compiled one-sample path (geogait._kernels) against the NumPy reference path, and the
 fallback when numba is missing."""
 
 import importlib.util
@@ -9,9 +9,9 @@ from _reference import GAIT, SWIMMER, fit_args
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geogait import GeogaitError, GeogaitWarning
+from geogait import GeogaitError, GeogaitWarning, _kernels
 from geogait.gaits import Perturbation, seed_gait
-from geogait.models import AdaptiveGaitModel, _kernels
+from geogait.models import AdaptiveGaitModel
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 

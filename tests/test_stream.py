@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy.signal import savgol_coeffs
 from typer.testing import CliRunner
 
-from geogait import GeogaitError
+from geogait import GeogaitError, _kernels
 from geogait.cli import app
 from geogait.io import (
     JsonLinesReader,
@@ -29,7 +29,7 @@ from geogait.io import (
     load_stream_model,
     run_stream,
 )
-from geogait.models import AdaptiveGaitModel, _kernels, load_model
+from geogait.models import AdaptiveGaitModel, load_model
 from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
@@ -54,7 +54,7 @@ def config(tmp_path):
 
 def assert_same_model(saved, expected):
     """RLS state of a streamed model equal to the batch path's: bit for bit on the NumPy reference path,
-    to 1e-12 of each array's scale on the compiled one (summation order only; geogait.models._kernels)."""
+    to 1e-12 of each array's scale on the compiled one (summation order only; geogait._kernels)."""
     exact = not _kernels.fast_path_available()
     for a, b in ((saved.window_weights_, expected.window_weights_), (saved.covariance_, expected.covariance_),
                  (saved.psi_, expected.psi_), (saved.phase_model_.bank_.weights, expected.phase_model_.bank_.weights),

@@ -10,10 +10,18 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_JOINT_ANGLE", "STRUCTURED_MODEL_STEPS", "window_forgetting_factor"]
+__all__ = ["DEFAULT_OUTLIER_LIMIT", "DEFAULT_TEST_FRACTION", "MAX_JOINT_ANGLE", "STRUCTURED_MODEL_STEPS", "TIME_UNITS",
+           "window_forgetting_factor"]
 
 #: r_max (rad) of a robot or system that declares no joint ranges: 120°.
 MAX_JOINT_ANGLE = 2 * np.pi / 3
+
+#: Seconds per unit of a log's or stream's ``time_unit``.
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: Plausibility bound of a log's or stream's samples, in robust standard deviations from the median.
+DEFAULT_OUTLIER_LIMIT = 1000.0
+#: Fraction of each log segment's cycles held out to score a fit (the last ones).
+DEFAULT_TEST_FRACTION = 0.25
 
 
 #: InSituOptimizer settings for :class:`~geogait.models.ResistanceModel`: SQP on its nonlinear prediction over a

@@ -31,10 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import GeogaitError
+from ._validation import GeogaitError, fail
 
-__all__ = ["OutputLock", "atomic_savez", "atomic_write", "check_writable", "describe_path_kind", "dumps_json",
-           "json_ready", "output_set", "read_state", "write_json", "write_state", "write_text"]
+__all__ = ["OutputLock", "atomic_savez", "atomic_write", "check_outputs", "check_writable", "default_summary_path",
+           "describe_path_kind", "dumps_json", "json_ready", "output_set", "read_state", "write_json", "write_state",
+           "write_text"]
 
 _UMASK_LOCK = threading.Lock()
 
@@ -582,3 +583,53 @@ class output_set:  # noqa: N801  (used as a context manager, like open)
             if name not in names:
                 (self.folder / name).unlink(missing_ok=True)
         _fsync_folder(self.folder)
+
+
+def default_summary_path(out) -> Path:
+    """Where the Γ summary of predictions written to ``out`` goes by default (never ``out`` itself).
+
+    Parameters
+    ----------
+    out : path-like
+        The predictions file.
+
+    Returns
+    -------
+    Path
+        ``out`` with suffix ``.json``, or ``<stem>.summary.json`` when ``out`` ends in ``.json``.
+    """
+    out = Path(out)
+    return out.with_name(f"{out.stem}.summary.json") if out.suffix.lower() == ".json" else out.with_suffix(".json")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and a.samefile(b)
+    except OSError:
+        return False
+
+
+def check_outputs(outputs: dict, inputs, owner: str) -> None:
+    """Refuse outputs that are the same file as an input or as each other (before writing anything).
+
+    Parameters
+    ----------
+    outputs : dict of str to path-like
+        Name (for the message) → path.
+    inputs : iterable of path-like or None
+    owner : str
+    """
+    resolved = {name: Path(os.path.realpath(p)) for name, p in outputs.items()}
+    for name, path in resolved.items():
+        for given in inputs:
+            if given is None:
+                continue
+            source = Path(os.path.realpath(given))
+            if source == path or _same_file(source, path):
+                raise fail(name, owner, "a file other than the inputs (it would be overwritten)",
+                           f"{str(outputs[name])!r}, which is the input {str(given)!r}")
+    names = list(resolved)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if resolved[a] == resolved[b]:
+                raise fail(b, owner, f"a file other than '{a}'", str(outputs[b]))

@@ -13,9 +13,9 @@ from typing import Annotated
 
 import typer
 
+from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
+from .._files import check_outputs, default_summary_path
 from ..io import fit_log, predict_log, read_log, read_log_for_prediction, resolve_mapping
-from ..io._fit import DEFAULT_TEST_FRACTION, check_outputs, default_summary_path
-from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ..models import AdaptiveGaitModel
 from ..phase import Phaser
 from ._app import app

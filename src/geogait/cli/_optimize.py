@@ -13,8 +13,8 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._defaults import STRUCTURED_MODEL_STEPS, window_forgetting_factor
-from .._files import OutputLock, describe_path_kind, dumps_json, output_set, read_state, write_text
+from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
+from .._files import OutputLock, describe_path_kind, dumps_json, output_set, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
     OptimizationConfig,
@@ -25,9 +25,7 @@ from ..experiments.optimization import (
 )
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
-from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling
-from ..optimize._insitu import DEFAULT_MAX_JOINT_ANGLE
-from ..optimize._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION
+from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling, read_checkpoint_metadata
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,
@@ -150,7 +148,7 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
     if system is not None:
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
-                                     max_joint_angle=settings["max_joint_angle"] or DEFAULT_MAX_JOINT_ANGLE)
+                                     max_joint_angle=settings["max_joint_angle"] or MAX_JOINT_ANGLE)
     with target() as robot_driver:
         if not resumed:
             _write_settings(folder, settings, run_id)
@@ -211,7 +209,7 @@ def _refuse_options_with_resume(ctx) -> None:
 def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
     """The checkpoint in ``folder`` is the run its run.json describes, and --cycles does not undo cycles run."""
     checkpoint = folder / CHECKPOINT_FILE
-    metadata, _ = read_state(checkpoint, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
+    metadata = read_checkpoint_metadata(checkpoint)
     stored = settings.get("run_id")
     tag = metadata.get("tag") if isinstance(metadata.get("tag"), dict) else {}
     if stored is not None or tag:

@@ -17,10 +17,10 @@ from typing import Annotated
 
 import typer
 
+from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
+from .._files import check_outputs
+from .._kernels import fast_path_note
 from ..io import CsvReader, JsonLinesReader, StreamLearner, load_stream_model, run_stream
-from ..io._fit import check_outputs
-from ..io._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
-from ..models._kernels import fast_path_note
 from ..phase import Phaser
 from ._app import app
 from ._common import write_manifest

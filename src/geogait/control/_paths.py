@@ -22,8 +22,8 @@ import numpy as np
 import pandas as pd
 
 from .._files import describe_path_kind
+from .._kernels import nearest_segment_kernel
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
-from ..models._kernels import nearest_segment_kernel
 from ..se2 import wrap_angle
 
 __all__ = ["ReferencePath", "PATH_KINDS"]

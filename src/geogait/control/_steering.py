@@ -29,8 +29,7 @@ from scipy.optimize import minimize
 from .._defaults import MAX_JOINT_ANGLE
 from .._validation import check_array, check_float, check_int, fail
 from ..gaits import FourierGait
-from ..models import predicted_displacement
-from ..models._displacement import ModelTerms, displacement_from_terms
+from ..models import ModelMotion
 from ..optimize import joint_limit_constraints
 from ..simulate import cycle_displacement
 
@@ -40,39 +39,6 @@ __all__ = ["ModelMotion", "TrueMotion", "SteeringSolution", "SteeringFamily", "t
 DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 TURN_SPACING = 0.1
 """Spacing of a steering family's turns (rad per cycle) where none is given."""
-
-
-class ModelMotion:
-    """Net motion per cycle of a gait as a fitted gait model predicts it (with its Jacobian).
-
-    Parameters
-    ----------
-    model : AdaptiveGaitModel, BatchGaitModel or ShapeSpaceModel
-        A fitted, unbatched model; it is read, never changed. A model of the connection over shape
-        space (:class:`~geogait.models.ShapeSpaceModel`, any model without a nominal gait) predicts
-        with its own ``predict_displacement`` and Magnus steps.
-    resolution : int
-        Magnus steps over the cycle (:func:`geogait.models.predicted_displacement`).
-    """
-
-    def __init__(self, model, resolution: int = 64):
-        self.model = model
-        self.resolution = resolution
-        self._terms = None
-
-    def __call__(self, gait: FourierGait, jacobian: bool = False):
-        """``(Δx, Δy, Δθ)`` ``(3,)`` of one cycle of ``gait`` (and ``(3, p)`` Jacobian)."""
-        if not hasattr(self.model, "gait_"):  # a connection over shape space: no nominal gait to expand about
-            return self.model.predict_displacement(gait, jacobian=jacobian, compiled=True)
-        if not isinstance(gait, FourierGait) or gait.n_joints != getattr(self.model, "n_joints_", None):
-            return predicted_displacement(self.model, gait, resolution=self.resolution, jacobian=jacobian)  # its errors
-        # what depends on the model alone (nominal gait and smoothed weights at the nodes) is computed once
-        # for the many gaits a solve tries, and again only if the model changed since (same arithmetic)
-        terms = self._terms
-        if terms is None or terms.resolution != self.resolution or not terms.current(self.model):
-            check_int(self.resolution, "resolution", "ModelMotion", minimum=4)
-            terms = self._terms = ModelTerms.of(self.model, self.resolution)
-        return displacement_from_terms(terms, gait, jacobian, compiled=True)
 
 
 class TrueMotion:

@@ -21,7 +21,6 @@ from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
 from ..systems import PurcellSwimmer
-from ..systems._purcell import MAX_LINKS
 from .runner import run_trials
 
 __all__ = ["PERCENTILES", "ExperimentResult", "box_stats", "child_seeds", "cycle_block", "percentile_frame",
@@ -56,10 +55,10 @@ def swimmer_and_gait(n_links: int, owner: str) -> tuple[PurcellSwimmer, FourierG
 
 
 def check_links(n_links, name: str, owner: str) -> int:
-    """A number of links a :class:`~geogait.systems.PurcellSwimmer` accepts (2 to ``MAX_LINKS``)."""
+    """A number of links a :class:`~geogait.systems.PurcellSwimmer` accepts (2 to ``PurcellSwimmer.MAX_LINKS``)."""
     n = check_int(n_links, name, owner, minimum=2)
-    if n > MAX_LINKS:
-        raise fail(name, owner, f"an int in [2, {MAX_LINKS}]", n_links)
+    if n > PurcellSwimmer.MAX_LINKS:
+        raise fail(name, owner, f"an int in [2, {PurcellSwimmer.MAX_LINKS}]", n_links)
     return n
 
 

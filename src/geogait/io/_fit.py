@@ -34,7 +34,6 @@ filter of sampled shapes can follow).
 from __future__ import annotations
 
 import json
-import os
 import warnings
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
@@ -42,14 +41,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._defaults import DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._estimator import check_is_fitted
-from .._files import output_set, write_json, write_text
+from .._files import check_outputs, default_summary_path, output_set, write_json, write_text
 from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
 from ..simulate import BODY_VELOCITY_COLUMNS
-from ._logs import TIME_UNITS, ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
+from ._logs import ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
 from ._records import PREDICTION_COLUMNS
 from ._report import write_fit_figures
 
@@ -57,7 +57,6 @@ __all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log
            "resolve_mapping"]
 
 MIN_TRAIN_CYCLES = 5
-DEFAULT_TEST_FRACTION = 0.25
 _PLACEHOLDER = ("__geogait_unmeasured_vx", "__geogait_unmeasured_vy", "__geogait_unmeasured_w")
 
 
@@ -509,56 +508,6 @@ class LogPrediction:
         write_text(path, frame.to_csv(index=False))
         write_json(summary_path, {**(extra or {}), "results": self.summary()})
         return path, summary_path
-
-
-def default_summary_path(out) -> Path:
-    """Where the Γ summary of predictions written to ``out`` goes by default (never ``out`` itself).
-
-    Parameters
-    ----------
-    out : path-like
-        The predictions file.
-
-    Returns
-    -------
-    Path
-        ``out`` with suffix ``.json``, or ``<stem>.summary.json`` when ``out`` ends in ``.json``.
-    """
-    out = Path(out)
-    return out.with_name(f"{out.stem}.summary.json") if out.suffix.lower() == ".json" else out.with_suffix(".json")
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.exists() and b.exists() and a.samefile(b)
-    except OSError:
-        return False
-
-
-def check_outputs(outputs: dict, inputs, owner: str) -> None:
-    """Refuse outputs that are the same file as an input or as each other (before writing anything).
-
-    Parameters
-    ----------
-    outputs : dict of str to path-like
-        Name (for the message) → path.
-    inputs : iterable of path-like or None
-    owner : str
-    """
-    resolved = {name: Path(os.path.realpath(p)) for name, p in outputs.items()}
-    for name, path in resolved.items():
-        for given in inputs:
-            if given is None:
-                continue
-            source = Path(os.path.realpath(given))
-            if source == path or _same_file(source, path):
-                raise fail(name, owner, "a file other than the inputs (it would be overwritten)",
-                           f"{str(outputs[name])!r}, which is the input {str(given)!r}")
-    names = list(resolved)
-    for i, a in enumerate(names):
-        for b in names[i + 1:]:
-            if resolved[a] == resolved[b]:
-                raise fail(b, owner, f"a file other than '{a}'", str(outputs[b]))
 
 
 def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = None,

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _kernels
+from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import check_writable, describe_path_kind
 from .._validation import (
     MAX_MAGNITUDE,
@@ -24,9 +26,8 @@ from .._validation import (
     fail,
 )
 from ..gaits import FourierGait
-from ..models import MAX_PHASE, AdaptiveGaitModel, _kernels, load_model
+from ..models import MAX_PHASE, AdaptiveGaitModel, load_model
 from ..phase import OnlinePhaser, Phaser
-from ._logs import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from ._records import StreamOutput, StreamSample
 
 __all__ = ["OnlineDifferentiator", "StreamLearner", "load_stream_model"]

@@ -70,6 +70,7 @@ import pyarrow as pa
 from scipy.signal import savgol_filter
 
 from .. import se2
+from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import describe_path_kind
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float, check_int, fail
 from ..phase import cycle_index
@@ -78,10 +79,6 @@ from ..simulate import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
 __all__ = ["ColumnMapping", "Log", "load_column_mapping", "read_log"]
 
 _READ = "read_log"
-#: Seconds per unit of the ``time_unit`` argument.
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-#: Default plausibility bound of :func:`read_log`, in robust standard deviations from the median.
-DEFAULT_OUTLIER_LIMIT = 1000.0
 _SCHEMES = ("forward", "central")
 
 

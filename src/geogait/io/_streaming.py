@@ -20,7 +20,7 @@ The loop behind ``geogait stream`` and ``examples/robot_stream.py``. For every s
    the sample is learned) and the updated online Γ (eq. 6, ``model.gamma_``) are the output.
    Because the filters see each sample once, in order, the model after a stream equals the
    model from one batch ``partial_fit`` of the same samples: to rounding (~1e-13 relative after
-   thousands of samples) on the compiled one-sample path (:mod:`geogait.models._kernels`, with
+   thousands of samples) on the compiled one-sample path (:mod:`geogait._kernels`, with
    numba), bit for bit in the RLS weights and covariances on the NumPy reference path.
 4. **Checkpoint** every ``save_every`` learned samples, and at the end, with
    :meth:`~geogait.models.AdaptiveGaitModel.save` (temporary file + rename: a crash during a

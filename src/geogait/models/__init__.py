@@ -2,9 +2,9 @@
 the batch baseline, the phase model and the Γ metric."""
 
 from ._adaptive import AdaptiveGaitModel
-from ._base import MAX_PHASE, check_gait_model, gamma, load_model, model_from_state
+from ._base import MAX_PHASE, check_gait_model, gamma, has_gait_model_members, load_model, model_from_state
 from ._batch import BatchGaitModel
-from ._displacement import predicted_displacement
+from ._displacement import ModelMotion, predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._perfect import PerfectInformationModel
 from ._phase import PhaseModel
@@ -16,6 +16,7 @@ __all__ = [
     "MAX_PHASE",
     "AdaptiveGaitModel",
     "BatchGaitModel",
+    "ModelMotion",
     "PerfectInformationModel",
     "PhaseModel",
     "PhaseWindows",
@@ -24,6 +25,7 @@ __all__ = [
     "ShapeSpaceModel",
     "check_gait_model",
     "gamma",
+    "has_gait_model_members",
     "load_model",
     "monomial_exponents",
     "monomials",

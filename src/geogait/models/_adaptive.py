@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _kernels
 from .._docs import fill_doc
 from .._estimator import Real
 from .._validation import MAX_MAGNITUDE, check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
-from . import _kernels
 from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase, check_finite_banks
 from ._features import n_regressors, regressors
 from ._online_gamma import OnlineGamma
@@ -164,7 +164,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         return self
 
     def _learn_one_compiled(self, phase, shape, shape_velocity, body_velocity) -> bool:
-        """The compiled one-sample path (:mod:`geogait.models._kernels`); False leaves the sample to the
+        """The compiled one-sample path (:mod:`geogait._kernels`); False leaves the sample to the
         reference path (numba missing, a model not yet started or batched, input that is not one plain
         float64 sample, or one the reference checks must judge: non-finite, too large, degrees)."""
         kernel = _kernels.learn_one_kernel()

@@ -20,14 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import _kernels
 from .._estimator import check_is_fitted
 from .._validation import check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ..se2 import _SMALL, gauss_phases, integrate_cycle
-from . import _kernels
 from ._features import regressors, split_coefficients
 
-__all__ = ["predicted_displacement"]
+__all__ = ["ModelMotion", "predicted_displacement"]
 
 
 def predicted_displacement(model, gait: FourierGait | None = None, *, resolution: int = 128,
@@ -137,3 +137,36 @@ def displacement_from_terms(terms: ModelTerms, gait: FourierGait, jacobian: bool
                          + d_rate[..., None] * rate * d_basis[:, None, None, :]) / rate  # batch+(2n, 3, d, c)
     velocity_jacobian = velocity_jacobian.reshape(velocity_jacobian.shape[:-4] + nodes.shape + (3, -1))
     return integrate_cycle(velocity, step, velocity_jacobian)
+
+
+class ModelMotion:
+    """Net motion per cycle of a gait as a fitted gait model predicts it (with its Jacobian).
+
+    Parameters
+    ----------
+    model : AdaptiveGaitModel, BatchGaitModel or ShapeSpaceModel
+        A fitted, unbatched model; it is read, never changed. A model of the connection over shape
+        space (:class:`~geogait.models.ShapeSpaceModel`, any model without a nominal gait) predicts
+        with its own ``predict_displacement`` and Magnus steps.
+    resolution : int
+        Magnus steps over the cycle (:func:`predicted_displacement`).
+    """
+
+    def __init__(self, model, resolution: int = 64):
+        self.model = model
+        self.resolution = resolution
+        self._terms = None
+
+    def __call__(self, gait: FourierGait, jacobian: bool = False):
+        """``(Δx, Δy, Δθ)`` ``(3,)`` of one cycle of ``gait`` (and ``(3, p)`` Jacobian)."""
+        if not hasattr(self.model, "gait_"):  # a connection over shape space: no nominal gait to expand about
+            return self.model.predict_displacement(gait, jacobian=jacobian, compiled=True)
+        if not isinstance(gait, FourierGait) or gait.n_joints != getattr(self.model, "n_joints_", None):
+            return predicted_displacement(self.model, gait, resolution=self.resolution, jacobian=jacobian)  # its errors
+        # what depends on the model alone (nominal gait and smoothed weights at the nodes) is computed once
+        # for the many gaits a solve tries, and again only if the model changed since (same arithmetic)
+        terms = self._terms
+        if terms is None or terms.resolution != self.resolution or not terms.current(self.model):
+            check_int(self.resolution, "resolution", "ModelMotion", minimum=4)
+            terms = self._terms = ModelTerms.of(self.model, self.resolution)
+        return displacement_from_terms(terms, gait, jacobian, compiled=True)

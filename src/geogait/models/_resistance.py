@@ -42,7 +42,7 @@ from .._estimator import Estimator, Integer, Options, Real
 from .._validation import check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
-from ..simulate._oracle import cycle_velocity
+from ..simulate import cycle_velocity
 from ..systems import BODY_FRAMES, PurcellSwimmer
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
 from ._online_gamma import OnlineGamma

@@ -53,12 +53,12 @@ import itertools
 
 import numpy as np
 
+from .. import _kernels
 from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import _SMALL, gauss_phases, integrate_cycle
-from . import _kernels
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_finite_banks, check_samples, check_stored_sizes
 from ._displacement import _phase_basis
 from ._online_gamma import OnlineGamma
@@ -511,7 +511,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
 
     def _compiled_displacement(self, kernel, gait: FourierGait, jacobian: bool):
         """:meth:`predict_displacement` of an unbatched model by the compiled kernel
-        (:func:`geogait.models._kernels._shape_space_displacement`)."""
+        (:func:`geogait._kernels._shape_space_displacement`)."""
         exponents = np.ascontiguousarray(self.exponents_, dtype=np.int64)
         m, d = exponents.shape
         lower, variable, degree, order = _kernel_lowering(exponents.tobytes(), m, d)

@@ -16,6 +16,7 @@ from ._objective import (
     rms_speed,
 )
 from ._result import InSituResult
+from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
@@ -37,6 +38,7 @@ __all__ = [
     "measure_cycle",
     "objective",
     "optimize_ceiling",
+    "read_checkpoint_metadata",
     "path_length",
     "rms_speed",
     "sqp_step",

@@ -63,8 +63,7 @@ from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
-from ..models import AdaptiveGaitModel, check_gait_model
-from ..models._base import has_gait_model_members
+from ..models import AdaptiveGaitModel, check_gait_model, has_gait_model_members
 from ..robots import check_robot
 from ..systems import PurcellSwimmer
 from ._climb import MeasuredClimb

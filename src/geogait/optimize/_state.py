@@ -10,6 +10,7 @@ import pandas as pd
 
 from .. import models
 from .._defaults import MAX_JOINT_ANGLE
+from .._files import read_state
 from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
 from ..models import model_from_state
@@ -23,6 +24,23 @@ _TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never 
 #: shape_scale units: after a gait the robot could not follow, the trust radius halves down to this even below
 #: min_trust_radius (a rejection is a measured fact, not a noisy ratio test); the default min_trust_radius.
 _REJECTION_FLOOR = 0.02
+
+
+def read_checkpoint_metadata(path) -> dict:
+    """The JSON metadata of an optimiser checkpoint (written by :meth:`InSituOptimizer.run`): its ``tag``
+    (the run identity a caller stored), ``state`` (``cycle``: cycles run, …), ``params`` and
+    ``checkpoint_every``; the file's format and version are checked first.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``.npz`` checkpoint.
+
+    Returns
+    -------
+    dict
+    """
+    return read_state(Path(path), "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)[0]
 
 
 @dataclass

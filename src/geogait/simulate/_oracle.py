@@ -21,7 +21,7 @@ from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..systems import System
 
-__all__ = ["cycle_displacement"]
+__all__ = ["cycle_displacement", "cycle_velocity"]
 
 
 def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256, jacobian: bool = False):
@@ -46,20 +46,46 @@ def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256,
     -------
     ndarray of shape (3,), and ndarray of shape (3, p) when ``jacobian``.
     """
-    resolution = check_int(resolution, "resolution", "cycle_displacement", minimum=4)
+    resolution = _check(system, gait, resolution, "cycle_displacement")
+    return integrate_cycle(*_cycle_velocity(system, gait, resolution, jacobian))
+
+
+def _check(system: System, gait: FourierGait, resolution, owner: str) -> int:
+    resolution = check_int(resolution, "resolution", owner, minimum=4)
     if not isinstance(gait, FourierGait) or gait.n_joints != system.n_joints:
-        raise fail("gait", "cycle_displacement", f"a FourierGait with {system.n_joints} joints (the system's)",
+        raise fail("gait", owner, f"a FourierGait with {system.n_joints} joints (the system's)",
                    gait if not isinstance(gait, FourierGait) else f"{gait.n_joints} joints")
-    return integrate_cycle(*cycle_velocity(system, gait, resolution, jacobian))
+    return resolution
 
 
-def cycle_velocity(system: System, gait: FourierGait, resolution: int, jacobian: bool = False):
-    """Body velocity ξ = −A(θ)θ' at the Magnus nodes of one cycle of ``gait`` (what
-    :func:`cycle_displacement` integrates; a sum of connections integrates the sum of these).
+def cycle_velocity(system: System, gait: FourierGait, resolution: int = 256, jacobian: bool = False):
+    """Body velocity ξ = −A(θ)θ' (eq. 1) at the Magnus nodes of one cycle of ``gait`` on ``system``: what
+    :func:`cycle_displacement` integrates. A sum of connections integrates the sum of these (the
+    resistance model's hybrid adds a learned residual this way).
 
-    Returns ``(velocity (n, 2, 3), step)``, or with ``jacobian`` ``(velocity, step, ∂velocity/∂params
-    (n, 2, 3, p))``: the arguments of :func:`~geogait.se2.integrate_cycle`.
+    Parameters
+    ----------
+    system : System
+    gait : FourierGait
+    resolution : int
+        Number of Magnus steps (two Gauss nodes each).
+    jacobian : bool
+        Also return ∂ξ/∂(gait.params) at the nodes (∂A/∂r by central differences, as in
+        :func:`cycle_displacement`).
+
+    Returns
+    -------
+    velocity : ndarray of shape (resolution, 2, 3)
+    step : float
+        The Magnus step in phase (2π / resolution).
+    jacobian : ndarray of shape (resolution, 2, 3, p)
+        Only when ``jacobian``. ``(velocity, step[, jacobian])`` are the arguments of
+        :func:`~geogait.se2.integrate_cycle`.
     """
+    return _cycle_velocity(system, gait, _check(system, gait, resolution, "cycle_velocity"), jacobian)
+
+
+def _cycle_velocity(system: System, gait: FourierGait, resolution: int, jacobian: bool = False):
     phases, step = gauss_phases(resolution)
     shape, rate = gait.shape(phases), gait.velocity(phases)
     connection = system.connection(shape)  # (n, 2, 3, d)

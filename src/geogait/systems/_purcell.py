@@ -77,6 +77,9 @@ class PurcellSwimmer:
            [-14.,  14.]])
     """
 
+    #: Most links accepted (the module constant, for callers that check a link count first).
+    MAX_LINKS = MAX_LINKS
+
     n_links: int = 3
     link_lengths: tuple[float, ...] | None = None
     drag_coefficient: float = 1.0

@@ -1,5 +1,5 @@
-r"""The compiled one-sample path (numba): one call learns one sample of an unbatched
-:class:`~geogait.models.AdaptiveGaitModel`.
+r"""Compiled kernels (numba) shared by the models and the path follower. The one-sample path: one call
+learns one sample of an unbatched :class:`~geogait.models.AdaptiveGaitModel`.
 
 Why a compiled kernel. One sample of the 3-link model is a few hundred flops: find the covering
 windows, build ``[1, δ, δ̇, δ⊗δ̇]`` about each window's nominal point, one rank-one RLS update with
