@@ -39,7 +39,8 @@ __all__ = [
     "integrate_cycle",
 ]
 
-_SMALL = 1e-4  # |omega| below which the series of sin(w)/w and (1-cos w)/w are used
+#: |ω| below which exp and log use the series of sin(ω)/ω and (1 − cos ω)/ω (the compiled kernels too).
+SERIES_THRESHOLD = 1e-4
 
 
 def wrap_angle(angle):
@@ -85,7 +86,7 @@ def vee(matrix) -> np.ndarray:
 def _v_coefficients(omega):
     """sin(w)/w and (1 - cos w)/w, accurate for all w."""
     omega = np.asarray(omega, dtype=float)
-    small = np.abs(omega) < _SMALL
+    small = np.abs(omega) < SERIES_THRESHOLD
     safe = np.where(small, 1.0, omega)
     w2 = omega * omega
     s = np.where(small, 1 - w2 / 6 + w2 * w2 / 120, np.sin(safe) / safe)
@@ -275,7 +276,7 @@ def body_velocity_from_poses(time, pose, *, scheme: str = "forward") -> np.ndarr
 def _v_derivatives(omega):
     """d/dω of sin(w)/w and (1 - cos w)/w."""
     omega = np.asarray(omega, dtype=float)
-    small = np.abs(omega) < _SMALL
+    small = np.abs(omega) < SERIES_THRESHOLD
     safe = np.where(small, 1.0, omega)
     w2 = omega * omega
     ds = np.where(small, -omega / 3 + omega * w2 / 30, (safe * np.cos(safe) - np.sin(safe)) / safe**2)

@@ -24,7 +24,7 @@ from ..control import (
     PathTracker,
     ReferencePath,
 )
-from ..experiments._common import run_sweep
+from ..experiments import run_trials
 from ..experiments.tracking import (
     CUSTOM_PATH,
     PATHS,
@@ -357,9 +357,10 @@ def _track_trials(out, overwrite, options, trials, seed, jobs, scheduler, refere
     """``geogait track --trials N``: the paired trials on the sweep runner, per-trial results written."""
     with claim_output(out, overwrite=overwrite):
         folder = Path(out)
-        log, wall, workers = run_sweep(track_trials, trials, options, seed=seed, chunk_size=1, jobs=jobs,
-                                       scheduler=scheduler, progress=True,
-                                       description=f"{options['n_links']}-link tracking")
+        sweep = run_trials(track_trials, trials, seed=seed, chunk_size=1, jobs=jobs, scheduler=scheduler,
+                           config=options, progress=True, description=f"{options['n_links']}-link tracking")
+        sweep.raise_on_failure()
+        log, wall, workers = sweep.frame.reset_index(drop=True), sweep.wall_time_s, sweep.n_workers
         change = config["change_cycle"]
         stats = trial_stats(log, change)
         summary = {}

@@ -50,7 +50,7 @@ import pandas as pd
 from .. import se2
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
-from ..models import AdaptiveGaitModel, check_gait_model
+from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import feasibility_constraint
 from ..robots import check_robot
 from ..simulate import Trajectory, cycle_displacement
@@ -269,9 +269,7 @@ class PathTracker:
         if self.model is None:
             return AdaptiveGaitModel(gait=reference, forgetting_factor=self.forgetting_factor,
                                      n_windows=self.n_windows, phase_rate=rate)
-        params = self.model.get_params(deep=False)
-        params.update({k: v for k, v in (("gait", reference), ("phase_rate", rate)) if k in params})
-        return type(self.model)(**params)
+        return clone_for_gait(self.model, reference, rate)
 
     def _exploration_plan(self):
         """``None`` (fixed), a fresh :class:`AdaptiveExploration`, or the schedule to replay ``(n,)``."""

@@ -2,7 +2,15 @@
 the batch baseline, the phase model and the Γ metric."""
 
 from ._adaptive import AdaptiveGaitModel
-from ._base import MAX_PHASE, check_gait_model, gamma, has_gait_model_members, load_model, model_from_state
+from ._base import (
+    MAX_PHASE,
+    check_gait_model,
+    clone_for_gait,
+    gamma,
+    has_gait_model_members,
+    load_model,
+    model_from_state,
+)
 from ._batch import BatchGaitModel
 from ._displacement import ModelMotion, predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
@@ -24,6 +32,7 @@ __all__ = [
     "ResistanceModel",
     "ShapeSpaceModel",
     "check_gait_model",
+    "clone_for_gait",
     "gamma",
     "has_gait_model_members",
     "load_model",

@@ -76,6 +76,28 @@ def check_gait_model(model, members, owner: str, parameter: str = "model", prefi
                    "ShapeSpaceModel)", f"a {type(model).__name__} without {named[-1]}")
 
 
+def clone_for_gait(model, gait, phase_rate: float):
+    """An unfitted model with ``model``'s hyper-parameters, given the nominal ``gait`` and ``phase_rate``
+    (rad/s) where it takes them: what a closed loop learns afresh about a new gait or period (the in-situ
+    optimiser, the path follower).
+
+    Parameters
+    ----------
+    model : estimator
+        The template (fitted or not; only its ``get_params(deep=False)`` are read).
+    gait : FourierGait
+    phase_rate : float
+
+    Returns
+    -------
+    estimator
+        A new instance of ``type(model)``.
+    """
+    params = model.get_params(deep=False)
+    params.update({k: v for k, v in (("gait", gait), ("phase_rate", phase_rate)) if k in params})
+    return type(model)(**params)
+
+
 def has_gait_model_members(model, members) -> bool:
     """Whether ``model`` offers all of ``members`` (:func:`check_gait_model`'s test, without the error)."""
     return _first_missing(model, members) is None

@@ -24,7 +24,7 @@ from .. import _kernels
 from .._estimator import check_is_fitted
 from .._validation import check_int, fail
 from ..gaits import FourierGait, fourier_basis
-from ..se2 import _SMALL, gauss_phases, integrate_cycle
+from ..se2 import SERIES_THRESHOLD, gauss_phases, integrate_cycle
 from ._features import regressors, split_coefficients
 
 __all__ = ["ModelMotion", "predicted_displacement"]
@@ -60,7 +60,7 @@ def predicted_displacement(model, gait: FourierGait | None = None, *, resolution
 
 
 @functools.lru_cache(maxsize=16)
-def _phase_basis(resolution: int, order: int, derivative: int) -> np.ndarray:
+def phase_basis(resolution: int, order: int, derivative: int) -> np.ndarray:
     """``fourier_basis`` at the Gauss nodes of ``resolution`` steps (a pure function of its arguments, kept)."""
     basis = fourier_basis(gauss_phases(resolution)[0].reshape(-1), order, derivative)
     basis.setflags(write=False)
@@ -89,8 +89,8 @@ class ModelTerms:
         nodes, _ = gauss_phases(resolution)
         phase = nodes.reshape(-1)
         own = model.gait_
-        nominal = _phase_basis(resolution, own.order, 0) @ own.coefficients.T  # = own.shape(phase)
-        nominal_rate = _phase_basis(resolution, own.order, 1) @ own.coefficients.T  # = own.velocity(phase)
+        nominal = phase_basis(resolution, own.order, 0) @ own.coefficients.T  # = own.shape(phase)
+        nominal_rate = phase_basis(resolution, own.order, 1) @ own.coefficients.T  # = own.velocity(phase)
         weights = model.smoothed_weights(np.broadcast_to(phase, model.batch_shape_ + phase.shape))  # batch+(2n, r, 3)
         return cls(resolution, model.interaction, model.n_joints_, nominal, nominal_rate, weights,
                    np.array(model.window_weights_), own, _smoothing(model))
@@ -113,13 +113,13 @@ def displacement_from_terms(terms: ModelTerms, gait: FourierGait, jacobian: bool
     not bit for bit, so callers whose published results must not move (the optimiser, the paper's
     figures) keep the NumPy path."""
     resolution = terms.resolution
-    basis, d_basis = _phase_basis(resolution, gait.order, 0), _phase_basis(resolution, gait.order, 1)  # (2n, c)
+    basis, d_basis = phase_basis(resolution, gait.order, 0), phase_basis(resolution, gait.order, 1)  # (2n, c)
     kernel = _kernels.displacement_kernel() if compiled and terms.weights.ndim == 3 else None
     if kernel is not None:
         coefficients = gait.coefficients
         pose, pose_jacobian = np.empty(3), np.empty((3, coefficients.size))
         kernel(coefficients, basis, d_basis, terms.nominal, terms.nominal_rate, terms.weights, terms.interaction,
-               2 * np.pi / resolution, _SMALL, jacobian, pose, pose_jacobian)
+               2 * np.pi / resolution, SERIES_THRESHOLD, jacobian, pose, pose_jacobian)
         return (pose, pose_jacobian) if jacobian else pose
     nodes, step = gauss_phases(resolution)
     rate = 2 * np.pi  # the models regress in cycle time (see geogait.models._base)

@@ -58,9 +58,9 @@ from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_array, check_float, fail
 from ..gaits import FourierGait
-from ..se2 import _SMALL, gauss_phases, integrate_cycle
+from ..se2 import SERIES_THRESHOLD, gauss_phases, integrate_cycle
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_finite_banks, check_samples, check_stored_sizes
-from ._displacement import _phase_basis
+from ._displacement import phase_basis
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._rls import RLSBank
@@ -515,12 +515,12 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         exponents = np.ascontiguousarray(self.exponents_, dtype=np.int64)
         m, d = exponents.shape
         lower, variable, degree, order = _kernel_lowering(exponents.tobytes(), m, d)
-        basis, d_basis = _phase_basis(self.resolution, gait.order, 0), _phase_basis(self.resolution, gait.order, 1)
+        basis, d_basis = phase_basis(self.resolution, gait.order, 0), phase_basis(self.resolution, gait.order, 1)
         coefficients = gait.coefficients.T
         pose, pose_jacobian = np.empty(3), np.empty((3, gait.params.size))
         kernel(basis @ coefficients, d_basis @ coefficients, self.weights_, lower, variable, degree, order,
-               exponents, float(self.shape_scale), basis, d_basis, 2 * np.pi / self.resolution, _SMALL, jacobian,
-               pose, pose_jacobian)
+               exponents, float(self.shape_scale), basis, d_basis, 2 * np.pi / self.resolution, SERIES_THRESHOLD,
+               jacobian, pose, pose_jacobian)
         return (pose, pose_jacobian) if jacobian else pose
 
 

@@ -58,36 +58,34 @@ from pathlib import Path
 import numpy as np
 
 from .. import models
-from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
+from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
-from ..models import AdaptiveGaitModel, check_gait_model, has_gait_model_members
+from ..models import check_gait_model, has_gait_model_members
 from ..robots import check_robot
 from ..systems import PurcellSwimmer
-from ._climb import MeasuredClimb
 from ._exploration import Exploration
-from ._loop import _Loop
-from ._measure import _peak_phase_speed
-from ._objective import OBJECTIVES, feasibility_constraint, joint_limit_constraints, objective
+from ._loop import CycleLoop, new_climb
+from ._measure import peak_phase_speed
+from ._models import ONLINE_GAMMA, gate_kind, model_template, run_model, symmetric_chain_model
+from ._objective import OBJECTIVES, feasibility_constraint
 from ._period import PeriodSearch
 from ._result import InSituResult
 from ._state import (
     CHECKPOINT_FORMAT,
     CHECKPOINT_VERSION,
-    _checkpoint_path,
-    _params_from_json,
-    _params_to_json,
-    _prefixed,
-    _State,
+    RunState,
+    checkpoint_path,
+    params_from_json,
+    params_to_json,
+    prefixed_arrays,
 )
-from ._steps import STEP_RULES, StepProblem, take_step
+from ._steps import STEP_RULES
 
 __all__ = ["InSituOptimizer", "symmetric_chain_model"]
 
-#: What a model needs for the online gate (``gate="gamma"``).
-ONLINE_GAMMA = ("partial_fit", "reset_gamma", "gamma_")
 #: r_max of a robot that declares no joint ranges (the design's 2π/3).
 DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 
@@ -291,11 +289,11 @@ class InSituOptimizer(Estimator):
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
     def describe(self) -> dict:
         """Hyper-parameters as JSON values (the model as its class name and parameters)."""
-        return _params_to_json(self)
+        return params_to_json(self)
 
     def _check_param_combinations(self) -> None:
         owner = "InSituOptimizer"
-        if self.gate == "gamma" and not _has_online_gamma(self._model_template()):
+        if self.gate == "gamma" and not has_gait_model_members(model_template(self.model), ONLINE_GAMMA):
             raise fail("gate", owner, "'cycles' for a model without an online Γ (gamma_, reset_gamma)", self.gate)
         if self.model is not None:
             check_gait_model(self.model, ("get_params", "predict_displacement") + (
@@ -363,8 +361,8 @@ class InSituOptimizer(Estimator):
         checkpoint_every = check_int(checkpoint_every, "checkpoint_every", owner, minimum=1)
         if ceiling is not None:
             ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
-        checkpoint = _checkpoint_path(checkpoint, owner)
-        template = self._model_template()
+        checkpoint = checkpoint_path(checkpoint, owner)
+        template = model_template(self.model)
         if checkpoint is not None and not getattr(template, "can_save", lambda: True)():
             raise fail("checkpoint", owner, f"None for a {type(template).__name__}, which cannot be saved",
                        str(checkpoint))
@@ -381,7 +379,7 @@ class InSituOptimizer(Estimator):
             raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
                        f"a gait reaching {gait.joint_limit().max():.4g} rad")
         if self.max_joint_velocity is not None:
-            speed = _peak_phase_speed(gait) * 2 * np.pi / period
+            speed = peak_phase_speed(gait) * 2 * np.pi / period
             if speed > self.max_joint_velocity * (1 + 1e-9):
                 raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
                            f"a gait reaching {speed:.4g} rad/s")
@@ -394,15 +392,16 @@ class InSituOptimizer(Estimator):
                        "margin; e.g. the system's own seed_gait())", "a seed gait that leaves it")
         robot.set_gait(gait)
         scale = self._shape_scale(gait)
-        state = _State(gait=gait, radius=self.trust_radius * scale, model=self._new_model(gait, period, family, scale),
-                       n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
-                       settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale,
-                       feasibility=feasibility, robot_period=period, seed_period=period,
-                       period_search=PeriodSearch(*period_range) if period_range is not None else None,
-                       climb=self._new_climb(scale), rng=np.random.default_rng(self.random_state))
+        state = RunState(gait=gait, radius=self.trust_radius * scale,
+                         model=run_model(self.model, gait, period, family, scale),
+                         n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
+                         settle_left=self.settle_cycles, max_joint_angle=r_max, scale=scale,
+                         feasibility=feasibility, robot_period=period, seed_period=period,
+                         period_search=PeriodSearch(*period_range) if period_range is not None else None,
+                         climb=new_climb(self, scale), rng=np.random.default_rng(self.random_state))
         if excites:
             state.exploration = Exploration(self._exploration_std() * scale, gait.n_joints, state.rng)
-        return _Loop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
+        return CycleLoop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
     def resume(cls, checkpoint, robot, *, callback: Callable[[dict], None] | None = None,
@@ -430,13 +429,13 @@ class InSituOptimizer(Estimator):
         path = Path(checkpoint)
         metadata, arrays = read_state(path, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
         try:
-            optimizer = cls(**_params_from_json(metadata["params"])).validate()
-            state = _State.from_checkpoint(metadata, arrays)
+            optimizer = cls(**params_from_json(metadata["params"])).validate()
+            state = RunState.from_checkpoint(metadata, arrays)
         except (KeyError, TypeError, ValueError, IndexError) as error:
             raise GeogaitError(f"{path} is an inconsistent optimiser checkpoint: {error}") from None
         if state.model is None:  # not fitted yet when saved (the "cycles" gate's first iteration)
-            state.model = optimizer._new_model(state.gait, state.period, state.family,
-                                               optimizer._shape_scale(state.gaits[0]))
+            state.model = run_model(optimizer.model, state.gait, state.period, state.family,
+                                    optimizer._shape_scale(state.gaits[0]))
         check_robot(robot, "InSituOptimizer.resume")
         if robot.gait.n_joints != state.gait.n_joints:
             raise fail("robot", "InSituOptimizer.resume", f"a robot with {state.gait.n_joints} joints",
@@ -444,7 +443,7 @@ class InSituOptimizer(Estimator):
         state.max_joint_angle = optimizer._joint_limit(robot, "InSituOptimizer.resume")
         state.scale = optimizer._shape_scale(state.gaits[0])
         if state.climb is None:  # checkpoints before the climb
-            state.climb = optimizer._new_climb(state.scale)
+            state.climb = new_climb(optimizer, state.scale)
         if "rng" not in metadata["state"]:
             state.rng = np.random.default_rng(optimizer.random_state)
         state.feasibility = _feasibility(robot, state.gait, optimizer.order)
@@ -452,12 +451,12 @@ class InSituOptimizer(Estimator):
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
         if robot_state is not None and hasattr(robot, "restore_robot_state"):
-            robot.restore_robot_state({**robot_state, **_prefixed(arrays, "robot/")})
+            robot.restore_robot_state({**robot_state, **prefixed_arrays(arrays, "robot/")})
         else:
             robot.set_gait(state.robot_gait)
             if state.period_search is not None and robot.cycle_period != state.robot_period:
                 robot.set_cycle_period(state.robot_period)
-        loop = _Loop(optimizer, robot, state, path, metadata["checkpoint_every"], metadata.get("tag"))
+        loop = CycleLoop(optimizer, robot, state, path, metadata["checkpoint_every"], metadata.get("tag"))
         return loop.run(callback, record)
 
     # -- scale and limits from the robot --------------------------------------------------------
@@ -542,108 +541,8 @@ class InSituOptimizer(Estimator):
         return type(self)(**{**self.get_params(deep=False), **steps,
                              "model": models.ResistanceModel(**robot.chain_geometry())}).validate()
 
-    def _model_template(self):
-        # both default models offer the same protocol (online Γ, partial_fit, rebase, saving)
-        return self.model if self.model is not None else AdaptiveGaitModel()
-
-    def _new_model(self, gait: FourierGait, period: float, family=None, scale: float = 1.0):
-        if self.model is None:
-            if isinstance(family, SymmetricGaitFamily):
-                return symmetric_chain_model(gait.n_joints, shape_scale=scale)
-            return AdaptiveGaitModel(gait=gait, forgetting_factor=window_forgetting_factor(gait.n_joints),
-                                     phase_rate=2 * np.pi / period)
-        params = self.model.get_params(deep=False)
-        params.update({k: v for k, v in (("gait", gait), ("phase_rate", 2 * np.pi / period)) if k in params})
-        return type(self.model)(**params)
-
-    def _new_climb(self, scale: float) -> MeasuredClimb:
-        return MeasuredClimb(sigma=self.max_trust_radius * scale, min_sigma=self.min_trust_radius * scale,
-                             max_sigma=4 * self.max_trust_radius * scale)
-
     def _gate(self) -> str:
-        if self.gate is not None:
-            return self.gate
-        return "gamma" if _has_online_gamma(self._model_template()) else "cycles"
-
-    # -- one step -----------------------------------------------------------------------------
-    def _direction(self, state) -> np.ndarray | None:
-        """Unit direction of ``"forward"`` in the body frame at the start of the latest cycle."""
-        if self.objective != "forward":
-            return None
-        u = state.direction
-        if self.direction_frame == "world":
-            c, s = np.cos(state.world_heading), np.sin(state.world_heading)
-            u = np.array([c * u[0] + s * u[1], -s * u[0] + c * u[1]])
-        return u
-
-    def _evaluate(self, pose, pose_jacobian, gait, state):
-        return objective(self.objective, pose, pose_jacobian, gait, self._direction(state))
-
-    def _predict(self, state, gait, jacobian=False):
-        if not jacobian:
-            pose = state.model.predict_displacement(gait)
-            return pose, self._evaluate(pose, np.zeros((3, gait.params.size)), gait, state)[0]
-        pose, pose_jacobian = state.model.predict_displacement(gait, jacobian=True)
-        return pose, pose_jacobian, *self._evaluate(pose, pose_jacobian, gait, state)
-
-    def _limits(self, state):
-        speed = None if self.max_joint_velocity is None else self.max_joint_velocity * state.period / (2 * np.pi)
-        return joint_limit_constraints(state.gait.n_joints, self.order, state.max_joint_angle, speed)
-
-    def _step(self, state) -> bool:
-        """Propose, check and (maybe) take a step; returns whether the gait changed.
-
-        A predicted rotation beyond twice its standard error is real: the step brings it to zero.
-        One within it cannot be told from noise: the step then keeps the predicted rotation where it
-        is (J_ω Δ = 0) instead of chasing it, and is taken only for a predicted gain of at least
-        ``min_gain``.
-        """
-        gait, family = state.gait, state.family
-        problem = StepProblem(state.model.predict_displacement, family, objective=self.objective,
-                              limits=self._limits(state), rotation_tolerance=self.rotation_tolerance,
-                              direction=self._direction(state), feasibility=state.feasibility)
-        params = family.params_of(gait, tolerance=1e-8)
-        value, _, pose, _ = problem.evaluate(params)
-        state.update_radius(value, self.min_trust_radius * state.scale, self.max_trust_radius * state.scale)
-        state.last_prediction = value
-        if self.climb and state.distrust >= 2:  # promised gains unconfirmed at the smallest radius
-            return False
-        restores = False
-        target = 0.0
-        if problem.rotation:
-            resolution = 2 * state.rotation_std()
-            restores = abs(pose[2]) > max(self.rotation_tolerance, resolution)
-            target = 0.0 if restores else pose[2]
-        step = take_step(self.step_rule, problem, params, state.radius, rotation_target=target,
-                         min_gain=self.min_gain, restore=restores)
-        if step.accepted:
-            state.promised = (value, step.predicted_value, step.boundary)
-            self._change_gait(state, step.gait)
-            return True
-        if restores:  # the model could not find a feasible restoring step: trust it less far
-            state.radius = max(self.min_trust_radius * state.scale, state.radius / 2)
-        return False
-
-    def _change_gait(self, state, gait, period=None) -> None:
-        """Re-centre the model on ``gait`` (a fresh model at a new ``period``) and start a new iteration."""
-        period = state.period if period is None else float(period)
-        if period != state.period:  # another period: what was learned need not hold (dynamics)
-            state.promised = None
-            state.model = self._new_model(gait, period, state.family, state.scale)
-        elif self._gate() == "cycles" or not getattr(state.model, "__sklearn_is_fitted__", lambda: True)():
-            # (not fitted yet: a fresh model whose first cycles were all settling or rejected)
-            state.model = self._new_model(gait, state.period, state.family, state.scale)
-        else:
-            state.model.rebase(gait, terms=self.rebase, covariance_inflation=self.covariance_inflation,
-                               constant_variance=self.constant_variance)
-            state.model.reset_gamma()
-        state.previous_gait, state.gait = state.gait, gait
-        state.previous_period, state.period = state.period, period
-        state.iteration += 1
-        state.restart_iteration()
-        state.settle_left = self.settle_cycles
-
-
+        return gate_kind(self.gate, self.model)
 
 
 def _is_numeric(value) -> bool:
@@ -652,30 +551,6 @@ def _is_numeric(value) -> bool:
     except (TypeError, ValueError):
         return False
     return True
-
-
-def symmetric_chain_model(n_joints: int, shape_scale: float = 1.0):
-    """The default model where the optimiser searches the rotation-free symmetric family.
-
-    :class:`~geogait.models.ShapeSpaceModel` of degree 4 with the chain's mirror and front–back
-    symmetries in its basis and each higher degree shrunk 30× (paper Fig. 5's model), forgetting
-    factor 0.999 up to 4 joints and 0.9999 beyond (more weights need a longer memory). On the
-    built-in 5- and 9-link swimmers it reaches 95–96 % and 71–74 % of the ceiling in 30–60 cycles,
-    against 85–91 % and 59–64 % for the local window model (``make bench-robots``).
-
-    Parameters
-    ----------
-    n_joints : int
-        Shape dimension d.
-    shape_scale : float
-        The model's unit of shape (the optimiser passes its own ``shape_scale``).
-
-    Returns
-    -------
-    ShapeSpaceModel
-    """
-    return models.ShapeSpaceModel(degree=4, degree_shrinkage=30.0, symmetry="mirror+reversal",
-                                  forgetting_factor=0.999 if n_joints <= 4 else 0.9999, shape_scale=shape_scale)
 
 
 def _declares_symmetry(robot) -> bool:
@@ -694,8 +569,4 @@ def _feasibility(robot, gait: FourierGait, order: int):
     """The feasible region of a simulator's system (``current_system()``) as step constraints, or None."""
     system = robot.current_system() if hasattr(robot, "current_system") else None
     return None if system is None else feasibility_constraint(system, gait.n_joints, order)
-
-
-def _has_online_gamma(model) -> bool:
-    return has_gait_model_members(model, ONLINE_GAMMA)
 

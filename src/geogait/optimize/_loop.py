@@ -11,20 +11,23 @@ from .. import __version__
 from .._files import write_state
 from .._validation import GeogaitError, GeogaitWarning
 from ..simulate import Trajectory, cycle_displacement
-from ._measure import _peak_phase_speed, measure_cycle
-from ._objective import joint_limit_constraints
+from ._climb import MeasuredClimb
+from ._measure import measure_cycle, peak_phase_speed
+from ._models import gate_kind, run_model
+from ._objective import joint_limit_constraints, objective
 from ._result import InSituResult
-from ._state import _REJECTION_FLOOR, _TRACKING_FLOOR, CHECKPOINT_FORMAT, CHECKPOINT_VERSION, _params_to_json
+from ._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, REJECTION_FLOOR, TRACKING_FLOOR, params_to_json
+from ._steps import StepProblem, take_step
 
 
-class _Loop:
+class CycleLoop:
     """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
 
     def __init__(self, optimizer, robot, state, checkpoint, checkpoint_every, tag=None):
         self.optimizer, self.robot, self.state, self.tag = optimizer, robot, state, tag
         self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
-        self.gate = optimizer._gate()
-        self.truth = _Oracle(robot, optimizer)
+        self.gate = gate_kind(optimizer.gate, optimizer.model)
+        self.truth = _Oracle(robot, optimizer.objective, self._evaluate)
         if not state.gaits:
             state.gaits = [state.gait]
             state.robot_gait = state.gait
@@ -81,11 +84,11 @@ class _Loop:
             state.gamma = np.nan
         else:
             self._set_direction(measured)
-            value = optimizer._evaluate(measured.net, np.zeros((3, ran.params.size)), ran, state)[0]
+            value = self._evaluate(measured.net, np.zeros((3, ran.params.size)), ran)[0]
             if state.iteration == 0:
                 state.seed_measured.append(value)
                 state.seed_tracking.append(measured.tracking_error)
-                state.tracking_limit = max(_TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.seed_tracking)))
+                state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.seed_tracking)))
             rejected = self._tracking_rejects(measured)
             if not rejected:
                 state.learn(chunk, self.gate)
@@ -167,7 +170,7 @@ class _Loop:
             levelled = state.stall >= 3 and not isinstance(optimizer.climb, str)  # (not for "contradicted")
             if optimizer.climb and levelled:  # the model has levelled off: climb on from here
                 self._start_climb()
-            elif prediction_ok and optimizer._step(state):
+            elif prediction_ok and self._step():
                 kind = "model"
             if prediction_ok and not state.climb.active:  # no step, or one promising under 1 %: level
                 before, promised = state.promised[:2] if kind == "model" else (0.0, 0.0)
@@ -195,7 +198,7 @@ class _Loop:
                 if state.climb.candidate == (state.gait, state.period):
                     state.climb.candidate = (state.gait, realised)
                 state.period = realised
-                state.model = self.optimizer._new_model(state.gait, realised, state.family, state.scale)
+                state.model = run_model(self.optimizer.model, state.gait, realised, state.family, state.scale)
         state.robot_period = state.period
 
     def _start_climb(self, base: tuple | None = None) -> None:
@@ -234,12 +237,12 @@ class _Loop:
                     state.distrust = state.prediction_failures = state.stall = 0
                     state.radius = optimizer.trust_radius * state.scale
                     state.measured, state.rotations = {}, {}
-                    optimizer._change_gait(state, *climb.base)
+                    self._change_gait(*climb.base)
                     return True
             climb.candidate = None  # a candidate left early (rejected) is not judged
         if climb.base not in measured or (key != climb.base and climb.failures >= 3):
             climb.failures = 0  # measure the base (again: it may have been lucky)
-            optimizer._change_gait(state, *climb.base)
+            self._change_gait(*climb.base)
             return True
         return self._climb_candidate()
 
@@ -268,10 +271,10 @@ class _Loop:
         else:
             climb.sigma = max(climb.min_sigma, climb.sigma / 2)
             return False
-        climb.predicted_gain = (optimizer._predict(state, gait)[1] * state.rate(period)
-                                - optimizer._predict(state, base_gait)[1] * state.rate(base_period))
+        climb.predicted_gain = (self._predict(gait)[1] * state.rate(period)
+                                - self._predict(base_gait)[1] * state.rate(base_period))
         climb.candidate = (gait, period)
-        optimizer._change_gait(state, gait, period)
+        self._change_gait(gait, period)
         return True
 
     def _rotation_holds(self, key, base) -> bool:
@@ -295,22 +298,22 @@ class _Loop:
             search.turn = False
             tracking, state.trial_tracking = state.trial_tracking, []
             if kept:  # the automatic tracking limit follows the period: twice what this one tracks
-                state.tracking_limit = max(_TRACKING_FLOOR * state.scale, 2 * float(np.mean(tracking)))
+                state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(tracking)))
                 return False
-            self.optimizer._change_gait(state, state.gait, origin)
+            self._change_gait(state.gait, origin)
             return True
         if not search.turn:
             return False
         shortest = 0.0  # the period at which the gait's fastest joint reaches max_joint_velocity
         if self.optimizer.max_joint_velocity is not None:
-            shortest = _peak_phase_speed(state.gait) * 2 * np.pi / self.optimizer.max_joint_velocity
+            shortest = peak_phase_speed(state.gait) * 2 * np.pi / self.optimizer.max_joint_velocity
         period = search.propose(state.period, shortest)
         if period is None:
             search.turn = False
             return False
         search.trial_from = state.period
         state.trial_tracking = []
-        self.optimizer._change_gait(state, state.gait, period)
+        self._change_gait(state.gait, period)
         return True
 
     def _set_direction(self, measured):
@@ -368,11 +371,11 @@ class _Loop:
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
         state.promised = None
-        state.radius = max(min(optimizer.min_trust_radius, _REJECTION_FLOOR) * state.scale, state.radius / 2)
+        state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
         previous = state.previous_gait
-        optimizer._change_gait(state, previous, state.previous_period)
+        self._change_gait(previous, state.previous_period)
         if search is not None and search.trial_from is not None:  # a period the robot cannot follow
             search.judge(-np.inf, 0.0)
             search.turn = False
@@ -409,7 +412,7 @@ class _Loop:
         if search is not None and search.trial_from is not None:  # the trial lost beyond noise
             search.judge(-np.inf, 0.0)
             search.turn = False
-        optimizer._change_gait(state, *best)
+        self._change_gait(*best)
         if not (search is not None and best[0] == current[0]):  # the model led downhill: a broken promise
             state.distrust += 1
         state.previous_gait = None
@@ -431,9 +434,94 @@ class _Loop:
         tolerance = self.optimizer.prediction_tolerance
         if tolerance is None:
             return True
-        predicted = self.optimizer._predict(self.state, self.state.gait)[1]
+        predicted = self._predict(self.state.gait)[1]
         measured = float(np.mean(self.state.iteration_measured))
         return bool(abs(predicted - measured) <= tolerance * abs(measured))
+
+    # -- the model's step ---------------------------------------------------------------------
+    def _direction(self) -> np.ndarray | None:
+        """Unit direction of ``"forward"`` in the body frame at the start of the latest cycle."""
+        optimizer, state = self.optimizer, self.state
+        if optimizer.objective != "forward":
+            return None
+        u = state.direction
+        if optimizer.direction_frame == "world":
+            c, s = np.cos(state.world_heading), np.sin(state.world_heading)
+            u = np.array([c * u[0] + s * u[1], -s * u[0] + c * u[1]])
+        return u
+
+    def _evaluate(self, pose, pose_jacobian, gait):
+        return objective(self.optimizer.objective, pose, pose_jacobian, gait, self._direction())
+
+    def _predict(self, gait, jacobian=False):
+        model = self.state.model
+        if not jacobian:
+            pose = model.predict_displacement(gait)
+            return pose, self._evaluate(pose, np.zeros((3, gait.params.size)), gait)[0]
+        pose, pose_jacobian = model.predict_displacement(gait, jacobian=True)
+        return pose, pose_jacobian, *self._evaluate(pose, pose_jacobian, gait)
+
+    def _limits(self):
+        optimizer, state = self.optimizer, self.state
+        speed = None if optimizer.max_joint_velocity is None \
+            else optimizer.max_joint_velocity * state.period / (2 * np.pi)
+        return joint_limit_constraints(state.gait.n_joints, optimizer.order, state.max_joint_angle, speed)
+
+    def _step(self) -> bool:
+        """Propose, check and (maybe) take a step; returns whether the gait changed.
+
+        A predicted rotation beyond twice its standard error is real: the step brings it to zero.
+        One within it cannot be told from noise: the step then keeps the predicted rotation where it
+        is (J_ω Δ = 0) instead of chasing it, and is taken only for a predicted gain of at least
+        ``min_gain``.
+        """
+        optimizer, state = self.optimizer, self.state
+        gait, family = state.gait, state.family
+        problem = StepProblem(state.model.predict_displacement, family, objective=optimizer.objective,
+                              limits=self._limits(), rotation_tolerance=optimizer.rotation_tolerance,
+                              direction=self._direction(), feasibility=state.feasibility)
+        params = family.params_of(gait, tolerance=1e-8)
+        value, _, pose, _ = problem.evaluate(params)
+        state.update_radius(value, optimizer.min_trust_radius * state.scale, optimizer.max_trust_radius * state.scale)
+        state.last_prediction = value
+        if optimizer.climb and state.distrust >= 2:  # promised gains unconfirmed at the smallest radius
+            return False
+        restores = False
+        target = 0.0
+        if problem.rotation:
+            resolution = 2 * state.rotation_std()
+            restores = abs(pose[2]) > max(optimizer.rotation_tolerance, resolution)
+            target = 0.0 if restores else pose[2]
+        step = take_step(optimizer.step_rule, problem, params, state.radius, rotation_target=target,
+                         min_gain=optimizer.min_gain, restore=restores)
+        if step.accepted:
+            state.promised = (value, step.predicted_value, step.boundary)
+            self._change_gait(step.gait)
+            return True
+        if restores:  # the model could not find a feasible restoring step: trust it less far
+            state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        return False
+
+    def _change_gait(self, gait, period=None) -> None:
+        """Re-centre the model on ``gait`` (a fresh model at a new ``period``) and start a new iteration."""
+        optimizer, state = self.optimizer, self.state
+        period = state.period if period is None else float(period)
+        if period != state.period:  # another period: what was learned need not hold (dynamics)
+            state.promised = None
+            state.model = run_model(optimizer.model, gait, period, state.family, state.scale)
+        elif self.gate == "cycles" or not getattr(state.model, "__sklearn_is_fitted__", lambda: True)():
+            # (not fitted yet: a fresh model whose first cycles were all settling or rejected)
+            state.model = run_model(optimizer.model, gait, state.period, state.family, state.scale)
+        else:
+            state.model.rebase(gait, terms=optimizer.rebase, covariance_inflation=optimizer.covariance_inflation,
+                               constant_variance=optimizer.constant_variance)
+            state.model.reset_gamma()
+        state.previous_gait, state.gait = state.gait, gait
+        state.previous_period, state.period = state.period, period
+        state.iteration += 1
+        state.restart_iteration()
+        state.settle_left = optimizer.settle_cycles
+
 
     def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value, reverted, period) -> dict:
         state = self.state
@@ -482,7 +570,7 @@ class _Loop:
                 else:
                     robot_state[key] = value
         payload = {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION, "geogait": __version__,
-                   "params": _params_to_json(self.optimizer), "state": metadata,
+                   "params": params_to_json(self.optimizer), "state": metadata,
                    "model": None if model_metadata is None else {"metadata": model_metadata},
                    "robot_state": robot_state, "checkpoint_every": self.checkpoint_every, "tag": self.tag}
         write_state(self.checkpoint, payload, arrays)
@@ -491,10 +579,10 @@ class _Loop:
 class _Oracle:
     """True (x, y, heading) and objective per cycle of a gait, when the robot exposes its system."""
 
-    def __init__(self, robot, optimizer):
+    def __init__(self, robot, objective_name, evaluate):
         self.system = getattr(robot, "current_system", None)
         self.available = self.system is not None
-        self.optimizer = optimizer
+        self.objective, self.evaluate = objective_name, evaluate
         self.cache = {}
 
     def __call__(self, gait, state):
@@ -505,6 +593,12 @@ class _Oracle:
         if key not in self.cache:
             self.cache[key] = cycle_displacement(system, gait, resolution=128)
         pose = self.cache[key]
-        if self.optimizer.objective == "forward" and state.direction is None:
+        if self.objective == "forward" and state.direction is None:
             return pose, np.nan
-        return pose, self.optimizer._evaluate(pose, np.zeros((3, gait.params.size)), gait, state)[0]
+        return pose, self.evaluate(pose, np.zeros((3, gait.params.size)), gait)[0]
+
+
+def new_climb(optimizer, scale: float) -> MeasuredClimb:
+    """The measured climb of a run: σ from ``max_trust_radius`` within [min, 4 × max] trust radius (× shape_scale)."""
+    return MeasuredClimb(sigma=optimizer.max_trust_radius * scale, min_sigma=optimizer.min_trust_radius * scale,
+                         max_sigma=4 * optimizer.max_trust_radius * scale)

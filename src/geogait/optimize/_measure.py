@@ -84,6 +84,6 @@ def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: st
                             tracking_error=error, excitation=float(np.sqrt(np.mean((excited - nominal) ** 2))))
 
 
-def _peak_phase_speed(gait: FourierGait) -> float:
+def peak_phase_speed(gait: FourierGait) -> float:
     """Largest |θ_j'(φ)| of ``gait`` (shape units per radian of phase) on a 256-point phase grid."""
     return float(np.abs(gait.velocity(np.linspace(0, 2 * np.pi, 256, endpoint=False))).max())

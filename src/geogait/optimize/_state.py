@@ -20,10 +20,10 @@ from ._period import PeriodSearch
 
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
 CHECKPOINT_VERSION = 1
-_TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never falls below this
+TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never falls below this
 #: shape_scale units: after a gait the robot could not follow, the trust radius halves down to this even below
 #: min_trust_radius (a rejection is a measured fact, not a noisy ratio test); the default min_trust_radius.
-_REJECTION_FLOOR = 0.02
+REJECTION_FLOOR = 0.02
 
 
 def read_checkpoint_metadata(path) -> dict:
@@ -44,7 +44,7 @@ def read_checkpoint_metadata(path) -> dict:
 
 
 @dataclass
-class _State:
+class RunState:
     """Everything a run carries from cycle to cycle (and saves in its checkpoint)."""
 
     gait: FourierGait
@@ -225,7 +225,7 @@ class _State:
         return metadata, arrays
 
     @classmethod
-    def from_checkpoint(cls, metadata: dict, arrays: dict) -> _State:
+    def from_checkpoint(cls, metadata: dict, arrays: dict) -> RunState:
         scalars = metadata["state"]
         state = cls(gait=FourierGait(arrays["gait"]), radius=0.0, model=None, n_cycles=1, ceiling=None,
                     period=1.0)
@@ -288,7 +288,7 @@ class _State:
         columns = scalars["log_columns"]
         state.rows = pd.DataFrame({c: arrays[f"log/{c}"] for c in columns}).to_dict("records")
         if metadata["model"] is not None:
-            state.model = model_from_state(metadata["model"]["metadata"], _prefixed(arrays, "model/"))
+            state.model = model_from_state(metadata["model"]["metadata"], prefixed_arrays(arrays, "model/"))
         return state
 
 
@@ -323,11 +323,11 @@ def _json_float(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
-def _prefixed(arrays: dict, prefix: str) -> dict:
+def prefixed_arrays(arrays: dict, prefix: str) -> dict:
     return {k.removeprefix(prefix): v for k, v in arrays.items() if k.startswith(prefix)}
 
 
-def _checkpoint_path(checkpoint, owner):
+def checkpoint_path(checkpoint, owner):
     if checkpoint is None:
         return None
     path = Path(checkpoint)
@@ -336,7 +336,7 @@ def _checkpoint_path(checkpoint, owner):
     return path
 
 
-def _params_to_json(optimizer) -> dict:
+def params_to_json(optimizer) -> dict:
     """Hyper-parameters as JSON values; the model template as its class name and parameters."""
     params = optimizer.get_params(deep=False)
     if params["model"] is not None:
@@ -348,7 +348,7 @@ def _params_to_json(optimizer) -> dict:
     return params
 
 
-def _params_from_json(params: dict) -> dict:
+def params_from_json(params: dict) -> dict:
     params = dict(params)
     if params.get("model") is not None:
         name = params["model"]["class"]

@@ -78,7 +78,7 @@ import numpy as np
 
 from .._estimator import check_is_fitted
 from .._validation import check_array, check_int, check_magnitude, fail
-from ._phaser import Phaser, _nearest_on_curve, limit_cycle_grid
+from ._phaser import Phaser, limit_cycle_grid, nearest_on_curve
 
 __all__ = ["OnlinePhaser"]
 
@@ -200,7 +200,7 @@ class OnlinePhaser:
         return self._nearest(x)
 
     def _nearest(self, x: np.ndarray) -> np.ndarray:
-        return _nearest_on_curve((x - self.phaser.mean_) / self.phaser.scale_, *self._cycle)
+        return nearest_on_curve((x - self.phaser.mean_) / self.phaser.scale_, *self._cycle)
 
     def _track(self, measured: float) -> None:
         n = self._count

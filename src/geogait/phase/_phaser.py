@@ -469,7 +469,7 @@ def nearest_phase(z: np.ndarray, waveform: np.ndarray, residual_std: np.ndarray,
     ``(c,)``: on a grid of ``max(256, 32 K)`` phases, refined by the parabola through the best grid
     point and its two neighbours.
     """
-    return _nearest_on_curve(z, *limit_cycle_grid(waveform, residual_std, order))
+    return nearest_on_curve(z, *limit_cycle_grid(waveform, residual_std, order))
 
 
 def limit_cycle_grid(waveform: np.ndarray, residual_std: np.ndarray, order: int):
@@ -479,7 +479,7 @@ def limit_cycle_grid(waveform: np.ndarray, residual_std: np.ndarray, order: int)
     return grid, fourier_basis(grid, order) @ waveform, 1.0 / np.asarray(residual_std) ** 2
 
 
-def _nearest_on_curve(z: np.ndarray, grid: np.ndarray, curve: np.ndarray, precision: np.ndarray) -> np.ndarray:
+def nearest_on_curve(z: np.ndarray, grid: np.ndarray, curve: np.ndarray, precision: np.ndarray) -> np.ndarray:
     out = np.empty(len(z))
     for start in range(0, len(z), _CHUNK):  # bound the (chunk, n_grid, c) distances
         block = z[start:start + _CHUNK]

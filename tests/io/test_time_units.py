@@ -11,7 +11,7 @@ from geogait.optimize import InSituOptimizer
 from geogait.simulate import SwimmerStream, simulate
 from geogait.systems import PurcellSwimmer
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 def _stream(period, seed=4):

@@ -34,7 +34,7 @@ from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = Path(sys.executable).with_name("geogait")
 COMMAND = [str(SCRIPT)] if SCRIPT.exists() else [sys.executable, "-c", "from geogait.cli import main; main()"]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}

@@ -14,7 +14,7 @@ import pytest
 from geogait.experiments import robot_benchmark as bench
 from geogait.gaits import seed_gait
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 pytest.importorskip("cma", reason="the robot benchmark's baselines need cma (pip install 'geogait[baselines]')")
 pytest.importorskip("optuna", reason="the robot benchmark's baselines need optuna (pip install 'geogait[baselines]')")
 

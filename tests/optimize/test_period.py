@@ -9,7 +9,7 @@ from geogait import se2
 from geogait.gaits import FourierGait, seed_gait
 from geogait.optimize import InSituOptimizer
 from geogait.optimize._period import PeriodSearch
-from geogait.simulate import Trajectory, cycle_displacement
+from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
 from geogait.systems import PurcellSwimmer
 
 TAU = 0.6 / (2 * np.pi)  # actuator time constant: the best period of LaggingRobot is near 2πτ = 0.6 s
@@ -157,12 +157,14 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
     """After a period change the model starts afresh; if its first cycles are settling or rejected, the
     next gait change cannot rebase it (nothing learned): it starts a new one."""
     from geogait.models import AdaptiveGaitModel
-    from geogait.optimize._state import _State
+    from geogait.optimize._loop import CycleLoop
+    from geogait.optimize._state import RunState
 
     optimizer = InSituOptimizer()
     gait = seed_gait(2)
     fresh = AdaptiveGaitModel(gait=gait, phase_rate=2 * np.pi)
-    state = _State(gait=gait, radius=0.1, model=fresh, n_cycles=10, ceiling=None, period=1.0)
+    state = RunState(gait=gait, radius=0.1, model=fresh, n_cycles=10, ceiling=None, period=1.0)
     other = FourierGait(0.9 * gait.coefficients)
-    optimizer._change_gait(state, other)
+    robot = SwimmerStream(PurcellSwimmer(3), gait, seed=0)
+    CycleLoop(optimizer, robot, state, checkpoint=None, checkpoint_every=1)._change_gait(other)
     assert state.model is not fresh and state.gait == other and state.previous_gait == gait

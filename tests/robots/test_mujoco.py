@@ -455,7 +455,7 @@ def test_example_runs_quick(tmp_path, capsys):
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "mujoco_swimmer.py"
+    path = Path(__file__).resolve().parents[2] / "examples" / "mujoco_swimmer.py"
     spec = importlib.util.spec_from_file_location("mujoco_swimmer_example", path)
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
@@ -472,7 +472,7 @@ def test_docs_mujoco_section_runs():
     import re
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[1] / "docs" / "robots.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "docs" / "robots.md").read_text()
     block = re.search(r"## A MuJoCo robot.*?```python\n(.*?)```", readme, re.S).group(1)
     assert ".run(robot, 100)" in block
     namespace = {}

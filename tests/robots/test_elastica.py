@@ -180,7 +180,7 @@ def test_example_runs_quick(tmp_path):
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "elastica_snake.py"
+    path = Path(__file__).resolve().parents[2] / "examples" / "elastica_snake.py"
     spec = importlib.util.spec_from_file_location("elastica_snake_example", path)
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
