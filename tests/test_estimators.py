@@ -16,6 +16,7 @@ from sklearn.base import clone
 
 from geogait import GeogaitError
 from geogait._estimator import Boolean, InstanceOf, Integer, Options, Real
+from geogait.control import AdaptiveExploration, PathTracker
 from geogait.models import (
     AdaptiveGaitModel,
     BatchGaitModel,
@@ -46,6 +47,9 @@ ESTIMATORS = {
     "phaser": (lambda: Phaser(order=6), "phaser"),
     "optimizer": (lambda: InSituOptimizer(model=AdaptiveGaitModel(forgetting_factor=0.95), trust_radius=0.05),
                   "optimizer"),
+    "path tracker": (lambda: PathTracker(model=ShapeSpaceModel(degree=2), exploration=AdaptiveExploration(low=0.03)),
+                     "optimizer"),
+    "adaptive exploration": (lambda: AdaptiveExploration(low=0.02, high=0.1), "optimizer"),
 }
 STATELESS = {"perfect information"}  # nothing to learn: fitted by construction
 FITTABLE = [name for name, (_, kind) in ESTIMATORS.items() if kind != "optimizer"]
@@ -191,7 +195,8 @@ def test_every_parameter_of_every_estimator_is_constrained(named):
     """Each hyper-parameter is declared, or checked with the others (then validate names it)."""
     _, estimator, _ = named
     checked_together = {"InSituOptimizer": {"model", "direction", "max_tracking_error", "max_joint_angle",
-                                              "shape_scale", "exploration", "period_range"}}
+                                              "shape_scale", "exploration", "period_range"},
+                        "PathTracker": {"model", "exploration"}}
     declared = set(estimator._parameter_constraints) | checked_together.get(type(estimator).__name__, set())
     assert declared == set(estimator.get_params(deep=False))
 
@@ -246,7 +251,6 @@ def test_an_estimator_without_a_saved_form_says_so(tmp_path):
 def test_the_gait_model_contract_is_checked_in_one_place():
     """check_gait_model: unfitted built-in models pass (gamma_ is a property of their class); anything
     lacking a member gets the standard error naming it, from the optimiser and the tracker alike."""
-    from geogait.control import PathTracker
     from geogait.models import AdaptiveGaitModel, ShapeSpaceModel, check_gait_model
     from geogait.optimize import InSituOptimizer
 
@@ -264,4 +268,4 @@ def test_the_gait_model_contract_is_checked_in_one_place():
     with pytest.raises(GeogaitError, match=r"'model' parameter of InSituOptimizer.*without get_params\(\)"):
         InSituOptimizer(model=Partial(), gate="cycles").validate()
     with pytest.raises(GeogaitError, match=r"'model' parameter of PathTracker.*None or an unfitted gait model"):
-        PathTracker(model=Partial())._validate()
+        PathTracker(model=Partial()).validate()

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 from _robots import BareRobot
+from sklearn.base import clone
 
 from geogait import se2
 from geogait._validation import GeogaitError
@@ -261,10 +262,15 @@ def test_true_controller_corrects_in_steps_at_any_speed(three_link):
 def test_adaptive_controller_runs_on_a_robot_that_is_not_simulated(three_link):
     system, straight = three_link
     robot = BareRobot(SwimmerStream(system, straight, sensor_noise=0.1, seed=2))
-    result = PathTracker(controller="adaptive", warmup_cycles=5).run(robot, ReferencePath.circle(1.0), 8)
+    tracker = PathTracker(controller="adaptive", warmup_cycles=5)
+    result = tracker.run(robot, ReferencePath.circle(1.0), 8)
     log = result.log
     assert len(log) == 8 and log["true_turn"].isna().all() and log["gamma"].between(0, 1).all()
     assert np.abs(log["cross_track"]).max() < 0.2
+    # the run set its learned turn limit; a clone (scikit-learn's) has the settings and none of it
+    copied = clone(tracker)
+    assert tracker.__sklearn_is_fitted__() and tracker.turn_limit_ > 0 and not copied.__sklearn_is_fitted__()
+    assert copied.get_params() == tracker.get_params()
     with pytest.raises(GeogaitError, match="current_system"):
         PathTracker(controller="true").run(robot, ReferencePath.circle(1.0), 2)
 

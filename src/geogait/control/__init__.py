@@ -12,6 +12,7 @@
   controller's prediction residual, set on robots with ``set_perturbation_std`` (the simulated swimmers).
 """
 
+from ..simulate import end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import PATH_KINDS, ReferencePath
 from ._steering import (
@@ -26,7 +27,7 @@ from ._steering import (
     steering_family,
     travel_rows,
 )
-from ._tracker import CONTROLLERS, DEFAULT_TURN_LIMIT, EXPLORATION, PathTracker, TrackingResult, end_pose
+from ._tracker import CONTROLLERS, DEFAULT_TURN_LIMIT, EXPLORATION, PathTracker, TrackingResult
 
 __all__ = [
     "AdaptiveExploration",

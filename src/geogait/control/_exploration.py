@@ -36,9 +36,12 @@ A robot takes a new δ std between cycles through its ``set_perturbation_std(std
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
-from .._validation import GeogaitError, check_float, check_int
+from .._estimator import Estimator, Integer, Real
+from .._validation import GeogaitError, check_float
 
 __all__ = ["AdaptiveExploration", "prediction_surprise", "surprise_alarm"]
 
@@ -66,7 +69,7 @@ def surprise_alarm(surprise: float, past, alarm: float = 5.0, window: int = 10) 
     return len(past) >= 3 and surprise > alarm * float(np.median(past))
 
 
-class AdaptiveExploration:
+class AdaptiveExploration(Estimator):
     """Rule for the δ std of each cycle (module docstring); the state is reset by :meth:`start`.
 
     Parameters
@@ -99,6 +102,15 @@ class AdaptiveExploration:
         δ std for the next cycle.
     """
 
+    _parameter_constraints: ClassVar[dict] = {
+        "low": Real(low=0, high=1, low_open=True),
+        "high": Real(low=0, high=1),
+        "alarm": Real(low=1, low_open=True),
+        "decay": Real(low=0, high=1, high_open=True),
+        "window": Integer(minimum=3),
+    }
+    _fitted_attribute: ClassVar[str] = "std_"
+
     def __init__(self, *, low: float = 0.05, high: float = 0.15, alarm: float = 5.0, decay: float = 0.8,
                  window: int = 10):
         self.low = low
@@ -107,15 +119,8 @@ class AdaptiveExploration:
         self.decay = decay
         self.window = window
 
-    def validate(self) -> AdaptiveExploration:
-        """Check every parameter (errors name it); returns ``self``."""
-        owner = "AdaptiveExploration"
-        low = check_float(self.low, "low", owner, low=0, high=1, low_open=True)
-        check_float(self.high, "high", owner, low=low, high=1)
-        check_float(self.alarm, "alarm", owner, low=1, low_open=True)
-        check_float(self.decay, "decay", owner, low=0, high=1, high_open=True)
-        check_int(self.window, "window", owner, minimum=3)
-        return self
+    def _check_param_combinations(self) -> None:
+        check_float(self.high, "high", "AdaptiveExploration", low=self.low, high=1)
 
     def start(self) -> float:
         """Forget the past; returns σ_high, the δ std of the warm-up and the first tracking cycle."""

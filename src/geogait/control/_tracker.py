@@ -43,17 +43,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
 
 from .. import se2
+from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import feasibility_constraint
 from ..robots import check_robot
-from ..simulate import Trajectory, cycle_displacement
+from ..simulate import Trajectory, cycle_displacement, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
 from ._steering import (
@@ -67,30 +69,13 @@ from ._steering import (
     steering_family,
 )
 
-__all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "EXPLORATION", "PathTracker", "TrackingResult", "end_pose"]
+__all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "EXPLORATION", "PathTracker", "TrackingResult"]
 
 CONTROLLERS = ("adaptive", "frozen", "true")
 EXPLORATION = ("fixed", "adaptive")
 DEFAULT_TURN_LIMIT = 1.0
 """Largest |turn| per cycle (rad) asked of the steering family when ``turn_limit`` is None, before the
 joint limits cut it."""
-
-
-def end_pose(chunk: Trajectory) -> np.ndarray:
-    r"""Pose ``(3,)`` at the end of the cycle ``chunk`` (its Trajectory): the last sampled pose moved by the
-    last measured step.
-
-    The samples hold the pose *before* each step, so the boundary pose after the last step is
-    :math:`g_{end} = g_{n-1}\exp(\Delta t\,\hat\xi_{n-1})`, with the measured body velocity
-    :math:`\xi_{n-1}` and the sample interval :math:`\Delta t` — exact for a zero-order-hold
-    simulation without sensor noise, and off by (sensor noise × Δt) otherwise.
-    """
-    pose = np.asarray(chunk.pose, dtype=float)
-    time = np.asarray(chunk.time, dtype=float)
-    if pose.ndim != 2 or pose.shape[0] < 2:
-        raise fail("robot", "end_pose", "cycles of at least 2 unbatched samples with poses", f"pose {pose.shape}")
-    step = (time[-1] - time[-2]) * np.asarray(chunk.body_velocity, dtype=float)[-1]
-    return se2.compose(pose[-1], se2.exp(step))
 
 
 @dataclass
@@ -148,7 +133,7 @@ class TrackingResult:
                 "heading_error_p95": float(np.percentile(heading, 95)) if len(part) else None}
 
 
-class PathTracker:
+class PathTracker(Estimator):
     """Receding-horizon path following with steering gaits (module docstring).
 
     Parameters
@@ -216,6 +201,23 @@ class PathTracker:
         instead of the ``1 / (1 - λ)`` samples of its forgetting factor. 1 (default): never.
     """
 
+    _parameter_constraints: ClassVar[dict] = {
+        "controller": Options(CONTROLLERS),
+        "horizon": Integer(minimum=1),
+        "turn_limit": Real(low=0, high=np.pi, low_open=True, none=True),
+        "n_turns": Integer(minimum=3, none=True),
+        "n_first_turns": Integer(minimum=3),
+        "heading_weight": Real(low=0),
+        "forgetting_factor": Real(low=0, high=1, low_open=True),
+        "warmup_cycles": Integer(minimum=1),
+        "max_joint_angle": Real(low=0, high=np.pi, low_open=True),
+        "n_windows": Integer(minimum=3),
+        "resolution": Integer(minimum=8),
+        "family_every": Integer(minimum=1),
+        "change_forgetting": Real(low=1),
+    }
+    _fitted_attribute: ClassVar[str] = "turn_limit_"
+
     def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float | None = None,
                  n_turns: int | None = None, n_first_turns: int = 21, heading_weight: float = 0.5,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10,
@@ -237,25 +239,10 @@ class PathTracker:
         self.model = model
         self.change_forgetting = change_forgetting
 
-    def _validate(self):
+    def _check_param_combinations(self) -> None:
         owner = "PathTracker"
-        check_choice(self.controller, "controller", owner, CONTROLLERS)
-        check_int(self.horizon, "horizon", owner, minimum=1)
-        if self.turn_limit is not None:
-            check_float(self.turn_limit, "turn_limit", owner, low=0, high=np.pi, low_open=True)
-        if self.n_turns is not None:
-            n_turns = check_int(self.n_turns, "n_turns", owner, minimum=3)
-            if n_turns % 2 == 0:
-                raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member) or None", n_turns)
-        check_int(self.n_first_turns, "n_first_turns", owner, minimum=3)
-        check_float(self.heading_weight, "heading_weight", owner, low=0)
-        check_float(self.forgetting_factor, "forgetting_factor", owner, low=0, high=1, low_open=True)
-        check_int(self.warmup_cycles, "warmup_cycles", owner, minimum=1)
-        check_float(self.max_joint_angle, "max_joint_angle", owner, low=0, high=np.pi, low_open=True)
-        check_int(self.n_windows, "n_windows", owner, minimum=3)
-        check_int(self.resolution, "resolution", owner, minimum=8)
-        check_int(self.family_every, "family_every", owner, minimum=1)
-        check_float(self.change_forgetting, "change_forgetting", owner, low=1)
+        if self.n_turns is not None and self.n_turns % 2 == 0:
+            raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member) or None", self.n_turns)
         self._exploration_plan()
         if self.model is not None:
             needs = ("get_params", "partial_fit", "predict_displacement") + (("forget",) if self.change_forgetting > 1
@@ -279,7 +266,7 @@ class PathTracker:
             check_choice(value, "exploration", owner, EXPLORATION)
             return None if value == "fixed" else AdaptiveExploration()
         if isinstance(value, AdaptiveExploration):
-            return AdaptiveExploration(**{k: getattr(value, k) for k in ("low", "high", "alarm", "decay", "window")})
+            return AdaptiveExploration(**value.get_params())
         try:
             schedule = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
@@ -330,7 +317,7 @@ class PathTracker:
         -------
         TrackingResult
         """
-        self._validate()
+        self.validate()
         owner = "PathTracker.run"
         check_robot(robot, owner)
         if not isinstance(path, ReferencePath):
@@ -368,7 +355,7 @@ class PathTracker:
             sizes.apply()
             chunk = robot.next_cycle()
             model.partial_fit(chunk.phase, chunk.shape, chunk.shape_velocity, chunk.body_velocity)
-            world = end_pose(chunk)
+            world = end_pose(chunk, robot.cycle_period)
             chords.append(se2.between(chunk.pose[0], world))
         direction = float(np.arctan2(*np.mean(chords, axis=0)[1::-1]))
         travel = se2.compose(world, [0.0, 0.0, direction])  # the travel frame of the robot, world
@@ -408,7 +395,7 @@ class PathTracker:
             robot.set_gait(command)
             std = sizes.apply()
             chunk = robot.next_cycle()
-            world_start, world = chunk.pose[0], end_pose(chunk)
+            world_start, world = chunk.pose[0], end_pose(chunk, robot.cycle_period)
             measured = se2.between(world_start, world)
             surprise = sizes.update(predicted, measured, std)
             alarm = change.update(prediction_surprise(predicted, measured, std if std > 0 else 1.0))

@@ -9,7 +9,7 @@ import numpy as np
 from .. import se2
 from .._validation import fail
 from ..gaits import FourierGait
-from ..simulate import Trajectory
+from ..simulate import Trajectory, end_pose
 
 __all__ = ["CycleMeasurement", "measure_cycle"]
 
@@ -74,8 +74,7 @@ def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: st
             raise fail(f"cycle.{name}", owner, "finite values", "NaN or inf")
     if not np.all(np.isfinite(chunk.time)) or np.any(np.diff(chunk.time) <= 0):
         raise fail("cycle.time", owner, "strictly increasing finite time stamps (seconds)", chunk.time[:5])
-    dt = period / n
-    end = se2.compose(chunk.pose[-1], se2.exp(chunk.body_velocity[-1] * dt))
+    end = end_pose(chunk, period)
     nominal = gait.shape(chunk.phase)
     commanded = chunk.commanded_shape if chunk.commanded_shape is not None else nominal
     error = float(np.sqrt(np.mean((chunk.shape - commanded) ** 2)))

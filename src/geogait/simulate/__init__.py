@@ -2,7 +2,7 @@
 
 from ._oracle import cycle_displacement, cycle_velocity
 from ._stream import DragRatioSchedule, SwimmerStream, simulate, simulate_rate
-from ._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
+from ._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory, end_pose
 
 __all__ = ["BODY_VELOCITY_COLUMNS", "POSE_COLUMNS", "DragRatioSchedule", "SwimmerStream", "Trajectory",
-           "cycle_displacement", "cycle_velocity", "simulate", "simulate_rate"]
+           "cycle_displacement", "cycle_velocity", "end_pose", "simulate", "simulate_rate"]

@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .. import se2
 from .._files import atomic_write, write_text
 from .._validation import fail
 
-__all__ = ["Trajectory"]
+__all__ = ["Trajectory", "end_pose"]
 
 #: Column names of body velocity and world pose in every table geogait writes or reads by default.
 BODY_VELOCITY_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
@@ -151,3 +152,33 @@ class Trajectory:
     def to_csv(self, path) -> Path:
         """Write :meth:`to_pandas` as CSV; returns the path."""
         return write_text(path, self.to_pandas().to_csv(index=False))
+
+
+def end_pose(cycle: Trajectory, period: float | None = None) -> np.ndarray:
+    r"""Pose ``(3,)`` at the end of one cycle of samples (a robot's ``next_cycle()``): the last sampled pose
+    moved by the last measured step. The in-situ optimiser and the path follower measure every cycle's
+    net motion up to it.
+
+    The samples hold the pose *before* each step, so the boundary pose after the last step is
+    :math:`g_{end} = g_{n-1}\exp(\Delta t\,\hat\xi_{n-1})`, with the measured body velocity
+    :math:`\xi_{n-1}` and the sample interval :math:`\Delta t` — exact for a zero-order-hold
+    simulation without sensor noise, and off by (sensor noise × Δt) otherwise.
+
+    Parameters
+    ----------
+    cycle : Trajectory
+        One cycle of n ≥ 2 unbatched samples with poses.
+    period : float, optional
+        Seconds per cycle: Δt = period / n (the robot's sample clock). Without it, Δt is the last
+        time-stamp difference.
+
+    Returns
+    -------
+    ndarray of shape (3,)
+    """
+    pose = np.asarray(cycle.pose, dtype=float)
+    if pose.ndim != 2 or pose.shape[0] < 2:
+        raise fail("robot", "end_pose", "cycles of at least 2 unbatched samples with poses", f"pose {pose.shape}")
+    time = np.asarray(cycle.time, dtype=float)
+    dt = time[-1] - time[-2] if period is None else period / pose.shape[0]
+    return se2.compose(pose[-1], se2.exp(np.asarray(cycle.body_velocity, dtype=float)[-1] * dt))
