@@ -24,7 +24,6 @@ from ..control import (
     PathTracker,
     ReferencePath,
 )
-from ..experiments import run_trials
 from ..experiments.tracking import (
     CUSTOM_PATH,
     PATHS,
@@ -51,6 +50,7 @@ from ..gaits import Perturbation
 from ..plotting import plt, save_figure
 from ..robots import ProcessRobot
 from ..simulate import DragRatioSchedule, SwimmerStream
+from ..sweep import run_trials
 from ._app import app, figure_app
 from ._common import claim_output, console, explain_nulls, output_folder, progress_bar, write_manifest
 

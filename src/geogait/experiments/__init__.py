@@ -1,5 +1,7 @@
-"""Experiments of the paper and the seeded trial runner they share."""
+"""Experiments of the paper, one module per figure, on the sweep engine (:mod:`geogait.sweep`, whose runner is
+also importable from here)."""
 
+from ..sweep import SweepFailedError, SweepResult, TrialFailure, run_trials
 from ._common import PERCENTILES
 from .accuracy import AccuracyConfig, AccuracyResult, accuracy_summary, accuracy_trials, plot_accuracy, run_accuracy
 from .environments import (
@@ -19,7 +21,6 @@ from .optimization import (
     plot_optimization,
     run_optimization,
 )
-from .runner import SweepFailedError, SweepResult, TrialFailure, run_trials
 from .tracking import (
     TrackingConfig,
     TrackingResult,

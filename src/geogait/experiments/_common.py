@@ -2,7 +2,7 @@
 
 The swimmer set-up, per-trial child seeds, slicing cycles out of batched trajectories, percentile
 tables, box statistics with whiskers at chosen percentiles, sweep execution through
-:func:`~geogait.experiments.runner.run_trials`, and a result base class with CSV round trips.
+:func:`~geogait.sweep.run_trials`, and a result base class with CSV round trips.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from .._seeds import child_seed
 from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait, seed_gait
 from ..simulate import Trajectory
+from ..sweep import run_trials
 from ..systems import PurcellSwimmer
-from .runner import run_trials
 
 __all__ = ["PERCENTILES", "ExperimentResult", "box_stats", "child_seeds", "cycle_block", "percentile_frame",
            "run_sweep", "swimmer_and_gait"]
@@ -163,7 +163,7 @@ def run_sweep(trial_function, n_trials: int, options: dict, *, seed: int, chunk_
     options : dict
         Keyword arguments of ``trial_function``.
     seed, chunk_size, jobs, scheduler, progress, description
-        As in :func:`~geogait.experiments.runner.run_trials`.
+        As in :func:`~geogait.sweep.run_trials`.
 
     Returns
     -------

@@ -70,8 +70,8 @@ from ..models import BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle
 from ..plotting import plt, save_figure
 from ..simulate import SwimmerStream
+from ..sweep import run_trials
 from ..systems import PurcellSwimmer
-from .runner import run_trials
 
 __all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials",
            "run_robot_benchmark", "benchmark_table", "plot_benchmark", "evaluate_gait"]

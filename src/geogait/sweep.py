@@ -1,4 +1,5 @@
-"""Seeded trial runner shared by every experiment.
+"""The sweep engine: a seeded trial runner (every experiment, the robot benchmark and ``geogait track --trials``
+run on it; so can any study of yours).
 
 A sweep runs ``n_trials`` independent trials. Trial ``i`` is driven by
 ``numpy.random.SeedSequence(seed).spawn(n_trials)[i]``, and trials run in fixed chunks of
@@ -49,8 +50,8 @@ from rich.progress import (
 )
 from threadpoolctl import threadpool_limits
 
-from .._files import atomic_write, write_text
-from .._validation import GeogaitError, check_int, fail
+from ._files import atomic_write, write_text
+from ._validation import GeogaitError, check_int, fail
 
 __all__ = ["run_trials", "SweepResult", "TrialFailure", "SweepFailedError"]
 

@@ -1,4 +1,4 @@
-"""Tests of the seeded trial runner (geogait.experiments.runner)."""
+"""Tests of the seeded trial runner (geogait.sweep)."""
 
 import doctest
 import shutil
@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 from pandas.testing import assert_frame_equal
 
-from geogait.experiments import SweepFailedError, run_trials
-from geogait.experiments import runner as runner_module
+from geogait import sweep as runner_module
+from geogait.sweep import SweepFailedError, run_trials
 
 # Trial functions live at module level so that joblib and Dask workers can import them.
 
