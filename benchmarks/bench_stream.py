@@ -21,7 +21,7 @@ from run import best_time
 
 from geogait import _kernels
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, run_stream
+from geogait.learn import StreamLearner, run_stream
 from geogait.models import AdaptiveGaitModel
 from geogait.phase import Phaser
 from geogait.simulate import simulate

@@ -15,7 +15,7 @@ velocities ṙ, body velocity ξ), and the loop
 
 The simulated 3-link Purcell swimmer (:class:`geogait.simulate.SwimmerStream`) stands in for the
 robot: ``SimulatedRobot.read()`` is the one method a real driver has to provide. A robot without
-a phase signal or joint-velocity sensors can use :class:`geogait.io.StreamLearner` instead of the
+a phase signal or joint-velocity sensors can use :class:`geogait.learn.StreamLearner` instead of the
 bare model: it adds online phase estimation from a fitted Phaser and a causal differentiator (the
 same loop as ``geogait stream``).
 

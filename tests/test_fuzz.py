@@ -29,7 +29,8 @@ from geogait import GeogaitError
 from geogait._files import dumps_json
 from geogait.cli import app
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, read_log, run_stream
+from geogait.io import read_log
+from geogait.learn import StreamLearner, run_stream
 from geogait.models import AdaptiveGaitModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer

@@ -22,8 +22,9 @@ from geogait._files import atomic_write, check_writable, json_ready, write_json
 from geogait.cli import app
 from geogait.cli._common import comma_list, write_manifest
 from geogait.gaits import seed_gait
-from geogait.io import StreamLearner, fit_log, read_log, run_stream
+from geogait.io import read_log
 from geogait.io._records import StreamOutput, _JsonLinesWriter
+from geogait.learn import StreamLearner, fit_log, run_stream
 from geogait.models import AdaptiveGaitModel, PhaseModel, load_model
 from geogait.simulate import simulate
 from geogait.systems import PurcellSwimmer

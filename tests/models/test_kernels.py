@@ -193,7 +193,7 @@ def test_one_compiled_signature_serves_every_caller():
 
     from _reference import lines
 
-    from geogait.io import StreamLearner, run_stream
+    from geogait.learn import StreamLearner, run_stream
 
     assert _kernels.warm_up()
     kernel = _kernels.learn_one_kernel()

@@ -15,7 +15,8 @@ import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._files import check_outputs, default_summary_path
-from ..io import fit_log, predict_log, read_log, read_log_for_prediction, resolve_mapping
+from ..io import read_log, read_log_for_prediction, resolve_mapping
+from ..learn import fit_log, predict_log
 from ..models import AdaptiveGaitModel
 from ..phase import Phaser
 from ._app import app

@@ -1,7 +1,7 @@
 """``geogait stream``: learn a model from samples on stdin, one flushed output line per sample.
 
 Thin layer over :func:`geogait.io.run_stream` (the loop, input formats, warm-up and signal
-handling are documented in :mod:`geogait.io._streaming`). Exit codes: 0 at the end of the input
+handling are documented in :mod:`geogait.learn._streaming`). Exit codes: 0 at the end of the input
 (or when stdout is closed), 1 after a bad record or bad options, 130 after SIGINT (Ctrl-C), 143
 after SIGTERM — in every case after saving what was learned.
 """
@@ -20,7 +20,8 @@ import typer
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import check_outputs
 from .._kernels import fast_path_note
-from ..io import CsvReader, JsonLinesReader, StreamLearner, load_stream_model, run_stream
+from ..io import CsvReader, JsonLinesReader
+from ..learn import StreamLearner, load_stream_model, run_stream
 from ..phase import Phaser
 from ._app import app
 from ._common import write_manifest

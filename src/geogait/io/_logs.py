@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import json
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -76,7 +76,8 @@ from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float
 from ..phase import cycle_index
 from ..simulate import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
 
-__all__ = ["ColumnMapping", "Log", "load_column_mapping", "read_log"]
+__all__ = ["ColumnMapping", "Log", "load_column_mapping", "mapping_to_json", "read_log", "read_log_for_prediction",
+           "resolve_mapping"]
 
 _READ = "read_log"
 _SCHEMES = ("forward", "central")
@@ -686,3 +687,74 @@ def _pose_velocity(stamps: np.ndarray, pose: np.ndarray, options: _Options) -> n
 def _savgol(stamps: np.ndarray, values: np.ndarray, options: _Options, deriv: int) -> np.ndarray:
     delta = float(np.median(np.diff(stamps)))
     return savgol_filter(values, options.window, options.polyorder, deriv=deriv, delta=delta, axis=0)
+
+
+_PLACEHOLDER = ("__geogait_unmeasured_vx", "__geogait_unmeasured_vy", "__geogait_unmeasured_w")
+
+
+# -- columns ------------------------------------------------------------------------------------
+def resolve_mapping(mapping=None, **columns) -> ColumnMapping:
+    """The :class:`ColumnMapping` that :func:`read_log` uses for ``mapping`` and keyword overrides.
+
+    Parameters
+    ----------
+    mapping : ColumnMapping, str or Path, optional
+    **columns
+        ``time``, ``shape``, ``body_velocity``, ``pose``, ``shape_velocity``, ``phase``, ``degrees``;
+        None leaves the mapping's value.
+
+    Returns
+    -------
+    ColumnMapping
+    """
+    return resolve_columns(mapping, columns)
+
+
+def read_log_for_prediction(source, mapping=None, *, measured: bool = True, **arguments) -> tuple[Log, bool]:
+    """Read a log that may lack body velocities and poses (to predict them).
+
+    Parameters
+    ----------
+    source, mapping
+        As for :func:`read_log`.
+    measured : bool
+        Read the measured body velocity (from body-velocity or pose columns) when the mapping
+        names any; False ignores them.
+    **arguments
+        The column fields of :class:`ColumnMapping` (``time``, ``shape``, ... ; None leaves the
+        mapping's) and any other keyword of :func:`read_log` (``window``, ``drop_nan``, ...).
+
+    Returns
+    -------
+    log : Log
+        Its ``body_velocity`` is zero when nothing was measured.
+    has_measured : bool
+    """
+    names = {f.name for f in fields(ColumnMapping)}
+    columns = {k: v for k, v in arguments.items() if k in names and v is not None}
+    options = {k: v for k, v in arguments.items() if k not in names}
+    base = {} if mapping is None else _mapping_fields(mapping)
+    base.update(columns)
+    if not measured:
+        base["pose"] = base["body_velocity"] = None
+    if base.get("pose") is not None or base.get("body_velocity") is not None:
+        return read_log(source, ColumnMapping(**base), **options), True
+    frame = load_frame(source).copy()
+    for name in _PLACEHOLDER:
+        frame[name] = 0.0
+    base["body_velocity"] = _PLACEHOLDER
+    return read_log(frame, ColumnMapping(**base), **options), False
+
+
+def _mapping_fields(mapping) -> dict:
+    if isinstance(mapping, str | Path):
+        mapping = load_column_mapping(mapping)
+    if not isinstance(mapping, ColumnMapping):
+        raise fail("mapping", "read_log_for_prediction", "a ColumnMapping or the path of a mapping file",
+                   type(mapping).__name__)
+    return {f.name: getattr(mapping, f.name) for f in fields(mapping)}
+
+
+def mapping_to_json(mapping: ColumnMapping) -> str:
+    """JSON text of a mapping, readable by :func:`~geogait.io.load_column_mapping`."""
+    return json.dumps(asdict(mapping), indent=2) + "\n"

@@ -18,7 +18,7 @@ from .._validation import fail
 from ..simulate import BODY_VELOCITY_COLUMNS
 
 __all__ = ["PREDICTION_COLUMNS", "CsvReader", "JsonLinesReader", "StreamOutput", "StreamSample", "StreamSummary",
-           "FORMATS"]
+           "STREAM_FORMATS"]
 
 PREDICTION_COLUMNS = ("predicted_body_velocity_x", "predicted_body_velocity_y", "predicted_body_velocity_theta")
 _KEYS = ("time", "phase", "shape", "shape_velocity", "body_velocity")
@@ -339,6 +339,6 @@ class _CsvWriter:
 
 
 #: Reader and writer of each stream format.
-FORMATS = {"jsonl": (JsonLinesReader, _JsonLinesWriter), "csv": (CsvReader, _CsvWriter)}
+STREAM_FORMATS = {"jsonl": (JsonLinesReader, _JsonLinesWriter), "csv": (CsvReader, _CsvWriter)}
 
 

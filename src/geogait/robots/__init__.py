@@ -1,4 +1,6 @@
-"""Robots and simulators geogait did not write: the protocol they implement and adapters for them.
+"""Robots: the protocol they implement, the built-in swimmer's stream (:class:`SwimmerStream`, defined in
+:mod:`geogait.simulate`, where ``simulate`` is built on it) and adapters for robots and simulators geogait did
+not write.
 
 :class:`ProcessRobot` drives a robot in any language over the JSON-lines bridge
 (``python -m geogait.robots.driver`` is the reference driver). :class:`MujocoRobot` turns any MuJoCo
@@ -9,6 +11,7 @@ model with hinge joints into a :class:`Robot`; it needs the optional extra
 helpers of :mod:`geogait.robots.continuum` (body frame, curvature, modal shape coordinates).
 """
 
+from ..simulate import SwimmerStream
 from ._bridge import PROTOCOL, PROTOCOL_VERSION, ProcessRobot
 from ._elastica import ElasticaSnake, elastica_snake, snake_seed_gait
 from ._mujoco import (
@@ -33,4 +36,4 @@ from .continuum import (
 __all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "CurvatureModes", "ElasticaSnake",
            "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "check_robot", "curvature_profile",
            "curvature_rate", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer",
-           "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles"]
+           "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles", "SwimmerStream"]

@@ -58,8 +58,8 @@ import threading
 from typing import TextIO
 
 from .._validation import GeogaitError, fail
+from ..io import STREAM_FORMATS, StreamSummary
 from ._learner import StreamLearner
-from ._records import FORMATS, StreamSummary
 
 __all__ = ["run_stream"]
 
@@ -125,9 +125,9 @@ def run_stream(learner: StreamLearner, source, sink: TextIO, *, fmt: str = "json
     -------
     StreamSummary
     """
-    if fmt not in FORMATS:
+    if fmt not in STREAM_FORMATS:
         raise fail("fmt", "run_stream", "'jsonl' or 'csv'", fmt)
-    reader_type, writer_type = FORMATS[fmt]
+    reader_type, writer_type = STREAM_FORMATS[fmt]
     reader = reader_type(source, learner.n_joints) if reader is None else reader
     reason, error = "eof", None
     with _StopOnSignal() as stop:

@@ -1,4 +1,4 @@
-"""The stream learner (:mod:`geogait.io._streaming`): phase, shape velocity and plausibility of each
+"""The stream learner (:mod:`geogait.learn._streaming`): phase, shape velocity and plausibility of each
 sample, then predict-and-learn with an :class:`~geogait.models.AdaptiveGaitModel`; and the model a
 stream starts from."""
 
@@ -26,9 +26,9 @@ from .._validation import (
     fail,
 )
 from ..gaits import FourierGait
+from ..io import StreamOutput, StreamSample
 from ..models import MAX_PHASE, AdaptiveGaitModel, load_model
 from ..phase import OnlinePhaser, Phaser
-from ._records import StreamOutput, StreamSample
 
 __all__ = ["OnlineDifferentiator", "StreamLearner", "load_stream_model"]
 

@@ -22,13 +22,8 @@ from typer.testing import CliRunner
 
 from geogait import GeogaitError, _kernels
 from geogait.cli import app
-from geogait.io import (
-    JsonLinesReader,
-    OnlineDifferentiator,
-    StreamLearner,
-    load_stream_model,
-    run_stream,
-)
+from geogait.io import JsonLinesReader
+from geogait.learn import OnlineDifferentiator, StreamLearner, load_stream_model, run_stream
 from geogait.models import AdaptiveGaitModel, load_model
 from geogait.phase import OnlinePhaser, Phaser
 from geogait.simulate import simulate
@@ -303,7 +298,7 @@ def test_robot_example_runs_quick(tmp_path, capsys):
 def test_docstring_examples_run():
     import doctest
 
-    from geogait.io import _fit, _learner
+    from geogait.learn import _fit, _learner
     from geogait.phase import _online, _phaser
 
     for module in (_learner, _fit, _online, _phaser):

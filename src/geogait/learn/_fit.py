@@ -33,9 +33,8 @@ filter of sampled shapes can follow).
 
 from __future__ import annotations
 
-import json
 import warnings
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -46,86 +45,15 @@ from .._estimator import check_is_fitted
 from .._files import check_outputs, default_summary_path, output_set, write_json, write_text
 from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait
+from ..io import PREDICTION_COLUMNS, ColumnMapping, Log, mapping_to_json
 from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
+from ..plotting import write_fit_figures
 from ..simulate import BODY_VELOCITY_COLUMNS
-from ._logs import ColumnMapping, Log, load_column_mapping, load_frame, read_log, resolve_columns
-from ._records import PREDICTION_COLUMNS
-from ._report import write_fit_figures
 
-__all__ = ["LogFit", "LogPrediction", "fit_log", "mapping_to_json", "predict_log", "read_log_for_prediction",
-           "resolve_mapping"]
+__all__ = ["LogFit", "LogPrediction", "fit_log", "predict_log"]
 
 MIN_TRAIN_CYCLES = 5
-_PLACEHOLDER = ("__geogait_unmeasured_vx", "__geogait_unmeasured_vy", "__geogait_unmeasured_w")
-
-
-# -- columns ------------------------------------------------------------------------------------
-def resolve_mapping(mapping=None, **columns) -> ColumnMapping:
-    """The :class:`ColumnMapping` that :func:`read_log` uses for ``mapping`` and keyword overrides.
-
-    Parameters
-    ----------
-    mapping : ColumnMapping, str or Path, optional
-    **columns
-        ``time``, ``shape``, ``body_velocity``, ``pose``, ``shape_velocity``, ``phase``, ``degrees``;
-        None leaves the mapping's value.
-
-    Returns
-    -------
-    ColumnMapping
-    """
-    return resolve_columns(mapping, columns)
-
-
-def read_log_for_prediction(source, mapping=None, *, measured: bool = True, **arguments) -> tuple[Log, bool]:
-    """Read a log that may lack body velocities and poses (to predict them).
-
-    Parameters
-    ----------
-    source, mapping
-        As for :func:`read_log`.
-    measured : bool
-        Read the measured body velocity (from body-velocity or pose columns) when the mapping
-        names any; False ignores them.
-    **arguments
-        The column fields of :class:`ColumnMapping` (``time``, ``shape``, ... ; None leaves the
-        mapping's) and any other keyword of :func:`read_log` (``window``, ``drop_nan``, ...).
-
-    Returns
-    -------
-    log : Log
-        Its ``body_velocity`` is zero when nothing was measured.
-    has_measured : bool
-    """
-    names = {f.name for f in fields(ColumnMapping)}
-    columns = {k: v for k, v in arguments.items() if k in names and v is not None}
-    options = {k: v for k, v in arguments.items() if k not in names}
-    base = {} if mapping is None else _mapping_fields(mapping)
-    base.update(columns)
-    if not measured:
-        base["pose"] = base["body_velocity"] = None
-    if base.get("pose") is not None or base.get("body_velocity") is not None:
-        return read_log(source, ColumnMapping(**base), **options), True
-    frame = load_frame(source).copy()
-    for name in _PLACEHOLDER:
-        frame[name] = 0.0
-    base["body_velocity"] = _PLACEHOLDER
-    return read_log(frame, ColumnMapping(**base), **options), False
-
-
-def _mapping_fields(mapping) -> dict:
-    if isinstance(mapping, str | Path):
-        mapping = load_column_mapping(mapping)
-    if not isinstance(mapping, ColumnMapping):
-        raise fail("mapping", "read_log_for_prediction", "a ColumnMapping or the path of a mapping file",
-                   type(mapping).__name__)
-    return {f.name: getattr(mapping, f.name) for f in fields(mapping)}
-
-
-def mapping_to_json(mapping: ColumnMapping) -> str:
-    """JSON text of a mapping, readable by :func:`~geogait.io.load_column_mapping`."""
-    return json.dumps(asdict(mapping), indent=2) + "\n"
 
 
 # -- phase and cycles ---------------------------------------------------------------------------
@@ -394,6 +322,7 @@ def fit_log(log: Log, *, forgetting_factor: float | None = None, n_windows: int 
     Examples
     --------
     >>> from geogait.gaits import seed_gait
+    >>> from geogait.io import read_log
     >>> from geogait.simulate import simulate
     >>> from geogait.systems import PurcellSwimmer
     >>> run = simulate(PurcellSwimmer(3), seed_gait(2), n_cycles=20, seed=0)

@@ -1,0 +1,18 @@
+"""Learning from robot data: a local gait model fitted to a log (phase, nominal gait, model, held-out Γ) and
+predictions with it (``geogait fit`` / ``predict``), and learning from a live stream one sample at a time
+(``geogait stream``). Reading the data is :mod:`geogait.io`."""
+
+from ._fit import LogFit, LogPrediction, fit_log, predict_log
+from ._learner import OnlineDifferentiator, StreamLearner, load_stream_model
+from ._streaming import run_stream
+
+__all__ = [
+    "LogFit",
+    "LogPrediction",
+    "OnlineDifferentiator",
+    "StreamLearner",
+    "fit_log",
+    "load_stream_model",
+    "predict_log",
+    "run_stream",
+]
