@@ -173,12 +173,12 @@ def test_a_failing_track_run_leaves_the_earlier_run_whole(tmp_path, monkeypatch)
     assert invoke(*options, "--out", folder).exit_code == 0
     before = snapshot(folder)
     one_error_line(invoke(*options, "--seed", "2", "--out", folder), "not empty")  # checked before the run
-    from geogait.cli import _track
+    from geogait.experiments import track
 
     def broken(*args, **kwargs):
         raise OSError(28, "No space left on device", "path.png")
 
-    monkeypatch.setattr(_track, "_plot_paths", broken)
+    monkeypatch.setattr(track, "_plot_paths", broken)
     one_error_line(invoke(*options, "--seed", "2", "--overwrite", "--out", folder), "No space left on device")
     assert snapshot(folder) == before
     assert [p.name for p in folder.iterdir() if p.name.startswith(".geogait-staging")] == []

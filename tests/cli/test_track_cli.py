@@ -137,7 +137,7 @@ def test_track_trials_pairs_seeds_across_controllers_and_reports_each_trial(tmp_
 
 @pytest.mark.parametrize(("options", "message"), [
     (["--robot", "no-such-driver", "--trials", "2"], "The '--trials' option"),
-    (["--jobs", "2"], "The '--jobs' and '--scheduler' options"),
+    (["--jobs", "2"], "The '--jobs' option and '--scheduler' option"),
 ])
 def test_track_trials_options_refused_where_they_cannot_act(tmp_path, options, message):
     result = _run("track", "--quick", *options, "--out", tmp_path / "x")

@@ -216,7 +216,7 @@ def test_track_command_follows_a_path_with_a_robot_behind_a_driver(tmp_path):
 @pytest.mark.parametrize(("options", "message"), [
     (["--controllers", "adaptive,true"], "The 'true' controller needs the built-in swimmer"),
     (["--drag-ratio", "2,4"], "The '--drag-ratio' option changes the built-in swimmer"),
-    (["--exploration", "adaptive"], "'--exploration adaptive' needs a robot"),
+    (["--exploration", "adaptive"], "Adaptive exploration needs a robot"),
     (["--path", "circle"], "give '--step'"),
     (["--path", "circle", "--step", "-1"], "The '--step' option"),
 ])

@@ -6,70 +6,33 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
-import warnings
 from pathlib import Path
 from typing import Annotated
 
 import numpy as np
-import pandas as pd
 import typer
 
 from .._files import dumps_json, json_ready, output_set, write_text
-from .._validation import GeogaitError, GeogaitWarning
-from ..control import (
-    CONTROLLERS,
-    EXPLORATION,
-    PATH_KINDS,
-    AdaptiveExploration,
-    PathTracker,
-    ReferencePath,
-)
+from .._validation import GeogaitError
+from ..control import ReferencePath
+from ..experiments.track import TrackSettings, run_track
 from ..experiments.tracking import (
     CUSTOM_PATH,
     PATHS,
-    TRACKING_MODELS,
-    TURN_SPACING,
     TrackingConfig,
     TrackingResult,
-    controller_style,
-    drag_change_metrics,
-    feasible_turn_limit,
-    mark_change,
-    per_trial_ratios,
-    plot_reference,
     plot_steering_family,
     run_tracking,
     steering_families,
-    straight_gait,
-    track_trials,
-    tracking_model,
-    tracking_path,
     trial_stats,
 )
-from ..gaits import Perturbation
 from ..plotting import plt, save_figure
-from ..robots import ProcessRobot
-from ..simulate import DragRatioSchedule, SwimmerStream
-from ..sweep import run_trials
 from ._app import app, figure_app
 from ._common import claim_output, console, explain_nulls, output_folder, progress_bar, write_manifest
 
-QUICK = {"cycles": 12, "warmup": 5}
 #: Every file ``geogait track`` writes (replaced together, as one set); ``trials.csv`` with ``--trials`` > 1,
 #: ``family.png`` with one trial.
 TRACK_FILES = ("cycles.csv", "path.png", "family.png", "trials.csv", "summary.json")
-#: Built-in paths of ``--path``: the control module's curves and the experiment's waypoint rectangle.
-BUILT_IN_PATHS = PATH_KINDS + ("waypoints",)
-MAX_SCALE = 1e5  # --scale: built-in paths of at most 1e5 steps
-
-
-def _names(text: str, option: str, choices) -> tuple[str, ...]:
-    names = tuple(v.strip() for v in text.split(",") if v.strip())
-    bad = [n for n in names if n not in choices]
-    if bad or not names:
-        raise GeogaitError(f"The '{option}' option must be a comma-separated list of {', '.join(choices)}. "
-                           f"Got {text!r} instead.")
-    return names
 
 
 def _links(text: str) -> tuple[int, ...]:
@@ -82,22 +45,10 @@ def _links(text: str) -> tuple[int, ...]:
 
 def _ratios(text: str) -> tuple[float, ...]:
     try:
-        values = tuple(float(v) for v in text.split(","))
+        return tuple(float(v) for v in text.split(","))
     except ValueError:
-        values = ()
-    if not values or len(values) > 2 or not all(np.isfinite(v) and v > 0 for v in values):
         raise GeogaitError("The '--drag-ratio' option must be one positive number or two, comma-separated "
-                           f"(before and after the change, e.g. 2,4). Got {text!r} instead.")
-    return values
-
-
-def _path(text: str, step: float, scale: float) -> ReferencePath:
-    if text in BUILT_IN_PATHS:
-        return tracking_path(text, step, scale)
-    if text.endswith(".csv") or Path(text).exists():
-        return ReferencePath.from_csv(text)
-    raise GeogaitError(f"The '--path' option must be one of {', '.join(BUILT_IN_PATHS)} or a waypoints CSV file "
-                       f"(columns x, y). Got {text!r} instead.")
+                           f"(before and after the change, e.g. 2,4). Got {text!r} instead.") from None
 
 
 def _figure_paths(text: str, option: str) -> tuple[tuple[str, ...], str | None]:
@@ -115,24 +66,6 @@ def _figure_paths(text: str, option: str) -> tuple[tuple[str, ...], str | None]:
     if len(set(files)) > 1:
         raise GeogaitError(f"The '{option}' option takes at most one waypoints CSV file. Got {', '.join(files)}.")
     return tuple(dict.fromkeys(names)), (files[0] if files else None)
-
-
-def _check_robot_options(names, ratios, path: str, step: float | None, exploration: str) -> None:
-    """The options that need the built-in swimmer, refused with --robot (nothing silently ignored)."""
-    if "true" in names:
-        raise GeogaitError("The 'true' controller needs the built-in swimmer's connection; with '--robot' use "
-                           "'--controllers adaptive,frozen'.")
-    if len(ratios) == 2:
-        raise GeogaitError("The '--drag-ratio' option changes the built-in swimmer's environment; a robot's "
-                           "environment is its own (drop '--drag-ratio' with '--robot').")
-    if exploration != "fixed":
-        raise GeogaitError("'--exploration adaptive' needs a robot whose δ size can be set between cycles; the "
-                           "JSON-lines bridge has no such message (use '--exploration fixed' with '--robot').")
-    if path in BUILT_IN_PATHS and step is None:
-        raise GeogaitError(f"The built-in path {path!r} is sized in steps of the straight gait: give '--step' (the "
-                           "robot's step per cycle, pose units) with '--robot', or a waypoints CSV as '--path'.")
-    if step is not None and not (np.isfinite(step) and step > 0):
-        raise GeogaitError(f"The '--step' option must be a positive number. Got {step} instead.")
 
 
 def _json(value, reason: str = "not available for this run"):
@@ -212,230 +145,65 @@ def track(
     environment in force.
     """
     started = time.perf_counter()
-    ratios = _ratios(drag_ratio)
-    names = _names(controllers or ",".join(c for c in CONTROLLERS if robot is None or c != "true"),
-                   "--controllers", CONTROLLERS)
-    if trials == 1 and (jobs != 1 or scheduler is not None):
-        raise GeogaitError("The '--jobs' and '--scheduler' options spread the trials of '--trials N' (N > 1) over "
-                           "workers; one trial runs in this process (add '--trials N' or drop them).")
-    if robot is not None:
+    settings = TrackSettings(
+        links=links, path=path, drag_ratios=_ratios(drag_ratio), cycles=cycles, change_cycle=change_cycle,
+        controllers=None if controllers is None else tuple(v.strip() for v in controllers.split(",") if v.strip()),
+        warmup=warmup, scale=scale, offset=offset, seed=seed, noise=noise, perturbation=perturbation, horizon=horizon,
+        turn_limit=turn_limit, exploration=exploration, exploration_low=exploration_low,
+        exploration_high=exploration_high, model=model, change_forgetting=change_forgetting, robot=robot,
+        robot_timeout=robot_timeout, step=step, trials=trials, jobs=jobs, scheduler=scheduler, quick=quick,
+    ).resolved(_option)
+    with claim_output(out, overwrite=overwrite):  # checked and locked before any work; replaced as one set
         if trials > 1:
-            raise GeogaitError("The '--trials' option runs the built-in swimmer on paired seeds; a robot behind "
-                               "'--robot' runs once (drop '--trials' with '--robot').")
-        _check_robot_options(names, ratios, path, step, exploration)
-        system, gait = None, None
-    else:
-        system, gait, step = straight_gait(links)
-    if not (np.isfinite(scale) and 0 < scale <= MAX_SCALE):
-        raise GeogaitError(f"The '--scale' option must be in (0, {MAX_SCALE:g}] steps. Got {scale} instead.")
-    reference = _path(path, step, scale)
-    n_cycles = cycles if cycles is not None else (QUICK["cycles"] if quick else 60)
-    warmup_cycles = warmup if warmup is not None else (QUICK["warmup"] if quick else 10)
-    change = change_cycle if change_cycle is not None else n_cycles // 2
-    start_offset = offset if offset is not None else (3 * step if path == "line" and step else 0.0)
-    if len(ratios) == 2 and not 1 <= change < n_cycles:
-        raise GeogaitError(f"The '--change-cycle' option must be in [1, {n_cycles - 1}]. Got {change} instead.")
-    if turn_limit is not None and not TURN_SPACING <= turn_limit <= np.pi:
-        raise GeogaitError(f"The '--turn-limit' option must be in [{TURN_SPACING:g}, π] rad. Got {turn_limit} instead.")
-    if exploration not in EXPLORATION:
-        raise GeogaitError(f"The '--exploration' option must be one of {', '.join(EXPLORATION)}. "
-                           f"Got {exploration!r} instead.")
-    if not perturbation >= 0:
-        raise GeogaitError(f"The '--perturbation' option must be a std >= 0 (rad). Got {perturbation} instead.")
-    if exploration == "adaptive" and not exploration_high >= 0:
-        raise GeogaitError(f"The '--exploration-high' option must be a std >= 0 (rad). Got {exploration_high} instead.")
-    if exploration == "adaptive" and not 0 < exploration_low <= exploration_high:
-        raise GeogaitError(f"The '--exploration-low' option must be in (0, --exploration-high = {exploration_high:g}]. "
-                           f"Got {exploration_low} instead.")
-    if model not in TRACKING_MODELS:
-        raise GeogaitError(f"The '--model' option must be one of {', '.join(TRACKING_MODELS)}. Got {model!r} instead.")
-    if not change_forgetting >= 1:
-        raise GeogaitError(f"The '--change-forgetting' option must be a number >= 1. Got {change_forgetting} instead.")
-    # the swimmer's limit comes from its true connection (the same for every controller); a robot's from
-    # each controller's own warm-up model (PathTracker's turn_limit=None rule) unless given
-    # (PathTracker's n_turns=None spaces the family's turns 0.1 rad up to the limit)
-    limit = feasible_turn_limit(links, turn_limit or 1.0) if robot is None else turn_limit
-    settings = dict(warmup_cycles=warmup_cycles, horizon=horizon, model=tracking_model(model, symmetric=robot is None),
-                    change_forgetting=change_forgetting, turn_limit=limit)
-    sizes = "fixed" if exploration == "fixed" else AdaptiveExploration(low=exploration_low, high=exploration_high)
-    start_std = perturbation if exploration == "fixed" else exploration_high
-    def target():  # a fresh robot for every controller
-        if robot is not None:
-            return ProcessRobot(robot, timeout=robot_timeout)
-        system_k = system.with_drag_ratio(ratios[0])
-        schedule = (DragRatioSchedule(system_k, ratios, warmup_cycles + change) if len(ratios) == 2 else None)
-        return contextlib.nullcontext(SwimmerStream(system_k, gait, perturbation=Perturbation.from_std(start_std),
-                                                    sensor_noise=noise, environment=schedule, seed=seed))
-
-    swimmer = robot is None  # the options of the built-in swimmer, recorded only where they acted
-    config = dict(links=links if swimmer else None, robot=robot, path=path, drag_ratios=ratios if swimmer else None,
-                  cycles=n_cycles, change_cycle=change if len(ratios) == 2 else None, controllers=names,
-                  warmup=warmup_cycles, scale=scale, step=step, offset=start_offset, seed=seed if swimmer else None,
-                  noise=noise if swimmer else None,
-                  perturbation=perturbation if exploration == "fixed" and swimmer else None,
-                  exploration=exploration,
-                  exploration_low=exploration_low if exploration == "adaptive" else None,
-                  exploration_high=exploration_high if exploration == "adaptive" else None, horizon=horizon,
-                  turn_limit=limit, model=model, change_forgetting=change_forgetting, quick=quick, trials=trials,
-                  jobs=jobs if trials > 1 else None, scheduler=scheduler if trials > 1 else None)
-    if trials > 1:
-        options = dict(n_links=links, path=reference, n_cycles=n_cycles, drag_ratios=ratios, change_cycle=change,
-                       warmup_cycles=warmup_cycles, sensor_noise=noise, perturbation=start_std, controllers=names,
-                       tracker_options=dict(horizon=horizon, model=tracking_model(model),
-                                            change_forgetting=change_forgetting, turn_limit=limit),
-                       start_offset=start_offset, exploration=None if sizes == "fixed" else sizes)
-        _track_trials(out, overwrite, options, trials, seed, jobs, scheduler, reference, config, started, step)
-        return
-    label = "robot" if robot is not None else f"{links}-link"
-    # checked and locked before any work; replaced as one set at the end
-    with claim_output(out, overwrite=overwrite):
-        folder = Path(out)
-        results, quarantined = {}, {}
-        progress = progress_bar()
-        try:
-            for name in sorted(names, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
-                tracker = PathTracker(controller=name, exploration=sizes, **settings)
-                with target() as device:  # a driver that cannot start fails here, before any progress display
-                    progress.start()
-                    task = progress.add_task(f"{label} {name:8s}", total=n_cycles, status="warming up")
-
-                    def show(row, task=task):
-                        gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
-                        gamma += "" if exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
-                        drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
-                        progress.update(task, advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
-                                        f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}"
-                                        f"{gamma}{drag}")
-
-                    results[name] = tracker.run(device, reference, n_cycles, start_offset=start_offset, callback=show,
-                                                record=True)
-                    quarantined[name] = list(getattr(device, "quarantined", []))
-                if name == "adaptive" and exploration != "fixed":
-                    sizes = results[name].perturbation_std  # the others replay it: the same perturbations
-        finally:
-            if progress.live.is_started:
-                progress.stop()
-        log = pd.concat([r.log for r in results.values()], ignore_index=True)
-        summary = {}
-        for name, result in results.items():
-            summary[name] = result.summary() | {"final_gamma": float(result.log["gamma"].iloc[-1])}
-            if name != "adaptive":
-                summary[name]["final_gamma_null_reason"] = f"the {name} controller does not learn: no online Γ"
-            if robot is not None:
-                summary[name]["quarantined_cycles"] = len(quarantined[name])
-                summary[name]["quarantine_reasons"] = quarantined[name][:20]
-            ran = len(result.log)
-            summary[name]["stopped_early"] = ran < n_cycles
-            if ran < n_cycles:
-                summary[name]["stop_reason"] = (f"the {name} controller reached the end of the path after {ran} of "
-                                                f"{n_cycles} cycles")
-                warnings.warn(summary[name]["stop_reason"] + "; the summary covers the cycles run", GeogaitWarning,
-                              stacklevel=1)
-        means = [summary.get(n, {}).get("cross_track_mean") for n in ("adaptive", "true")]
-        if None not in means and means[1] > 0:
-            summary["adaptive_over_true_cross_track"] = means[0] / means[1]
-        if len(ratios) == 2:
-            summary["drag_change"] = drag_change_metrics(log.assign(trial=0), change)
-        summary["step_per_cycle"] = step
-        summary["path_length"] = reference.length
-        summary["path_closed"] = reference.closed
-        with output_set(folder, members=TRACK_FILES, last=("summary.json",)) as staged:
-            write_text(staged / "cycles.csv", log.to_csv(index=False))
-            _plot_paths(staged / "path.png", reference, {n: r.log for n, r in results.items()},
-                        {n: r.trajectory for n, r in results.items()}, {n: r.start for n, r in results.items()},
-                        change if len(ratios) == 2 else None)
-            fig, ax = plt.subplots(figsize=(6, 4.5))
-            plot_steering_family(ax, {n: r.family for n, r in results.items()}, links if robot is None else "robot")
-            save_figure(fig, staged / "family.png")
-            write_manifest(staged / "summary.json", command="track", config=_json(config, "not used by this run"),
-                           results=_json(summary), started=started)
-        console.print(dumps_json(_json(summary), indent=1))
-        console.print(f"wrote {folder}/ (cycles.csv, summary.json, path.png, family.png)")
+            outcome = run_track(settings, progress=True)
+        else:
+            with _live_progress(settings) as show:
+                outcome = run_track(settings, callback=show)
+        written = ("cycles.csv", "summary.json", "path.png") + (("trials.csv",) if trials > 1 else ("family.png",))
+        with output_set(Path(out), members=TRACK_FILES, last=("summary.json",)) as staged:
+            write_text(staged / "cycles.csv", outcome.log.to_csv(index=False))
+            if outcome.trials is not None:
+                write_text(staged / "trials.csv", outcome.trials.to_csv(index=False))
+            else:
+                outcome.plot_family(staged / "family.png")
+            outcome.plot_paths(staged / "path.png")
+            write_manifest(staged / "summary.json", command="track",
+                           config=_json(settings.manifest(outcome.step), "not used by this run"),
+                           results=_json(outcome.summary), started=started)
+        console.print(dumps_json(_json(outcome.summary), indent=1))
+        console.print(f"wrote {out}/ ({', '.join(written)})")
 
 
-def _track_trials(out, overwrite, options, trials, seed, jobs, scheduler, reference, config, started, step) -> None:
-    """``geogait track --trials N``: the paired trials on the sweep runner, per-trial results written."""
-    with claim_output(out, overwrite=overwrite):
-        folder = Path(out)
-        sweep = run_trials(track_trials, trials, seed=seed, chunk_size=1, jobs=jobs, scheduler=scheduler,
-                           config=options, progress=True, description=f"{options['n_links']}-link tracking")
-        sweep.raise_on_failure()
-        log, wall, workers = sweep.frame.reset_index(drop=True), sweep.wall_time_s, sweep.n_workers
-        change = config["change_cycle"]
-        stats = trial_stats(log, change)
-        summary = {}
-        for name, part in stats.groupby("controller", sort=False):
-            rows = log[log["controller"] == name]
-            summary[name] = {"cross_track_mean": float(rows["cross_track"].abs().mean()),
-                             "cross_track_p95": float(np.percentile(rows["cross_track"].abs(), 95)),
-                             "heading_error_mean": float(rows["heading_error"].abs().mean()),
-                             "heading_error_p95": float(np.percentile(rows["heading_error"].abs(), 95)),
-                             "trial_cross_track_mean_worst": float(part["cross_track_mean"].max()),
-                             "trials_stopped_early": int((part["cycles"] < config["cycles"]).sum())}
-        ratios = per_trial_ratios(stats)
-        if ratios:
-            summary["adaptive_over_true_cross_track"] = (summary["adaptive"]["cross_track_mean"]
-                                                         / summary["true"]["cross_track_mean"])
-            summary["adaptive_over_true_per_trial"] = ratios
-            summary["adaptive_over_true_worst_trial"] = ratios["worst"]
-            summary["share_trials_within_1.5x_true"] = ratios["share_within"]
-        if change is not None:
-            summary["drag_change"] = drag_change_metrics(log, change)
-        summary |= {"trials": trials, "step_per_cycle": step, "path_length": reference.length,
-                    "path_closed": reference.closed, "wall_time_s_sweep": wall, "workers": workers}
-        with output_set(folder, members=TRACK_FILES, last=("summary.json",)) as staged:
-            write_text(staged / "cycles.csv", log.to_csv(index=False))
-            write_text(staged / "trials.csv", stats.to_csv(index=False))
-            first = log[log["trial"] == log["trial"].min()]
-            _plot_paths(staged / "path.png", reference, {n: g for n, g in first.groupby("controller", sort=False)},
-                        error_logs={n: g for n, g in log.groupby("controller", sort=False)}, change_cycle=change,
-                        title=f"trial {int(first['trial'].iloc[0])} of {trials}; errors: mean of {trials} trials")
-            write_manifest(staged / "summary.json", command="track", config=_json(config, "not used by this run"),
-                           results=_json(summary), started=started)
-        console.print(dumps_json(_json(summary), indent=1))
-        console.print(f"wrote {folder}/ (cycles.csv, trials.csv, summary.json, path.png)")
+def _option(field: str) -> str:
+    """How an error names a TrackSettings field: as the option that set it."""
+    return f"'--{_OPTION_NAMES.get(field, field).replace('_', '-')}' option"
 
 
-def _plot_paths(file, reference: ReferencePath, logs: dict, trajectories: dict | None = None,
-                starts: dict | None = None, change_cycle: int | None = None, error_logs: dict | None = None,
-                title: str = "") -> None:
-    """Left: the reference path, each controller's sampled path and its cycle-boundary markers (the
-    true controller underneath); right: |cross-track error| per cycle (trial mean of ``error_logs``,
-    default ``logs``), the drag change marked."""
-    fig, (ax, errors) = plt.subplots(1, 2, figsize=(11.5, 5.0), gridspec_kw={"width_ratios": [1.25, 1]})
-    plot_reference(ax, reference, np.concatenate([log[["x", "y"]].to_numpy() for log in logs.values()]))
-    for name, log in logs.items():
-        style = controller_style(name)
-        trajectory = (trajectories or {}).get(name)
-        if trajectory is not None:
-            pose = trajectory.pose
-            ax.plot(pose[:, 0], pose[:, 1], color=style["color"], lw=0.6, alpha=0.6 * style["alpha"],
-                    zorder=style["zorder"])
-        ax.plot(log["x"], log["y"], ls="none", label=f"{name} (cycle ends)",
-                **{k: v for k, v in style.items() if k != "linestyle"})
-        if change_cycle is not None:
-            at = log[log["cycle"] == change_cycle]
-            ax.plot(at["x"], at["y"], "*", color=style["color"], ms=11, mec="k", mew=0.5, zorder=6,
-                    label="drag change" if name == next(iter(logs)) else None)
-        if starts and name in starts:
-            ax.plot(*starts[name][:2], "^", color=style["color"], ms=6, zorder=style["zorder"])
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x (body lengths)")
-    ax.set_ylabel("y (body lengths)")
-    ax.set_title("Body-frame path and cycle boundaries" + (f"\n({title})" if title else ""), fontsize=10)
-    ax.legend(fontsize=8)
-    for name, log in (error_logs or logs).items():
-        curve = log.assign(error=log["cross_track"].abs()).groupby("cycle")["error"].mean()
-        style = controller_style(name)
-        errors.plot(curve.index, curve.to_numpy(), color=style["color"], ls=style["linestyle"], lw=1.3,
-                    zorder=style["zorder"], label=name)
-    if change_cycle is not None:
-        mark_change(errors, change_cycle, "drag change")
-    errors.set_xlabel("tracking cycle")
-    errors.set_ylabel("|cross-track error| (body lengths)")
-    errors.set_title("Cross-track error per cycle", fontsize=10)
-    errors.legend(fontsize=8)
-    save_figure(fig, file)
+_OPTION_NAMES = {"drag_ratios": "drag_ratio"}
+
+
+@contextlib.contextmanager
+def _live_progress(settings: TrackSettings):
+    """One progress bar per controller, added once its robot is up (a driver that cannot start fails first)."""
+    label = "robot" if settings.robot is not None else f"{settings.links}-link"
+    progress, tasks = progress_bar(), {}
+
+    def show(name, row):
+        if row is None:
+            progress.start()
+            tasks[name] = progress.add_task(f"{label} {name:8s}", total=settings.cycles, status="warming up")
+            return
+        gamma = "" if np.isnan(row["gamma"]) else f"  Γ {row['gamma']:.2f}"
+        gamma += "" if settings.exploration == "fixed" else f"  δ {row['perturbation_std']:.3f}"
+        drag = "" if np.isnan(row["drag_ratio"]) else f"  k {row['drag_ratio']:g}"
+        progress.update(tasks[name], advance=1, status=f"e {row['cross_track']:+.3f} BL  heading "
+                        f"{row['heading_error']:+.2f} rad  turn {row['turn_command']:+.3f}{gamma}{drag}")
+
+    try:
+        yield show
+    finally:
+        if progress.live.is_started:
+            progress.stop()
 
 
 @figure_app.command("tracking")
