@@ -276,8 +276,8 @@ def test_docs_steering_example_runs(monkeypatch, tmp_path):
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[2] / "docs" / "results" / "steering.md").read_text()
-    block = re.search(r"# Steering and path following.*?```python\n(.*?)```", text, re.S).group(1)
+    text = (Path(__file__).resolve().parents[2] / "docs" / "steering.md").read_text()
+    block = re.search(r"## The tracker and its parts.*?```python\n(.*?)```", text, re.S).group(1)
     monkeypatch.chdir(tmp_path)
     namespace = {}
     exec(compile(block, "README steering example", "exec"), namespace)
