@@ -53,6 +53,8 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     interaction : bool
         Keep the bilinear δ ⊗ δ̇ block of eq. 3 (d² of the 1 + 2d + d² weights per window). Without it
         the model is linear in (δ, δ̇) and needs far fewer samples for many joints.
+    resolution : int
+        Magnus steps over the cycle of :meth:`predict_displacement` (as every gait model has).
 
     Attributes
     ----------
@@ -105,7 +107,8 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, forgetting_factor: float = 0.99,
                  initial_covariance: float = 100.0, smoothing_order: int = 5,
-                 gamma_forgetting: float = 0.995, phase_rate: float = 2 * np.pi, interaction: bool = True):
+                 gamma_forgetting: float = 0.995, phase_rate: float = 2 * np.pi, interaction: bool = True,
+                 resolution: int = 128):
         self.gait = gait
         self.n_windows = n_windows
         self.window_width = window_width
@@ -115,6 +118,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.gamma_forgetting = gamma_forgetting
         self.phase_rate = phase_rate
         self.interaction = interaction
+        self.resolution = resolution
 
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
@@ -237,6 +241,20 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
     @property
     def covariance_(self) -> np.ndarray:
         return self.bank_.covariance
+
+    def rotation_std(self, gait: FourierGait | None = None, residual_variance=np.inf) -> float:
+        r"""Standard error of the predicted net rotation per cycle of the nominal gait, given the
+        ``residual_variance`` σ²_ω of the measured ω (rad² per unit time²).
+
+        At δ = 0 the predicted rotation is ≈ Σ_m C_m,ω · 2π / (M φ̇) (the smoothed constant terms'
+        mean over a cycle), so its variance is ≈ σ²_ω (2π / (M φ̇))² Σ_m P_m[0, 0]. ``gait`` is
+        accepted for the common signature of the gait models (:class:`ShapeSpaceModel` answers for
+        any gait); this model answers for its own nominal gait.
+        """
+        self._check_is_fitted()
+        p00 = self.covariance_[..., 0, 0]
+        scale = 2 * np.pi / (p00.shape[-1] * self.phase_rate)
+        return float(np.sqrt(residual_variance * p00.sum()) * scale)
 
     def forget(self, factor: float):
         r"""Discount all evidence so far by ``factor``, at once (covariance resetting).

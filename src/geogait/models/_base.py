@@ -45,6 +45,7 @@ GAIT_MODEL_CONSTRAINTS = {
     "gait": InstanceOf(FourierGait, "a FourierGait"),
     "phase_rate": Real(low=0, low_open=True),
     "interaction": Boolean(),
+    "resolution": Integer(minimum=4),
 }
 
 
@@ -351,7 +352,7 @@ class GaitModelBase(SampleModel, PhaseWindowModel):
 
         The interface the in-situ optimiser uses; see :func:`geogait.models.predicted_displacement`.
         """
-        return predicted_displacement(self, gait, jacobian=jacobian)
+        return predicted_displacement(self, gait, resolution=self.resolution, jacobian=jacobian)
 
     @classmethod
     def _check_stored(cls, metadata: dict, state: dict) -> None:

@@ -37,6 +37,8 @@ class BatchGaitModel(GaitModelBase):
         Relative singular-value cut-off of the pseudo-inverse.
     interaction : bool
         Keep the bilinear δ ⊗ δ̇ block of the regressor.
+    resolution : int
+        Magnus steps over the cycle of :meth:`predict_displacement` (as every gait model has).
 
     Examples
     --------
@@ -54,7 +56,8 @@ class BatchGaitModel(GaitModelBase):
 
     def __init__(self, *, gait: FourierGait | None = None, n_windows: int = 20,
                  window_width: float | None = None, smoothing_order: int = 5,
-                 phase_rate: float = 2 * np.pi, rcond: float = 1e-10, interaction: bool = True):
+                 phase_rate: float = 2 * np.pi, rcond: float = 1e-10, interaction: bool = True,
+                 resolution: int = 128):
         self.gait = gait
         self.n_windows = n_windows
         self.window_width = window_width
@@ -62,6 +65,7 @@ class BatchGaitModel(GaitModelBase):
         self.phase_rate = phase_rate
         self.rcond = rcond
         self.interaction = interaction
+        self.resolution = resolution
 
     def _reset(self, batch: tuple, n_joints: int, gait: FourierGait):
         self.validate()

@@ -13,7 +13,7 @@ from .._defaults import MAX_JOINT_ANGLE
 from .._files import read_state
 from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
-from ..models import model_from_state
+from ..models import has_gait_model_members, model_from_state
 from ._climb import MeasuredClimb
 from ._exploration import Exploration
 from ._period import PeriodSearch
@@ -128,24 +128,15 @@ class RunState:
         self.model.fit(*(np.concatenate(parts) for parts in zip(*self.iteration_data, strict=True)))
 
     def rotation_std(self) -> float:
-        """Standard error of the model's predicted net rotation of its own nominal gait.
-
-        At δ = 0 the predicted rotation is ≈ Σ_m C_m,ω · 2π / (M φ̇) (the smoothed constant terms'
-        mean over a cycle), so its variance is ≈ σ_ω² (2π / (M φ̇))² Σ_m P_m[0, 0], with σ_ω² the
-        recent mean squared a-priori error of ω. Only a predicted rotation beyond twice this is
-        treated as real and restored. Models without RLS covariances report 0.
-        """
-        if hasattr(self.model, "rotation_std"):  # models that know their own error (ShapeSpaceModel)
-            return float(self.model.rotation_std(self.gait, self.residual_variance)) \
-                if np.isfinite(self.residual_variance) else np.inf
-        covariance = getattr(self.model, "covariance_", None)
-        if covariance is None or not hasattr(self.model, "phase_rate"):
+        """Standard error of the model's predicted net rotation of the current gait (the model's
+        ``rotation_std``, with σ²_ω the recent mean squared a-priori error of ω): only a predicted rotation
+        beyond twice this is treated as real and restored. A model without ``rotation_std`` (the batch
+        model, a model of your own) reports 0: every predicted rotation is real."""
+        if not has_gait_model_members(self.model, ("rotation_std",)):
             return 0.0
         if not np.isfinite(self.residual_variance):
             return np.inf
-        p00 = covariance[..., 0, 0]
-        scale = 2 * np.pi / (p00.shape[-1] * self.model.phase_rate)
-        return float(np.sqrt(self.residual_variance * p00.sum()) * scale)
+        return float(self.model.rotation_std(self.gait, self.residual_variance))
 
     def update_radius(self, value_now, low, high):
         """Ratio test: compare the gain the last step promised with what the new model sees."""
