@@ -182,26 +182,29 @@ class TrackSettings:
                     drag_ratios=self.drag_ratios if swimmer else None, cycles=self.cycles,
                     change_cycle=self.change_cycle if len(self.drag_ratios) == 2 else None,
                     controllers=self.controllers, warmup=self.warmup, scale=self.scale, step=step,
-                    offset=self._offset(step), seed=self.seed if swimmer else None,
+                    offset=self.start_offset(step), seed=self.seed if swimmer else None,
                     noise=self.noise if swimmer else None,
                     perturbation=self.perturbation if fixed and swimmer else None,
                     exploration=self.exploration, exploration_low=None if fixed else self.exploration_low,
                     exploration_high=None if fixed else self.exploration_high, horizon=self.horizon,
-                    turn_limit=self._turn_limit(), model=self.model, change_forgetting=self.change_forgetting,
+                    turn_limit=self.steering_turn_limit(), model=self.model, change_forgetting=self.change_forgetting,
                     quick=self.quick, trials=self.trials, jobs=self.jobs if self.trials > 1 else None,
                     scheduler=self.scheduler if self.trials > 1 else None)
 
-    def _offset(self, step: float | None) -> float:
+    def start_offset(self, step: float | None) -> float:
+        """The offset to the left of the path at the start (body lengths): ``offset``, or 3 steps on the line."""
         if self.offset is not None:
             return self.offset
         return 3 * step if self.path == "line" and step else 0.0
 
-    def _turn_limit(self) -> float | None:
-        # the swimmer's limit comes from its true connection (the same for every controller); a robot's from
-        # each controller's own warm-up model (PathTracker's turn_limit=None rule) unless given
+    def steering_turn_limit(self) -> float | None:
+        """The steering families' largest turn (rad per cycle): on the swimmer, ``turn_limit`` (or 1) cut to what
+        its true connection turns within the joint limits, the same for every controller; with a robot,
+        ``turn_limit``, or None for each controller's own warm-up model (PathTracker's rule)."""
         return feasible_turn_limit(self.links, self.turn_limit or 1.0) if self.robot is None else self.turn_limit
 
-    def _sizes(self):
+    def exploration_sizes(self):
+        """PathTracker's ``exploration``: ``"fixed"``, or the adaptive rule between the two stds."""
         if self.exploration == "fixed":
             return "fixed"
         return AdaptiveExploration(low=self.exploration_low, high=self.exploration_high)
@@ -294,16 +297,16 @@ def run_track(settings: TrackSettings, *, callback: Callable[[str, dict | None],
     if s.trials > 1:
         return _paired_trials(s, reference, step, progress)
     results, quarantined = {}, {}
-    sizes = s._sizes()
+    sizes = s.exploration_sizes()
     for name in sorted(s.controllers, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
         tracker = PathTracker(controller=name, exploration=sizes, warmup_cycles=s.warmup, horizon=s.horizon,
                               model=tracking_model(s.model, symmetric=s.robot is None),
-                              change_forgetting=s.change_forgetting, turn_limit=s._turn_limit())
+                              change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit())
         with _robot(s, system, gait) as device:  # a driver that cannot start fails here
             if callback is not None:
                 callback(name, None)
             show = None if callback is None else (lambda row, name=name: callback(name, row))
-            results[name] = tracker.run(device, reference, s.cycles, start_offset=s._offset(step), callback=show,
+            results[name] = tracker.run(device, reference, s.cycles, start_offset=s.start_offset(step), callback=show,
                                         record=True)
             quarantined[name] = list(getattr(device, "quarantined", []))
         if name == "adaptive" and s.exploration != "fixed":
@@ -335,14 +338,14 @@ def run_track(settings: TrackSettings, *, callback: Callable[[str, dict | None],
 
 def _paired_trials(s: TrackSettings, reference: ReferencePath, step: float, progress: bool) -> TrackOutcome:
     """``trials`` > 1: every controller on each trial's seed (:func:`~geogait.experiments.tracking.track_trials`)."""
-    sizes = s._sizes()
+    sizes = s.exploration_sizes()
     options = dict(n_links=s.links, path=reference, n_cycles=s.cycles, drag_ratios=s.drag_ratios,
                    change_cycle=s.change_cycle, warmup_cycles=s.warmup, sensor_noise=s.noise,
                    perturbation=s.perturbation if s.exploration == "fixed" else s.exploration_high,
                    controllers=s.controllers,
                    tracker_options=dict(horizon=s.horizon, model=tracking_model(s.model),
-                                        change_forgetting=s.change_forgetting, turn_limit=s._turn_limit()),
-                   start_offset=s._offset(step), exploration=None if sizes == "fixed" else sizes)
+                                        change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit()),
+                   start_offset=s.start_offset(step), exploration=None if sizes == "fixed" else sizes)
     sweep = run_trials(track_trials, s.trials, seed=s.seed, chunk_size=1, jobs=s.jobs, scheduler=s.scheduler,
                        config=options, progress=progress, description=f"{s.links}-link tracking")
     sweep.raise_on_failure()
