@@ -122,6 +122,9 @@ def fit(
                f"({summary['n_train_cycles']} training); online Γ {summary['online_gamma_end']:.3f}; "
                f"gait order {summary['gait_order']}; phase rate {summary['phase_rate']:.4g} rad per time unit",
                err=True)
+    verdict = summary["model_class"]
+    if verdict["principally_kinematic"] is False:
+        typer.echo(f"warning: {verdict['reason']}", err=True)
     typer.echo(f"wrote {', '.join(sorted(p.name for p in paths.values()))} to {out}/", err=True)
 
 

@@ -50,6 +50,7 @@ from ..models import AdaptiveGaitModel, gamma
 from ..phase import NominalGaitFit, Phaser, fit_nominal_gait
 from ..plotting import write_fit_figures
 from ..simulate import BODY_VELOCITY_COLUMNS
+from ._model_class import ModelClassVerdict, model_class_verdict
 
 __all__ = ["LogFit", "LogPrediction", "fit_log", "predict_log"]
 
@@ -219,6 +220,11 @@ class LogFit:
         return _per_cycle(data["predicted"], data["baseline"], data["measured"], data["cycle"],
                           self.log.segment[self.test])
 
+    def model_class(self) -> ModelClassVerdict:
+        """Whether the log's net motion per cycle changes with the cycle period
+        (:func:`~geogait.learn.model_class_verdict`: outside the model class when it does)."""
+        return model_class_verdict(self.log, self.cycle)
+
     def summary(self) -> dict:
         """Numbers of the report: Γ (held-out overall and per cycle, online), gait order, counts."""
         train = ~self.test
@@ -236,6 +242,7 @@ class LogFit:
                                          zip(nominal.orders, nominal.held_out_rmse, strict=True)},
             "held_out_gamma": self.held_out_gamma(),
             "held_out_gamma_per_cycle": self.held_out_gamma_per_cycle(),
+            "model_class": self.model_class().to_dict(),
             "online_gamma_end_of_training": float(self.evaluation_model.gamma_),
             "online_gamma_end": float(self.model.gamma_),
             "saved_model": (f"refit on all {self.log.n_samples} samples (training and held-out cycles); "
