@@ -92,6 +92,8 @@ def test_bad_settings_are_named():
         model_class_verdict(log, np.zeros(log.n_samples, int), z=0)
     with pytest.raises(ValueError, match="'min_period_ratio' parameter"):
         model_class_verdict(log, np.zeros(log.n_samples, int), min_period_ratio=1.0)
+    with pytest.raises(ValueError, match=r"'cycle' parameter of model_class_verdict must be an int array of shape"):
+        model_class_verdict(log, np.zeros(3, int))
 
 
 def test_geogait_fit_warns_in_one_line(tmp_path):

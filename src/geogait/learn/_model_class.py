@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .. import se2
-from .._validation import check_float, check_int
+from .._validation import check_float, check_int, fail
 from ..io import Log
 
 __all__ = ["ModelClassVerdict", "model_class_verdict"]
@@ -97,7 +97,11 @@ def model_class_verdict(log: Log, cycle, *, z: float = 3.0, tolerance: float = 0
     tolerance = check_float(tolerance, "tolerance", _OWNER, low=0)
     min_period_ratio = check_float(min_period_ratio, "min_period_ratio", _OWNER, low=1, low_open=True)
     min_cycles = check_int(min_cycles, "min_cycles", _OWNER, minimum=2)
-    periods, nets, amplitudes = _complete_cycles(log, np.asarray(cycle))
+    cycle = np.asarray(cycle)
+    if cycle.shape != (log.n_samples,) or not np.issubdtype(cycle.dtype, np.integer):
+        raise fail("cycle", _OWNER, f"an int array of shape ({log.n_samples},): the cycle of every sample",
+                   f"{cycle.dtype} array of shape {cycle.shape}")
+    periods, nets, amplitudes = _complete_cycles(log, cycle)
     unit = f" {log.time_unit}" if log.time_unit else ""
     if periods.size < 2 * min_cycles:
         return ModelClassVerdict(None, f"{periods.size} complete cycles: too few to compare periods")
