@@ -26,12 +26,13 @@ from ..gaits import Perturbation
 from ..plotting import plt, save_figure
 from ..robots import ProcessRobot
 from ..simulate import DragRatioSchedule, SwimmerStream
-from ..sweep import run_trials
+from ._common import run_sweep
 from .tracking import (
     TRACKING_MODELS,
     TURN_SPACING,
     controller_style,
     drag_change_metrics,
+    error_stats,
     feasible_turn_limit,
     mark_change,
     per_trial_ratios,
@@ -346,21 +347,15 @@ def _paired_trials(s: TrackSettings, reference: ReferencePath, step: float, prog
                    tracker_options=dict(horizon=s.horizon, model=tracking_model(s.model),
                                         change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit()),
                    start_offset=s.start_offset(step), exploration=None if sizes == "fixed" else sizes)
-    sweep = run_trials(track_trials, s.trials, seed=s.seed, chunk_size=1, jobs=s.jobs, scheduler=s.scheduler,
-                       config=options, progress=progress, description=f"{s.links}-link tracking")
-    sweep.raise_on_failure()
-    log = sweep.frame.reset_index(drop=True)
+    log, wall, workers = run_sweep(track_trials, s.trials, options, seed=s.seed, chunk_size=1, jobs=s.jobs,
+                                   scheduler=s.scheduler, progress=progress, description=f"{s.links}-link tracking")
     change = s.change_cycle if len(s.drag_ratios) == 2 else None
     stats = trial_stats(log, change)
     summary = {}
     for name, part in stats.groupby("controller", sort=False):
-        rows = log[log["controller"] == name]
-        summary[name] = {"cross_track_mean": float(rows["cross_track"].abs().mean()),
-                         "cross_track_p95": float(np.percentile(rows["cross_track"].abs(), 95)),
-                         "heading_error_mean": float(rows["heading_error"].abs().mean()),
-                         "heading_error_p95": float(np.percentile(rows["heading_error"].abs(), 95)),
-                         "trial_cross_track_mean_worst": float(part["cross_track_mean"].max()),
-                         "trials_stopped_early": int((part["cycles"] < s.cycles).sum())}
+        summary[name] = error_stats(log[log["controller"] == name]) | {
+            "trial_cross_track_mean_worst": float(part["cross_track_mean"].max()),
+            "trials_stopped_early": int((part["cycles"] < s.cycles).sum())}
     ratios = per_trial_ratios(stats)
     if ratios:
         summary["adaptive_over_true_cross_track"] = (summary["adaptive"]["cross_track_mean"]
@@ -371,7 +366,7 @@ def _paired_trials(s: TrackSettings, reference: ReferencePath, step: float, prog
     if change is not None:
         summary["drag_change"] = drag_change_metrics(log, change)
     summary |= {"trials": s.trials, "step_per_cycle": step, "path_length": reference.length,
-                "path_closed": reference.closed, "wall_time_s_sweep": sweep.wall_time_s, "workers": sweep.n_workers}
+                "path_closed": reference.closed, "wall_time_s_sweep": wall, "workers": workers}
     return TrackOutcome(s, reference, step, log, summary, trials=stats)
 
 

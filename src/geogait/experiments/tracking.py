@@ -480,7 +480,8 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
     return TrackingResult(frame=frame, config=config, wall_time_s=wall, n_workers=workers)
 
 
-def _stats(group: pd.DataFrame) -> dict:
+def error_stats(group: pd.DataFrame) -> dict:
+    """Mean and 95th percentile of |cross-track| and |heading error| over the rows of ``group``."""
     out = {}
     for column in ("cross_track", "heading_error"):
         if column in group:
@@ -521,7 +522,7 @@ def trial_stats(frame: pd.DataFrame, change_cycle: int | None = None) -> pd.Data
     keys = [c for c in ("links", "path", "environment") if c in frame.columns] + ["trial", "controller"]
     rows = []
     for key, group in frame.groupby(keys, sort=True):
-        row = dict(zip(keys, key, strict=True)) | {"cycles": len(group)} | _stats(group)
+        row = dict(zip(keys, key, strict=True)) | {"cycles": len(group)} | error_stats(group)
         if change_cycle is not None:
             error = group["cross_track"].abs().to_numpy()
             after = group["cycle"].to_numpy() - change_cycle
@@ -666,7 +667,7 @@ def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> di
         change_cycle = int(frame["cycle"].max() + 1) // 2
     summary = {}
     for (n_links, kind, environment), group in frame.groupby(["links", "path", "environment"], sort=False):
-        entry = {c: _stats(g) for c, g in group.groupby("controller")}
+        entry = {c: error_stats(g) for c, g in group.groupby("controller")}
         if "adaptive" in entry and "true" in entry:
             ratio = entry["adaptive"]["cross_track_mean"] / entry["true"]["cross_track_mean"]
             entry["adaptive_over_true_cross_track"] = ratio

@@ -159,12 +159,12 @@ def _complete_cycles(log: Log, cycle: np.ndarray) -> tuple[np.ndarray, np.ndarra
         mine = np.flatnonzero(log.segment == segment)
         time = log.time[mine]
         dt = np.append(np.diff(time), np.median(np.diff(time)) if time.size > 1 else 0.0)
-        labels = cycle[mine]
+        labels, velocity, shapes = cycle[mine], log.body_velocity[mine], log.shape[mine]
         for label in np.unique(labels)[1:-1]:
             rows = labels == label
             periods.append(float(dt[rows].sum()))
-            nets.append(se2.displacement(log.body_velocity[mine][rows], dt[rows]))
-            shape = log.shape[mine][rows]
+            nets.append(se2.displacement(velocity[rows], dt[rows]))
+            shape = shapes[rows]
             amplitudes.append(float(np.sqrt(((shape - shape.mean(axis=0)) ** 2).mean(axis=0)).mean()))
     return np.asarray(periods), np.asarray(nets).reshape(-1, 3), np.asarray(amplitudes)
 
