@@ -1,10 +1,13 @@
-"""Front–back symmetric gait families: the relation, rotation-free against the oracle, membership."""
+"""Rotation-free gait families (front–back and half-wave symmetric): the relation, rotation-free against the
+oracle, membership."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from geogait.gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily, seed_gait, shift_phase
-from geogait.optimize import cached_ceiling
+from geogait.gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily, seed_gait, shift_phase
+from geogait.optimize import cached_ceiling, optimize_ceiling
 from geogait.simulate import cycle_displacement
 from geogait.systems import PurcellSwimmer
 
@@ -69,3 +72,62 @@ def test_free_family_is_the_identity():
     gait = seed_gait(3, order=2)
     np.testing.assert_array_equal(family.params_of(gait), gait.params)
     assert family.gait(gait.params) == gait and family.n_params == 15
+
+
+# -- the half-wave symmetric (mirror) family ---------------------------------------------------
+@settings(max_examples=25, deadline=None)
+@given(n_joints=st.integers(1, 6), order=st.integers(1, 4), seed=st.integers(0, 2**32 - 1))
+def test_mirror_members_are_half_wave_symmetric_and_round_trip(n_joints, order, seed):
+    rng = np.random.default_rng(seed)
+    family = MirrorGaitFamily(n_joints, order)
+    assert family.n_params == n_joints * 2 * ((order + 1) // 2)
+    params = rng.normal(size=family.n_params)
+    gait = family.gait(params)
+    phase = rng.uniform(0, 2 * np.pi, 9)
+    # θ(φ + π) = −θ(φ), on the shapes themselves (not on the coefficient map)
+    np.testing.assert_allclose(gait.shape(phase + np.pi), -gait.shape(phase), atol=1e-12)
+    np.testing.assert_allclose(family.params_of(gait), params, atol=1e-12)
+    assert family.residual(gait) < 1e-12
+    offset = gait.coefficients.copy()
+    offset[:, 0] += 0.3  # a constant bend: no longer its own mirror image half a cycle later
+    assert family.residual(FourierGait(offset)) == pytest.approx(0.3 * np.sqrt(n_joints))
+
+
+@pytest.mark.parametrize("lengths", [(0.2, 0.3, 0.5), (0.3, 0.15, 0.2, 0.25, 0.1), (0.1, 0.2, 0.3, 0.4)])
+def test_mirror_members_do_not_rotate_any_chain(rng, lengths):
+    """Zero net rotation per cycle on chains without front–back symmetry (independent integrator: the
+    swimmer's connection through cycle_displacement), where a constant bend makes the same loop turn."""
+    swimmer = PurcellSwimmer(len(lengths), link_lengths=lengths)
+    family = MirrorGaitFamily(swimmer.n_joints, 2)
+    for _ in range(3):
+        gait = family.gait(rng.normal(scale=0.5, size=family.n_params))
+        pose = cycle_displacement(swimmer, gait, resolution=128)
+        assert abs(pose[2]) < 1e-12 and np.hypot(pose[0], pose[1]) > 1e-4
+        bent = gait.coefficients.copy()
+        bent[:, 0] += rng.normal(scale=0.3, size=swimmer.n_joints)
+        assert abs(cycle_displacement(swimmer, FourierGait(bent), resolution=128)[2]) > 1e-4
+
+
+def test_the_free_ceiling_of_an_unequal_chain_is_half_wave_symmetric():
+    """The free family's ceiling (15 parameters, zero rotation imposed as a constraint) lands in the
+    mirror family, as the symmetry predicts for a unique optimum, and the mirror family's own ceiling
+    (10 parameters, no constraint) reaches the same value."""
+    swimmer = PurcellSwimmer(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1))
+    free = cached_ceiling(swimmer, family="free")
+    mirror = cached_ceiling(swimmer, family="mirror")
+    assert MirrorGaitFamily(4).residual(free.gait) < 1e-5
+    assert mirror.value == pytest.approx(free.value, rel=1e-6)
+    assert abs(cycle_displacement(swimmer, mirror.gait)[2]) < 1e-12
+    with pytest.raises(ValueError, match="'start' parameter of optimize_ceiling"):
+        optimize_ceiling(swimmer, family="mirror", start=FourierGait(seed_gait(4).coefficients + 0.1))
+
+
+def test_mirror_family_refuses_bad_input():
+    with pytest.raises(ValueError, match="'n_joints' parameter of MirrorGaitFamily"):
+        MirrorGaitFamily(0)
+    with pytest.raises(ValueError, match="'params' parameter of MirrorGaitFamily.fourier_params"):
+        MirrorGaitFamily(2).gait([1.0, 2.0])
+    with pytest.raises(ValueError, match="'gait' parameter of MirrorGaitFamily.params_of"):
+        MirrorGaitFamily(2).params_of(FourierGait(seed_gait(2).coefficients + 0.1))
+    with pytest.raises(ValueError, match="'gait' parameter of MirrorGaitFamily.residual"):
+        MirrorGaitFamily(3).residual(seed_gait(2))

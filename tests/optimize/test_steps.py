@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from geogait.gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily, seed_gait
+from geogait.gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily, seed_gait
 from geogait.models import PerfectInformationModel, ShapeSpaceModel
 from geogait.optimize import (
     InSituOptimizer,
@@ -74,10 +74,14 @@ def test_optimizer_searches_the_symmetric_family_of_a_symmetric_swimmer():
         assert family.residual(gait) < 1e-9
     assert np.abs(result.log["true_heading"]).max() < 1e-12  # rotation-free by construction
     lopsided = SwimmerStream(PurcellSwimmer(3, link_lengths=(0.3, 0.3, 0.4)), seed_gait(2), seed=0)
-    free = InSituOptimizer().run(lopsided, 8)
-    assert any(family.residual(gait) > 1e-6 for gait in free.gaits)  # free family there
+    mirror = InSituOptimizer().run(lopsided, 8)  # not front-back symmetric: the half-wave (mirror) family
+    assert mirror.n_steps >= 1 and any(family.residual(gait) > 1e-6 for gait in mirror.gaits)
+    assert all(MirrorGaitFamily(2).residual(gait) < 1e-12 for gait in mirror.gaits)
+    free = InSituOptimizer(family="free").run(
+        SwimmerStream(PurcellSwimmer(3, link_lengths=(0.3, 0.3, 0.4)), seed_gait(2), seed=0), 8)
+    assert any(MirrorGaitFamily(2).residual(gait) > 1e-6 for gait in free.gaits)  # offsets appear
     with pytest.raises(ValueError, match="'family' parameter of InSituOptimizer"):
-        InSituOptimizer(family="mirror").run(stream, 1)
+        InSituOptimizer(family="helical").run(stream, 1)
     with pytest.raises(ValueError, match="'step_rule' parameter of InSituOptimizer"):
         InSituOptimizer(step_rule="newton").run(stream, 1)
 

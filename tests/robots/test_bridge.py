@@ -68,6 +68,25 @@ def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
                                        "flush=True)\ntime.sleep(5)\n"))
 
 
+def test_hello_declares_mirror_symmetry_and_the_optimiser_searches_that_family(tmp_path):
+    """A 4-link swimmer with unequal links is mirror symmetric but not front–back symmetric: declared in the
+    hello, the optimiser's automatic family is the half-wave one; not declared, the free one."""
+    from geogait.gaits import MirrorGaitFamily
+
+    hello = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
+             "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}, "mirror_symmetric": True}
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
+        assert robot.mirror_symmetric is True and robot.front_back_symmetric is None
+        assert isinstance(InSituOptimizer()._family(robot, robot.gait), MirrorGaitFamily)
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric=None)!r}), flush=True)\n"
+                                        "sys.stdin.readline()\n")) as robot:
+        assert robot.mirror_symmetric is None
+        assert not isinstance(InSituOptimizer()._family(robot, robot.gait), MirrorGaitFamily)
+    with pytest.raises(ValueError, match="'mirror_symmetric' must be true or false"):
+        ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric='yes')!r}), "
+                                       "flush=True)\ntime.sleep(5)\n"))
+
+
 def test_hello_declares_a_chain_for_the_resistance_model(tmp_path):
     """The reference driver declares its swimmer's chain; the resistance model built from it is the swimmer's own
     (its connection equals PurcellSwimmer's at the default drags); a malformed chain is refused naming the field."""

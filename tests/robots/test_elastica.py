@@ -144,6 +144,7 @@ def test_the_reference_driver_serves_the_snake_through_the_bridge():
     with ProcessRobot(driver + ["--period", "0.5", "--samples-per-cycle", "50"], timeout=120) as robot:
         check_robot(robot, "test")
         assert robot.n_joints == 4 and robot.cycle_period == 0.5 and not robot.front_back_symmetric
+        assert robot.mirror_symmetric and elastica_snake().mirror_symmetric
         bridged = robot.next_cycle()
     direct = elastica_snake(seed=4, cycle_period=0.5, samples_per_cycle=50).next_cycle()
     np.testing.assert_allclose(bridged.pose, direct.pose, atol=1e-12)

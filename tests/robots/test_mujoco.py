@@ -535,13 +535,55 @@ def test_front_back_symmetry_is_read_from_the_model():
 
 
 def test_optimiser_searches_the_symmetric_family_on_a_symmetric_model():
-    from geogait.gaits import SymmetricGaitFamily
+    from geogait.gaits import MirrorGaitFamily, SymmetricGaitFamily
     from geogait.optimize import InSituOptimizer
 
     result = InSituOptimizer(objective="forward", direction_frame="body").run(
         MujocoRobot(purcell_swimmer_xml(3), seed=2), 10)
     family = SymmetricGaitFamily.from_gait(result.initial_gait, 1)
     assert result.n_steps >= 1 and max(family.residual(gait) for gait in result.gaits) < 1e-9
+    unequal = MujocoRobot(purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1)), seed=2)
+    mirror = InSituOptimizer(objective="forward", direction_frame="body").run(unequal, 10)
+    assert mirror.n_steps >= 1 and max(MirrorGaitFamily(4).residual(gait) for gait in mirror.gaits) == 0.0
+
+
+def test_mirror_symmetry_is_read_from_the_model():
+    unequal = purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1))
+    assert MujocoRobot(unequal).mirror_symmetric and not MujocoRobot(unequal).front_back_symmetric
+    assert MujocoRobot(purcell_swimmer_xml(3, drag="fluid")).mirror_symmetric
+    tail = '<site name="centre0" pos="-0.166666666667 0 0"/>'
+    xml = purcell_swimmer_xml(3)
+    assert tail in xml
+    off_axis = xml.replace(tail, tail + '<geom type="sphere" pos="-0.1 0.04 0" size="0.02"/>')
+    assert not MujocoRobot(off_axis).mirror_symmetric  # a lump on one side of the tail
+    lopsided_range = xml.replace('range="-2.09439510239 2.09439510239"', 'range="-2.09439510239 1.5"', 1)
+    assert not MujocoRobot(lopsided_range).mirror_symmetric
+    bent_rest = xml.replace('limited="true" armature="0.0001"/>', 'limited="true" armature="0.0001" springref="0.2"/>', 1)
+    assert not MujocoRobot(bent_rest).mirror_symmetric  # straight is not the rest shape
+    sideways_gravity = xml.replace('<flag gravity="disable"/>', '').replace('integrator="implicitfast">',
+                                                                        'integrator="implicitfast" gravity="0 1 0">')
+    assert not MujocoRobot(sideways_gravity).mirror_symmetric
+    pytest.importorskip("gymnasium")
+    assert gymnasium_swimmer().mirror_symmetric  # capsules on one line, a floor below
+
+
+def test_half_wave_gaits_do_not_turn_an_unequal_chain_in_its_own_dynamics():
+    """MuJoCo's dynamics (PD joints, RFT dampers), not geogait's closed form: a half-wave symmetric gait
+    leaves no net rotation per cycle once settled; the same loop with a constant bend turns."""
+    from geogait.gaits import FourierGait, MirrorGaitFamily, Perturbation
+
+    xml = purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1))
+    rng = np.random.default_rng(3)
+    gait = MirrorGaitFamily(4).gait(rng.normal(scale=0.4, size=8))
+    bent = FourierGait(gait.coefficients + np.array([[0.3], [-0.2], [0.1], [0.2]]) * np.eye(3)[0])
+    turns = {}
+    for name, run in (("mirror", gait), ("bent", bent)):
+        robot = MujocoRobot(xml, gait=run, perturbation=Perturbation(eta=0), seed=0)
+        robot.next_cycles(2)  # settle
+        start = robot.next_cycle().pose[0, 2]
+        robot.next_cycle()
+        turns[name] = abs(robot.next_cycle().pose[0, 2] - start) / 2  # heading at cycle starts, two cycles apart
+    assert turns["mirror"] < 1e-4 and turns["bent"] > 0.01
 
 
 @pytest.mark.parametrize("lengths", [(0.3, 0.15, 0.2, 0.25, 0.1), (0.25, 0.25, 0.25, 0.25)])

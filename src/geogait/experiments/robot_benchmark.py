@@ -30,8 +30,11 @@ gait stays in the family), and the method is told the value of the gait that ran
 method is run twice: ``free`` (the objective alone, so a gait may turn), and ``held`` to the
 rotation limit with the penalty :math:`f - w \max(0, |\Delta\theta| - \omega_{max})`,
 :math:`w = 2 |f_{seed}| / \omega_{max}` (a gait turning 1.5 ω_max per cycle loses the seed's whole
-progress). geogait's gait family and rotation constraint are its own (rotation-free symmetric family
-on symmetric swimmers; zero predicted rotation otherwise).
+progress). In a rotation-free family (the front–back symmetric family on symmetric swimmers, the
+half-wave symmetric family on the other mirror-symmetric bodies) ``free`` and ``held`` would be the same
+runs, so only ``free`` is run. geogait's gait family and rotation constraint are its own (its
+``family="auto"`` on a case with a rotation-free family, which picks that family from what the robot
+declares; zero predicted rotation in the free family).
 
 **What is reported**, at every ``checkpoint`` (cycles used): each method's current gait — geogait's
 commanded gait, CMA-ES's mean, the best candidate so far for TPE and random search — re-run on a
@@ -65,7 +68,7 @@ from .. import __version__
 from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._files import write_text
 from .._validation import GeogaitError, check_int, fail
-from ..gaits import FourierGait, FreeGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
+from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
 from ..models import BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle
 from ..plotting import plt, save_figure
@@ -127,8 +130,10 @@ class BenchmarkCase:
         Joint limit r_max (rad) of every gait a method may command.
     settle_cycles : int
         Cycles after a gait change before one is measured (a body with momentum, PD lag).
-    family : {"free", "symmetric"}
-        Gait family every method searches (order 1).
+    family : {"free", "symmetric", "mirror"}
+        Gait family every method searches (order 1): free, front–back symmetric about the seed's
+        symmetry phase, or half-wave symmetric (:class:`~geogait.gaits.MirrorGaitFamily`); the last two
+        are rotation-free.
     rotation_limit : float
         |net rotation| per cycle (rad) the ``held`` black-box variants are held to.
     eval_cycles : int
@@ -242,7 +247,7 @@ def _cases() -> dict[str, BenchmarkCase]:
         name="mujoco-purcell5-unequal",
         description=f"MuJoCo 5-link Purcell swimmer, RFT drag, links {UNEQUAL_LINKS}, PD joints",
         make_robot=_mujoco_unequal_robot, settle_cycles=1, eval_cycles=2, ceiling=_mujoco_unequal_ceiling,
-        requires=("mujoco",))
+        family="mirror", requires=("mujoco",))
     cases["gymnasium-swimmer"] = BenchmarkCase(
         name="gymnasium-swimmer", description="Gymnasium Swimmer-v5 model (quadratic drag, inertia), PD joints, 2 s",
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
@@ -251,7 +256,8 @@ def _cases() -> dict[str, BenchmarkCase]:
     cases["elastica-snake"] = BenchmarkCase(
         name="elastica-snake", description="PyElastica continuum snake (Cosserat rod, anisotropic friction), "
         "4 curvature modes, 1 s", make_robot=_elastica_robot, objective="forward", direction=None,
-        settle_cycles=1, eval_cycles=2, rotation_limit=0.05, requires=("elastica",), checkpoints=(30, 60, 100))
+        settle_cycles=1, eval_cycles=2, rotation_limit=0.05, family="mirror", requires=("elastica",),
+        checkpoints=(30, 60, 100))
     return cases
 
 
@@ -326,8 +332,9 @@ class _Family:
     """Order-1 gait family of a case, with the joint-limit repair every black-box method uses."""
 
     def __init__(self, case: BenchmarkCase, seed: FourierGait, period: float):
-        self.family = (SymmetricGaitFamily.from_gait(seed, order=1) if case.family == "symmetric"
-                       else FreeGaitFamily(seed.n_joints, 1))
+        self.family = {"symmetric": lambda: SymmetricGaitFamily.from_gait(seed, order=1),
+                       "mirror": lambda: MirrorGaitFamily(seed.n_joints, 1),
+                       "free": lambda: FreeGaitFamily(seed.n_joints, 1)}[case.family]()
         self.r_max = case.max_joint_angle
         self.period_range, self.seed_period = case.period_range, period
         self.seed_params = self.family.params_of(seed.with_order(1))
@@ -481,7 +488,7 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: s
     if case.period_range is not None:
         options.update(optimize_period=True, period_range=case.period_range)
     optimizer = InSituOptimizer(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
-                                family="auto" if case.family == "symmetric" else "free", **options)
+                                family="free" if case.family == "free" else "auto", **options)
     seed, period = robot.gait, robot.cycle_period
     result = optimizer.run(robot, budget)
     log = result.log
@@ -596,7 +603,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         if case.direction is None:
             case = dataclasses.replace(case, direction=seed_direction(case))
         # in a rotation-free family the held variants would repeat the free runs exactly
-        case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
+        case_methods = [m for m in methods if not (case.family != "free" and m.endswith("-held"))]
         probe = case.make_robot(None, explore=False, noise=False)
         for method in ("geogait-resistance", "geogait-hybrid"):
             if method in case_methods and _variant_options(probe, "resistance") is None:

@@ -2,11 +2,12 @@
 
 from ._fourier import FourierGait, fourier_basis, seed_gait
 from ._perturbation import Perturbation, PerturbationStream, check_excitation, excitation_at
-from ._symmetric import FreeGaitFamily, SymmetricGaitFamily, shift_phase
+from ._symmetric import FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily, shift_phase
 
 __all__ = [
     "FourierGait",
     "FreeGaitFamily",
+    "MirrorGaitFamily",
     "Perturbation",
     "PerturbationStream",
     "SymmetricGaitFamily",

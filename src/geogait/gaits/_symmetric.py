@@ -38,7 +38,7 @@ from scipy.optimize import minimize_scalar
 from .._validation import check_array, check_float, check_int, fail
 from ._fourier import FourierGait
 
-__all__ = ["FreeGaitFamily", "SymmetricGaitFamily", "shift_phase"]
+__all__ = ["FreeGaitFamily", "MirrorGaitFamily", "SymmetricGaitFamily", "shift_phase"]
 
 
 def shift_phase(gait: FourierGait, shift: float) -> FourierGait:
@@ -207,6 +207,115 @@ class SymmetricGaitFamily:
                                  options={"xatol": 1e-12})
         center = result.x if result.fun <= values.min() else best
         return cls(gait.n_joints, order, float(center))
+
+
+def _mirror_matrix(n_joints: int, order: int) -> np.ndarray:
+    """The constant map T ``(d (2K+1), n_params)`` selecting the odd harmonics' a_k, b_k of every joint."""
+    width = 2 * order + 1
+    odd = np.arange(1, order + 1, 2)
+    rows = np.concatenate([odd, order + odd])  # a_k then b_k of the odd k, within one joint's coefficients
+    matrix = np.zeros((n_joints, width, n_joints * rows.size))
+    for j in range(n_joints):
+        matrix[j, rows, j * rows.size + np.arange(rows.size)] = 1.0
+    matrix = matrix.reshape(n_joints * width, -1)
+    matrix.setflags(write=False)
+    return matrix
+
+
+@dataclass(frozen=True)
+class MirrorGaitFamily:
+    r"""Half-wave symmetric Fourier gaits, :math:`\theta(\phi + \pi) = -\theta(\phi)`: rotation-free on
+    every planar body whose physics is unchanged by a mirror reflection.
+
+    Reflecting a planar body across its own long axis changes the sign of every shape coordinate that
+    bends it (joint angles of a chain of any link lengths, curvature modes of a continuum) and maps a
+    body velocity :math:`(v_x, v_y, \omega)` to :math:`(v_x, -v_y, -\omega)` in a frame on that axis.
+    When the medium does the same (viscous drag, resistive force theory, anisotropic friction measured
+    along the body's tangent), the mirror image of a motion is a motion. A gait whose second half
+    cycle is the mirror image of its first, :math:`\theta(\phi + \pi) = -\theta(\phi)`, therefore
+    turns the body by :math:`\Delta\theta` in the first half and by :math:`-\Delta\theta` in the
+    second: **exactly zero net rotation per cycle**, whatever the link lengths, and for a body with
+    inertia on its periodic steady state too. Unlike :class:`SymmetricGaitFamily` it needs no
+    front–back symmetry. A Fourier gait has the symmetry exactly when its offsets and even harmonics
+    vanish, so the free parameters are :math:`a_{jk}, b_{jk}` of the odd k:
+    ``d · 2 ⌈K / 2⌉`` of the ``d (2K + 1)`` Fourier coefficients (the paper's seed gait is a member).
+    The map to Fourier parameters is a constant selection, ``p = T q``.
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d (≥ 1).
+    order : int
+        Fourier order K (≥ 1).
+
+    Attributes
+    ----------
+    matrix : ndarray of shape (d (2K + 1), n_params)
+        ∂(Fourier parameters)/∂(free parameters), constant.
+
+    Examples
+    --------
+    >>> from geogait.gaits import seed_gait
+    >>> family = MirrorGaitFamily(2)
+    >>> family.n_params, family.residual(seed_gait(2))
+    (4, 0.0)
+    >>> gait = family.gait(family.params_of(seed_gait(2)))
+    >>> bool(np.allclose(gait.shape(np.pi + 0.3), -gait.shape(0.3)))
+    True
+    """
+
+    n_joints: int
+    order: int = 1
+    matrix: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        check_int(self.n_joints, "n_joints", "MirrorGaitFamily", minimum=1)
+        check_int(self.order, "order", "MirrorGaitFamily", minimum=1)
+        object.__setattr__(self, "matrix", _mirror_matrix(self.n_joints, self.order))
+
+    @property
+    def n_params(self) -> int:
+        """Number of free parameters, ``d · 2 ⌈K / 2⌉``."""
+        return self.matrix.shape[1]
+
+    def fourier_params(self, params) -> np.ndarray:
+        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``.
+
+        Parameters
+        ----------
+        params : array-like of shape (n_params,)
+            The odd harmonics' coefficients, joint by joint (a_k then b_k, k = 1, 3, …).
+        """
+        params = check_array(params, "params", "MirrorGaitFamily.fourier_params", ndim=1)
+        if params.size != self.n_params:
+            raise fail("params", "MirrorGaitFamily.fourier_params", f"a vector of length {self.n_params}",
+                       f"length {params.size}")
+        return self.matrix @ params
+
+    def gait(self, params) -> FourierGait:
+        """The member with free parameters ``params`` ``(n_params,)``."""
+        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
+
+    def residual(self, gait: FourierGait) -> float:
+        """Distance (Euclidean, in Fourier coefficients) from ``gait`` to the family: the norm of its offsets
+        and even harmonics."""
+        params = self._fourier_of(gait, "MirrorGaitFamily.residual")
+        return float(np.linalg.norm(params - self.matrix @ (self.matrix.T @ params)))
+
+    def params_of(self, gait: FourierGait, tolerance: float = 1e-9) -> np.ndarray:
+        """Free parameters of a member ``gait``; raises if it is farther than ``tolerance`` from the family."""
+        params = self._fourier_of(gait, "MirrorGaitFamily.params_of")
+        miss = float(np.linalg.norm(params - self.matrix @ (self.matrix.T @ params)))
+        if miss > tolerance:
+            raise fail("gait", "MirrorGaitFamily.params_of",
+                       f"a half-wave symmetric gait (no offsets or even harmonics; distance <= {tolerance:g})",
+                       f"a gait at distance {miss:.3g}")
+        return self.matrix.T @ params
+
+    def _fourier_of(self, gait, owner) -> np.ndarray:
+        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
+            raise fail("gait", owner, f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
+        return gait.with_order(self.order).params
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from scipy.optimize import minimize
 from .._defaults import MAX_JOINT_ANGLE
 from .._files import write_json
 from .._validation import check_choice, check_float, check_int, fail
-from ..gaits import FourierGait, SymmetricGaitFamily, seed_gait
+from ..gaits import FourierGait, MirrorGaitFamily, SymmetricGaitFamily, seed_gait
 from ..simulate import cycle_displacement
 from ..systems import System
 from ._objective import (
@@ -135,10 +135,13 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
         Seed of the random starts.
     resolution : int
         Magnus steps per cycle (error ~1e-8 at 128).
-    family : {"free", "symmetric"}
+    family : {"free", "symmetric", "mirror"}
         ``"symmetric"`` optimises inside the front–back symmetric family
         (:class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's φ₀), which is rotation-free
         by construction, with half the parameters; only for chains with that symmetry.
+        ``"mirror"`` optimises over the half-wave symmetric gaits
+        (:class:`~geogait.gaits.MirrorGaitFamily`: odd harmonics only), rotation-free on any planar
+        chain; the start must be a member.
     start : FourierGait, optional
         First start, of ``d`` joints; it must lie within the joint limits (and the system's
         feasible region, if any). Its order is raised to ``order`` if lower.
@@ -148,13 +151,19 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
     r_max = check_float(max_joint_angle, "max_joint_angle", "optimize_ceiling", low=0, high=np.pi, low_open=True)
     kind = default_objective(order) if objective_kind is None else objective_kind
     check_choice(kind, "objective_kind", "optimize_ceiling", OBJECTIVES)
-    check_choice(family, "family", "optimize_ceiling", ("free", "symmetric"))
+    check_choice(family, "family", "optimize_ceiling", ("free", "symmetric", "mirror"))
     d = system.n_joints
     limits = joint_limit_constraints(d, order, r_max)
     rng = np.random.default_rng(seed)
     feasibility = feasibility_constraint(system, d, order)
     seed_start = _first_start(system, start, d, order, r_max, feasibility)
-    matrix = SymmetricGaitFamily.from_gait(seed_start).matrix if family == "symmetric" else None
+    matrix = {"free": None, "symmetric": lambda: SymmetricGaitFamily.from_gait(seed_start).matrix,
+              "mirror": lambda: MirrorGaitFamily(d, order).matrix}[family]
+    if matrix is not None:
+        matrix = matrix()
+        if family == "mirror" and MirrorGaitFamily(d, order).residual(seed_start) > 1e-9:
+            raise fail("start", "optimize_ceiling", "a half-wave symmetric gait (no offsets or even harmonics) "
+                       "for family 'mirror'", seed_start)
     candidates = [seed_start]
     for _ in range(starts - 1):
         for _ in range(1 if feasibility is None else FEASIBLE_DRAWS):

@@ -10,10 +10,11 @@ poses (the last pose advanced by the last measured body velocity over one sample
 body frame at the start of the cycle. A simulator's truth (``current_system()``) only adds
 ``true_*`` columns to the log.
 
-Gait family (``family``): the free Fourier family of ``order``, or, on chains with front–back
-symmetry, the rotation-free :class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's φ₀
-(half the parameters; every commanded gait has exactly zero net rotation, so the rotation
-constraint below is dropped). Step rule (``step_rule``): ``"linear"`` as below, or ``"sqp"`` — the
+Gait family (``family``): the free Fourier family of ``order``, or a rotation-free family — on
+chains with front–back symmetry :class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's
+φ₀, on other bodies that declare mirror symmetry the half-wave symmetric
+:class:`~geogait.gaits.MirrorGaitFamily` (odd harmonics only). Every commanded gait of those has
+exactly zero net rotation, so the rotation constraint below is dropped. Step rule (``step_rule``): ``"linear"`` as below, or ``"sqp"`` — the
 model's own nonlinear predicted objective maximised inside the trust region by SQP
 (:func:`~geogait.optimize.sqp_step`). Both are the standalone functions of
 :mod:`geogait.optimize._steps`.
@@ -62,7 +63,7 @@ from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
-from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
+from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import check_gait_model, has_gait_model_members
 from ..robots import check_robot
 from ..systems import PurcellSwimmer
@@ -119,12 +120,16 @@ class InSituOptimizer(Estimator):
         Γ* (default 1/2).
     order : int
         Fourier order of the gait family optimised (the seed is embedded in it).
-    family : {"auto", "free", "symmetric"}
+    family : {"auto", "free", "symmetric", "mirror"}
         Gait family searched. ``"symmetric"``: the front–back symmetric, rotation-free family about
-        the seed's symmetry phase (the seed must be a member). ``"auto"`` (default): symmetric when
-        the robot declares the symmetry (a truthy ``front_back_symmetric`` attribute, or a simulated
-        :class:`~geogait.systems.PurcellSwimmer` whose link lengths read the same from both ends)
-        and the seed gait is a member; free otherwise.
+        the seed's symmetry phase (the seed must be a member). ``"mirror"``: the half-wave symmetric
+        gaits θ(φ + π) = −θ(φ), rotation-free on any body whose physics is mirror symmetric (the seed
+        must be a member: no offsets or even harmonics). ``"auto"`` (default): symmetric when the
+        robot declares front–back symmetry (a truthy ``front_back_symmetric`` attribute, or a
+        simulated :class:`~geogait.systems.PurcellSwimmer` whose link lengths read the same from both
+        ends) and the seed gait is a member; else mirror when it declares mirror symmetry (a truthy
+        ``mirror_symmetric`` attribute, or any simulated ``PurcellSwimmer``) and the seed is a
+        member; free otherwise.
     step_rule : {"linear", "sqp"}
         Trust-region step on the model's prediction (module docstring).
     objective : {"progress", "efficiency", "forward", "budget"}
@@ -220,7 +225,7 @@ class InSituOptimizer(Estimator):
         "order": Integer(minimum=1),
         "objective": Options(tuple(OBJECTIVES)),
         "direction_frame": Options(("world", "body")),
-        "family": Options(("auto", "free", "symmetric")),
+        "family": Options(("auto", "free", "symmetric", "mirror")),
         "step_rule": Options(tuple(STEP_RULES)),
         "max_joint_velocity": Real(low=0, low_open=True, none=True),
         "trust_radius": Real(low=0, low_open=True),
@@ -512,19 +517,29 @@ class InSituOptimizer(Estimator):
 
     # -- gait family --------------------------------------------------------------------------
     def _family(self, robot, gait: FourierGait):
-        """The family searched (``family`` parameter): SymmetricGaitFamily about the seed or FreeGaitFamily."""
-        if self.family == "free" or gait.n_joints < 2:
-            if self.family == "symmetric":
-                raise fail("family", "InSituOptimizer.run", "'free' for a robot with one joint", self.family)
+        """The family searched (``family`` parameter): SymmetricGaitFamily about the seed, MirrorGaitFamily or
+        FreeGaitFamily."""
+        owner = "InSituOptimizer.run"
+        if self.family == "free":
             return FreeGaitFamily(gait.n_joints, self.order)
-        symmetric = SymmetricGaitFamily.from_gait(gait, self.order)
-        member = symmetric.residual(gait) <= 1e-9
-        if self.family == "symmetric":
-            if not member:
-                raise fail("robot", "InSituOptimizer.run", "a seed gait with front-back symmetry for family "
-                           "'symmetric'", f"a gait at distance {symmetric.residual(gait):.3g} from the family")
-            return symmetric
-        return symmetric if member and _declares_symmetry(robot) else FreeGaitFamily(gait.n_joints, self.order)
+        if self.family in ("auto", "symmetric") and gait.n_joints >= 2:
+            symmetric = SymmetricGaitFamily.from_gait(gait, self.order)
+            member = symmetric.residual(gait) <= 1e-9
+            if self.family == "symmetric" and not member:
+                raise fail("robot", owner, "a seed gait with front-back symmetry for family 'symmetric'",
+                           f"a gait at distance {symmetric.residual(gait):.3g} from the family")
+            if self.family == "symmetric" or (member and _declares_symmetry(robot)):
+                return symmetric
+        elif self.family == "symmetric":
+            raise fail("family", owner, "'free' or 'mirror' for a robot with one joint", self.family)
+        mirror = MirrorGaitFamily(gait.n_joints, self.order)
+        member = mirror.residual(gait) <= 1e-9
+        if self.family == "mirror" and not member:
+            raise fail("robot", owner, "a half-wave symmetric seed gait (no offsets or even harmonics) for family "
+                       "'mirror'", f"a gait at distance {mirror.residual(gait):.3g} from the family")
+        if self.family == "mirror" or (member and _declares_mirror_symmetry(robot)):
+            return mirror
+        return FreeGaitFamily(gait.n_joints, self.order)
 
     # -- model --------------------------------------------------------------------------------
     def _structured_default(self, robot):
@@ -551,6 +566,15 @@ def _is_numeric(value) -> bool:
     except (TypeError, ValueError):
         return False
     return True
+
+
+def _declares_mirror_symmetry(robot) -> bool:
+    """The robot says its body and medium are mirror symmetric, or simulates a Purcell swimmer (any links)."""
+    declared = getattr(robot, "mirror_symmetric", None)
+    if declared is not None:
+        return bool(declared)
+    system = robot.current_system() if hasattr(robot, "current_system") else None
+    return isinstance(system, PurcellSwimmer)
 
 
 def _declares_symmetry(robot) -> bool:

@@ -12,7 +12,7 @@ from .. import models
 from .._defaults import MAX_JOINT_ANGLE
 from .._files import read_state
 from .._validation import fail
-from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
+from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import has_gait_model_members, model_from_state
 from ._climb import MeasuredClimb
 from ._exploration import Exploration
@@ -41,6 +41,12 @@ def read_checkpoint_metadata(path) -> dict:
     dict
     """
     return read_state(Path(path), "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)[0]
+
+
+def family_kind(family) -> str:
+    """The name of a gait family object, as the optimiser's ``family`` parameter spells it."""
+    return ("symmetric" if isinstance(family, SymmetricGaitFamily)
+            else "mirror" if isinstance(family, MirrorGaitFamily) else "free")
 
 
 @dataclass
@@ -73,7 +79,7 @@ class RunState:
     seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
     rows: list = field(default_factory=list)
     gaits: list = field(default_factory=list)
-    family: object = None  # FreeGaitFamily or SymmetricGaitFamily searched
+    family: object = None  # FreeGaitFamily, SymmetricGaitFamily or MirrorGaitFamily searched
     measured: dict = field(default_factory=dict)  # gait -> measured objective of each of its learned cycles
     feasibility: object = None  # the system's feasible region as step constraints (None: none declared)
     seed_nets: list = field(default_factory=list)  # the seed's measured motion per cycle, direction frame
@@ -175,7 +181,7 @@ class RunState:
                              "candidate_period": None if climb.candidate is None else climb.candidate[1]}
         metadata["promised"] = None if self.promised is None else [float(v) for v in self.promised]
         family = self.family
-        metadata["family"] = {"kind": "symmetric" if isinstance(family, SymmetricGaitFamily) else "free",
+        metadata["family"] = {"kind": family_kind(family),
                               "n_joints": family.n_joints, "order": family.order,
                               "center": float(getattr(family, "center", 0.0))}
         arrays = {"gait": self.gait.coefficients, "robot_gait": self.robot_gait.coefficients,
@@ -251,8 +257,9 @@ class RunState:
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
         state.robot_gait = FourierGait(arrays["robot_gait"])
         family = scalars.get("family") or {"kind": "free", "n_joints": state.gait.n_joints, "order": state.gait.order}
-        state.family = (SymmetricGaitFamily(family["n_joints"], family["order"], family["center"])
-                        if family["kind"] == "symmetric" else FreeGaitFamily(family["n_joints"], family["order"]))
+        state.family = {"symmetric": lambda: SymmetricGaitFamily(family["n_joints"], family["order"], family["center"]),
+                        "mirror": lambda: MirrorGaitFamily(family["n_joints"], family["order"]),
+                        "free": lambda: FreeGaitFamily(family["n_joints"], family["order"])}[family["kind"]]()
         state.previous_gait = FourierGait(arrays["previous_gait"]) if "previous_gait" in arrays else None
         state.direction = arrays.get("direction")
         # checkpoints before the averaged direction fixed it at the first measured cycle

@@ -4,7 +4,8 @@ Both rules see the gait only through a *predictor* — ``predict(gait, jacobian=
 predicted net ``(x, y, heading)`` per cycle and its ``(3, p)`` Jacobian, e.g. a model's
 ``predict_displacement`` or the oracle — and search in the free parameters q of a gait family
 (:class:`~geogait.gaits.FreeGaitFamily`, or the rotation-free
-:class:`~geogait.gaits.SymmetricGaitFamily`, where p = T q). With objective f(q) (see
+:class:`~geogait.gaits.SymmetricGaitFamily` and :class:`~geogait.gaits.MirrorGaitFamily`, where
+p = T q). With objective f(q) (see
 :mod:`geogait.optimize._objective`), predicted rotation c(q), trust radius R and joint limits
 G T q ≤ h:
 
@@ -39,7 +40,7 @@ from scipy.optimize import minimize
 
 from .._docs import fill_doc
 from .._validation import check_choice, check_float, fail
-from ..gaits import FourierGait, FreeGaitFamily, SymmetricGaitFamily
+from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ._objective import OBJECTIVES, objective
 
 __all__ = ["STEP_RULES", "Step", "StepProblem", "linear_step", "sqp_step", "take_step"]
@@ -87,7 +88,7 @@ class StepProblem:
     predict : callable
         ``predict(gait, jacobian=True)`` → ``(pose (3,), jacobian (3, d (2K+1)))``; with
         ``jacobian=False`` only the pose.
-    family : FreeGaitFamily or SymmetricGaitFamily
+    family : FreeGaitFamily, SymmetricGaitFamily or MirrorGaitFamily
     objective : {"progress", "efficiency", "forward", "budget"}
     limits : tuple (G, h), optional
         Joint limits ``G p ≤ h`` on the Fourier parameters
@@ -106,7 +107,7 @@ class StepProblem:
     """
 
     predict: Callable
-    family: FreeGaitFamily | SymmetricGaitFamily
+    family: FreeGaitFamily | SymmetricGaitFamily | MirrorGaitFamily
     objective: str = "progress"
     limits: tuple | None = None
     rotation: bool | None = None
@@ -120,8 +121,8 @@ class StepProblem:
             raise fail("predict", owner, "callable as predict(gait, jacobian=...)", self.predict)
         if self.feasibility is not None and not callable(self.feasibility):
             raise fail("feasibility", owner, "callable as feasibility(params) -> (g, dg/dp)", self.feasibility)
-        if not isinstance(self.family, FreeGaitFamily | SymmetricGaitFamily):
-            raise fail("family", owner, "a FreeGaitFamily or SymmetricGaitFamily", self.family)
+        if not isinstance(self.family, FreeGaitFamily | SymmetricGaitFamily | MirrorGaitFamily):
+            raise fail("family", owner, "a FreeGaitFamily, SymmetricGaitFamily or MirrorGaitFamily", self.family)
         check_choice(self.objective, "objective", owner, OBJECTIVES)
         check_float(self.rotation_tolerance, "rotation_tolerance", owner, low=0, low_open=True)
         if self.rotation is None:

@@ -9,7 +9,9 @@ Driver → geogait, first line::
      "gait": {"order": 1, "params": [a_00, a_01, b_01, a_10, a_11, b_11]}}
 
 Optional hello fields: ``"front_back_symmetric": true`` declares a chain with front–back symmetry
-(the optimiser then searches the rotation-free symmetric gait family); ``"joint_ranges": [[low,
+(the optimiser then searches the rotation-free symmetric gait family); ``"mirror_symmetric": true``
+a body and medium that read the same in a mirror along the body's axis (then, on a robot without
+front–back symmetry, the rotation-free half-wave symmetric family); ``"joint_ranges": [[low,
 high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits the optimiser
 derives its own from; ``"chain": {"link_lengths": [...], "body_frame": "middle", "frame_offset": [x, y,
 angle], "resistive": true}`` the robot as a chain of straight links, which
@@ -139,7 +141,7 @@ class ProcessRobot:
         From the driver's ``hello``.
     cycle : int
         Cycles run so far.
-    front_back_symmetric : bool or None
+    front_back_symmetric, mirror_symmetric : bool or None
         As declared by the driver (None: not said).
     joint_ranges : ndarray of shape (d, 2) or None
         As declared by the driver (None: not said).
@@ -488,10 +490,11 @@ class ProcessRobot:
             raise self._failure(f"'cycle_period' must be in [{low:g}, {high:g}] seconds, got {float(period):g}")
         self.cycle_period = float(period)
         self._gait = self._hello_gait = self._read_gait(hello.get("gait"))
-        symmetric = hello.get("front_back_symmetric")
-        if symmetric is not None and not isinstance(symmetric, bool):
-            raise self._failure(f"'front_back_symmetric' must be true or false, got {_cut(repr(symmetric), 40)}")
-        self.front_back_symmetric = symmetric
+        for name in ("front_back_symmetric", "mirror_symmetric"):
+            symmetric = hello.get(name)
+            if symmetric is not None and not isinstance(symmetric, bool):
+                raise self._failure(f"'{name}' must be true or false, got {_cut(repr(symmetric), 40)}")
+            setattr(self, name, symmetric)
         excitation = hello.get("excitation", False)
         if not isinstance(excitation, bool) or (excitation and version < 2):
             raise self._failure(f"'excitation' must be true or false (and true only in protocol version 2), got "

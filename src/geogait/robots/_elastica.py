@@ -313,6 +313,18 @@ class ElasticaSnake:
         return self._gait
 
     @property
+    def mirror_symmetric(self) -> bool:
+        """True: the body and the ground read the same in a mirror along the body's axis.
+
+        The rod is straight and uniform at rest, its modal coordinates bend it through the rest
+        curvature (negating them mirrors the commanded shape), friction is measured along and across
+        its own tangent, and gravity is normal to the ground. So
+        :class:`~geogait.optimize.InSituOptimizer`'s ``family="auto"`` searches the half-wave
+        symmetric gaits (:class:`~geogait.gaits.MirrorGaitFamily`), which do not turn the snake.
+        """
+        return True
+
+    @property
     def n_physics_steps(self) -> int:
         """Physics steps per cycle: ``samples_per_cycle · steps_per_sample``."""
         return self.samples_per_cycle * self.steps_per_sample

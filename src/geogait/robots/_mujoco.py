@@ -345,6 +345,26 @@ class MujocoRobot:
         return self._symmetric
 
     @property
+    def mirror_symmetric(self) -> bool:
+        """Whether the model reads the same in a mirror along its chain's axis, read from its bodies.
+
+        True when the shape joints join d + 1 bodies in one serial chain, hinge about one common axis n,
+        and, with every joint at zero (its spring reference, range and actuator control and force ranges
+        symmetric about zero), the chain lies straight on a line L: every joint anchor, link centre of
+        mass, geom centre and actuator site on L, every link geom, inertia frame and site frame with
+        its axes along L, n or n × L (capsules, cylinders, spheres, boxes and ellipsoids), every site
+        actuator acting along one axis of its site, any geom outside the chain a plane normal to n,
+        and gravity and wind with no component across L (all to 1e-6). Then mirroring the body across
+        the plane through L and n changes the sign of every joint angle and maps motions to motions,
+        so the half-wave symmetric gait family is rotation-free
+        (:class:`~geogait.optimize.InSituOptimizer`'s ``family="auto"``). True for
+        ``purcell_swimmer_xml`` with any link lengths and for Gymnasium's Swimmer-v5.
+        """
+        if not hasattr(self, "_mirror"):
+            self._mirror = _reads_the_same_in_a_mirror(self.model, self._joint_ids)
+        return self._mirror
+
+    @property
     def resistive_medium(self) -> bool:
         """Whether the chain moves in a resistive medium (forces linear in velocity), read from the model.
 
@@ -782,6 +802,69 @@ def _reads_the_same_from_both_ends(model, joints) -> bool:
         if not np.allclose(a, b, rtol=tolerance, atol=tolerance) or shapes_a != shapes_b or biases_a != biases_b:
             return False
     return True
+
+
+def _reads_the_same_in_a_mirror(model, joints) -> bool:
+    """See :attr:`MujocoRobot.mirror_symmetric`."""
+    mujoco = _mujoco()
+    chain = _chain_links(model, joints)
+    if chain is None:
+        return False
+    links, tolerance = chain[0], 1e-6
+    for j in joints:
+        address = model.jnt_qposadr[j]
+        low, high = model.jnt_range[j]
+        if model.qpos_spring[address] != 0 or (model.jnt_limited[j] and abs(low + high) > tolerance):
+            return False
+    for a in range(model.nu):
+        for limited, (low, high) in ((model.actuator_ctrllimited[a], model.actuator_ctrlrange[a]),
+                                     (model.actuator_forcelimited[a], model.actuator_forcerange[a])):
+            if limited and abs(low + high) > tolerance:
+                return False
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    data.qpos[[model.jnt_qposadr[j] for j in joints]] = 0.0
+    mujoco.mj_forward(model, data)
+    normal = data.xaxis[joints[0]] / np.linalg.norm(data.xaxis[joints[0]])
+    if any(np.linalg.norm(np.cross(data.xaxis[j], normal)) > tolerance for j in joints):
+        return False
+    points = np.array([*(data.xanchor[j] for j in joints), *(data.xipos[b] for b in links)])
+    origin = points[0]
+    spread = points - origin
+    spread -= np.outer(spread @ normal, normal)
+    along = spread[np.argmax(np.linalg.norm(spread, axis=1))]
+    if not np.linalg.norm(along) > tolerance:
+        return False
+    along /= np.linalg.norm(along)
+    across = np.cross(normal, along)
+
+    def on_line(point) -> bool:
+        return abs((point - origin) @ across) <= tolerance
+
+    def aligned(frame) -> bool:  # every axis of a 3×3 frame along L, n or n × L
+        return all(np.max(np.abs(np.stack([along, across, normal]) @ column)) >= 1 - tolerance for column in frame.T)
+
+    shapes = {int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_SPHERE),
+              int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)}
+    chain_bodies = set(links)
+    for g in range(model.ngeom):
+        frame = data.geom_xmat[g].reshape(3, 3)
+        if int(model.geom_bodyid[g]) in chain_bodies:
+            if int(model.geom_type[g]) not in shapes or not on_line(data.geom_xpos[g]) or not aligned(frame):
+                return False
+        elif int(model.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_PLANE) or abs(frame[:, 2] @ normal) < 1 - tolerance:
+            return False
+    for b in links:
+        if not on_line(data.xipos[b]) or not aligned(data.ximat[b].reshape(3, 3)):
+            return False
+    for a in range(model.nu):
+        if int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_SITE):
+            continue
+        site = model.actuator_trnid[a][0]
+        if (not on_line(data.site_xpos[site]) or not aligned(data.site_xmat[site].reshape(3, 3))
+                or np.count_nonzero(model.actuator_gear[a]) != 1):
+            return False
+    return abs(model.opt.gravity @ across) <= tolerance and abs(model.opt.wind @ across) <= tolerance
 
 
 def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, link_lengths=None,

@@ -71,6 +71,7 @@ def main(argv=None) -> int:
     excitation = args.protocol >= 2 and hasattr(stream, "set_excitation")
     hello = {"type": "hello", "protocol": PROTOCOL, "version": min(args.protocol, PROTOCOL_VERSION),
              "n_joints": stream.n_joints, "cycle_period": args.period, "front_back_symmetric": symmetric,
+             "mirror_symmetric": True,  # the swimmer (any links) and the snake both read the same in a mirror
              "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}}
     if excitation:
         hello["excitation"] = True
