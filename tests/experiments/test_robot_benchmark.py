@@ -209,6 +209,12 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     assert command == "first && second"
     with pytest.raises(GeogaitError, match="n_seeds"):
         bench.merge_results(old, result([], ["geogait"], n_seeds=3), "third")
+    # a case searched in another family since: its old records (the held variants too) are not comparable
+    old["cases"]["swimmer3"] = {"family": "free"}
+    old["records"] = pd.concat([old["records"], result([("swimmer3", "random-held", 0, 4.0)], [])["records"]])
+    new["cases"]["swimmer3"] = {"family": "mirror"}
+    merged, _ = bench.merge_results(old, new, "fourth")
+    assert merged["records"]["method"].tolist() == ["geogait"]
 
 
 def test_a_manifest_with_cases_without_ceiling_or_score_redraws(tmp_path):

@@ -92,8 +92,8 @@ def optimize(
              "(Bittner 2018).",
     )] = "auto",
     family: Annotated[str, typer.Option(
-        help="Gait family: auto (rotation-free symmetric family on front-back symmetric chains), free or "
-             "symmetric.")] = "auto",
+        help="Gait family: auto (rotation-free: the front-back symmetric family on front-back symmetric chains, "
+             "else the half-wave symmetric family on mirror-symmetric bodies), free, symmetric or mirror.")] = "auto",
     step_rule: Annotated[str | None, typer.Option(
         help="Step rule: linear (linearised, constrained) or sqp [default: sqp for --method resistance, else "
              "linear].")] = None,

@@ -777,13 +777,17 @@ def merge_results(old: dict, new: dict, command: str) -> tuple[dict, str]:
     """``old``'s records with those of ``new``'s cases and methods replaced by ``new``'s.
 
     Both runs must share seeds, budget and root seed (so the seeds stay paired); the returned command
-    names both runs.
+    names both runs. A case whose gait family differs between the runs is replaced whole: records
+    searched in another family are not comparable.
     """
     keys = ("n_seeds", "budget", "seed")
     if any(old["config"][k] != new["config"][k] for k in keys):
         raise GeogaitError("--merge: the runs differ in " + ", ".join(
             f"{k} ({old['config'][k]} vs {new['config'][k]})" for k in keys if old["config"][k] != new["config"][k]))
     records = old["records"]
+    changed = [c for c, described in new["cases"].items()
+               if c in old["cases"] and old["cases"][c].get("family") != described.get("family")]
+    records = records[~records["case"].isin(changed)]
     if not new["records"].empty:
         replaced = records.set_index(["case", "method"]).index.isin(
             new["records"].set_index(["case", "method"]).index.unique())
