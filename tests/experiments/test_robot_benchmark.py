@@ -227,3 +227,19 @@ def test_a_manifest_with_cases_without_ceiling_or_score_redraws(tmp_path):
     assert loaded["records"]["ceiling_fraction"].dtype == float
     bench.plot_benchmark(loaded, tmp_path / "again.png")
     assert "improvement over seed" in bench.benchmark_table(loaded, (4,))
+
+
+@pytest.mark.parametrize("name", ["swimmer5", "mujoco-purcell5-unequal", "gymnasium-swimmer", "elastica-snake"])
+def test_geogait_defaults_search_the_family_every_black_box_method_searches(name):
+    """The rules' "same gait family": a case with a rotation-free family gets it for the black-box methods from the
+    case, and geogait (family="auto") finds the same one from what the robot declares."""
+    from geogait.optimize import InSituOptimizer
+
+    case = bench.CASES[name]
+    if case.missing():
+        pytest.skip(f"needs {', '.join(case.missing())}")
+    robot = case.make_robot(None, explore=False, noise=False)
+    shared = bench._Family(case, robot.gait, robot.cycle_period).family
+    own = InSituOptimizer(family="free" if case.family == "free" else "auto")._family(robot, robot.gait)
+    assert type(own) is type(shared)
+    assert np.allclose(own.matrix, shared.matrix)
