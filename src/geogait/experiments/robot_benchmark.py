@@ -251,7 +251,7 @@ def _cases() -> dict[str, BenchmarkCase]:
     cases["gymnasium-swimmer"] = BenchmarkCase(
         name="gymnasium-swimmer", description="Gymnasium Swimmer-v5 model (quadratic drag, inertia), PD joints, 2 s",
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
-        settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return",
+        settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return", family="mirror",
         requires=("mujoco", "gymnasium"), period_range=(0.5, 4.0))
     cases["elastica-snake"] = BenchmarkCase(
         name="elastica-snake", description="PyElastica continuum snake (Cosserat rod, anisotropic friction), "

@@ -9,9 +9,10 @@ Driver → geogait, first line::
      "gait": {"order": 1, "params": [a_00, a_01, b_01, a_10, a_11, b_11]}}
 
 Optional hello fields: ``"front_back_symmetric": true`` declares a chain with front–back symmetry
-(the optimiser then searches the rotation-free symmetric gait family); ``"mirror_symmetric": true``
-a body and medium that read the same in a mirror along the body's axis (then, on a robot without
-front–back symmetry, the rotation-free half-wave symmetric family); ``"joint_ranges": [[low,
+whose motion reverses with time (the optimiser then searches the rotation-free symmetric gait family);
+``"mirror_symmetric": true`` a body and medium that read the same in a mirror along the body's axis
+(then, on a robot without that front–back symmetry, the rotation-free half-wave symmetric family);
+``"joint_ranges": [[low,
 high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits the optimiser
 derives its own from; ``"chain": {"link_lengths": [...], "body_frame": "middle", "frame_offset": [x, y,
 angle], "resistive": true}`` the robot as a chain of straight links, which

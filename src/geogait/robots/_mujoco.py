@@ -329,19 +329,24 @@ class MujocoRobot:
 
     @property
     def front_back_symmetric(self) -> bool:
-        """Whether the model is a planar chain that reads the same from both ends, read from its bodies.
+        """Whether the front–back symmetric gait family is rotation-free on this model, read from its bodies.
 
+        That family's gaits are unchanged by numbering the joints from the other end *and running time
+        backwards*, so it is rotation-free only on a chain that reads the same from both ends **in a medium
+        whose motion reverses with time** (a principally kinematic body: linear drag, negligible inertia).
         True when the shape joints join d + 1 bodies in one serial chain, numbered in order along it
-        with one sign convention (joint j turns link j + 1 relative to link j), and the chain reversed
+        with one sign convention (joint j turns link j + 1 relative to link j), the chain reversed
         has the same joint spacing, link masses and rotational inertias, centres of mass mirrored, the
         same geoms (type, size, fluid coefficients) and the same passive actuator (drag) parameters
-        per link, all to 1e-6. Then the rotation-free symmetric gait family applies
-        (:class:`~geogait.optimize.InSituOptimizer`'s ``family="auto"``): Gymnasium's Swimmer-v5 and
-        ``purcell_swimmer_xml`` with equal links are; unequal links, a head heavier than the tail,
-        or joints numbered out of order are not.
+        per link, all to 1e-6, and the medium is resistive (:attr:`resistive_medium`). Then
+        :class:`~geogait.optimize.InSituOptimizer`'s ``family="auto"`` searches that family:
+        ``purcell_swimmer_xml`` with equal links is; unequal links, a head heavier than the tail,
+        joints numbered out of order, or quadratic drag and inertia (Gymnasium's Swimmer-v5,
+        ``drag="fluid"``: their gaits in that family turn) are not. Such chains are usually
+        :attr:`mirror_symmetric`, whose half-wave symmetric family stays rotation-free with inertia.
         """
         if not hasattr(self, "_symmetric"):
-            self._symmetric = _reads_the_same_from_both_ends(self.model, self._joint_ids)
+            self._symmetric = self.resistive_medium and _reads_the_same_from_both_ends(self.model, self._joint_ids)
         return self._symmetric
 
     @property
