@@ -579,7 +579,8 @@ def test_mirror_symmetry_is_read_from_the_model():
     assert not MujocoRobot(off_axis).mirror_symmetric  # a lump on one side of the tail
     lopsided_range = xml.replace('range="-2.09439510239 2.09439510239"', 'range="-2.09439510239 1.5"', 1)
     assert not MujocoRobot(lopsided_range).mirror_symmetric
-    bent_rest = xml.replace('limited="true" armature="0.0001"/>', 'limited="true" armature="0.0001" springref="0.2"/>', 1)
+    joint_end = 'limited="true" armature="0.0001"/>'
+    bent_rest = xml.replace(joint_end, joint_end[:-2] + ' springref="0.2"/>', 1)
     assert not MujocoRobot(bent_rest).mirror_symmetric  # straight is not the rest shape
     sideways_gravity = xml.replace('<flag gravity="disable"/>', '').replace('integrator="implicitfast">',
                                                                         'integrator="implicitfast" gravity="0 1 0">')

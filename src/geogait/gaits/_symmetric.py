@@ -10,8 +10,8 @@ combined with a time reversal about a phase :math:`\phi_0`,
 have **exactly zero net rotation per cycle** on a principally kinematic chain (one whose motion
 reverses with time): the relabelled chain, run backwards, turns by the same angle and, run
 backwards, by minus it. With inertia or quadratic drag time reversal fails and so does this; the
-half-wave symmetric :class:`MirrorGaitFamily` needs no time reversal. For a Fourier gait of order K the relation is linear
-in the coefficients. With :math:`c_k = \cos 2k\phi_0`, :math:`s_k = \sin 2k\phi_0` and
+half-wave symmetric :class:`MirrorGaitFamily` needs no time reversal. For a Fourier gait of order K
+the relation is linear in the coefficients. With :math:`c_k = \cos 2k\phi_0`, :math:`s_k = \sin 2k\phi_0` and
 :math:`R_k = \begin{pmatrix} c_k & s_k \\ s_k & -c_k\end{pmatrix}` (the coefficients of
 :math:`\theta(2\phi_0 - \phi)` are those of :math:`\theta(\phi)` mapped by :math:`R_k`),
 

@@ -14,7 +14,8 @@ Gait family (``family``): the free Fourier family of ``order``, or a rotation-fr
 chains with front–back symmetry :class:`~geogait.gaits.SymmetricGaitFamily` about the seed gait's
 φ₀, on other bodies that declare mirror symmetry the half-wave symmetric
 :class:`~geogait.gaits.MirrorGaitFamily` (odd harmonics only). Every commanded gait of those has
-exactly zero net rotation, so the rotation constraint below is dropped. Step rule (``step_rule``): ``"linear"`` as below, or ``"sqp"`` — the
+exactly zero net rotation, so the rotation constraint below is dropped. Step rule (``step_rule``):
+``"linear"`` as below, or ``"sqp"`` — the
 model's own nonlinear predicted objective maximised inside the trust region by SQP
 (:func:`~geogait.optimize.sqp_step`). Both are the standalone functions of
 :mod:`geogait.optimize._steps`.

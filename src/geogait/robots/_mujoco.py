@@ -849,8 +849,9 @@ def _reads_the_same_in_a_mirror(model, joints) -> bool:
     def aligned(frame) -> bool:  # every axis of a 3×3 frame along L, n or n × L
         return all(np.max(np.abs(np.stack([along, across, normal]) @ column)) >= 1 - tolerance for column in frame.T)
 
-    shapes = {int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER), int(mujoco.mjtGeom.mjGEOM_SPHERE),
-              int(mujoco.mjtGeom.mjGEOM_BOX), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)}
+    kinds = mujoco.mjtGeom
+    shapes = {int(kinds.mjGEOM_CAPSULE), int(kinds.mjGEOM_CYLINDER), int(kinds.mjGEOM_SPHERE), int(kinds.mjGEOM_BOX),
+              int(kinds.mjGEOM_ELLIPSOID)}
     chain_bodies = set(links)
     for g in range(model.ngeom):
         frame = data.geom_xmat[g].reshape(3, 3)
