@@ -182,6 +182,8 @@ def test_cli_optimises_a_process_robot_and_fails_cleanly(tmp_path):
     assert declared["max_joint_angle_used"] == pytest.approx(2 * np.pi / 3)  # the driver declares no ranges
     assert not {"links", "noise", "perturbation", "period", "seed"} & set(summary["config"])
     assert summary["results"]["model_used"] == "ShapeSpaceModel"  # the symmetric chain's default
+    assert declared["front_back_symmetric"] and declared["mirror_symmetric"]
+    assert declared["gait_family_used"] == summary["results"]["gait_family"] == "symmetric"
     assert len(pd.read_csv(tmp_path / "r" / "cycles.csv")) == 6
     structured = subprocess.run(GEOGAIT + ["optimize", "--robot", " ".join(DRIVER + ["--links", "5"]), "--method",
                                            "resistance", "--cycles", "4", "--out", str(tmp_path / "s")],

@@ -183,7 +183,9 @@ def _declared(robot, result) -> dict:
             "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
             "seed_gait_params": result.initial_gait.params.tolist(),
             "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
-            "chain": getattr(robot, "chain", None), "resistive_medium": bool(getattr(robot, "resistive_medium", False))}
+            "chain": getattr(robot, "chain", None), "resistive_medium": bool(getattr(robot, "resistive_medium", False)),
+            "front_back_symmetric": getattr(robot, "front_back_symmetric", None),
+            "mirror_symmetric": getattr(robot, "mirror_symmetric", None), "gait_family_used": result.family}
 
 
 def _run_id(settings: dict) -> str:

@@ -16,7 +16,7 @@ from ._measure import measure_cycle, peak_phase_speed
 from ._models import gate_kind, run_model
 from ._objective import joint_limit_constraints, objective
 from ._result import InSituResult
-from ._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, REJECTION_FLOOR, TRACKING_FLOOR, params_to_json
+from ._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, REJECTION_FLOOR, TRACKING_FLOOR, family_kind, params_to_json
 from ._steps import StepProblem, take_step
 
 
@@ -64,7 +64,7 @@ class CycleLoop:
         return InSituResult(log=pd.DataFrame(state.rows), initial_gait=state.gaits[0], final_gait=final,
                             cycle_period=period,
                             gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
-                            shape_scale=state.scale, direction=state.direction,
+                            shape_scale=state.scale, direction=state.direction, family=family_kind(state.family),
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:

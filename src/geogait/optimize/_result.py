@@ -51,6 +51,9 @@ class InSituResult:
         The unit direction of ``"forward"`` the run used (in its ``direction_frame``).
     cycle_period : float or None
         The period (s) to run ``final_gait`` at (the robot's, unless ``optimize_period``).
+    family : str or None
+        The gait family searched (``"free"``, ``"symmetric"`` or ``"mirror"``: what ``family="auto"``
+        chose from what the robot declares).
     model : object or None
         The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
         the last fit): what the next step would have used. Inspect it against a simulator's truth,
@@ -67,6 +70,7 @@ class InSituResult:
     shape_scale: float | None = None
     direction: np.ndarray | None = None
     cycle_period: float | None = None
+    family: str | None = None
 
     @property
     def n_steps(self) -> int:
@@ -109,6 +113,7 @@ class InSituResult:
             "max_tracking_error_rad": _finite(log["tracking_error"].max()),
             "max_joint_angle": _finite(self.max_joint_angle),
             "shape_scale": _finite(self.shape_scale),
+            "gait_family": self.family,
             "forward_direction": None if self.direction is None else [float(v) for v in self.direction],
             "final_gait_params": self.final_gait.params.tolist(),
         }
