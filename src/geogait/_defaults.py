@@ -15,6 +15,9 @@ __all__ = ["DEFAULT_OUTLIER_LIMIT", "DEFAULT_TEST_FRACTION", "MAX_JOINT_ANGLE", 
 
 #: r_max (rad) of a robot or system that declares no joint ranges: 120°.
 MAX_JOINT_ANGLE = 2 * np.pi / 3
+#: How far below zero a feasible-region row may fall and still hold (the SLSQP tolerance of the solves that put
+#: gaits on the region's boundary: the ceiling's gait must be accepted as a seed by the optimiser and tracker).
+FEASIBILITY_TOLERANCE = 1e-9
 
 #: Seconds per unit of a log's or stream's ``time_unit``.
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}

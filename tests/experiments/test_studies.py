@@ -1,5 +1,5 @@
-"""Studies run end to end on a tiny budget: the issue-10 plateau study (it leans on private optimiser hooks),
-the online phase study and the resistance model's geometry-error study."""
+"""Studies run end to end on a tiny budget: the plateau study (it leans on private optimiser hooks),
+the online phase study, the resistance model's geometry-error study and the model-gradient study."""
 
 import re
 import subprocess
@@ -46,3 +46,19 @@ def test_resistance_study_writes_every_trial(tmp_path):
     (record,) = result["records"]
     assert record["model"] == "hybrid" and record["geometry_error"] == 0.1 and len(record["ceiling_fraction"]) == 12
     assert record["ceiling_fraction"][0] < 0.6 < 0.9 < record["ceiling_fraction"][-1]
+
+
+def test_model_gradient_study_compares_the_model_with_central_differences(tmp_path):
+    """On the built-in 3-link swimmer (inside the model class) the window model's gradient, learned in a few cycles
+    of exploration, points along central differences of the clean objective and has about their length."""
+    import json
+
+    out = tmp_path / "gradient.json"
+    subprocess.run([sys.executable, str(STUDIES / "model_gradient.py"), "swimmer3", "--cycles", "4", "--out",
+                    str(out)], capture_output=True, text=True, check=True, timeout=300)
+    rows = json.loads(out.read_text())["results"]
+    assert [row["gait"] for row in rows] == ["seed", "moved"]
+    for row in rows:
+        assert len(row["true_gradient"]) == len(row["gradient"]) == 3  # the symmetric family's parameters
+        assert row["cosine"] > 0.8 and 0.6 < row["length_ratio"] < 1.5
+        assert abs(row["value"] / row["measured_value"] - 1) < 0.1

@@ -49,6 +49,7 @@ import numpy as np
 import pandas as pd
 
 from .. import se2
+from .._defaults import FEASIBILITY_TOLERANCE
 from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
@@ -335,7 +336,7 @@ class PathTracker(Estimator):
         self._region = feasibility_constraint(oracle(), reference.n_joints, reference.order) if callable(oracle) \
             else None
         lowest = float(self._region(reference.params)[0].min()) if self._region is not None else 0.0
-        if lowest < 0:
+        if lowest < -FEASIBILITY_TOLERANCE:
             raise fail("gait", owner, "a straight gait inside the system's feasible region",
                        f"a gait whose feasibility falls to {lowest:.4g}")
         if self.controller == "true" and not callable(oracle):

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
-from .._defaults import MAX_JOINT_ANGLE
+from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE
 from .._files import write_json
 from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, MirrorGaitFamily, SymmetricGaitFamily, seed_gait
@@ -94,7 +94,7 @@ def _solve(system, start: FourierGait, kind: str, limits, resolution: int, matri
     pose = cycle_displacement(system, gait, resolution)
     feasible = abs(pose[2]) < 1e-6 and np.all(limit_matrix @ result.x <= bound + 1e-9)
     if feasibility is not None:  # the grid rows hold (to SLSQP's tolerance), and the loop between them
-        feasible = feasible and np.all(feasibility(gait.params)[0] >= -1e-9) and bool(
+        feasible = feasible and np.all(feasibility(gait.params)[0] >= -FEASIBILITY_TOLERANCE) and bool(
             np.all(system.feasible(gait.shape(np.linspace(0, 2 * np.pi, 4096, endpoint=False)))))
     return gait, (objective(kind, pose, np.zeros((3, gait.params.size)), gait)[0] if feasible else -np.inf), pose
 
@@ -201,7 +201,7 @@ def _first_start(system, start, d: int, order: int, r_max: float, feasibility) -
     if np.any(start.joint_limit() > r_max):
         raise fail("start", owner, f"a gait within the joint limit {r_max:g} rad",
                    f"a gait reaching {start.joint_limit().max():.4g} rad")
-    if feasibility is not None and np.any(feasibility(start.params)[0] < 0):
+    if feasibility is not None and np.any(feasibility(start.params)[0] < -FEASIBILITY_TOLERANCE):
         raise fail("start", owner, f"a gait inside the feasible region of {system.name} (pass a feasible start)",
                    f"a gait with feasibility down to {feasibility(start.params)[0].min():.4g}")
     return start

@@ -60,7 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import models
-from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
+from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
 from .._validation import GeogaitError, check_float, check_int, fail
@@ -393,7 +393,7 @@ class InSituOptimizer(Estimator):
         excites = self._excites(robot, owner)
         family = self._family(robot, gait)
         feasibility = _feasibility(robot, gait, self.order)
-        if feasibility is not None and feasibility(gait.params)[0].min() < 0:
+        if feasibility is not None and feasibility(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
             raise fail("robot", owner, "a seed gait inside the system's feasible region (its singular set's "
                        "margin; e.g. the system's own seed_gait())", "a seed gait that leaves it")
         robot.set_gait(gait)
