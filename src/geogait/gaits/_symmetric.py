@@ -94,8 +94,68 @@ def _family_matrix(n_joints: int, order: int, center: float) -> np.ndarray:
     return matrix
 
 
+class _SubspaceFamily:
+    """What a family that is a linear subspace ``p = T q`` of the Fourier parameters offers, from its
+    ``matrix`` T; a subclass says how to solve for q (:meth:`_solve`) and what a member is (:meth:`_member`)."""
+
+    @property
+    def n_params(self) -> int:
+        """Number of free parameters q."""
+        return self.matrix.shape[1]
+
+    def fourier_params(self, params) -> np.ndarray:
+        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``.
+
+        Parameters
+        ----------
+        params : array-like of shape (n_params,)
+            Free parameters q of the family.
+        """
+        owner = f"{type(self).__name__}.fourier_params"
+        params = check_array(params, "params", owner, ndim=1)
+        if params.size != self.n_params:
+            raise fail("params", owner, f"a vector of length {self.n_params}", f"length {params.size}")
+        return self._map(params)
+
+    def _map(self, params: np.ndarray) -> np.ndarray:
+        return self.matrix @ params
+
+    def gait(self, params) -> FourierGait:
+        """The member with free parameters ``params`` ``(n_params,)``."""
+        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
+
+    def residual(self, gait: FourierGait) -> float:
+        """Distance (Euclidean, in Fourier coefficients) from ``gait`` to the family."""
+        params = self._fourier_of(gait, f"{type(self).__name__}.residual")
+        return float(np.linalg.norm(self.matrix @ self._solve(params) - params))
+
+    def params_of(self, gait: FourierGait, tolerance: float = 1e-9) -> np.ndarray:
+        """Free parameters of a member ``gait``; raises if it is farther than ``tolerance`` from the family."""
+        owner = f"{type(self).__name__}.params_of"
+        params = self._fourier_of(gait, owner)
+        solution = self._solve(params)
+        miss = float(np.linalg.norm(self.matrix @ solution - params))
+        if miss > tolerance:
+            raise fail("gait", owner, f"{self._member()}, at distance <= {tolerance:g}",
+                       f"a gait at distance {miss:.3g}")
+        return solution
+
+    def _solve(self, params: np.ndarray) -> np.ndarray:
+        """The free parameters whose Fourier parameters are nearest ``params`` (least squares)."""
+        solution, *_ = np.linalg.lstsq(self.matrix, params, rcond=None)
+        return solution
+
+    def _member(self) -> str:
+        return "a member of the family"
+
+    def _fourier_of(self, gait, owner) -> np.ndarray:
+        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
+            raise fail("gait", owner, f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
+        return gait.with_order(self.order).params
+
+
 @dataclass(frozen=True)
-class SymmetricGaitFamily:
+class SymmetricGaitFamily(_SubspaceFamily):
     r"""Fourier gaits with :math:`\theta_{d-1-j}(\phi) = -\theta_j(2\phi_0 - \phi)` (module docstring).
 
     Zero net rotation per cycle on every front–back symmetric chain, by construction.
@@ -143,47 +203,8 @@ class SymmetricGaitFamily:
         """Number of free parameters, ``⌊d/2⌋ (2K + 1) + (d mod 2) K``."""
         return self.matrix.shape[1]
 
-    def _check_params(self, params, owner: str) -> np.ndarray:
-        params = check_array(params, "params", owner, ndim=1)
-        if params.size != self.n_params:
-            raise fail("params", owner, f"a vector of length {self.n_params}", f"length {params.size}")
-        return params
-
-    def fourier_params(self, params) -> np.ndarray:
-        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``.
-
-        Parameters
-        ----------
-        params : array-like of shape (n_params,)
-            Free parameters q of the family.
-        """
-        return self.matrix @ self._check_params(params, "SymmetricGaitFamily.fourier_params")
-
-    def gait(self, params) -> FourierGait:
-        """The member with free parameters ``params`` ``(n_params,)``."""
-        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
-
-    def residual(self, gait: FourierGait) -> float:
-        """Distance (Euclidean, in Fourier coefficients) from ``gait`` to the family."""
-        params = self._fourier_of(gait, "SymmetricGaitFamily.residual")
-        solution, *_ = np.linalg.lstsq(self.matrix, params, rcond=None)
-        return float(np.linalg.norm(self.matrix @ solution - params))
-
-    def params_of(self, gait: FourierGait, tolerance: float = 1e-9) -> np.ndarray:
-        """Free parameters of a member ``gait``; raises if it is farther than ``tolerance`` from the family."""
-        params = self._fourier_of(gait, "SymmetricGaitFamily.params_of")
-        solution, *_ = np.linalg.lstsq(self.matrix, params, rcond=None)
-        miss = float(np.linalg.norm(self.matrix @ solution - params))
-        if miss > tolerance:
-            raise fail("gait", "SymmetricGaitFamily.params_of",
-                       f"a member of the family (symmetric about φ₀ = {self.center:.6g}; distance <= {tolerance:g})",
-                       f"a gait at distance {miss:.3g}")
-        return solution
-
-    def _fourier_of(self, gait, owner) -> np.ndarray:
-        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
-            raise fail("gait", owner, f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
-        return gait.with_order(self.order).params
+    def _member(self) -> str:
+        return f"a member of the family (symmetric about φ₀ = {self.center:.6g})"
 
     @classmethod
     def from_gait(cls, gait: FourierGait, order: int | None = None) -> SymmetricGaitFamily:
@@ -225,7 +246,7 @@ def _mirror_matrix(n_joints: int, order: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class MirrorGaitFamily:
+class MirrorGaitFamily(_SubspaceFamily):
     r"""Half-wave symmetric Fourier gaits, :math:`\theta(\phi + \pi) = -\theta(\phi)`: rotation-free on
     every planar body whose physics is unchanged by a mirror reflection.
 
@@ -280,50 +301,18 @@ class MirrorGaitFamily:
         """Number of free parameters, ``d · 2 ⌈K / 2⌉``."""
         return self.matrix.shape[1]
 
-    def fourier_params(self, params) -> np.ndarray:
-        """Flat Fourier parameters ``p = T q`` ``(d (2K+1),)`` of free parameters ``q``.
+    def _solve(self, params: np.ndarray) -> np.ndarray:
+        return self.matrix.T @ params  # T selects coordinates: its pseudo-inverse is Tᵀ, exactly
 
-        Parameters
-        ----------
-        params : array-like of shape (n_params,)
-            The odd harmonics' coefficients, joint by joint (a_k then b_k, k = 1, 3, …).
-        """
-        params = check_array(params, "params", "MirrorGaitFamily.fourier_params", ndim=1)
-        if params.size != self.n_params:
-            raise fail("params", "MirrorGaitFamily.fourier_params", f"a vector of length {self.n_params}",
-                       f"length {params.size}")
-        return self.matrix @ params
-
-    def gait(self, params) -> FourierGait:
-        """The member with free parameters ``params`` ``(n_params,)``."""
-        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
-
-    def residual(self, gait: FourierGait) -> float:
-        """Distance (Euclidean, in Fourier coefficients) from ``gait`` to the family: the norm of its offsets
-        and even harmonics."""
-        params = self._fourier_of(gait, "MirrorGaitFamily.residual")
-        return float(np.linalg.norm(params - self.matrix @ (self.matrix.T @ params)))
-
-    def params_of(self, gait: FourierGait, tolerance: float = 1e-9) -> np.ndarray:
-        """Free parameters of a member ``gait``; raises if it is farther than ``tolerance`` from the family."""
-        params = self._fourier_of(gait, "MirrorGaitFamily.params_of")
-        miss = float(np.linalg.norm(params - self.matrix @ (self.matrix.T @ params)))
-        if miss > tolerance:
-            raise fail("gait", "MirrorGaitFamily.params_of",
-                       f"a half-wave symmetric gait (no offsets or even harmonics; distance <= {tolerance:g})",
-                       f"a gait at distance {miss:.3g}")
-        return self.matrix.T @ params
-
-    def _fourier_of(self, gait, owner) -> np.ndarray:
-        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
-            raise fail("gait", owner, f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
-        return gait.with_order(self.order).params
+    def _member(self) -> str:
+        return "a half-wave symmetric gait (no offsets or even harmonics)"
 
 
 @dataclass(frozen=True)
-class FreeGaitFamily:
+class FreeGaitFamily(_SubspaceFamily):
     """All Fourier gaits of ``order`` on ``n_joints`` joints, with the interface of
-    :class:`SymmetricGaitFamily` (free parameters = Fourier parameters, ``matrix`` = identity).
+    :class:`SymmetricGaitFamily` (free parameters = Fourier parameters, ``matrix`` = identity; every gait of
+    this shape dimension and order ≤ K is a member, at distance 0).
 
     Examples
     --------
@@ -348,41 +337,8 @@ class FreeGaitFamily:
         """d (2K + 1)."""
         return self.matrix.shape[1]
 
-    def fourier_params(self, params) -> np.ndarray:
-        """The parameters themselves (checked).
+    def _map(self, params: np.ndarray) -> np.ndarray:
+        return params.copy()  # the parameters themselves
 
-        Parameters
-        ----------
-        params : array-like of shape (d (2K + 1),)
-            Flat Fourier parameters; returned as a copy.
-        """
-        params = check_array(params, "params", "FreeGaitFamily.fourier_params", ndim=1)
-        if params.size != self.n_params:
-            raise fail("params", "FreeGaitFamily.fourier_params", f"a vector of length {self.n_params}",
-                       f"length {params.size}")
+    def _solve(self, params: np.ndarray) -> np.ndarray:
         return params.copy()
-
-    def gait(self, params) -> FourierGait:
-        """The gait with flat Fourier parameters ``params``."""
-        return FourierGait.from_params(self.fourier_params(params), self.n_joints)
-
-    def residual(self, gait: FourierGait) -> float:
-        """0 for any gait of this shape dimension and order ≤ K."""
-        self.params_of(gait)
-        return 0.0
-
-    def params_of(self, gait: FourierGait, tolerance: float = 0.0) -> np.ndarray:
-        """``gait`` written in this order.
-
-        Parameters
-        ----------
-        gait : FourierGait
-            A gait with this family's number of joints and order ≤ K.
-        tolerance : float, default 0.0
-            Accepted for the interface of :meth:`SymmetricGaitFamily.params_of`; unused, since every such
-            gait is a member.
-        """
-        if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints or gait.order > self.order:
-            raise fail("gait", "FreeGaitFamily.params_of",
-                       f"a FourierGait with {self.n_joints} joints and order <= {self.order}", gait)
-        return gait.with_order(self.order).params
