@@ -22,7 +22,7 @@ def symmetric_chain_model(n_joints: int, shape_scale: float = 1.0):
     :class:`~geogait.models.ShapeSpaceModel` of degree 4 with the chain's mirror and front–back
     symmetries in its basis and each higher degree shrunk 30× (paper Fig. 5's model), forgetting
     factor 0.999 up to 4 joints and 0.9999 beyond (more weights need a longer memory). On the
-    built-in 5- and 9-link swimmers it reaches 95–96 % and 71–74 % of the ceiling in 30–60 cycles,
+    built-in 5- and 9-link swimmers it reaches 95–96 % and 73–75 % of the ceiling in 30–60 cycles,
     against 85–91 % and 59–64 % for the local window model (``make bench-robots``).
 
     Parameters
