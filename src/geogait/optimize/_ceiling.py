@@ -157,13 +157,15 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
     rng = np.random.default_rng(seed)
     feasibility = feasibility_constraint(system, d, order)
     seed_start = _first_start(system, start, d, order, r_max, feasibility)
-    matrix = {"free": None, "symmetric": lambda: SymmetricGaitFamily.from_gait(seed_start).matrix,
-              "mirror": lambda: MirrorGaitFamily(d, order).matrix}[family]
-    if matrix is not None:
-        matrix = matrix()
-        if family == "mirror" and MirrorGaitFamily(d, order).residual(seed_start) > 1e-9:
+    matrix = None
+    if family == "symmetric":
+        matrix = SymmetricGaitFamily.from_gait(seed_start).matrix
+    elif family == "mirror":
+        mirror = MirrorGaitFamily(d, order)
+        if mirror.residual(seed_start) > 1e-9:
             raise fail("start", "optimize_ceiling", "a half-wave symmetric gait (no offsets or even harmonics) "
                        "for family 'mirror'", seed_start)
+        matrix = mirror.matrix
     candidates = [seed_start]
     for _ in range(starts - 1):
         for _ in range(1 if feasibility is None else FEASIBLE_DRAWS):
