@@ -11,6 +11,7 @@ Usage::
     python benchmarks/robots.py                       # every case, 8 seeds, 100 cycles (make bench-robots)
     python benchmarks/robots.py --quick               # built-in 3-link + MuJoCo case, 2 seeds, 20 cycles
     python benchmarks/robots.py --cases swimmer5 --seeds 12 --jobs 2 --out out/robots
+    python benchmarks/robots.py --cases elastica-snake --methods geogait --geogait-options '{"min_trust_radius": 0.075}'
     python benchmarks/robots.py --from-json docs/results/robots/robots.json --out out/redraw   # redraw only
 
 A case whose optional dependency is missing (MuJoCo, Gymnasium) is skipped with one line.
@@ -24,6 +25,7 @@ for variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(variable, "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import shlex  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -36,6 +38,15 @@ QUICK = {"cases": ["swimmer3", "mujoco-purcell5-unequal"], "seeds": 2, "budget":
 
 def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
+
+
+def _options(text: str | None) -> dict | None:
+    if text is None:
+        return None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise GeogaitError(f"--geogait-options: expected a JSON object, got {text!r} ({error.msg})") from None
 
 
 def main(argv=None) -> int:
@@ -51,6 +62,8 @@ def main(argv=None) -> int:
     parser.add_argument("--from-json", default=None, help="redraw table and figure from a manifest")
     parser.add_argument("--merge", default=None, help="a manifest whose records of the cases and methods run now "
                         "are replaced by this run's (the rest kept, both commands recorded)")
+    parser.add_argument("--geogait-options", default=None, help="JSON object of InSituOptimizer parameters every "
+                        "geogait method uses instead of its own, e.g. '{\"min_trust_radius\": 0.075}'")
     parser.add_argument("--out", default="benchmarks/results/robots", help="output folder")
     args = parser.parse_args(argv)
     arguments = sys.argv[1:] if argv is None else argv
@@ -63,9 +76,11 @@ def main(argv=None) -> int:
             cases, seeds, budget = _names(args.cases), args.seeds, args.budget
             if args.quick:
                 cases, seeds, budget = QUICK["cases"], QUICK["seeds"], QUICK["budget"]
+            options = _options(args.geogait_options)
             start = time.perf_counter()
             result = bench.run_robot_benchmark(cases, _names(args.methods), n_seeds=seeds, budget=budget,
-                                               seed=args.seed, jobs=args.jobs, scheduler=args.scheduler)
+                                               seed=args.seed, jobs=args.jobs, scheduler=args.scheduler,
+                                               geogait_options=options)
             wall = time.perf_counter() - start
             if args.merge:
                 result, command = bench.merge_results(bench.from_manifest(args.merge), result, command)

@@ -160,6 +160,34 @@ def test_bad_arguments_are_refused_with_the_field_named():
         bench.run_robot_benchmark(["swimmer3"], ["annealing"], progress=False)
     with pytest.raises(GeogaitError, match="checkpoints"):
         bench.run_robot_benchmark(["swimmer3"], ["random"], budget=10, checkpoints=[20], progress=False)
+    with pytest.raises(GeogaitError, match="min_trust_radiu"):
+        bench.run_robot_benchmark(["swimmer3"], ["geogait"], geogait_options={"min_trust_radiu": 0.1}, progress=False)
+    with pytest.raises(GeogaitError, match="geogait_options"):
+        bench.run_robot_benchmark(["swimmer3"], ["geogait"], geogait_options=[0.1], progress=False)
+
+
+def test_geogait_options_replace_the_optimisers_own_and_leave_black_box_methods_alone(monkeypatch):
+    """Options given to the benchmark reach every geogait run (the batch variant's too) and are recorded;
+    the black-box runs are the same with or without them."""
+    from geogait.optimize import InSituOptimizer
+
+    seen = []
+    original = InSituOptimizer.run
+
+    def run(self, robot, n_cycles, **kwargs):
+        seen.append(self.get_params(deep=False))
+        return original(self, robot, n_cycles, **kwargs)
+
+    monkeypatch.setattr(InSituOptimizer, "run", run)
+    options = {"min_trust_radius": 0.05, "max_trust_radius": 0.2}
+    runs = [bench.run_robot_benchmark(["swimmer3"], ["geogait", "geogait-batch", "random"], n_seeds=1, budget=6,
+                                      checkpoints=[6], progress=False, geogait_options=given)
+            for given in (options, None)]
+    assert [{k: p[k] for k in options} for p in seen[:2]] == [options, options]
+    assert [p["min_trust_radius"] for p in seen[2:]] == [InSituOptimizer().min_trust_radius] * 2
+    assert runs[0]["config"]["geogait_options"] == options and runs[1]["config"]["geogait_options"] is None
+    random = [r["records"].query("method == 'random'")["objective"].to_numpy() for r in runs]
+    np.testing.assert_array_equal(*random)
 
 
 def test_quick_benchmark_writes_table_manifest_and_figure_and_redraws(tmp_path):

@@ -62,3 +62,23 @@ def test_model_gradient_study_compares_the_model_with_central_differences(tmp_pa
         assert len(row["true_gradient"]) == len(row["gradient"]) == 3  # the symmetric family's parameters
         assert row["cosine"] > 0.8 and 0.6 < row["length_ratio"] < 1.5
         assert abs(row["value"] / row["measured_value"] - 1) < 0.1
+
+
+def test_optimizer_robots_study_runs_each_setting_on_the_benchmark_robot(tmp_path):
+    """Two optimiser settings on the built-in 3-link swimmer: one row each in the printed table, and every
+    record (seed, cycles, setting) in the JSON, with the settings as given."""
+    import json
+
+    pytest.importorskip("cma", reason="the stored black-box rows come from a benchmark that needs cma")
+    variants = {"default": {}, "held radius": {"trust_radius": 0.15, "min_trust_radius": 0.15}}
+    output = subprocess.run([sys.executable, str(STUDIES / "optimizer_robots.py"), "--cases", "swimmer3", "--seeds",
+                             "2", "--budget", "12", "--jobs", "1", "--variants", json.dumps(variants), "--out",
+                             str(tmp_path)], capture_output=True, text=True, check=True, timeout=300).stdout
+    for name in variants:
+        assert re.search(rf"^  {name} +\+0\.\d+ +min \+0\.\d+", output, re.M)
+    payload = json.loads((tmp_path / "optimizer_robots.json").read_text())
+    assert payload["variants"] == variants
+    records = payload["records"]
+    assert sorted({(r["variant"], r["seed"], r["cycles"]) for r in records}) == [
+        (v, s, 12) for v in ("default", "held radius") for s in (0, 1)]
+    assert all(0.3 < r["ceiling_fraction"] <= 1.0 for r in records)

@@ -478,10 +478,12 @@ def _variant_options(robot, variant: str) -> dict | None:
     return {}
 
 
-def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: str, random_state: int) -> _Trace:
+def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: str, random_state: int,
+             extra: dict | None = None) -> _Trace:
     options = _variant_options(robot.robot, variant)
     if options is None:
         raise GeogaitError(f"geogait-{variant} needs a robot that gives its chain geometry")
+    options.update(extra or {})
     options["random_state"] = random_state  # its exploration and climb: the seed's own random numbers
     if case.objective == "forward":
         options.update(objective="forward", direction=case.direction, direction_frame="body")
@@ -503,14 +505,15 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: s
     return trace
 
 
-def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value: float) -> tuple[_Trace, int]:
+def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value: float,
+                geogait_options: dict | None = None) -> tuple[_Trace, int]:
     """One method's run; returns its trace and the cycles the robot ran."""
     # the method's own random numbers: a grandchild of the robot's seed (spawn() would change the seed)
     own = np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, 1))
     if method.startswith("geogait"):
         robot = _CountingRobot(case.make_robot(seed, explore=True, noise=True))
         trace = _geogait(case, robot, budget, method.removeprefix("geogait").removeprefix("-"),
-                         int(own.generate_state(1)[0]))
+                         int(own.generate_state(1)[0]), geogait_options)
         return trace, robot.cycles
     held = method.endswith("-held")
     robot = _CountingRobot(case.make_robot(seed, explore=False, noise=True))
@@ -525,7 +528,7 @@ def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value:
 # -- the sweep ----------------------------------------------------------------------------------
 def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds: int, root_seed: int,
                      budget: int, checkpoints: list, seed_value: float, ceiling_value: float | None,
-                     direction: list | None = None) -> pd.DataFrame:
+                     direction: list | None = None, geogait_options: dict | None = None) -> pd.DataFrame:
     """Trial function of :func:`~geogait.experiments.run_trials`: trial i is method ``i % M`` on
     paired seed ``i // M`` (the robot's seed is the seed's child, the same for every method)."""
     spec = CASES[case]
@@ -537,7 +540,7 @@ def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds:
         seed_index, method = divmod(int(trial), len(methods))
         method = methods[method]
         start = time.perf_counter()
-        trace, used = _run_method(spec, method, children[seed_index], budget, seed_value)
+        trace, used = _run_method(spec, method, children[seed_index], budget, seed_value, geogait_options)
         elapsed = time.perf_counter() - start
         for cycles in checkpoints:
             result = evaluate_gait(spec, *trace.at(cycles))
@@ -552,7 +555,8 @@ def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds:
 
 def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, *, n_seeds: int = 8,
                         budget: int = 100, checkpoints: Sequence[int] | None = None, seed: int = 0,
-                        jobs: int = 1, scheduler=None, progress: bool = True, log=print) -> dict:
+                        jobs: int = 1, scheduler=None, progress: bool = True, log=print,
+                        geogait_options: dict | None = None) -> dict:
     """Run every method on every case over ``n_seeds`` paired seeds.
 
     Parameters
@@ -572,6 +576,10 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         Root seed of the paired robot seeds.
     jobs, scheduler
         As :func:`~geogait.experiments.run_trials` (joblib processes or a Dask cluster).
+    geogait_options : dict, optional
+        :class:`~geogait.optimize.InSituOptimizer` parameters that every geogait method's run uses
+        instead of its own (to compare optimiser settings on the same robots and seeds); recorded in
+        the result's ``config``.
 
     Returns
     -------
@@ -589,6 +597,10 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
     for method, module in missing.items():
         log(f"skipped method {method}: needs {module} (pip install 'geogait[baselines]')")
     methods = [m for m in methods if m not in missing]
+    if geogait_options is not None:
+        if not isinstance(geogait_options, dict):
+            raise fail("geogait_options", _OWNER, "a dict of InSituOptimizer parameters", geogait_options)
+        InSituOptimizer().set_params(**geogait_options).validate()  # a bad name or value, before any run
     if checkpoints is None:
         checkpoints = sorted({*range(10, budget + 1, 10), *(c for c in (30, 60) if c <= budget), budget})
     checkpoints = [check_int(c, "checkpoints", _OWNER, minimum=0) for c in checkpoints]
@@ -622,7 +634,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         config = {"case": name, "methods": case_methods, "n_seeds": n_seeds, "root_seed": seed, "budget": budget,
                   "checkpoints": case_checkpoints, "seed_value": seed_result["objective"],
                   "ceiling_value": None if ceiling is None else ceiling["objective"],
-                  "direction": list(case.direction)}
+                  "direction": list(case.direction), "geogait_options": geogait_options}
         sweep = run_trials(benchmark_trials, n_seeds * len(case_methods), seed=seed, jobs=jobs, scheduler=scheduler,
                            config=config, progress=progress, description=name)
         sweep.raise_on_failure()
@@ -630,7 +642,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
     records = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
     return {"records": records, "cases": described, "skipped": skipped,
             "config": {"cases": list(cases), "methods": list(methods), "n_seeds": n_seeds, "budget": budget,
-                       "checkpoints": checkpoints, "seed": seed}}
+                       "checkpoints": checkpoints, "seed": seed, "geogait_options": geogait_options}}
 
 
 # -- reporting ----------------------------------------------------------------------------------

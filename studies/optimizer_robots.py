@@ -1,0 +1,123 @@
+"""Optimiser settings judged on the robot benchmark's robots, side by side with the black-box methods.
+
+Runs geogait with each named set of InSituOptimizer parameters on the benchmark's cases, paired seeds
+and clean re-runs (``geogait.experiments.robot_benchmark``), and prints per case the median clean
+objective after 30, 60 and 100 cycles for each setting, next to the stored black-box rows of the same
+seeds (the best black-box method at each budget, from the results manifests). Writes one JSON file
+with every record.
+
+    python studies/optimizer_robots.py --cases elastica-snake,swimmer5 --seeds 8 --jobs 2 \\
+        --variants '{"default": {}, "floor 0.075": {"min_trust_radius": 0.075}}' --out docs/results/optimizer-robots
+"""
+
+from __future__ import annotations
+
+import os
+
+for variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(variable, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import shlex  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from geogait.experiments import robot_benchmark as bench  # noqa: E402
+
+MANIFESTS = ("docs/results/robots/robots.json", "docs/results/robots-elastica/robots.json")
+BUDGETS = (30, 60, 100)
+_BLACK_BOX = [m for m in bench.METHODS if not m.startswith("geogait")]
+
+
+def _column(case: dict) -> str:
+    return "ceiling_fraction" if case.get("ceiling") else "improvement"
+
+
+def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
+    """Per case and budget, from the stored runs on seeds < ``n_seeds``: geogait's default median and the
+    black-box method with the best median (``kind`` "geogait" or "black-box")."""
+    rows = []
+    for path in MANIFESTS:
+        if not Path(path).exists():
+            continue
+        stored = bench.from_manifest(path)
+        records = stored["records"]
+        if stored["config"]["budget"] != budget:
+            continue
+        records = records[(records["seed"] < n_seeds) & (records["method"].isin(["geogait", *_BLACK_BOX]))]
+        for name, case in stored["cases"].items():
+            frame = records[records["case"] == name]
+            if frame.empty or frame["seed"].nunique() < n_seeds:
+                continue
+            medians = frame.groupby(["cycles", "method"])[_column(case)].median()
+            for cycles in BUDGETS:
+                at = medians.loc[cycles]
+                best = at.drop("geogait", errors="ignore")
+                rows.append({"case": name, "cycles": cycles, "kind": "black-box", "method": best.idxmax(),
+                             "median": best.max()})
+                if "geogait" in at:
+                    rows.append({"case": name, "cycles": cycles, "kind": "geogait", "method": "geogait",
+                                 "median": at["geogait"]})
+    return pd.DataFrame(rows)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", required=True, help="comma-separated benchmark case names")
+    parser.add_argument("--variants", required=True, help="JSON object: name -> InSituOptimizer parameters")
+    parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--budget", type=int, default=100)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--out", default="studies/results/optimizer-robots")
+    args = parser.parse_args(argv)
+    variants = json.loads(args.variants)
+    cases = [c.strip() for c in args.cases.split(",") if c.strip()]
+    budgets = [c for c in BUDGETS if c <= args.budget] or [args.budget]
+    frames, described = [], {}
+    for name, options in variants.items():
+        start = time.perf_counter()
+        result = bench.run_robot_benchmark(cases, ["geogait"], n_seeds=args.seeds, budget=args.budget,
+                                           checkpoints=budgets, jobs=args.jobs, progress=False,
+                                           geogait_options=options)
+        print(f"{name}: {time.perf_counter() - start:.0f} s", flush=True)
+        frames.append(result["records"].assign(variant=name))
+        described.update(result["cases"])
+    records = pd.concat(frames, ignore_index=True)
+    reference = stored_reference(args.seeds, args.budget)
+    lines = []
+    for case in cases:
+        if case not in described:
+            continue
+        column = _column(described[case])
+        lines.append(f"{case} ({column}, median over {args.seeds} seeds at {' / '.join(map(str, budgets))} cycles)")
+        frame = records[records["case"] == case]
+        for name in variants:
+            medians = frame[frame["variant"] == name].groupby("cycles")[column].median()
+            worst = frame[frame["variant"] == name].groupby("cycles")[column].min()
+            rotation = frame[frame["variant"] == name]["rotation"].abs().max()
+            lines.append(f"  {name:<28} " + " / ".join(f"{medians[c]:+.3f}" for c in budgets)
+                         + "   min " + " / ".join(f"{worst[c]:+.3f}" for c in budgets) + f"   |rot| ≤ {rotation:.3f}")
+        for kind, label in (("geogait", "geogait default (stored)"), ("black-box", "best black-box (stored)")):
+            rows = reference[(reference["case"] == case) & (reference["kind"] == kind)] if len(reference) else []
+            if len(rows):
+                lines.append(f"  {label:<28} " + " / ".join(f"{v:+.3f}" for v in rows["median"])
+                             + ("   (" + ", ".join(rows["method"]) + ")" if kind == "black-box" else ""))
+    print("\n".join(lines))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    arguments = sys.argv[1:] if argv is None else argv
+    command = "python studies/optimizer_robots.py " + " ".join(map(shlex.quote, arguments))
+    payload = {"command": command, "variants": variants,
+               "seeds": args.seeds, "budget": args.budget, "table": lines,
+               "records": json.loads(records.replace({np.nan: None}).to_json(orient="records"))}
+    (out / "optimizer_robots.json").write_text(json.dumps(payload, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
