@@ -413,3 +413,28 @@ def test_a_contradicted_climb_leaves_a_model_that_levels_off_at_its_optimum():
         logs[climb] = InSituOptimizer(climb=climb, model=model).run(stream, 30).log
     assert logs[True]["climb"].any() and not logs["contradicted"]["climb"].any()
     assert logs["contradicted"]["step"].sum() >= 5  # the model's own steps carried it
+
+
+def test_climb_first_climbs_from_the_first_decision_and_hands_over_to_a_model_that_predicts():
+    """climb="first": the first gate decision commands a climb candidate at twice the largest trust radius
+    from the seed (nothing else moved the gait before it); a model that predicts the measured gains (the
+    perfect-information model) then takes the steps back, and the run still beats its seed."""
+    from geogait.gaits import SymmetricGaitFamily
+    from geogait.models import PerfectInformationModel
+
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=1)
+    optimizer = InSituOptimizer(climb="first", model=PerfectInformationModel(system=stream.current_system()))
+    result = optimizer.run(stream, 40)
+    log = result.log
+    params = log.filter(like="param_").to_numpy()
+    moved = np.flatnonzero(np.any(params != params[0], axis=1))[0]  # the first cycle off the seed gait
+    assert log.loc[moved - 1, "climb"]  # the climb moved it, and no model step before
+    assert log.loc[:moved - 1, "step"].sum() == log.loc[:moved - 1, "climb"].sum()
+    family = SymmetricGaitFamily.from_gait(seed_gait(2))
+    first = family.params_of(FourierGait.from_params(params[moved], 2))
+    distance = np.linalg.norm(first - family.params_of(seed_gait(2)))
+    assert distance == pytest.approx(2 * optimizer.max_trust_radius)
+    changed = log.index[log["climb"]]
+    handed_back = log.index[log["step"] & ~log["climb"]]
+    assert len(handed_back) and handed_back[0] > changed[0]  # model steps, after the climb
+    assert log["true_objective"].iloc[-1] > 1.2 * log["true_objective"].iloc[0]

@@ -195,7 +195,7 @@ class InSituOptimizer(Estimator):
     period_range : tuple of 2 floats, optional
         (shortest, longest) period in seconds for ``optimize_period``; default half to twice the
         robot's period.
-    climb : bool or "contradicted"
+    climb : bool, "contradicted" or "first"
         When measured outcomes contradict the model — two broken promises in a row (a promised gain
         of at least 1 % unconfirmed at the smallest trust radius, or a revert to the best gait), its
         prediction check failed twice in a row, or cycles without exploration — or when the model
@@ -204,7 +204,10 @@ class InSituOptimizer(Estimator):
         module :mod:`geogait.optimize._climb`), and return to model steps once the model predicts
         the measured gains again. ``"contradicted"``: only when measured outcomes contradict the model,
         not when it levels off (a model that holds far from its data, levelled off at its optimum, would
-        otherwise be led astray by single noisy cycles). Default True.
+        otherwise be led astray by single noisy cycles). ``"first"``: climb from the first gate decision, at
+        twice the largest trust radius, and hand the steps to the model once it predicts the measured gains
+        (for robots far outside the model class, where model steps would only cost cycles before the
+        contradiction shows). Default True.
     exploration : "auto", float or None
         Who explores. ``"auto"`` (default): the optimiser commands the excitation of eq. 8
         (δ std 0.15 × ``shape_scale``, two oscillations per cycle; :class:`Exploration`) to robots
@@ -243,7 +246,7 @@ class InSituOptimizer(Estimator):
         "prediction_tolerance": Real(low=0, low_open=True, none=True),
         "revert_tolerance": Real(low=0, low_open=True, none=True),
         "optimize_period": Boolean(),
-        "climb": Options((True, False, "contradicted")),
+        "climb": Options((True, False, "contradicted", "first")),
         "random_state": Integer(minimum=0, none=True),
     }
     #: δ std of the optimiser's own excitation, in units of ``shape_scale`` (``exploration="auto"``).

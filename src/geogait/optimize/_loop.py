@@ -161,13 +161,15 @@ class CycleLoop:
         if state.period_search is not None and not state.climb.active and self._period_move():
             return "period", np.nan
         kind, prediction_ok = None, np.nan
-        if not state.climb.active and self._unexcited():
+        if optimizer.climb == "first" and state.climb.base is None:  # nothing known yet: twice the model's step
+            self._start_climb(sigma=2 * optimizer.max_trust_radius * state.scale)
+        elif not state.climb.active and self._unexcited():
             if optimizer.climb:
                 self._start_climb()
         elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
             state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
-            levelled = state.stall >= 3 and not isinstance(optimizer.climb, str)  # (not for "contradicted")
+            levelled = state.stall >= 3 and optimizer.climb != "contradicted"
             if optimizer.climb and levelled:  # the model has levelled off: climb on from here
                 self._start_climb()
             elif prediction_ok and self._step():
@@ -201,13 +203,14 @@ class CycleLoop:
                 state.model = run_model(self.optimizer.model, state.gait, realised, state.family, state.scale)
         state.robot_period = state.period
 
-    def _start_climb(self, base: tuple | None = None) -> None:
+    def _start_climb(self, base: tuple | None = None, sigma: float | None = None) -> None:
         """Hand the steps to the measured climb, from the best gait measured so far (measured again:
-        the climb's cycles carry no exploration when the optimiser owns it). A period trial in
-        progress is dropped: while climbing, the period is one of the climb's coordinates."""
+        the climb's cycles carry no exploration when the optimiser owns it), at step ``sigma`` (default
+        the largest trust radius). A period trial in progress is dropped: while climbing, the period is
+        one of the climb's coordinates."""
         state = self.state
         best = self._best_key() if base is None else base
-        state.climb.start(best, self.optimizer.max_trust_radius * state.scale)
+        state.climb.start(best, self.optimizer.max_trust_radius * state.scale if sigma is None else sigma)
         if state.period_search is not None:
             state.period_search.trial_from = None
 
