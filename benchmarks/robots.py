@@ -77,6 +77,9 @@ def main(argv=None) -> int:
             if args.quick:
                 cases, seeds, budget = QUICK["cases"], QUICK["seeds"], QUICK["budget"]
             options = _options(args.geogait_options)
+            if options is not None and args.merge:  # the manifest's geogait rows are its defaults' runs
+                raise GeogaitError("--geogait-options cannot be merged into a manifest (--merge): its geogait rows "
+                                   "would no longer be geogait's defaults; write to another --out instead.")
             start = time.perf_counter()
             result = bench.run_robot_benchmark(cases, _names(args.methods), n_seeds=seeds, budget=budget,
                                                seed=args.seed, jobs=args.jobs, scheduler=args.scheduler,

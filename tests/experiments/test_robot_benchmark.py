@@ -271,3 +271,18 @@ def test_geogait_defaults_search_the_family_every_black_box_method_searches(name
     own = InSituOptimizer(family="free" if case.family == "free" else "auto")._family(robot, robot.gait)
     assert type(own) is type(shared)
     assert np.allclose(own.matrix, shared.matrix)
+
+
+def test_settings_of_ones_own_are_not_merged_into_a_manifest(tmp_path):
+    """``--geogait-options`` with ``--merge`` is refused in one line (exit 1) and the manifest is left as it was;
+    options that are not a JSON object are refused the same way."""
+    manifest = ROOT / "docs" / "results" / "robots" / "robots.json"
+    before = manifest.read_bytes()
+    script = str(ROOT / "benchmarks" / "robots.py")
+    for extra in (["--geogait-options", '{"min_trust_radius": 0.05}', "--merge", str(manifest)],
+                  ["--geogait-options", "{min"]):
+        run = subprocess.run([sys.executable, script, "--cases", "swimmer3", "--methods", "geogait", "--seeds", "1",
+                              "--budget", "4", *extra, "--out", str(tmp_path)], capture_output=True, text=True,
+                             timeout=300)
+        assert run.returncode == 1 and run.stderr.count("\n") == 1 and "--geogait-options" in run.stderr
+    assert manifest.read_bytes() == before and not any(tmp_path.iterdir())
