@@ -83,6 +83,24 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
     assert len(pd.read_csv(tmp_path / "cycles.csv")) == 12
 
 
+def test_optimize_command_takes_the_climb(tmp_path):
+    """--climb first: the run's optimiser climbs first (recorded, and kept on resume); a bad value is refused in
+    one line."""
+    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "8", "--climb", "first", "--out",
+                                      str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb"] == "first"
+    log = pd.read_csv(tmp_path / "cycles.csv")
+    assert log["climb"].any() and not (log["step"] & ~log["climb"]).any()  # only climb moves in 8 cycles
+    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "10"])
+    assert resumed.exit_code == 0, resumed.output
+    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb"] == "first"
+    bad = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "2", "--climb", "sometimes", "--out",
+                                   str(tmp_path / "bad")])
+    assert bad.exit_code == 1 and "--climb must be one of on, off, contradicted, first" in bad.output
+    assert bad.output.count("\n") == 1
+
+
 def test_optimize_command_with_the_resistance_model(tmp_path):
     """--method resistance: the swimmer's geometry, its drags learned; SQP up to R 0.5, the climb only when
     contradicted, unless a step rule is given; refused with one line for a --robot whose driver declares no chain."""

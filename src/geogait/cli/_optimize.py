@@ -97,6 +97,11 @@ def optimize(
     step_rule: Annotated[str | None, typer.Option(
         help="Step rule: linear (linearised, constrained) or sqp [default: sqp for --method resistance, else "
              "linear].")] = None,
+    climb: Annotated[str | None, typer.Option(
+        help="Measured climb (steps from measured outcomes when the model's do not deliver): on (when the model "
+             "is contradicted or levels off), contradicted (only when contradicted), first (from the first "
+             "decision, handing over to the model once it predicts; for robots far outside the model class) or "
+             "off [default: contradicted for --method resistance, else on].")] = None,
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
@@ -126,7 +131,7 @@ def optimize(
                         max_joint_angle=max_joint_angle,
                         max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
                         max_tracking_error=max_tracking_error, method=method, family=family,
-                        step_rule=step_rule, robot=robot,
+                        step_rule=step_rule, climb=climb, robot=robot,
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
@@ -266,6 +271,11 @@ def _optimizer(settings) -> InSituOptimizer:
     steps = dict(STRUCTURED_MODEL_STEPS) if settings["method"] == "resistance" else {"step_rule": "linear"}
     if settings.get("step_rule") is not None:
         steps["step_rule"] = settings["step_rule"]
+    climb = settings.get("climb")  # (absent from the run.json of a run that predates --climb)
+    if climb is not None:
+        if climb not in _CLIMB:
+            raise GeogaitError(f"--climb must be one of {', '.join(_CLIMB)}; got {climb!r}.")
+        steps["climb"] = _CLIMB[climb]
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,
@@ -325,6 +335,9 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
 def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
     write_text(folder / RUN_FILE, dumps_json({**settings, "run_id": run_id}, indent=1) + "\n")
 
+
+#: --climb's values, as InSituOptimizer's climb parameter spells them.
+_CLIMB = {"on": True, "off": False, "contradicted": "contradicted", "first": "first"}
 
 #: The settings a run.json must hold, with the JSON types each may take (None: null allowed).
 _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise": (int, float),
