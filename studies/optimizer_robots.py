@@ -29,7 +29,8 @@ import pandas as pd  # noqa: E402
 
 from geogait.experiments import robot_benchmark as bench  # noqa: E402
 
-MANIFESTS = ("docs/results/robots/robots.json", "docs/results/robots-elastica/robots.json")
+ROOT = Path(__file__).resolve().parents[1]
+MANIFESTS = (ROOT / "docs/results/robots/robots.json", ROOT / "docs/results/robots-elastica/robots.json")
 BUDGETS = (30, 60, 100)
 _BLACK_BOX = [m for m in bench.METHODS if not m.startswith("geogait")]
 
@@ -43,7 +44,7 @@ def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
     black-box method with the best median (``kind`` "geogait" or "black-box")."""
     rows = []
     for path in MANIFESTS:
-        if not Path(path).exists():
+        if not path.exists():
             continue
         stored = bench.from_manifest(path)
         records = stored["records"]

@@ -479,11 +479,11 @@ def _variant_options(robot, variant: str) -> dict | None:
 
 
 def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: str, random_state: int,
-             extra: dict | None = None) -> _Trace:
+             geogait_options: dict | None = None) -> _Trace:
     options = _variant_options(robot.robot, variant)
     if options is None:
         raise GeogaitError(f"geogait-{variant} needs a robot that gives its chain geometry")
-    options.update(extra or {})
+    options.update(geogait_options or {})
     options["random_state"] = random_state  # its exploration and climb: the seed's own random numbers
     if case.objective == "forward":
         options.update(objective="forward", direction=case.direction, direction_frame="body")
