@@ -101,6 +101,24 @@ def test_optimize_command_takes_the_climb(tmp_path):
     assert bad.output.count("\n") == 1
 
 
+def test_optimize_command_takes_the_climb_rule(tmp_path):
+    """--climb-rule cobyqa: the climb's candidates come from COBYQA (recorded in the summary and run.json, kept
+    on resume); a bad value is refused in one line."""
+    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "10", "--climb", "first",
+                                      "--climb-rule", "cobyqa", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb_rule"] == "cobyqa"
+    assert json.loads((tmp_path / "run.json").read_text())["climb_rule"] == "cobyqa"
+    assert pd.read_csv(tmp_path / "cycles.csv")["climb"].sum() >= 2
+    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "12"])
+    assert resumed.exit_code == 0, resumed.output
+    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb_rule"] == "cobyqa"
+    bad = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "2", "--climb-rule", "bobyqa", "--out",
+                                   str(tmp_path / "bad")])
+    assert bad.exit_code == 1 and "--climb-rule must be one of es, cobyqa; got 'bobyqa'" in bad.output
+    assert bad.output.count("\n") == 1
+
+
 def test_optimize_command_with_the_resistance_model(tmp_path):
     """--method resistance: the swimmer's geometry, its drags learned; SQP up to R 0.5, the climb only when
     contradicted, unless a step rule is given; refused with one line for a --robot whose driver declares no chain."""

@@ -286,3 +286,31 @@ def test_settings_of_ones_own_are_not_merged_into_a_manifest(tmp_path):
                              timeout=300)
         assert run.returncode == 1 and run.stderr.count("\n") == 1 and "--geogait-options" in run.stderr
     assert manifest.read_bytes() == before and not any(tmp_path.iterdir())
+
+
+def test_the_cobyqa_baseline_is_scipys_cobyqa_from_the_seed(monkeypatch):
+    """The cobyqa method runs scipy's COBYQA from the seed gait at radius r_max / 8: its candidates are the
+    method's published initial design (seed, then seed + r_max / 8 along each parameter in turn), each
+    charged its cycles, and the best so far is what it hands over."""
+    case = bench.CASES["swimmer5"]
+    robot = bench._CountingRobot(case.make_robot(np.random.SeedSequence(0), explore=False, noise=False))
+    family = bench._Family(case, seed_gait(4), 1.0)
+    objective = bench._Objective(case, robot, family, budget=5, held=False, seed_value=0.05)
+    asked, values = [], []
+    measure = bench._Objective.__call__
+
+    def recording(self, params):
+        asked.append(np.array(params, copy=True))
+        values.append(measure(self, params))
+        return values[-1]
+
+    monkeypatch.setattr(bench._Objective, "__call__", recording)
+    trace = bench._Trace(robot, seed_gait(4))
+    bench.BLACK_BOX["cobyqa"](objective, trace, np.random.default_rng(0))
+    seed = family.seed_params
+    assert len(asked) == robot.cycles == 5 and seed.size >= 4
+    np.testing.assert_allclose(asked[0], seed)
+    for k in range(1, 5):
+        np.testing.assert_allclose(asked[k] - seed, case.max_joint_angle / 8 * np.eye(seed.size)[k - 1], atol=1e-12)
+    best = int(np.argmax(values))
+    np.testing.assert_allclose(trace.at(5)[0].params, family.gait(asked[best]).params)

@@ -438,3 +438,33 @@ def test_climb_first_climbs_from_the_first_decision_and_hands_over_to_a_model_th
     handed_back = log.index[log["step"] & ~log["climb"]]
     assert len(handed_back) and handed_back[0] > changed[0]  # model steps, after the climb
     assert log["true_objective"].iloc[-1] > 1.2 * log["true_objective"].iloc[0]
+
+
+def test_the_cobyqa_climb_commands_cobyqas_points_within_the_limits_and_hands_over_its_best():
+    """climb_rule="cobyqa" in the free family: from the first gate decision the candidates are COBYQA's own
+    initial design (the base, then the base ± σ along each family parameter in turn: the method's published
+    start), every commanded gait keeps the joint limit, and the result is the best candidate measured,
+    well above the seed (the 3-link swimmer, measured with little noise)."""
+    from geogait.gaits import FreeGaitFamily
+
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.01, seed=3)
+    optimizer = InSituOptimizer(climb="first", climb_rule="cobyqa", family="free", max_joint_angle=1.5)
+    result = optimizer.run(stream, 60)
+    log = result.log
+    family = FreeGaitFamily(2, 1)
+    params = log.filter(like="param_").to_numpy()
+    changes = np.flatnonzero(np.any(np.diff(params, axis=0) != 0, axis=1)) + 1
+    base = family.params_of(seed_gait(2))
+    sigma = 2 * optimizer.max_trust_radius * result.shape_scale
+    offsets = [params[k] - base for k in changes[:4]]  # the base first: measured once more, clean
+    expected = [sigma * np.eye(base.size)[i] for i in range(4)]
+    first_candidate = 0 if np.allclose(offsets[0], expected[0]) else 1
+    for offset, step in zip(offsets[first_candidate:], expected, strict=False):
+        np.testing.assert_allclose(offset, step, atol=1e-9)
+    assert max(gait.joint_limit().max() for gait in result.gaits) <= 1.5 + 1e-9
+    # the result is the best candidate that kept its rotation (a straight one beats it by under 5 %)
+    final = np.all(np.isclose(params, result.final_gait.params), axis=1)
+    straight = log["excitation"].eq(0) & (log["measured_heading"].abs() < 0.002)
+    assert log.loc[final, "measured_objective"].max() >= 0.95 * log.loc[straight, "measured_objective"].max()
+    seed_value = np.hypot(*cycle_displacement(PurcellSwimmer(3), seed_gait(2))[:2])
+    assert np.hypot(*cycle_displacement(PurcellSwimmer(3), result.final_gait)[:2]) > 1.3 * seed_value

@@ -166,7 +166,8 @@ def _interrupted_then_resumed(tmp_path, make_optimizer, stop_after, n_cycles):
     lambda: InSituOptimizer(settle_cycles=1),
     lambda: InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=3, objective="forward"),
     lambda: InSituOptimizer(model=ShapeSpaceModel(degree=2), family="free", step_rule="sqp"),
-], ids=["adaptive", "batch-forward", "shape-space-sqp"])
+    lambda: InSituOptimizer(climb="first", climb_rule="cobyqa", family="free", settle_cycles=1),
+], ids=["adaptive", "batch-forward", "shape-space-sqp", "cobyqa-climb"])
 def test_resume_is_bit_identical_to_an_uninterrupted_run(tmp_path, make_optimizer):
     whole = make_optimizer().run(_stream(seed=5), 14, ceiling=0.1)
     resumed = _interrupted_then_resumed(tmp_path, make_optimizer, stop_after=8, n_cycles=14)

@@ -25,7 +25,7 @@ from ..experiments.optimization import (
 )
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
-from ..optimize import OBJECTIVES, InSituOptimizer, cached_ceiling, read_checkpoint_metadata
+from ..optimize import CLIMB_RULES, OBJECTIVES, InSituOptimizer, cached_ceiling, read_checkpoint_metadata
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,
@@ -102,6 +102,10 @@ def optimize(
              "is contradicted or levels off), contradicted (only when contradicted), first (from the first "
              "decision, handing over to the model once it predicts; for robots far outside the model class) or "
              "off [default: contradicted for --method resistance, else on].")] = None,
+    climb_rule: Annotated[str | None, typer.Option(
+        help="How the measured climb proposes candidates: es (a mirrored (1+1) evolution strategy) or cobyqa "
+             "(SciPy's COBYQA: quadratic models of the measured outcomes; far fewer cycles on a smooth, "
+             "little-noise objective) [default: es].")] = None,
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
@@ -131,7 +135,7 @@ def optimize(
                         max_joint_angle=max_joint_angle,
                         max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
                         max_tracking_error=max_tracking_error, method=method, family=family,
-                        step_rule=step_rule, climb=climb, robot=robot,
+                        step_rule=step_rule, climb=climb, climb_rule=climb_rule, robot=robot,
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
@@ -276,6 +280,11 @@ def _optimizer(settings) -> InSituOptimizer:
         if climb not in _CLIMB:
             raise GeogaitError(f"--climb must be one of {', '.join(_CLIMB)}; got {climb!r}.")
         steps["climb"] = _CLIMB[climb]
+    rule = settings.get("climb_rule")  # (absent from the run.json of a run that predates --climb-rule)
+    if rule is not None:
+        if rule not in CLIMB_RULES:
+            raise GeogaitError(f"--climb-rule must be one of {', '.join(CLIMB_RULES)}; got {rule!r}.")
+        steps["climb_rule"] = rule
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,

@@ -21,6 +21,9 @@ robot run** — settling cycles included. Methods:
 * ``tpe`` / ``tpe-tuned`` — Bayesian optimisation with optuna's tree-structured Parzen estimator:
   defaults on the box [−r_max, r_max]ⁿ / multivariate TPE with 5 start-up trials on the box
   seed ± r_max / 2, the seed gait as its first trial;
+* ``cobyqa`` — SciPy's COBYQA (``scipy.optimize.minimize(method="COBYQA")``: a derivative-free
+  trust-region method on quadratic models interpolated from the values it has seen) from the seed gait,
+  initial trust radius r_max / 8 (restarted from its best point if it converges within the budget);
 * ``random`` — random search in [−r_max, r_max]ⁿ after the seed gait (the floor).
 
 A black-box method runs the robot **without exploration** (what a user of CMA-ES would do; sensor
@@ -436,6 +439,27 @@ def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
             trace.recommend(family.gait(params), family.period(params))
 
 
+def _cobyqa(objective: _Objective, trace: _Trace, rng, tuned: bool):
+    from scipy.optimize import minimize
+    family = objective.family
+    best = [-np.inf]
+
+    def loss(params):
+        value = objective(params)
+        if value > best[0]:
+            best[0] = value
+            trace.recommend(family.gait(params), family.period(params))
+        return -value
+
+    start = family.seed_params
+    while objective.affordable():  # (afresh from the best candidate if it converges within the budget)
+        left = (objective.budget - objective.robot.cycles) // (objective.case.settle_cycles + 1)
+        result = minimize(loss, start, method="COBYQA",
+                          options={"initial_tr_radius": family.r_max / 8, "final_tr_radius": 1e-3 * family.r_max,
+                                   "maxfev": max(left, 1)})
+        start = result.x
+
+
 def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
     family = objective.family
     best, params = -np.inf, family.seed_params
@@ -449,7 +473,7 @@ def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
 
 BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmaes, tuned=True),
              "tpe": partial(_tpe, tuned=False), "tpe-tuned": partial(_tpe, tuned=True),
-             "random": partial(_random, tuned=False)}
+             "cobyqa": partial(_cobyqa, tuned=False), "random": partial(_random, tuned=False)}
 #: Optional module each black-box method needs (``pip install 'geogait[baselines]'``).
 _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
 #: Method names: geogait (its default model, the resistance model on a chain whose geometry the robot gives, the

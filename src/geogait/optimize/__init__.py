@@ -3,6 +3,7 @@ prior-work batch baseline and the trust-region step rules."""
 
 from .._defaults import STRUCTURED_MODEL_STEPS
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
+from ._climb import CLIMB_RULES
 from ._exploration import Exploration
 from ._insitu import InSituOptimizer, symmetric_chain_model
 from ._measure import CycleMeasurement, measure_cycle
@@ -20,6 +21,7 @@ from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
+    "CLIMB_RULES",
     "OBJECTIVES",
     "STEP_RULES",
     "STRUCTURED_MODEL_STEPS",

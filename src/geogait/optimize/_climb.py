@@ -21,7 +21,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["MeasuredClimb"]
+from ._search import QuadraticSearch
+
+__all__ = ["CLIMB_RULES", "MeasuredClimb"]
+
+#: How the climb proposes candidates: the mirrored (1+1) evolution strategy, or COBYQA (:mod:`._search`).
+CLIMB_RULES = ("es", "cobyqa")
 
 
 @dataclass
@@ -48,6 +53,9 @@ class MeasuredClimb:
         Largest |mean measured net rotation| per cycle of a kept candidate: the start base's as the
         climb measures it (clean when the optimiser owns the exploration), or the optimiser's rotation
         tolerance if larger; fixed for the whole climb so it cannot ratchet up (NaN until measured).
+    search : QuadraticSearch or None
+        With ``climb_rule="cobyqa"``: the COBYQA run that proposes the candidates (module
+        :mod:`geogait.optimize._search`), and ``pending``, the point of the candidate being measured.
     measured, rotations : dict
         (gait, period) → the measured objective (per second with ``optimize_period``) and net
         rotation of each cycle run while climbing: the climb compares only like with like (its cycles
@@ -68,6 +76,8 @@ class MeasuredClimb:
     measured: dict = field(default_factory=dict)
     rotations: dict = field(default_factory=dict)
     rotation_limit: float = np.nan
+    search: QuadraticSearch | None = None
+    pending: np.ndarray | None = None
 
     def start(self, base: tuple, sigma: float) -> None:
         """Hand the steps to the climb, from ``base`` = (gait, period) (measured afresh), at step ``sigma``;
@@ -77,6 +87,7 @@ class MeasuredClimb:
         self.measured, self.rotations = {}, {}
         self.sigma = float(np.clip(sigma, self.min_sigma, self.max_sigma))
         self.direction, self.mirror, self.failures, self.agreements = None, False, 0, 0
+        self.search, self.pending = None, None
 
     def next_direction(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """The mirror of the last failed direction, or a fresh random unit direction of ``n`` coordinates

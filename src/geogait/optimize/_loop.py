@@ -10,12 +10,14 @@ import pandas as pd
 from .. import __version__
 from .._files import write_state
 from .._validation import GeogaitError, GeogaitWarning
+from ..gaits import FreeGaitFamily
 from ..simulate import Trajectory, cycle_displacement
 from ._climb import MeasuredClimb
 from ._measure import measure_cycle, peak_phase_speed
 from ._models import gate_kind, run_model
 from ._objective import joint_limit_constraints, objective
 from ._result import InSituResult
+from ._search import QuadraticSearch
 from ._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, REJECTION_FLOOR, TRACKING_FLOOR, family_kind, params_to_json
 from ._steps import StepProblem, take_step
 
@@ -211,8 +213,19 @@ class CycleLoop:
         state = self.state
         best = self._best_key() if base is None else base
         state.climb.start(best, self.optimizer.max_trust_radius * state.scale if sigma is None else sigma)
+        if self.optimizer.climb_rule == "cobyqa":
+            state.climb.search = self._new_search(best, state.climb.sigma)
         if state.period_search is not None:
             state.period_search.trial_from = None
+
+    def _new_search(self, base: tuple, radius: float) -> QuadraticSearch:
+        """COBYQA from ``base`` = (gait, period) at trust radius ``radius`` down to the smallest trust radius."""
+        state = self.state
+        origin = state.family.params_of(base[0], tolerance=1e-8)
+        if state.period_search is not None:
+            origin = np.append(origin, 0.0)
+        return QuadraticSearch(origin=origin, radius=radius, period=base[1],
+                               final_radius=self.optimizer.min_trust_radius * state.scale)
 
     def _best_key(self) -> tuple:
         """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
@@ -233,6 +246,8 @@ class CycleLoop:
             climb.rotation_limit = max(rotation, optimizer.rotation_tolerance)
         if climb.candidate is not None:
             if climb.candidate == key and climb.base in measured:
+                if climb.search is not None:
+                    climb.search.tell(climb.pending, np.mean(measured[key]), np.mean(climb.rotations[key]))
                 climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
                             self._rotation_holds(key, climb.base))
                 if climb.model_trusted_again:  # back to model steps, from the best gait, on a fresh record
@@ -243,7 +258,8 @@ class CycleLoop:
                     self._change_gait(*climb.base)
                     return True
             climb.candidate = None  # a candidate left early (rejected) is not judged
-        if climb.base not in measured or (key != climb.base and climb.failures >= 3):
+        remeasure = climb.search is None and key != climb.base and climb.failures >= 3  # (COBYQA: its own model)
+        if climb.base not in measured or remeasure:
             climb.failures = 0  # measure the base (again: it may have been lucky)
             self._change_gait(*climb.base)
             return True
@@ -252,7 +268,9 @@ class CycleLoop:
     def _climb_candidate(self) -> bool:
         """Command the climb's next candidate: σ from the base in its next direction, shortened until it
         keeps the joint limits and the feasible region."""
-        state, optimizer, climb = self.state, self.optimizer, self.state.climb
+        state, climb = self.state, self.state.climb
+        if climb.search is not None:
+            return self._search_candidate()
         base_gait, base_period = climb.base
         family, search = state.family, state.period_search
         base = family.params_of(base_gait, tolerance=1e-8)
@@ -265,20 +283,68 @@ class CycleLoop:
             if search is not None:
                 period = float(np.clip(base_period * np.exp(length * direction[-1] / state.scale),
                                        search.low, search.high))
-            speed = None if optimizer.max_joint_velocity is None else \
-                optimizer.max_joint_velocity * period / (2 * np.pi)
-            rows, bounds = joint_limit_constraints(base_gait.n_joints, optimizer.order, state.max_joint_angle, speed)
-            if np.all(rows @ gait.params <= bounds + 1e-12) and (
-                    state.feasibility is None or state.feasibility(gait.params)[0].min() >= 0):
+            if self._runnable(gait, period):
                 break
         else:
             climb.sigma = max(climb.min_sigma, climb.sigma / 2)
             return False
+        return self._command_candidate(gait, period)
+
+    def _known_limits(self, point) -> np.ndarray:
+        """The joint-angle limits at a search point, feasible where ≤ 0: each joint's largest angle over the
+        cycle relative to r_max, and the feasible region's tightest row (as COBYQA's known constraints)."""
+        state = self.state
+        gait = state.family.gait(point[:state.family.n_params])
+        rows = gait.joint_limit() / state.max_joint_angle - 1
+        if state.feasibility is not None:
+            rows = np.append(rows, -state.feasibility(gait.params)[0].min())
+        return rows
+
+    def _runnable(self, gait, period) -> bool:
+        """``gait`` at ``period`` keeps the joint angle and speed limits and the feasible region."""
+        optimizer, state = self.optimizer, self.state
+        speed = None if optimizer.max_joint_velocity is None else optimizer.max_joint_velocity * period / (2 * np.pi)
+        rows, bounds = joint_limit_constraints(gait.n_joints, optimizer.order, state.max_joint_angle, speed)
+        return bool(np.all(rows @ gait.params <= bounds + 1e-12) and (
+            state.feasibility is None or state.feasibility(gait.params)[0].min() >= 0))
+
+    def _command_candidate(self, gait, period) -> bool:
+        state, climb = self.state, self.state.climb
+        base_gait, base_period = climb.base
         climb.predicted_gain = (self._predict(gait)[1] * state.rate(period)
                                 - self._predict(base_gait)[1] * state.rate(base_period))
         climb.candidate = (gait, period)
         self._change_gait(gait, period)
         return True
+
+    def _search_candidate(self) -> bool:
+        """Command COBYQA's next point (:class:`QuadraticSearch`); one that breaks a limit is answered with
+        the worst value measured, unrun. A converged search starts afresh from the base."""
+        state, climb = self.state, self.state.climb
+        n = state.family.n_params
+        for _ in range(100):
+            search = climb.search
+            if not search.values:  # its origin is the base, as the climb measured it
+                search.tell(search.origin, np.mean(climb.measured[climb.base]),
+                            np.mean(climb.rotations[climb.base]))
+            box = None
+            if state.period_search is not None:
+                low, high = (state.scale * np.log(t / search.period)
+                             for t in (state.period_search.low, state.period_search.high))
+                box = [(-np.inf, np.inf)] * n + [(low, high)]
+            rotation = climb.rotation_limit if isinstance(state.family, FreeGaitFamily) else None
+            point = search.next(box, self._known_limits, rotation)
+            if point is None:  # converged at its smallest radius: afresh from the base
+                climb.search = self._new_search(climb.base, climb.max_sigma / 4)
+                continue
+            gait = state.family.gait(point[:n])
+            period = search.period if state.period_search is None else \
+                float(search.period * np.exp(point[n] / state.scale))
+            if self._runnable(gait, period):
+                climb.pending = point
+                return self._command_candidate(gait, period)
+            search.tell(point, min(search.values), 0.0)
+        return False
 
     def _rotation_holds(self, key, base) -> bool:
         """The candidate's mean measured net rotation is within the climb's rotation limit (the start
@@ -376,6 +442,8 @@ class CycleLoop:
         state.promised = None
         state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
+            if state.climb.search is not None:  # (as COBYQA sees it: no better than the worst measured)
+                state.climb.search.tell(state.climb.pending, min(state.climb.search.values), 0.0)
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
         previous = state.previous_gait
         self._change_gait(previous, state.previous_period)

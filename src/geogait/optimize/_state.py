@@ -17,6 +17,7 @@ from ..models import has_gait_model_members, model_from_state
 from ._climb import MeasuredClimb
 from ._exploration import Exploration
 from ._period import PeriodSearch
+from ._search import QuadraticSearch
 
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
 CHECKPOINT_VERSION = 1
@@ -196,6 +197,12 @@ class RunState:
                 arrays[name] = value[0].coefficients
         if self.climb.direction is not None:
             arrays["climb/direction"] = self.climb.direction
+        metadata["climb"]["search"] = None
+        if self.climb.search is not None:
+            metadata["climb"]["search"], search_arrays = self.climb.search.to_checkpoint("climb/search")
+            arrays.update(search_arrays)
+        if self.climb.pending is not None:
+            arrays["climb/pending"] = self.climb.pending
         if self.previous_gait is not None:
             arrays["previous_gait"] = self.previous_gait.coefficients
         if self.direction is not None:
@@ -251,7 +258,9 @@ class RunState:
                 else (FourierGait(arrays["climb/base"]), climb["base_period"]),
                 candidate=None if climb["candidate_period"] is None
                 else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
-                direction=arrays.get("climb/direction"))
+                direction=arrays.get("climb/direction"), pending=arrays.get("climb/pending"))
+            if climb.get("search") is not None:
+                state.climb.search = QuadraticSearch.from_checkpoint(climb["search"], arrays, "climb/search")
         state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
         promised = scalars["promised"]
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))

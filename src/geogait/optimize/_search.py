@@ -1,0 +1,132 @@
+r"""The measured climb's second rule: COBYQA on measured outcomes, one robot cycle at a time.
+
+COBYQA (Ragonneau & Zhang, *COBYQA — Constrained Optimization BY Quadratic Approximations*, 2022;
+``scipy.optimize.minimize(method="COBYQA")``, SciPy ≥ 1.14) is a derivative-free trust-region SQP
+method in the line of Powell's NEWUOA and BOBYQA: it interpolates a quadratic model of the objective
+from the values it has seen (minimum Frobenius norm of the Hessian's change while it has fewer than
+(n+1)(n+2)/2 of them), steps to the model's optimum inside a trust region, and moves the region by the
+ratio of measured to predicted decrease. On a smooth objective measured with little noise it needs far
+fewer evaluations than an evolution strategy: it learns the curvature that a (1+1) strategy only
+samples.
+
+SciPy runs COBYQA as a callback loop; the in-situ optimiser needs it one measured candidate at a time,
+across checkpoints. So the search *is* its history: :meth:`QuadraticSearch.next` runs COBYQA afresh from
+the same origin and answers every point it asks for from the values recorded so far (COBYQA is
+deterministic), and stops it at the first point not measured yet — the next candidate. A replay of
+k values costs k COBYQA iterations (milliseconds), far less than a robot's cycle.
+
+Coordinates: the family's free parameters q, and with ``optimize_period`` one more,
+``shape_scale · log(T / T₀)`` (within the period range: COBYQA keeps bounds exactly). The joint limits
+are *known* constraints — each joint's largest angle over the cycle, computed for any point without
+running the robot (a few smooth values; the many rows of the linearised limits make COBYQA's
+constrained step a large QR per iteration) — and in the free family the measured net rotation per cycle
+is a constraint |c| ≤ the climb's rotation limit. A point COBYQA asks for outside the joint limits or
+the feasible region is not run: it is answered with the worst value measured so far (and no rotation),
+so the search turns back without costing a cycle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import NonlinearConstraint, minimize
+
+__all__ = ["QuadraticSearch"]
+
+
+class _Ask(Exception):
+    """COBYQA asked for a point whose value is not measured yet."""
+
+    def __init__(self, point):
+        super().__init__()
+        self.point = np.array(point, dtype=float, copy=True)
+
+
+@dataclass
+class QuadraticSearch:
+    """COBYQA's run from ``origin``, as the values measured so far (module docstring).
+
+    Parameters
+    ----------
+    origin : ndarray of shape (n,)
+        Start point (the climb's base) in the search's coordinates.
+    radius, final_radius : float
+        COBYQA's initial and final trust-region radius.
+    period : float
+        The origin's cycle period (with ``optimize_period`` the last coordinate is
+        ``shape_scale · log(T / period)``).
+    points, values, rotations : list
+        Every point COBYQA asked for, in order, with its measured objective (to maximise) and net
+        rotation per cycle.
+    """
+
+    origin: np.ndarray
+    radius: float
+    final_radius: float
+    period: float
+    points: list = field(default_factory=list)
+    values: list = field(default_factory=list)
+    rotations: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.origin = np.asarray(self.origin, dtype=float)
+
+    def tell(self, point, value: float, rotation: float) -> None:
+        """Record the measured ``value`` and net ``rotation`` of ``point`` (the one :meth:`next` returned)."""
+        self.points.append(np.asarray(point, dtype=float))
+        self.values.append(float(value))
+        self.rotations.append(float(rotation))
+
+    def next(self, bounds=None, known=None, rotation_limit: float | None = None) -> np.ndarray | None:
+        """The next point to measure, or None when COBYQA has converged (its final radius).
+
+        Parameters
+        ----------
+        bounds : sequence of (low, high), optional
+            Bounds on each coordinate (None or ±inf: unbounded).
+        known : callable, optional
+            Constraints computed without a measurement, ``known(x) -> (m,)``, feasible where ≤ 0.
+        rotation_limit : float, optional
+            Largest |net rotation| per cycle (a nonlinear constraint on the measured rotations).
+        """
+        index = {}  # distinct points in the order COBYQA asks for them: the k-th is the k-th recorded
+
+        def recorded(x):
+            key = np.asarray(x, dtype=float).tobytes()
+            if key not in index:
+                if len(index) >= len(self.values):
+                    raise _Ask(x)
+                index[key] = len(index)
+            return index[key]
+
+        constraints = []
+        if known is not None:
+            constraints.append(NonlinearConstraint(known, -np.inf, 0.0))
+        if rotation_limit is not None:
+            constraints.append(NonlinearConstraint(
+                lambda x: (self.rotations[recorded(x)] / rotation_limit) ** 2, -np.inf, 1.0))
+        try:
+            minimize(lambda x: -self.values[recorded(x)], self.origin, method="COBYQA", bounds=bounds,
+                     constraints=constraints,
+                     options={"initial_tr_radius": self.radius, "final_tr_radius": self.final_radius,
+                              "maxfev": 10**6, "disp": False})
+        except _Ask as ask:
+            return ask.point
+        return None
+
+    # -- checkpoint ---------------------------------------------------------------------------
+    def to_checkpoint(self, prefix: str) -> tuple[dict, dict]:
+        metadata = {"radius": self.radius, "final_radius": self.final_radius, "period": self.period}
+        arrays = {f"{prefix}/origin": self.origin,
+                  f"{prefix}/points": np.reshape(np.asarray(self.points, dtype=float), (-1, self.origin.size)),
+                  f"{prefix}/values": np.asarray(self.values, dtype=float),
+                  f"{prefix}/rotations": np.asarray(self.rotations, dtype=float)}
+        return metadata, arrays
+
+    @classmethod
+    def from_checkpoint(cls, metadata: dict, arrays: dict, prefix: str) -> QuadraticSearch:
+        return cls(origin=arrays[f"{prefix}/origin"], radius=metadata["radius"],
+                   final_radius=metadata["final_radius"], period=metadata["period"],
+                   points=list(arrays[f"{prefix}/points"]), values=arrays[f"{prefix}/values"].tolist(),
+                   rotations=arrays[f"{prefix}/rotations"].tolist())
