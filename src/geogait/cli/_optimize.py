@@ -103,9 +103,8 @@ def optimize(
              "decision, handing over to the model once it predicts; for robots far outside the model class) or "
              "off [default: contradicted for --method resistance, else on].")] = None,
     climb_rule: Annotated[str | None, typer.Option(
-        help="How the measured climb proposes candidates: es (a mirrored (1+1) evolution strategy) or cobyqa "
-             "(SciPy's COBYQA: quadratic models of the measured outcomes; far fewer cycles on a smooth, "
-             "little-noise objective) [default: es].")] = None,
+        help="How the measured climb proposes candidates: cobyqa (SciPy's COBYQA: quadratic models of the "
+             "measured outcomes) or es (a mirrored (1+1) evolution strategy) [default: cobyqa].")] = None,
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,

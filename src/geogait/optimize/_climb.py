@@ -1,18 +1,23 @@
-r"""Steps from measured outcomes when the model's steps do not deliver: a local evolution strategy.
+r"""Steps from measured outcomes when the model's steps do not deliver: the measured climb.
 
 A model can fit the samples well (Γ high, the prediction check passing) and still be wrong about
 the gradient of the objective — on a robot with inertia or drag outside the model class its
 promised gains are not measured, the ratio test shrinks the trust radius to its floor, and the run
-stalls. The in-situ optimiser then climbs on what the robot measures: a (1+1) evolution strategy
-with mirrored sampling (Brockhoff, Auger, Hansen, Arnold & Hohm, PPSN 2010) in the same gait
-family. From the base gait (the best measured so far) a candidate is commanded at distance σ
-in a random direction (or, after a failure, in the opposite direction), run for the usual settle
-and measured cycles, and kept when its mean measured objective beats the base's and its measured
-net rotation does not grow beyond noise. σ grows by half on success and shrinks by 0.85 on
-failure (a success rate near 2/7 keeps it steady). After three failures in a row the base is run
-again, so a base that was measured lucky is corrected. Every cycle still trains the model; when it
-predicts the measured gain of three candidates in a row (same sign, within a factor 1.5), model
-steps resume.
+stalls. The in-situ optimiser then climbs on what the robot measures, in the same gait family, by one
+of two rules (``climb_rule``):
+
+* ``"cobyqa"`` (default): SciPy's COBYQA proposes every candidate from quadratic models of the
+  measured outcomes (module :mod:`geogait.optimize._search`);
+* ``"es"``: a (1+1) evolution strategy with mirrored sampling (Brockhoff, Auger, Hansen, Arnold &
+  Hohm, PPSN 2010). From the base gait (the best measured so far) a candidate is commanded at
+  distance σ in a random direction (or, after a failure, in the opposite direction); σ grows by half
+  on success and shrinks by 0.85 on failure (a success rate near 2/7 keeps it steady). After three
+  failures in a row the base is run again, so a base that was measured lucky is corrected.
+
+Either way a candidate runs for the usual settle and measured cycles and becomes the base when its
+mean measured objective beats the base's and its measured net rotation does not grow beyond noise.
+Every cycle still trains the model; when it predicts the measured gain of three candidates in a row
+(same sign, within a factor 1.5), model steps resume.
 """
 
 from __future__ import annotations

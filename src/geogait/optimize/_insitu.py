@@ -201,8 +201,8 @@ class InSituOptimizer(Estimator):
         of at least 1 % unconfirmed at the smallest trust radius, or a revert to the best gait), its
         prediction check failed twice in a row, or cycles without exploration — or when the model
         has levelled off (three gate decisions in a row without a step promising 1 %), take steps from the
-        measured outcomes instead (a mirrored (1+1) evolution strategy in the same family and limits,
-        module :mod:`geogait.optimize._climb`), and return to model steps once the model predicts
+        measured outcomes instead (COBYQA or an evolution strategy in the same family and limits:
+        ``climb_rule``; module :mod:`geogait.optimize._climb`), and return to model steps once the model predicts
         the measured gains again. ``"contradicted"``: only when measured outcomes contradict the model,
         not when it levels off (a model that holds far from its data, levelled off at its optimum, would
         otherwise be led astray by single noisy cycles). ``"first"``: climb from the first gate decision, at
@@ -210,15 +210,14 @@ class InSituOptimizer(Estimator):
         (for robots far outside the model class, where model steps would only cost cycles before the
         contradiction shows). Default True.
     climb_rule : {"es", "cobyqa"}
-        How the climb proposes its candidates. ``"es"`` (default): the mirrored (1+1) evolution
-        strategy above. ``"cobyqa"``: SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
+        How the climb proposes its candidates. ``"es"``: the mirrored (1+1) evolution strategy
+        above. ``"cobyqa"`` (default): SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
         derivative-free trust-region method that interpolates quadratic models of the measured outcomes
         from every candidate it has measured (2n + 1 of them before its first model step, n the family's
         parameters), starting at the climb's σ and ending at ``min_trust_radius``; the joint limits are its
         linear constraints and, in the free family, the measured rotation its nonlinear one. Far fewer
-        cycles than the strategy on an objective measured with little noise (a robot far outside the
-        model class: measured on the robot benchmark); it trusts every single measurement, so a noisy
-        one can mislead it.
+        cycles than the strategy (measured on the robot benchmark: ahead or level on every robot there);
+        it trusts every single measurement, so a very noisy one can mislead it.
     exploration : "auto", float or None
         Who explores. ``"auto"`` (default): the optimiser commands the excitation of eq. 8
         (δ std 0.15 × ``shape_scale``, two oscillations per cycle; :class:`Exploration`) to robots
@@ -274,7 +273,7 @@ class InSituOptimizer(Estimator):
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
                  prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0,
                  optimize_period: bool = False, period_range=None, climb: bool = True,
-                 climb_rule: str = "es", exploration="auto",
+                 climb_rule: str = "cobyqa", exploration="auto",
                  random_state: int | None = 0):
         self.model = model
         self.gate = gate

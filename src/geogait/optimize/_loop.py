@@ -348,12 +348,23 @@ class CycleLoop:
 
     def _rotation_holds(self, key, base) -> bool:
         """The candidate's mean measured net rotation is within the climb's rotation limit (the start
-        base's, fixed) beyond twice its standard error."""
-        rotations = np.asarray(self.state.climb.rotations.get(key, []))
+        base's, fixed) beyond twice its standard error.
+
+        In a rotation-free family every commanded gait turns a principally kinematic body by exactly
+        zero, so what a single cycle measures is mostly noise: there the limit is at least twice the RMS
+        rotation of every clean cycle the climb has measured (a gait that turns stands out of that
+        spread; one within it cannot be told from noise).
+        """
+        climb = self.state.climb
+        rotations = np.asarray(climb.rotations.get(key, []))
         if rotations.size == 0:
             return True
         error = float(np.std(rotations, ddof=1) / np.sqrt(rotations.size)) if rotations.size > 1 else 0.0
-        return abs(float(rotations.mean())) <= self.state.climb.rotation_limit + 2 * error
+        limit = climb.rotation_limit
+        if not isinstance(self.state.family, FreeGaitFamily):
+            measured = np.concatenate([np.asarray(v, dtype=float) for v in climb.rotations.values()])
+            limit = max(limit, 2 * float(np.sqrt(np.mean(measured ** 2))))
+        return abs(float(rotations.mean())) <= limit + 2 * error
 
     def _period_move(self) -> bool:
         """The period's turn at a gate decision (``optimize_period``): judge the trial in progress, or
