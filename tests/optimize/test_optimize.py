@@ -468,3 +468,27 @@ def test_the_cobyqa_climb_commands_cobyqas_points_within_the_limits_and_hands_ov
     assert log.loc[final, "measured_objective"].max() >= 0.95 * log.loc[straight, "measured_objective"].max()
     seed_value = np.hypot(*cycle_displacement(PurcellSwimmer(3), seed_gait(2))[:2])
     assert np.hypot(*cycle_displacement(PurcellSwimmer(3), result.final_gait)[:2]) > 1.3 * seed_value
+
+
+def test_in_a_rotation_free_family_the_climb_judges_rotation_against_the_noise_of_its_own_cycles():
+    """The climb's rotation limit (the start base's) is at least twice the RMS rotation of its clean cycles
+    in a rotation-free family, where a single cycle's rotation is noise; in the free family it is not."""
+    from types import SimpleNamespace
+
+    from geogait.gaits import FreeGaitFamily, MirrorGaitFamily
+    from geogait.optimize._climb import MeasuredClimb
+    from geogait.optimize._loop import CycleLoop
+
+    rng = np.random.default_rng(0)
+    climb = MeasuredClimb(sigma=0.1, min_sigma=0.01, max_sigma=0.4, rotation_limit=1e-3)
+    noise = 0.004
+    for k in range(30):  # thirty other gaits measured once each: rotation noise 0.004 rad per cycle
+        climb.record((k, 1.0), 0.1, float(rng.normal(0, noise)))
+    climb.record(("turning", 1.0), 0.2, 0.05)
+    climb.record(("noisy", 1.0), 0.2, 0.006)
+    loop = CycleLoop.__new__(CycleLoop)
+    loop.state = SimpleNamespace(climb=climb, family=MirrorGaitFamily(2, 1))
+    assert loop._rotation_holds(("noisy", 1.0), None)  # 1.5 σ: noise
+    assert not loop._rotation_holds(("turning", 1.0), None)  # far outside the spread
+    loop.state.family = FreeGaitFamily(2, 1)
+    assert not loop._rotation_holds(("noisy", 1.0), None)  # the free family: the start base's limit
