@@ -224,3 +224,12 @@ def test_a_run_that_cannot_be_checkpointed_is_refused_before_the_robot_moves(tmp
         optimizer.run(stream, 4, checkpoint=tmp_path / "run.npz")
     assert stream.cycle == 0 and not (tmp_path / "run.npz").exists()
     assert optimizer.run(stream, 4).log.shape[0] == 4  # without a checkpoint it runs
+
+
+def test_a_checkpoint_from_before_the_climb_rule_resumes_with_the_evolution_strategy():
+    from geogait.optimize._state import params_from_json, params_to_json
+
+    params = params_to_json(InSituOptimizer())
+    assert params_from_json(params)["climb_rule"] == "cobyqa"
+    del params["climb_rule"]
+    assert InSituOptimizer(**params_from_json(params)).climb_rule == "es"

@@ -357,6 +357,7 @@ def params_to_json(optimizer) -> dict:
 
 def params_from_json(params: dict) -> dict:
     params = dict(params)
+    params.setdefault("climb_rule", "es")  # a checkpoint from before the rule was a choice climbed by the strategy
     if params.get("model") is not None:
         name = params["model"]["class"]
         if name not in models.__all__:
