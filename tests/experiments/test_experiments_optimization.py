@@ -83,20 +83,26 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
     assert len(pd.read_csv(tmp_path / "cycles.csv")) == 12
 
 
+def _optimize(*args):
+    return CliRunner().invoke(app, ["optimize", *map(str, args)])
+
+
+def _optimizer_config(folder):
+    return json.loads((folder / "summary.json").read_text())["config"]["optimizer"]
+
+
 def test_optimize_command_takes_the_climb(tmp_path):
     """--climb first: the run's optimiser climbs first (recorded, and kept on resume); a bad value is refused in
     one line."""
-    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "8", "--climb", "first", "--out",
-                                      str(tmp_path)])
+    result = _optimize("--links", 3, "--cycles", 8, "--climb", "first", "--out", tmp_path)
     assert result.exit_code == 0, result.output
-    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb"] == "first"
+    assert _optimizer_config(tmp_path)["climb"] == "first"
     log = pd.read_csv(tmp_path / "cycles.csv")
     assert log["climb"].any() and not (log["step"] & ~log["climb"]).any()  # only climb moves in 8 cycles
-    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "10"])
+    resumed = _optimize("--resume", tmp_path, "--cycles", 10)
     assert resumed.exit_code == 0, resumed.output
-    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb"] == "first"
-    bad = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "2", "--climb", "sometimes", "--out",
-                                   str(tmp_path / "bad")])
+    assert _optimizer_config(tmp_path)["climb"] == "first"
+    bad = _optimize("--links", 3, "--cycles", 2, "--climb", "sometimes", "--out", tmp_path / "bad")
     assert bad.exit_code == 1 and "--climb must be one of on, off, contradicted, first" in bad.output
     assert bad.output.count("\n") == 1
 
@@ -104,17 +110,15 @@ def test_optimize_command_takes_the_climb(tmp_path):
 def test_optimize_command_takes_the_climb_rule(tmp_path):
     """--climb-rule cobyqa: the climb's candidates come from COBYQA (recorded in the summary and run.json, kept
     on resume); a bad value is refused in one line."""
-    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "10", "--climb", "first",
-                                      "--climb-rule", "cobyqa", "--out", str(tmp_path)])
+    result = _optimize("--links", 3, "--cycles", 10, "--climb", "first", "--climb-rule", "cobyqa", "--out", tmp_path)
     assert result.exit_code == 0, result.output
-    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb_rule"] == "cobyqa"
+    assert _optimizer_config(tmp_path)["climb_rule"] == "cobyqa"
     assert json.loads((tmp_path / "run.json").read_text())["climb_rule"] == "cobyqa"
     assert pd.read_csv(tmp_path / "cycles.csv")["climb"].sum() >= 2
-    resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "12"])
+    resumed = _optimize("--resume", tmp_path, "--cycles", 12)
     assert resumed.exit_code == 0, resumed.output
-    assert json.loads((tmp_path / "summary.json").read_text())["config"]["optimizer"]["climb_rule"] == "cobyqa"
-    bad = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "2", "--climb-rule", "bobyqa", "--out",
-                                   str(tmp_path / "bad")])
+    assert _optimizer_config(tmp_path)["climb_rule"] == "cobyqa"
+    bad = _optimize("--links", 3, "--cycles", 2, "--climb-rule", "bobyqa", "--out", tmp_path / "bad")
     assert bad.exit_code == 1 and "--climb-rule must be one of es, cobyqa; got 'bobyqa'" in bad.output
     assert bad.output.count("\n") == 1
 

@@ -343,7 +343,7 @@ class CycleLoop:
             if self._runnable(gait, period):
                 climb.pending = point
                 return self._command_candidate(gait, period)
-            search.tell(point, min(search.values), 0.0)
+            search.refuse(point)
         return False
 
     def _rotation_holds(self, key, base) -> bool:
@@ -453,8 +453,8 @@ class CycleLoop:
         state.promised = None
         state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
-            if state.climb.search is not None:  # (as COBYQA sees it: no better than the worst measured)
-                state.climb.search.tell(state.climb.pending, min(state.climb.search.values), 0.0)
+            if state.climb.search is not None:
+                state.climb.search.refuse(state.climb.pending)
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
         previous = state.previous_gait
         self._change_gait(previous, state.previous_period)

@@ -78,6 +78,11 @@ class QuadraticSearch:
         self.values.append(float(value))
         self.rotations.append(float(rotation))
 
+    def refuse(self, point) -> None:
+        """Answer ``point`` unrun (beyond a limit, or not followed by the robot): no better than the worst
+        value measured, and no rotation, so the search turns back."""
+        self.tell(point, min(self.values), 0.0)
+
     def next(self, bounds=None, known=None, rotation_limit: float | None = None) -> np.ndarray | None:
         """The next point to measure, or None when COBYQA has converged (its final radius).
 
