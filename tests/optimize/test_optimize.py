@@ -87,7 +87,7 @@ def test_joint_limit_constraints_imply_the_continuous_limit(rng, order):
 @pytest.fixture(scope="module")
 def noise_free_run():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=0)
-    return InSituOptimizer().run(stream, 25, record=True)
+    return InSituOptimizer(climb=True).run(stream, 25, record=True)  # the model steps first: the paper's loop
 
 
 def test_optimiser_improves_the_seed_gait_on_a_noise_free_swimmer(noise_free_run):
@@ -127,7 +127,7 @@ def test_result_carries_the_model_the_run_learned(noise_free_run):
 
 def test_free_family_default_model_is_the_window_model_recentred_on_the_last_gait():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=0)
-    result = InSituOptimizer(family="free").run(stream, 12)
+    result = InSituOptimizer(family="free", climb=True).run(stream, 12)
     assert isinstance(result.model, AdaptiveGaitModel)
     assert result.model.forgetting_factor == pytest.approx(0.95)  # 1 − 0.1 / d for d = 2
     assert result.n_steps >= 1 and result.model.gait_ == result.final_gait  # re-centred on the last gait
@@ -145,7 +145,7 @@ def test_joint_limits_are_never_violated(r_max):
 
 def test_batch_baseline_steps_every_cycles_per_iteration():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=1)
-    result = InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=5).run(stream, 20)
+    result = InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=5, climb=True).run(stream, 20)
     steps = result.log.loc[result.log["step"], "cycle"].to_numpy()
     assert len(steps) >= 2 and np.all(np.diff(steps) % 5 == 0) and steps[0] == 4
     assert result.log["true_objective"].iloc[-1] > result.log["true_objective"].iloc[0]
@@ -319,7 +319,7 @@ def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhil
     assert guarded.log["reverted"].any()
     assert guarded.summary()["reverted_to_best"] == int(guarded.log["reverted"].sum())
     assert measured.iloc[-1] >= 0.8 * measured.max()  # it ends on (or back near) the best gait measured
-    climbing, _ = run()  # the reverts count as broken promises: the climb takes over, and hands over its best
+    climbing, _ = run(climb=True)  # the reverts count as broken promises: the climb takes over, and hands over its best
     log = climbing.log
     final = np.all(np.isclose(log.filter(like="param_").to_numpy(), climbing.final_gait.params), axis=1)
     assert log["reverted"].any() and log["climb"].any()
@@ -389,7 +389,7 @@ def test_the_climb_carries_on_where_the_model_levels_off():
     from geogait.optimize import cached_ceiling
 
     swimmer = PurcellSwimmer(5)
-    result = InSituOptimizer().run(SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=1), 60)
+    result = InSituOptimizer(climb=True).run(SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=1), 60)
     log = result.log
     first = log.index[log["climb"]][0]
     ceiling = cached_ceiling(swimmer, family="symmetric").value
@@ -492,3 +492,31 @@ def test_in_a_rotation_free_family_the_climb_judges_rotation_against_the_noise_o
     assert not loop._rotation_holds(("turning", 1.0), None)  # far outside the spread
     loop.state.family = FreeGaitFamily(2, 1)
     assert not loop._rotation_holds(("noisy", 1.0), None)  # the free family: the start base's limit
+
+
+def test_the_climb_hands_back_only_on_the_model_predicting_its_own_steps():
+    """Agreement of the model with a probe of COBYQA's initial design is not counted towards handing the
+    steps back, and a disagreement there does not break a run of agreements either."""
+    from geogait.optimize._climb import MeasuredClimb
+
+    climb = MeasuredClimb(sigma=0.1, min_sigma=0.01, max_sigma=0.3)
+    for tests_model, predicted, expected in ((True, 0.1, 1), (False, 0.1, 1), (False, -0.1, 1), (True, 0.1, 2),
+                                             (True, -0.1, 0)):
+        climb.predicted_gain = predicted
+        climb.judge(1.1, 1.0, True, tests_model=tests_model)  # measured gain 0.1
+        assert climb.agreements == expected
+    for _ in range(3):
+        climb.predicted_gain = 0.1
+        climb.judge(1.1, 1.0, True)
+    assert climb.model_trusted_again
+
+
+def test_climb_first_is_the_default_and_needs_no_confident_model():
+    """By default the climb starts at the first decision, after min_cycles_per_iteration measured cycles of
+    the seed, even where the model's Γ never reaches Γ* (here Γ* = 0.999 against 10 % sensor noise)."""
+    assert InSituOptimizer().climb == "first"
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=2)
+    log = InSituOptimizer(gamma_threshold=0.999).run(stream, 8).log
+    assert (log["gamma"].dropna() < 0.999).all()
+    assert log["climb"].iloc[1] and not log["climb"].iloc[0]  # the base, measured again clean, then COBYQA
+    assert log["excitation"].iloc[3:].max() < 1e-12 and log["step"].sum() >= 4

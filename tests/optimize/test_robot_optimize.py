@@ -83,7 +83,7 @@ def test_measured_motion_per_cycle_is_the_true_one_without_perturbations():
 
 
 def test_a_robot_without_truth_is_judged_by_measurement():
-    result = InSituOptimizer().run(BareRobot(_stream(seed=1)), 20, ceiling=0.1)
+    result = InSituOptimizer(climb=True).run(BareRobot(_stream(seed=1)), 20, ceiling=0.1)
     log = result.log
     assert "true_objective" not in log and result.n_steps >= 3
     on_seed = log["iteration"] == 0

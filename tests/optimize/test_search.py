@@ -83,3 +83,18 @@ def test_a_checkpoint_round_trip_asks_for_the_same_next_point():
     restored = QuadraticSearch.from_checkpoint(metadata, arrays, "climb/search")
     assert restored.period == 2.0
     np.testing.assert_array_equal(restored.next(), search.next())
+
+
+def test_the_initial_design_is_the_origin_and_one_radius_along_each_coordinate_then_model_steps():
+    """``designing`` marks COBYQA's initial design: its first 2n + 1 points are the origin and the origin ±
+    radius along one coordinate (the method's published start), every later point a step of its model."""
+    search = QuadraticSearch(origin=np.full(4, 0.2), radius=0.3, final_radius=1e-4, period=1.0)
+    for _ in range(2 * 4 + 1):
+        point = search.next()
+        offset = point - search.origin
+        assert np.count_nonzero(offset) <= 1 and np.abs(offset).max() in (0.0, pytest.approx(0.3))
+        search.tell(point, _objective(point), 0.0)
+        assert search.designing
+    point = search.next()
+    search.tell(point, _objective(point), 0.0)
+    assert not search.designing

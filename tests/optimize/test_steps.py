@@ -91,10 +91,11 @@ def test_optimizer_runs_on_perfect_information_and_on_the_shape_space_model():
     ceiling = cached_ceiling(swimmer).value
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
     perfect = InSituOptimizer(model=PerfectInformationModel(system=swimmer), step_rule="sqp",
-                              max_trust_radius=0.5).run(stream, 12, ceiling=ceiling)
+                              max_trust_radius=0.5, climb=True).run(stream, 12, ceiling=ceiling)
     assert perfect.log["gamma"].dropna().eq(1.0).all() and perfect.log["ceiling_fraction"].iloc[-1] > 0.99
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
-    learned = InSituOptimizer(model=ShapeSpaceModel(degree=3), step_rule="sqp").run(stream, 30, ceiling=ceiling)
+    learned = InSituOptimizer(model=ShapeSpaceModel(degree=3), step_rule="sqp", climb=True).run(
+        stream, 30, ceiling=ceiling)
     assert learned.n_steps >= 5 and learned.log["ceiling_fraction"].iloc[-1] > 0.85
 
 

@@ -397,7 +397,8 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
         return np.hypot(*net_motion(run, 0, robot.samples_per_cycle)[:2]), error
 
     # the window model (the default on a chain that declares no resistive medium): small steps near the limit
-    options = dict(objective="forward", direction_frame="body", model=AdaptiveGaitModel(forgetting_factor=0.95))
+    options = dict(objective="forward", direction_frame="body", model=AdaptiveGaitModel(forgetting_factor=0.95),
+                   climb=True)
     checked = InSituOptimizer(max_tracking_error=0.1, **options).run(_saturating_swimmer(), 30)
     log = checked.log
     assert checked.n_rejected >= 3  # measured 9
@@ -412,7 +413,7 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
     # learns realised shapes, then over-predicts the commanded gait (measured: by 60 %) and only the
     # prediction check keeps closing the gate.
     # (the measured-outcome revert and climb, which also pull such a run back, are off to show the runaway)
-    unchecked = InSituOptimizer(max_tracking_error=None, revert_tolerance=None, climb=False, **options).run(
+    unchecked = InSituOptimizer(**{**options, "climb": False}, max_tracking_error=None, revert_tolerance=None).run(
         _saturating_swimmer(), 30)
     assert unchecked.n_rejected == 0
     assert unchecked.final_gait.joint_limit().max() > 1.5  # far beyond the seed's 1 rad

@@ -100,8 +100,8 @@ def optimize(
     climb: Annotated[str | None, typer.Option(
         help="Measured climb (steps from measured outcomes when the model's do not deliver): on (when the model "
              "is contradicted or levels off), contradicted (only when contradicted), first (from the first "
-             "decision, handing over to the model once it predicts; for robots far outside the model class) or "
-             "off [default: contradicted for --method resistance, else on].")] = None,
+             "decision, handing over to the model once it predicts) or off [default: contradicted for --method "
+             "resistance, else first].")] = None,
     climb_rule: Annotated[str | None, typer.Option(
         help="How the measured climb proposes candidates: cobyqa (SciPy's COBYQA: quadratic models of the "
              "measured outcomes) or es (a mirrored (1+1) evolution strategy) [default: cobyqa].")] = None,

@@ -17,7 +17,11 @@ of two rules (``climb_rule``):
 Either way a candidate runs for the usual settle and measured cycles and becomes the base when its
 mean measured objective beats the base's and its measured net rotation does not grow beyond noise.
 Every cycle still trains the model; when it predicts the measured gain of three candidates in a row
-(same sign, within a factor 1.5), model steps resume.
+(same sign, within a factor 1.5), model steps resume. Under COBYQA only its own steps count: its initial
+design probes ±σ along one parameter at a time from the base, where any local model agrees, so
+agreement there says nothing about where the search goes (counted there, the model took the steps back
+after a few probes and then climbed at its trust radius, slower than the search it interrupted: on the
+built-in 5-link swimmer 94.6 % of the ceiling at 30 cycles against 96.7 %, 12 paired seeds).
 """
 
 from __future__ import annotations
@@ -109,7 +113,8 @@ class MeasuredClimb:
         self.measured.setdefault(key, []).append(value)
         self.rotations.setdefault(key, []).append(rotation)
 
-    def judge(self, candidate_value: float, base_value: float, rotation_holds: bool) -> bool:
+    def judge(self, candidate_value: float, base_value: float, rotation_holds: bool,
+              tests_model: bool = True) -> bool:
         """Record the candidate's outcome; returns whether it becomes the base.
 
         Parameters
@@ -118,13 +123,18 @@ class MeasuredClimb:
             Mean measured objective of the candidate and of the base.
         rotation_holds : bool
             The candidate's measured net rotation did not grow beyond noise.
+        tests_model : bool
+            Whether the model's predicted gain of this candidate counts towards handing the steps back
+            (False for a probe of COBYQA's initial design: module docstring); the run of agreements is
+            kept, neither extended nor broken.
         """
         success = bool(candidate_value > base_value and rotation_holds)
         measured_gain = candidate_value - base_value
         predicted = self.predicted_gain
         agrees = (np.isfinite(predicted) and measured_gain != 0 and predicted * measured_gain > 0
                   and 2 / 3 <= predicted / measured_gain <= 1.5)
-        self.agreements = self.agreements + 1 if agrees else 0
+        if tests_model:
+            self.agreements = self.agreements + 1 if agrees else 0
         if success:
             self.base, self.failures, self.mirror = self.candidate, 0, False
             self.sigma = min(self.max_sigma, 1.5 * self.sigma)

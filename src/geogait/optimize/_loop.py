@@ -249,7 +249,8 @@ class CycleLoop:
                 if climb.search is not None:
                     climb.search.tell(climb.pending, np.mean(measured[key]), np.mean(climb.rotations[key]))
                 climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
-                            self._rotation_holds(key, climb.base))
+                            self._rotation_holds(key, climb.base),
+                            tests_model=climb.search is None or not climb.search.designing)
                 if climb.model_trusted_again:  # back to model steps, from the best gait, on a fresh record
                     climb.active = False
                     state.distrust = state.prediction_failures = state.stall = 0
@@ -506,6 +507,8 @@ class CycleLoop:
             # one clean cycle (no exploration: the optimiser owns it) or the usual number
             needed = 1 if state.exploration is not None else self.optimizer.min_cycles_per_iteration
             return state.cycles_in_iteration >= needed
+        if self.optimizer.climb == "first" and state.climb.base is None:  # the climb needs no model yet
+            return state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
         if self.gate == "cycles":
             return state.cycles_in_iteration >= self.optimizer.cycles_per_iteration
         return (state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration

@@ -78,6 +78,12 @@ class QuadraticSearch:
         self.values.append(float(value))
         self.rotations.append(float(rotation))
 
+    @property
+    def designing(self) -> bool:
+        """The last value told belongs to COBYQA's initial design (its first 2n + 1 points: the origin
+        and ±radius along each coordinate), not to a step of its own model."""
+        return len(self.values) <= 2 * self.origin.size + 1
+
     def refuse(self, point) -> None:
         """Answer ``point`` unrun (beyond a limit, or not followed by the robot): no better than the worst
         value measured, and no rotation, so the search turns back."""
