@@ -520,3 +520,33 @@ def test_climb_first_is_the_default_and_needs_no_confident_model():
     assert (log["gamma"].dropna() < 0.999).all()
     assert log["climb"].iloc[1] and not log["climb"].iloc[0]  # the base, measured again clean, then COBYQA
     assert log["excitation"].iloc[3:].max() < 1e-12 and log["step"].sum() >= 4
+
+
+def test_a_cobyqa_point_beyond_the_joint_limit_runs_scaled_back_onto_it():
+    """Near the limit COBYQA's first probes (base + σ along one parameter) reach past it: each is commanded with
+    its amplitude scaled back until its largest joint angle is the limit, the same gait shape."""
+    from geogait.gaits import FreeGaitFamily
+
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.01, seed=3)
+    optimizer = InSituOptimizer(climb_rule="cobyqa", family="free", max_joint_angle=1.02)
+    result = optimizer.run(stream, 10)
+    family = FreeGaitFamily(2, 1)
+    base = family.params_of(seed_gait(2))
+    sigma = 2 * optimizer.max_trust_radius * result.shape_scale
+    probes = [base + sign * sigma * np.eye(base.size)[i] for i in range(base.size) for sign in (1, -1)]
+    beyond = 0
+    for gait in result.gaits[1:]:
+        ran = family.params_of(gait)
+        if np.allclose(ran, base):
+            continue
+        asked = next(p for p in probes if abs(_cosine(ran, p) - 1) < 1e-9)  # the same shape as a probe
+        if family.gait(asked).joint_limit().max() > 1.02:  # beyond the limit: run on it
+            beyond += 1
+            assert gait.joint_limit().max() == pytest.approx(1.02, rel=1e-5)
+        else:
+            np.testing.assert_allclose(ran, asked, atol=1e-12)
+    assert beyond >= 1
+
+
+def _cosine(a, b):
+    return float(a @ b / np.linalg.norm(a) / np.linalg.norm(b))

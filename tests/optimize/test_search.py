@@ -98,3 +98,18 @@ def test_the_initial_design_is_the_origin_and_one_radius_along_each_coordinate_t
     point = search.next()
     search.tell(point, _objective(point), 0.0)
     assert not search.designing
+
+
+def test_a_gait_beyond_the_joint_limit_is_scaled_back_onto_it():
+    """onto_joint_limit shrinks every parameter by one factor until the largest joint angle is the limit (the
+    gait's shape kept); a gait within the limit is left as it is."""
+    from geogait.gaits import FreeGaitFamily
+    from geogait.optimize._search import onto_joint_limit
+
+    family = FreeGaitFamily(3, 1)
+    params = np.random.default_rng(4).normal(size=family.n_params)
+    reach = family.gait(params).joint_limit().max()
+    scaled = onto_joint_limit(family, params, 0.5 * reach)
+    assert scaled.joint_limit().max() == pytest.approx(0.5 * reach, rel=1e-5)
+    np.testing.assert_allclose(family.params_of(scaled), 0.5 * params, rtol=1e-5)
+    np.testing.assert_array_equal(onto_joint_limit(family, params, 2 * reach).params, family.gait(params).params)

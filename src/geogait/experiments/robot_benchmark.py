@@ -74,6 +74,7 @@ from .._validation import GeogaitError, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
 from ..models import BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle
+from ..optimize._search import onto_joint_limit
 from ..plotting import plt, save_figure
 from ..simulate import SwimmerStream
 from ..sweep import run_trials
@@ -346,10 +347,7 @@ class _Family:
 
     def gait(self, params) -> FourierGait:
         """The gait of ``params``, scaled back onto the joint limit when beyond it."""
-        params = np.asarray(params, dtype=float)[:self.family.n_params]
-        reach = float(self.family.gait(params).joint_limit().max())
-        scale = min(1.0, self.r_max * (1 - 1e-6) / reach) if reach > 0 else 1.0
-        return self.family.gait(params * scale)
+        return onto_joint_limit(self.family, np.asarray(params, dtype=float)[:self.family.n_params], self.r_max)
 
     def period(self, params) -> float | None:
         """The period of ``params`` (None for a case at the robot's period), clipped to its range."""

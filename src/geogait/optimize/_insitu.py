@@ -217,8 +217,8 @@ class InSituOptimizer(Estimator):
         above. ``"cobyqa"`` (default): SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
         derivative-free trust-region method that interpolates quadratic models of the measured outcomes
         from every candidate it has measured (2n + 1 of them before its first model step, n the family's
-        parameters), starting at the climb's σ and ending at ``min_trust_radius``; the joint limits are its
-        linear constraints and, in the free family, the measured rotation its nonlinear one. Far fewer
+        parameters), starting at the climb's σ and ending at ``min_trust_radius``; a point beyond the joint
+        limit is run scaled back onto it, and in the free family the measured rotation is its constraint. Far fewer
         cycles than the strategy (measured on the robot benchmark: ahead or level on every robot there);
         it trusts every single measurement, so a very noisy one can mislead it.
     exploration : "auto", float or None

@@ -17,7 +17,7 @@ from ._measure import measure_cycle, peak_phase_speed
 from ._models import gate_kind, run_model
 from ._objective import joint_limit_constraints, objective
 from ._result import InSituResult
-from ._search import QuadraticSearch
+from ._search import QuadraticSearch, onto_joint_limit
 from ._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, REJECTION_FLOOR, TRACKING_FLOOR, family_kind, params_to_json
 from ._steps import StepProblem, take_step
 
@@ -291,23 +291,25 @@ class CycleLoop:
             return False
         return self._command_candidate(gait, period)
 
-    def _known_limits(self, point) -> np.ndarray:
-        """The joint-angle limits at a search point, feasible where ≤ 0: each joint's largest angle over the
-        cycle relative to r_max, and the feasible region's tightest row (as COBYQA's known constraints)."""
+    def _known_feasibility(self, point) -> np.ndarray:
+        """The feasible region's tightest row at a search point's gait (scaled onto the joint limit),
+        feasible where ≤ 0: COBYQA's known constraint."""
         state = self.state
-        gait = state.family.gait(point[:state.family.n_params])
-        rows = gait.joint_limit() / state.max_joint_angle - 1
-        if state.feasibility is not None:
-            rows = np.append(rows, -state.feasibility(gait.params)[0].min())
-        return rows
+        gait = onto_joint_limit(state.family, point[:state.family.n_params], state.max_joint_angle)
+        return np.array([-state.feasibility(gait.params)[0].min()])
 
     def _runnable(self, gait, period) -> bool:
-        """``gait`` at ``period`` keeps the joint angle and speed limits and the feasible region."""
+        """``gait`` at ``period`` keeps the joint angle limit (its largest angle over the cycle, exactly: a gait
+        scaled onto the limit runs), the joint speed limit and the feasible region."""
         optimizer, state = self.optimizer, self.state
-        speed = None if optimizer.max_joint_velocity is None else optimizer.max_joint_velocity * period / (2 * np.pi)
-        rows, bounds = joint_limit_constraints(gait.n_joints, optimizer.order, state.max_joint_angle, speed)
-        return bool(np.all(rows @ gait.params <= bounds + 1e-12) and (
-            state.feasibility is None or state.feasibility(gait.params)[0].min() >= 0))
+        if gait.joint_limit().max() > state.max_joint_angle * (1 + 1e-9):
+            return False
+        if optimizer.max_joint_velocity is not None:
+            speed = optimizer.max_joint_velocity * period / (2 * np.pi)
+            rows, bounds = joint_limit_constraints(gait.n_joints, optimizer.order, np.inf, speed)
+            if np.any(rows @ gait.params > bounds + 1e-12):
+                return False
+        return state.feasibility is None or bool(state.feasibility(gait.params)[0].min() >= 0)
 
     def _command_candidate(self, gait, period) -> bool:
         state, climb = self.state, self.state.climb
@@ -319,8 +321,9 @@ class CycleLoop:
         return True
 
     def _search_candidate(self) -> bool:
-        """Command COBYQA's next point (:class:`QuadraticSearch`); one that breaks a limit is answered with
-        the worst value measured, unrun. A converged search starts afresh from the base."""
+        """Command COBYQA's next point (:class:`QuadraticSearch`), scaled back onto the joint limit when beyond
+        it; one that breaks another limit (joint speed, the feasible region) is answered with the worst value
+        measured, unrun. A converged search starts afresh from the base."""
         state, climb = self.state, self.state.climb
         n = state.family.n_params
         for _ in range(100):
@@ -334,11 +337,12 @@ class CycleLoop:
                              for t in (state.period_search.low, state.period_search.high))
                 box = [(-np.inf, np.inf)] * n + [(low, high)]
             rotation = climb.rotation_limit if isinstance(state.family, FreeGaitFamily) else None
-            point = search.next(box, self._known_limits, rotation)
+            known = None if state.feasibility is None else self._known_feasibility
+            point = search.next(box, known, rotation)
             if point is None:  # converged at its smallest radius: afresh from the base
                 climb.search = self._new_search(climb.base, climb.max_sigma / 4)
                 continue
-            gait = state.family.gait(point[:n])
+            gait = onto_joint_limit(state.family, point[:n], state.max_joint_angle)
             period = search.period if state.period_search is None else \
                 float(search.period * np.exp(point[n] / state.scale))
             if self._runnable(gait, period):

@@ -16,13 +16,17 @@ deterministic), and stops it at the first point not measured yet — the next ca
 k values costs k COBYQA iterations (milliseconds), far less than a robot's cycle.
 
 Coordinates: the family's free parameters q, and with ``optimize_period`` one more,
-``shape_scale · log(T / T₀)`` (within the period range: COBYQA keeps bounds exactly). The joint limits
-are *known* constraints — each joint's largest angle over the cycle, computed for any point without
-running the robot (a few smooth values; the many rows of the linearised limits make COBYQA's
-constrained step a large QR per iteration) — and in the free family the measured net rotation per cycle
-is a constraint |c| ≤ the climb's rotation limit. A point COBYQA asks for outside the joint limits or
-the feasible region is not run: it is answered with the worst value measured so far (and no rotation),
-so the search turns back without costing a cycle.
+``shape_scale · log(T / T₀)`` (within the period range: COBYQA keeps bounds exactly). A point beyond
+the joint limit is run scaled back onto it (:func:`onto_joint_limit`, the gait's amplitude shrunk until
+its largest joint angle is r_max), as a black-box method runs it: COBYQA then sees a continuous
+objective, flat beyond the limit, and steps onto the limit as freely as anywhere. (Passed as COBYQA's
+constraints instead — each joint's largest angle, known without running the robot — the limits held its
+steps back near them, where optima of these families lie: on PyElastica's snake +106 % forward speed at
+60 cycles against +140 % scaled, on Gymnasium's swimmer +49 % against +51 %, 16 and 24 paired seeds.) A
+feasible region is a known constraint, and in the free family the measured net rotation per cycle is a
+constraint |c| ≤ the climb's rotation limit. A point outside the feasible region or the joint speed
+limit is not run: it is answered with the worst value measured so far (and no rotation), so the search
+turns back without costing a cycle.
 """
 
 from __future__ import annotations
@@ -32,7 +36,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import NonlinearConstraint, minimize
 
-__all__ = ["QuadraticSearch"]
+__all__ = ["QuadraticSearch", "onto_joint_limit"]
+
+
+def onto_joint_limit(family, params, max_joint_angle: float):
+    """The gait of ``params`` in ``family``, its amplitude scaled back (all parameters by one factor) until its
+    largest joint angle over the cycle is just inside ``max_joint_angle``; unchanged when already within it.
+
+    The families' gaits are linear in their parameters, so the scaled gait keeps the shape of the one asked
+    for. Returns a :class:`~geogait.gaits.FourierGait`.
+    """
+    params = np.asarray(params, dtype=float)
+    reach = float(family.gait(params).joint_limit().max())
+    scale = min(1.0, max_joint_angle * (1 - 1e-6) / reach) if reach > 0 else 1.0
+    return family.gait(params * scale)
 
 
 class _Ask(Exception):
