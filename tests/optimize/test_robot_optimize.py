@@ -129,6 +129,20 @@ def test_saturated_actuators_are_detected_and_their_steps_rejected():
     assert not unchecked["rejected"].any() and unchecked["tracking_error"].max() > 2 * limit
 
 
+def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_base():
+    """A rejected climb candidate goes back to the climb's base, a gait the climb kept, never to the candidate
+    commanded before it (which may itself have failed): after every rejection the next gait is one the run
+    kept before (a row that was not an unjudged candidate)."""
+    result = InSituOptimizer(settle_cycles=1).run(SaturatingRobot(limit=1.05), 60)
+    log = result.log
+    params = log.filter(like="param_").to_numpy()
+    rejected = np.flatnonzero(log["rejected"].to_numpy())
+    assert len(rejected) >= 1  # measured: one, at cycle 43 (before the fix it went back to a failed candidate)
+    for k in rejected:
+        kept_before = [params[j] for j in range(k) if not log["candidate"].iloc[j] and not log["settling"].iloc[j]]
+        assert any(np.array_equal(params[k + 1], p) for p in kept_before)
+
+
 def test_the_prediction_check_closes_the_gate_when_the_model_overpredicts():
     log = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3, max_tracking_error=None, climb=False).run(
         SaturatingRobot(limit=1.1), 25).log

@@ -457,12 +457,13 @@ class CycleLoop:
             return False
         state.promised = None
         state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
+        previous = (state.previous_gait, state.previous_period)
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
             if state.climb.search is not None:
                 state.climb.search.refuse(state.climb.pending)
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
-        previous = state.previous_gait
-        self._change_gait(previous, state.previous_period)
+            previous = state.climb.base  # (the gait before it may be another failed candidate)
+        self._change_gait(*previous)
         if search is not None and search.trial_from is not None:  # a period the robot cannot follow
             search.judge(-np.inf, 0.0)
             search.turn = False
