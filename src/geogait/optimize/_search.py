@@ -23,7 +23,8 @@ objective, flat beyond the limit, and steps onto the limit as freely as anywhere
 constraints instead — each joint's largest angle, known without running the robot — the limits held its
 steps back near them, where optima of these families lie: on the robot benchmark PyElastica's snake
 gained +106 / +144 % forward speed at 60 / 100 cycles with the limits as constraints and +125 / +161 %
-scaled, Gymnasium's swimmer +49 / +54 % and +51 / +59 %, the 9-link swimmer 85.6 / 88.6 % of its ceiling
+scaled, Gymnasium's swimmer +49 / +54 % and +51 / +59 % (+56 / +61 % once a candidate the robot cannot
+follow falls back to the climb's base), the 9-link swimmer 85.6 / 88.6 % of its ceiling
 and 87.9 / 92.6 %.) A
 feasible region is a known constraint, and in the free family the measured net rotation per cycle is a
 constraint |c| ≤ the climb's rotation limit. A point outside the feasible region or the joint speed
