@@ -39,8 +39,8 @@ Safety (the robot is not the model):
 * **settling** — the ``settle_cycles`` cycles after every gait change are run and logged but not
   learned from or measured (a body with momentum needs them to forget the old gait);
 * **tracking** — every cycle's RMS difference between realised and commanded shapes is logged; a
-  new gait whose tracking error exceeds ``max_tracking_error`` is rejected: the previous gait is
-  commanded again and the trust radius halves;
+  new gait whose tracking error exceeds ``max_tracking_error`` is rejected: the previous gait (for a
+  measured-climb candidate, the climb's base) is commanded again and the trust radius halves;
 * **prediction check** — the gate stays closed while the model's predicted objective of the
   current gait differs from the mean measured objective of its cycles by more than
   ``prediction_tolerance`` (relative), however high Γ is;
