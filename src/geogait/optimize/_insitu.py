@@ -210,8 +210,8 @@ class InSituOptimizer(Estimator):
         model's Γ — at twice the largest trust radius, and hand the steps to the model once it predicts the
         measured gains of the climb's own steps (True, its former default, lets the model step first). On
         the robot benchmark (24 paired seeds) climbing first is ahead of model steps first on every robot
-        outside the model class and on the 9-link swimmer, and within a point on the 3- and 5-link
-        swimmers; the structured model's settings keep ``"contradicted"``.
+        with a data-driven model, most on those outside the model class and on the 9-link swimmer; the
+        structured model's settings keep ``"contradicted"``.
     climb_rule : {"es", "cobyqa"}
         How the climb proposes its candidates. ``"es"``: the mirrored (1+1) evolution strategy
         above. ``"cobyqa"`` (default): SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
