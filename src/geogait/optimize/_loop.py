@@ -306,7 +306,7 @@ class CycleLoop:
             return False
         if optimizer.max_joint_velocity is not None:
             speed = optimizer.max_joint_velocity * period / (2 * np.pi)
-            rows, bounds = joint_limit_constraints(gait.n_joints, optimizer.order, np.inf, speed)
+            rows, bounds = joint_limit_constraints(gait.n_joints, optimizer.order, None, speed)  # speed rows only
             if np.any(rows @ gait.params > bounds + 1e-12):
                 return False
         return state.feasibility is None or bool(state.feasibility(gait.params)[0].min() >= 0)

@@ -156,7 +156,8 @@ def objective(kind: str, pose: np.ndarray, pose_jacobian: np.ndarray, gait: Four
     return translation / length, gradient / length - translation * d_length / length**2
 
 
-def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float, max_joint_speed: float | None = None):
+def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float | None,
+                            max_joint_speed: float | None = None):
     """Linear inequalities ``G p <= h`` equivalent to |θ_j(φ)| ≤ r_max for all φ (see module).
 
     With ``max_joint_speed`` (rad per unit phase, i.e. the joint-velocity limit times the cycle
@@ -169,8 +170,8 @@ def joint_limit_constraints(n_joints: int, order: int, max_joint_angle: float, m
         Shape dimension d.
     order : int
         Fourier order K of the gait family.
-    max_joint_angle : float
-        r_max, radians.
+    max_joint_angle : float or None
+        r_max, radians; None: no angle rows (only the speed rows).
     max_joint_speed : float, optional
         Bound on |θ_j'(φ)|, radians per radian of phase; no speed rows when omitted.
 
