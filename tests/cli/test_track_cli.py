@@ -135,6 +135,30 @@ def test_track_trials_pairs_seeds_across_controllers_and_reports_each_trial(tmp_
     assert (out / "path.png").stat().st_size > 10_000 and not (out / "family.png").exists()
 
 
+@pytest.mark.parametrize("turns", [None, 0, 2])
+def test_the_drag_change_lands_on_its_tracking_cycle_after_any_turning_warmup(tmp_path, turns):
+    """The turning warm-up cycles (4 by default on the built-in swimmer) come before the first tracking cycle,
+    so the change still lands on ``--change-cycle``; the run records how many there were."""
+    extra = [] if turns is None else ["--warmup-turns", turns]
+    out = tmp_path / f"t{turns}"
+    result = _run("track", "--links", "3", "--path", "circle", "--drag-ratio", "2,4", "--quick", "--warmup", "3",
+                  "--cycles", "4", "--change-cycle", "2", "--controllers", "adaptive", *extra, "--out", out)
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(out / "cycles.csv")
+    assert log["drag_ratio"].tolist() == [2.0, 2.0, 4.0, 4.0]
+    assert _summary(out)["config"]["warmup_turns"] == (4 if turns is None else turns)
+
+
+def test_warmup_turns_default_to_none_with_a_robot_and_are_refused_below_zero(tmp_path):
+    from geogait.experiments.track import TrackSettings
+
+    robot = TrackSettings(robot="python -m driver", step=0.05, controllers=("adaptive",)).resolved()
+    assert robot.warmup_turns == 0 and TrackSettings().resolved().warmup_turns == 4
+    result = _run("track", "--quick", "--warmup-turns", "-1", "--out", tmp_path / "x")
+    assert result.exit_code == 1 and "The '--warmup-turns' option" in result.stderr
+    assert not (tmp_path / "x").exists()
+
+
 @pytest.mark.parametrize(("options", "message"), [
     (["--robot", "no-such-driver", "--trials", "2"], "The '--trials' option"),
     (["--jobs", "2"], "The '--jobs' option and '--scheduler' option"),

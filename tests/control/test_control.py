@@ -275,17 +275,18 @@ def test_adaptive_controller_runs_on_a_robot_that_is_not_simulated(three_link):
         PathTracker(controller="true").run(robot, ReferencePath.circle(1.0), 2)
 
 
-@pytest.mark.parametrize("controller", ["true", "adaptive"])
-def test_default_turn_limit_is_one_radian_cut_to_the_joint_limits(three_link, controller):
+@pytest.mark.parametrize(("controller", "warmup_turns", "limit"),
+                         [("true", 4, 0.5), ("adaptive", 4, 0.6), ("adaptive", 0, 1.0)])
+def test_default_turn_limit_is_one_radian_cut_to_the_joint_limits(three_link, controller, warmup_turns, limit):
     """Like the experiment and the CLI (1 rad cut by the joint limits), from the controller's own motion
-    source: 0.5 rad for the 3-link swimmer's true connection; the model after 10 noisy warm-up cycles,
-    extrapolating far from the straight gait, reaches the full 1 rad within the joint limits (its own
-    verdict, solved to convergence). An explicit limit is kept."""
+    source: 0.5 rad for the 3-link swimmer's true connection. The model after 10 noisy straight cycles
+    alone, extrapolating far from the straight gait, reaches the full 1 rad within the joint limits (its
+    own verdict, solved to convergence); after the 4 turning warm-up cycles it has run its steering gaits
+    and comes within 0.1 rad of the truth. An explicit limit is kept."""
     system, straight = three_link
     robot = SwimmerStream(system, straight, sensor_noise=0.1, seed=0)
-    tracker = PathTracker(controller=controller)
+    tracker = PathTracker(controller=controller, warmup_turns=warmup_turns)
     result = tracker.run(robot, ReferencePath.circle(1.0), 2)
-    limit = {"true": 0.5, "adaptive": 1.0}[controller]
     assert tracker.turn_limit_ == pytest.approx(limit)
     np.testing.assert_allclose(result.family.turns, np.linspace(-limit, limit, 2 * round(limit / 0.1) + 1),
                                atol=1e-12)
@@ -295,6 +296,44 @@ def test_default_turn_limit_is_one_radian_cut_to_the_joint_limits(three_link, co
     family = explicit.run(SwimmerStream(system, straight, seed=0), ReferencePath.circle(1.0), 1).family
     assert explicit.turn_limit_ == 0.3
     np.testing.assert_allclose(family.turns, np.linspace(-0.3, 0.3, 7), atol=1e-12)
+
+
+class _Recording:
+    """A robot that records the gait of every cycle it runs."""
+
+    def __init__(self, robot):
+        self.robot, self.ran = robot, []
+
+    def __getattr__(self, name):
+        return getattr(self.robot, name)
+
+    def set_gait(self, gait):
+        self.robot.set_gait(gait)
+
+    def next_cycle(self):
+        self.ran.append(self.robot.gait)
+        return self.robot.next_cycle()
+
+
+def test_turning_warmup_runs_the_models_steering_gaits_before_tracking(three_link):
+    """After the straight warm-up cycles, ``warmup_turns`` cycles run the learned model's steering gaits for
+    +½, −½, +1, −1 × its turn limit (then again): on the swimmer they turn that way (signs, and the full
+    turns farther than the half ones, to the model's accuracy), the travel direction comes from the straight
+    cycles alone (the same as without the turns), and the δ schedule counts every warm-up cycle."""
+    system, straight = three_link
+    logs = {}
+    for turns in (0, 6):
+        robot = _Recording(SwimmerStream(system, straight, sensor_noise=0.1, seed=3))
+        tracker = PathTracker(controller="frozen", warmup_cycles=8, warmup_turns=turns, exploration=[0.05])
+        result = tracker.run(robot, ReferencePath.circle(1.0), 3)
+        assert len(robot.ran) == 8 + turns + 3 and result.perturbation_std.shape == (8 + turns + 3,)
+        assert all(gait == straight for gait in robot.ran[:8])
+        logs[turns] = (result, robot.ran[8:8 + turns])
+    assert logs[6][0].direction == logs[0][0].direction
+    true_turns = np.array([cycle_displacement(system, gait)[2] for gait in logs[6][1]])
+    np.testing.assert_array_equal(np.sign(true_turns), [1, -1, 1, -1, 1, -1])
+    assert np.all(np.abs(true_turns[2:4]) > 1.3 * np.abs(true_turns[:2]))
+    assert np.all(np.abs(true_turns) <= 0.5 + 0.05)  # within the swimmer's reach (the true limit is 0.5 rad)
 
 
 def test_tracker_rejects_bad_settings(three_link):
@@ -312,6 +351,8 @@ def test_tracker_rejects_bad_settings(three_link):
         PathTracker().run(robot, "circle", 2)
     with pytest.raises(GeogaitError, match="'robot' parameter"):
         PathTracker().run(object(), ReferencePath.line(), 2)
+    with pytest.raises(GeogaitError, match="'warmup_turns' parameter of PathTracker"):
+        PathTracker(warmup_turns=-1).run(robot, ReferencePath.line(), 2)
     assert isinstance(FourierGait, type)
 
 

@@ -140,6 +140,8 @@ def test_built_in_paths_scale_with_the_step():
         TrackingConfig(turn_limit=0.05).validate()
     with pytest.raises(ValueError, match="'heading_weight' parameter of TrackingConfig"):
         TrackingConfig(heading_weight=-1.0).validate()
+    with pytest.raises(ValueError, match="'warmup_turns' parameter of TrackingConfig"):
+        TrackingConfig(warmup_turns=-1).validate()
 
 
 def test_turn_limit_is_cut_to_the_joint_limits():

@@ -90,6 +90,9 @@ def track(
              "with --robot].")] = None,
     warmup: Annotated[int | None, typer.Option(
         help="Straight-gait cycles before tracking [default: 10; 5 with --quick].")] = None,
+    warmup_turns: Annotated[int | None, typer.Option(
+        help="Turning cycles after the straight ones, before tracking (the model's steering gaits for ±½ and ±1 × "
+             "the turn limit) [default: 4; 0 with --robot].")] = None,
     scale: Annotated[float, typer.Option(help="Built-in paths' size in steps of the straight gait.")] = 10.0,
     offset: Annotated[float | None, typer.Option(
         help="Initial offset to the left of the path (body lengths) [default: 3 steps on the line, else 0].")] = None,
@@ -148,7 +151,8 @@ def track(
     settings = TrackSettings(
         links=links, path=path, drag_ratios=_ratios(drag_ratio), cycles=cycles, change_cycle=change_cycle,
         controllers=None if controllers is None else tuple(v.strip() for v in controllers.split(",") if v.strip()),
-        warmup=warmup, scale=scale, offset=offset, seed=seed, noise=noise, perturbation=perturbation, horizon=horizon,
+        warmup=warmup, warmup_turns=warmup_turns, scale=scale, offset=offset, seed=seed, noise=noise,
+        perturbation=perturbation, horizon=horizon,
         turn_limit=turn_limit, exploration=exploration, exploration_low=exploration_low,
         exploration_high=exploration_high, model=model, change_forgetting=change_forgetting, robot=robot,
         robot_timeout=robot_timeout, step=step, trials=trials, jobs=jobs, scheduler=scheduler, quick=quick,

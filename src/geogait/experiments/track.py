@@ -53,6 +53,8 @@ BUILT_IN_PATHS = PATH_KINDS + ("waypoints",)
 MAX_SCALE = 1e5
 #: Tracking and warm-up cycles of a quick run.
 QUICK = {"cycles": 12, "warmup": 5}
+WARMUP_TURNS = 4
+"""Turning warm-up cycles on the built-in swimmer (``TrackSettings.warmup_turns``)."""
 
 
 def _parameter(name: str) -> str:
@@ -64,7 +66,9 @@ class TrackSettings:
     """Everything one ``geogait track`` run is given (the CLI's options, field by field).
 
     ``cycles``, ``warmup``, ``change_cycle``, ``controllers`` and ``offset`` left at None take their
-    defaults in :meth:`resolved`: 60 tracking and 10 warm-up cycles (12 and 5 with ``quick``), the change
+    defaults in :meth:`resolved`: 60 tracking and 10 straight warm-up cycles (12 and 5 with ``quick``), then
+    ``warmup_turns`` turning ones (:class:`~geogait.control.PathTracker`; 4 on the built-in swimmer, whose
+    shape-space model is symmetric of degree 3, none with a ``robot``), the change
     at half the cycles, every controller (adaptive and frozen with a ``robot``), and an offset of 3 steps on
     the line. ``drag_ratios`` holds one ratio, or two (before and after ``change_cycle``). ``robot`` is a
     driver command (JSON-lines bridge); ``step`` is then the straight gait's step per cycle that sizes the
@@ -78,6 +82,7 @@ class TrackSettings:
     change_cycle: int | None = None
     controllers: tuple[str, ...] | None = None
     warmup: int | None = None
+    warmup_turns: int | None = None
     scale: float = 10.0
     offset: float | None = None
     seed: int = 0
@@ -130,6 +135,10 @@ class TrackSettings:
         cycles = self.cycles if self.cycles is not None else (QUICK["cycles"] if self.quick else 60)
         warmup = self.warmup if self.warmup is not None else (QUICK["warmup"] if self.quick else 10)
         change = self.change_cycle if self.change_cycle is not None else cycles // 2
+        turns = self.warmup_turns if self.warmup_turns is not None else (WARMUP_TURNS if self.robot is None else 0)
+        if not (isinstance(turns, int | np.integer) and turns >= 0):
+            raise GeogaitError(f"The {name('warmup_turns')} must be a whole number of cycles >= 0. Got "
+                               f"{turns!r} instead.")
         if len(ratios) == 2 and not 1 <= change < cycles:
             raise GeogaitError(f"The {name('change_cycle')} must be in [1, {cycles - 1}]. Got {change} instead.")
         if self.turn_limit is not None and not TURN_SPACING <= self.turn_limit <= np.pi:
@@ -153,6 +162,7 @@ class TrackSettings:
             raise GeogaitError(f"The {name('change_forgetting')} must be a number >= 1. Got {self.change_forgetting} "
                                "instead.")
         return dataclasses.replace(self, controllers=names, drag_ratios=ratios, cycles=cycles, warmup=warmup,
+                                   warmup_turns=int(turns),
                                    change_cycle=change)
 
     def _check_robot(self, names, ratios, name) -> None:
@@ -182,7 +192,8 @@ class TrackSettings:
         return dict(links=self.links if swimmer else None, robot=self.robot, path=self.path,
                     drag_ratios=self.drag_ratios if swimmer else None, cycles=self.cycles,
                     change_cycle=self.change_cycle if len(self.drag_ratios) == 2 else None,
-                    controllers=self.controllers, warmup=self.warmup, scale=self.scale, step=step,
+                    controllers=self.controllers, warmup=self.warmup, warmup_turns=self.warmup_turns,
+                    scale=self.scale, step=step,
                     offset=self.start_offset(step), seed=self.seed if swimmer else None,
                     noise=self.noise if swimmer else None,
                     perturbation=self.perturbation if fixed and swimmer else None,
@@ -300,7 +311,8 @@ def run_track(settings: TrackSettings, *, callback: Callable[[str, dict | None],
     results, quarantined = {}, {}
     sizes = s.exploration_sizes()
     for name in sorted(s.controllers, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
-        tracker = PathTracker(controller=name, exploration=sizes, warmup_cycles=s.warmup, horizon=s.horizon,
+        tracker = PathTracker(controller=name, exploration=sizes, warmup_cycles=s.warmup,
+                              warmup_turns=s.warmup_turns, horizon=s.horizon,
                               model=tracking_model(s.model, symmetric=s.robot is None),
                               change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit())
         with _robot(s, system, gait) as device:  # a driver that cannot start fails here
@@ -344,7 +356,7 @@ def _paired_trials(s: TrackSettings, reference: ReferencePath, step: float, prog
                    change_cycle=s.change_cycle, warmup_cycles=s.warmup, sensor_noise=s.noise,
                    perturbation=s.perturbation if s.exploration == "fixed" else s.exploration_high,
                    controllers=s.controllers,
-                   tracker_options=dict(horizon=s.horizon, model=tracking_model(s.model),
+                   tracker_options=dict(horizon=s.horizon, model=tracking_model(s.model), warmup_turns=s.warmup_turns,
                                         change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit()),
                    start_offset=s.start_offset(step), exploration=None if sizes == "fixed" else sizes)
     log, wall, workers = run_sweep(track_trials, s.trials, options, seed=s.seed, chunk_size=1, jobs=s.jobs,
@@ -379,7 +391,8 @@ def _robot(s: TrackSettings, system, gait):
     if s.robot is not None:
         return ProcessRobot(s.robot, timeout=s.robot_timeout)
     start = system.with_drag_ratio(s.drag_ratios[0])
-    schedule = DragRatioSchedule(start, s.drag_ratios, s.warmup + s.change_cycle) if len(s.drag_ratios) == 2 else None
+    schedule = DragRatioSchedule(start, s.drag_ratios, s.warmup + s.warmup_turns + s.change_cycle) \
+        if len(s.drag_ratios) == 2 else None
     std = s.perturbation if s.exploration == "fixed" else s.exploration_high
     return contextlib.nullcontext(SwimmerStream(start, gait, perturbation=Perturbation.from_std(std),
                                                 sensor_noise=s.noise, environment=schedule, seed=s.seed))

@@ -116,8 +116,9 @@ class TrackingConfig:
         Tracking cycles per run.
     change_cycle : int
         Tracking cycle at which the drag ratio changes.
-    warmup_cycles : int
-        Straight-gait cycles before tracking (the frozen model's whole training).
+    warmup_cycles, warmup_turns : int
+        Straight-gait cycles, then turning cycles (the model's steering gaits, :class:`~geogait.control.PathTracker`),
+        before tracking: the frozen model's whole training.
     sensor_noise, perturbation : float
         Measurement noise (fraction of RMS) and perturbation δ std (rad) of ``exploration="fixed"``.
     path_scale : float
@@ -160,6 +161,7 @@ class TrackingConfig:
     n_cycles: int = 60
     change_cycle: int = 30
     warmup_cycles: int = 10
+    warmup_turns: int = 4
     sensor_noise: float = 0.1
     perturbation: float = 0.05
     path_scale: float = 10.0
@@ -206,6 +208,7 @@ class TrackingConfig:
         if change >= n_cycles:
             raise fail("change_cycle", _OWNER, f"below n_cycles = {n_cycles}", change)
         check_int(self.warmup_cycles, "warmup_cycles", _OWNER, minimum=1)
+        check_int(self.warmup_turns, "warmup_turns", _OWNER, minimum=0)
         check_fraction(self.sensor_noise, "sensor_noise", _OWNER)
         check_fraction(self.perturbation, "perturbation", _OWNER)
         check_float(self.path_scale, "path_scale", _OWNER, low=0, low_open=True)
@@ -289,10 +292,16 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
     return ReferencePath.named(kind, size)
 
 
+def _warmup_length(tracker: PathTracker) -> int:
+    """Cycles a tracker runs before its first tracking cycle (straight, then turning)."""
+    return tracker.warmup_cycles + tracker.warmup_turns
+
+
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
                     line_offset: float, turn_limit: float, heading_weight: float, controllers,
-                    exploration: str = "fixed", exploration_low: float = 0.05, exploration_high: float = 0.15,
+                    warmup_turns: int = 4, exploration: str = "fixed", exploration_low: float = 0.05,
+                    exploration_high: float = 0.15,
                     model: str = "shape", change_forgetting: float = 100.0,
                     custom_path: ReferencePath | None = None) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
@@ -307,7 +316,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         Links of the Purcell swimmer.
     scenarios : sequence of (path, environment)
         Paths to follow, each at ``"constant"`` drag or through the ``"change"``.
-    drag_ratios, n_cycles, change_cycle, warmup_cycles, sensor_noise, perturbation, path_scale, line_offset
+    drag_ratios, n_cycles, change_cycle, warmup_cycles, warmup_turns, sensor_noise, perturbation, path_scale,
+    line_offset
         As in :class:`TrackingConfig`.
     turn_limit, heading_weight, controllers
         As in :class:`TrackingConfig` (the turn limit is cut by :func:`feasible_turn_limit`).
@@ -327,7 +337,8 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
     system, gait, step = straight_gait(n_links)
     limit = feasible_turn_limit(n_links, turn_limit)
     settings = dict(turn_limit=limit, heading_weight=heading_weight,  # turns spaced 0.1 rad (n_turns=None)
-                    warmup_cycles=warmup_cycles, model=tracking_model(model), change_forgetting=change_forgetting)
+                    warmup_cycles=warmup_cycles, warmup_turns=warmup_turns, model=tracking_model(model),
+                    change_forgetting=change_forgetting)
     columns = ["cycle", "cross_track", "heading_error", "x", "y", "turn_command", "predicted_turn", "true_turn",
                "measured_turn", "gamma", "drag_ratio", "perturbation_std", "surprise"]
     rule = AdaptiveExploration(low=exploration_low, high=exploration_high)
@@ -349,11 +360,11 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
         for trial, seed in zip(trial_indices, child_seeds(seeds, key), strict=True):
             sizes = "fixed" if exploration == "fixed" else rule
             for controller in order:
-                schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
+                tracker = PathTracker(controller=controller, exploration=sizes, **settings)
+                schedule = (DragRatioSchedule(system, tuple(drag_ratios), _warmup_length(tracker) + change_cycle)
                             if environment == "change" else None)
                 robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(start_std),
                                       sensor_noise=sensor_noise, environment=schedule, seed=seed)
-                tracker = PathTracker(controller=controller, exploration=sizes, **settings)
                 result = tracker.run(robot, path, n_cycles, start_offset=offset)
                 if controller == "adaptive" and exploration != "fixed":
                     sizes = result.perturbation_std  # replayed by the frozen and true controllers
@@ -401,12 +412,12 @@ def track_trials(trial_indices, seeds, *, n_links: int, path: ReferencePath, n_c
     for trial, seed in zip(trial_indices, seeds, strict=True):
         sizes = "fixed" if exploration is None else exploration
         for controller in sorted(controllers, key=lambda c: c != "adaptive"):  # the adaptive run sizes δ
-            schedule = (DragRatioSchedule(system, tuple(drag_ratios), warmup_cycles + change_cycle)
+            tracker = PathTracker(controller=controller, exploration=sizes, warmup_cycles=warmup_cycles,
+                                  **tracker_options)
+            schedule = (DragRatioSchedule(system, tuple(drag_ratios), _warmup_length(tracker) + change_cycle)
                         if len(drag_ratios) == 2 else None)
             robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                   sensor_noise=sensor_noise, environment=schedule, seed=seed)
-            tracker = PathTracker(controller=controller, exploration=sizes, warmup_cycles=warmup_cycles,
-                                  **tracker_options)
             result = tracker.run(robot, path, n_cycles, start_offset=start_offset)
             if controller == "adaptive" and exploration is not None:
                 sizes = result.perturbation_std
@@ -464,7 +475,8 @@ def run_tracking(config: TrackingConfig | None = None, *, jobs: int = 1, schedul
     for index, n_links in enumerate(config.links):
         options = dict(n_links=n_links, scenarios=config.scenarios(), drag_ratios=config.drag_ratios,
                        n_cycles=config.n_cycles, change_cycle=config.change_cycle,
-                       warmup_cycles=config.warmup_cycles, sensor_noise=config.sensor_noise,
+                       warmup_cycles=config.warmup_cycles, warmup_turns=config.warmup_turns,
+                       sensor_noise=config.sensor_noise,
                        perturbation=config.perturbation, path_scale=config.path_scale,
                        line_offset=config.line_offset, turn_limit=config.turn_limit,
                        heading_weight=config.heading_weight, controllers=config.controllers,
