@@ -70,7 +70,8 @@ def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cases", required=True, help="comma-separated benchmark case names")
-    parser.add_argument("--variants", required=True, help="JSON object: name -> InSituOptimizer parameters")
+    parser.add_argument("--variants", required=True, help="JSON object: name -> InSituOptimizer parameters "
+                        "(and optionally \"method\": the benchmark's geogait row they modify, default geogait)")
     parser.add_argument("--seeds", type=int, default=8)
     parser.add_argument("--budget", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
@@ -82,7 +83,9 @@ def main(argv=None) -> int:
     frames, described = [], {}
     for name, options in variants.items():
         start = time.perf_counter()
-        result = bench.run_robot_benchmark(cases, ["geogait"], n_seeds=args.seeds, budget=args.budget,
+        options = dict(options)
+        method = options.pop("method", "geogait")  # a geogait row of the benchmark (geogait-hybrid, ...)
+        result = bench.run_robot_benchmark(cases, [method], n_seeds=args.seeds, budget=args.budget,
                                            checkpoints=budgets, jobs=args.jobs, progress=False,
                                            geogait_options=options)
         print(f"{name}: {time.perf_counter() - start:.0f} s", flush=True)

@@ -1,5 +1,6 @@
 """Studies run end to end on a tiny budget: the plateau study (it leans on private optimiser hooks),
-the online phase study, the resistance model's geometry-error study and the model-gradient study."""
+the online phase study, the resistance model's geometry-error study, the model-gradient study, the optimiser
+settings study and the Swimmer-v5 family study."""
 
 import re
 import subprocess
@@ -65,12 +66,14 @@ def test_model_gradient_study_compares_the_model_with_central_differences(tmp_pa
 
 
 def test_optimizer_robots_study_runs_each_setting_on_the_benchmark_robot(tmp_path):
-    """Two optimiser settings on the built-in 3-link swimmer: one row each in the printed table, and every
-    record (seed, cycles, setting) in the JSON, with the settings as given."""
+    """Three optimiser settings on the built-in 3-link swimmer, one of them on another of the benchmark's geogait
+    rows (``"method"``): one row each in the printed table, and every record (seed, cycles, setting) in the
+    JSON, with the settings as given."""
     import json
 
     pytest.importorskip("cma", reason="the stored black-box rows come from a benchmark that needs cma")
-    variants = {"default": {}, "held radius": {"trust_radius": 0.15, "min_trust_radius": 0.15}}
+    variants = {"default": {}, "held radius": {"trust_radius": 0.15, "min_trust_radius": 0.15},
+                "batch": {"method": "geogait-batch"}}
     output = subprocess.run([sys.executable, str(STUDIES / "optimizer_robots.py"), "--cases", "swimmer3", "--seeds",
                              "2", "--budget", "12", "--jobs", "1", "--variants", json.dumps(variants), "--out",
                              str(tmp_path)], capture_output=True, text=True, check=True, timeout=300).stdout
@@ -80,5 +83,24 @@ def test_optimizer_robots_study_runs_each_setting_on_the_benchmark_robot(tmp_pat
     assert payload["variants"] == variants
     records = payload["records"]
     assert sorted({(r["variant"], r["seed"], r["cycles"]) for r in records}) == [
-        (v, s, 12) for v in ("default", "held radius") for s in (0, 1)]
-    assert all(0.3 < r["ceiling_fraction"] <= 1.0 for r in records)
+        (v, s, 12) for v in ("batch", "default", "held radius") for s in (0, 1)]
+    assert {r["method"] for r in records if r["variant"] == "batch"} == {"geogait-batch"}
+    assert {r["method"] for r in records if r["variant"] != "batch"} == {"geogait"}
+    assert all(0.3 < r["ceiling_fraction"] <= 1.0 for r in records if r["variant"] != "batch")
+
+
+def test_swimmer_v5_family_study_scores_each_start_by_its_episode_return(tmp_path):
+    """A tiny run of the Swimmer-v5 family study: every start's best gait stays within the joint range, and the
+    first start (the seed) cannot end below it (COBYQA keeps the best point it measured)."""
+    import json
+
+    pytest.importorskip("mujoco", reason="Swimmer-v5's model runs in MuJoCo")
+    pytest.importorskip("gymnasium", reason="Swimmer-v5's model comes with gymnasium")
+    out = tmp_path / "family.json"
+    subprocess.run([sys.executable, str(STUDIES / "swimmer_v5_family.py"), "--orders", "3", "--starts", "2",
+                    "--max-evaluations", "4", "--out", str(out)], capture_output=True, text=True, check=True,
+                   timeout=300)
+    runs = json.loads(out.read_text())["runs"]
+    assert [run["order"] for run in runs] == [3, 3] and all(run["evaluations"] <= 4 for run in runs)
+    assert all(run["largest_joint_angle"] <= 1.745 and run["episode_return"] > 0 for run in runs)
+    assert runs[0]["improvement"] >= 0 and len(runs[0]["params"]) == 2 * (2 * 3 + 1)
