@@ -174,7 +174,7 @@ class PathTracker(Estimator):
         Every controller runs the same warm-up (the true one too), so paired trials stay paired.
         Default 0 (the straight gait only). Worth it with a model that can represent the connection over
         the turning range: with the built-in swimmers' symmetric degree-3 shape-space model, 4 took the
-        adaptive controller on the 5-link figure-eight from 1.49× to about 1.1× the true connection's error
+        adaptive controller on the 5-link figure-eight from 1.49× to 1.06× the true connection's error
         (12 paired trials); with the unconstrained degree-2 model on MuJoCo's 3-link swimmer it made the
         circle worse (mean |e| 0.026 → 0.037 body lengths, 3 seeds).
     max_joint_angle : float

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._defaults import TRACKING_WARMUP_TURNS
 from .._validation import GeogaitError, GeogaitWarning
 from ..control import CONTROLLERS, EXPLORATION, PATH_KINDS, AdaptiveExploration, PathTracker, ReferencePath
 from ..gaits import Perturbation
@@ -53,8 +54,6 @@ BUILT_IN_PATHS = PATH_KINDS + ("waypoints",)
 MAX_SCALE = 1e5
 #: Tracking and warm-up cycles of a quick run.
 QUICK = {"cycles": 12, "warmup": 5}
-WARMUP_TURNS = 4
-"""Turning warm-up cycles on the built-in swimmer (``TrackSettings.warmup_turns``)."""
 
 
 def _parameter(name: str) -> str:
@@ -135,7 +134,9 @@ class TrackSettings:
         cycles = self.cycles if self.cycles is not None else (QUICK["cycles"] if self.quick else 60)
         warmup = self.warmup if self.warmup is not None else (QUICK["warmup"] if self.quick else 10)
         change = self.change_cycle if self.change_cycle is not None else cycles // 2
-        turns = self.warmup_turns if self.warmup_turns is not None else (WARMUP_TURNS if self.robot is None else 0)
+        turns = self.warmup_turns
+        if turns is None:  # (a robot's own model need not hold over the turning range)
+            turns = TRACKING_WARMUP_TURNS if self.robot is None else 0
         if not (isinstance(turns, int | np.integer) and turns >= 0):
             raise GeogaitError(f"The {name('warmup_turns')} must be a whole number of cycles >= 0. Got "
                                f"{turns!r} instead.")

@@ -40,6 +40,7 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 
+from .._defaults import TRACKING_WARMUP_TURNS
 from .._docs import fill_doc
 from .._validation import check_float, check_int, fail
 from ..control import (
@@ -161,7 +162,7 @@ class TrackingConfig:
     n_cycles: int = 60
     change_cycle: int = 30
     warmup_cycles: int = 10
-    warmup_turns: int = 4
+    warmup_turns: int = TRACKING_WARMUP_TURNS
     sensor_noise: float = 0.1
     perturbation: float = 0.05
     path_scale: float = 10.0
@@ -300,8 +301,8 @@ def _warmup_length(tracker: PathTracker) -> int:
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
                     line_offset: float, turn_limit: float, heading_weight: float, controllers,
-                    warmup_turns: int = 4, exploration: str = "fixed", exploration_low: float = 0.05,
-                    exploration_high: float = 0.15,
+                    warmup_turns: int = TRACKING_WARMUP_TURNS, exploration: str = "fixed",
+                    exploration_low: float = 0.05, exploration_high: float = 0.15,
                     model: str = "shape", change_forgetting: float = 100.0,
                     custom_path: ReferencePath | None = None) -> pd.DataFrame:
     """Runner trial function: every scenario and controller for each trial (paired seeds).
