@@ -336,6 +336,22 @@ def test_turning_warmup_runs_the_models_steering_gaits_before_tracking(three_lin
     assert np.all(np.abs(true_turns) <= 0.5 + 0.05)  # within the swimmer's reach (the true limit is 0.5 rad)
 
 
+def test_turning_warmup_runs_the_straight_gait_where_the_model_has_no_steering_gait(three_link, monkeypatch):
+    """A turn the model's steering solve does not reach (not converged) runs the straight gait instead, so the
+    warm-up keeps its length and a drag schedule its timing."""
+    import dataclasses
+
+    from geogait.control import _tracker
+
+    solve = _tracker.solve_steering_gait
+    monkeypatch.setattr(_tracker, "solve_steering_gait",
+                        lambda *a, **k: dataclasses.replace(solve(*a, **k), converged=False))
+    system, straight = three_link
+    robot = _Recording(SwimmerStream(system, straight, sensor_noise=0.1, seed=3))
+    PathTracker(controller="true", warmup_cycles=4, warmup_turns=2).run(robot, ReferencePath.line(), 1)
+    assert len(robot.ran) == 4 + 2 + 1 and all(gait == straight for gait in robot.ran[:6])
+
+
 def test_tracker_rejects_bad_settings(three_link):
     system, straight = three_link
     robot = SwimmerStream(system, straight, seed=0)
