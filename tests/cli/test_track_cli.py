@@ -242,13 +242,13 @@ def test_figure_tracking_follows_a_csv_path(tmp_path):
     file = _square(tmp_path, side=0.6)
     out = tmp_path / "fig"
     result = _run("figure", "tracking", "--quick", "--trials", "1", "--cycles", "4", "--path", f"circle,{file}",
-                  "--drag-path", file, "--out", out)
+                  "--drag-path", file, "--warmup-turns", "0", "--out", out)
     assert result.exit_code == 0, result.output
     frame = pd.read_csv(out / "tracking.csv")
     assert set(zip(frame["path"], frame["environment"], strict=True)) == {
         ("circle", "constant"), ("csv", "constant"), ("csv", "change")}
     manifest = json.loads((out / "tracking.json").read_text())
-    assert manifest["config"]["path_file"] == str(file)
+    assert manifest["config"]["path_file"] == str(file) and manifest["config"]["warmup_turns"] == 0
     assert "adaptive_over_true_per_trial" in manifest["results"]["3-link csv constant"]
     assert "windows" in manifest["results"]["3-link csv change"]["drag_change"]
     assert (out / "tracking.png").stat().st_size > 10_000
@@ -258,3 +258,5 @@ def test_figure_tracking_follows_a_csv_path(tmp_path):
     assert bad.exit_code == 1 and "The '--path' option" in bad.stderr
     both = _run("figure", "tracking", "--quick", "--drag-only", "--path", file, "--out", tmp_path / "both")
     assert both.exit_code == 1 and "'--drag-path'" in both.stderr
+    negative = _run("figure", "tracking", "--quick", "--warmup-turns", "-1", "--out", tmp_path / "negative")
+    assert negative.exit_code == 1 and "'warmup_turns'" in negative.stderr

@@ -230,6 +230,9 @@ def figure_tracking(
     change_forgetting: Annotated[float | None, typer.Option(
         help="At a surprise alarm the adaptive model forgets its evidence by this factor (1: never) "
              "[default: 100].")] = None,
+    warmup_turns: Annotated[int | None, typer.Option(
+        help="Turning warm-up cycles after the straight ones (the model's steering gaits for ±½ and ±1 × the turn "
+             "limit; 0: none) [default: 4].")] = None,
     drag_only: Annotated[bool, typer.Option(
         help="Only the paths through the drag change (line and circle), with the same trials as in the "
              "full run.")] = False,
@@ -272,7 +275,8 @@ def figure_tracking(
         changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
                        links=None if links is None else _links(links), exploration=exploration,
                        exploration_low=exploration_low, exploration_high=exploration_high, model=model,
-                       change_forgetting=change_forgetting, paths=() if drag_only else paths,
+                       change_forgetting=change_forgetting, warmup_turns=warmup_turns,
+                       paths=() if drag_only else paths,
                        drag_paths=drag_paths, path_file=path_file)
         config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
         if cycles is not None:
