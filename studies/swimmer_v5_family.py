@@ -22,9 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
-from geogait.experiments.robot_benchmark import CASES, evaluate_gait, swimmer_v5_return
-from geogait.gaits import MirrorGaitFamily
-from geogait.optimize._search import onto_joint_limit
+from geogait.experiments.robot_benchmark import CASES, _Family, evaluate_gait, swimmer_v5_return
 
 ROTATION_LIMIT = 0.02
 
@@ -33,13 +31,11 @@ def family_runs(order: int, starts: int, max_evaluations: int, seed: int) -> lis
     """The best gait of COBYQA from the seed and ``starts - 1`` random starts in the order-``order`` family."""
     case = CASES["gymnasium-swimmer"]
     probe = case.make_robot(None, explore=False, noise=False)
-    family = MirrorGaitFamily(probe.gait.n_joints, order)
-    origin = np.append(family.params_of(probe.gait.with_order(order)), 0.0)  # last: r_max · log(T / T0)
-    seed_period, r_max = probe.cycle_period, case.max_joint_angle
+    family = _Family(case, probe.gait, probe.cycle_period, order)  # the benchmark's (half-wave) family, order K
+    origin, r_max = family.seed_params, case.max_joint_angle  # (last coordinate: r_max · log(T / T0))
 
     def gait_period(x):
-        period = float(np.clip(seed_period * np.exp(x[-1] / r_max), *case.period_range))
-        return onto_joint_limit(family, x[:-1], r_max), period
+        return family.gait(x), family.period(x)
 
     def value(x):
         result = evaluate_gait(case, *gait_period(x))

@@ -447,6 +447,12 @@ class PathTracker(Estimator):
                               trajectory=Trajectory.concatenate(chunks) if record and chunks else None,
                               perturbation_std=sizes.history())
 
+    @property
+    def warmup_length(self) -> int:
+        """Cycles a run commands before its first tracking cycle: ``warmup_cycles`` straight, then
+        ``warmup_turns`` turning (e.g. to time an environment change by tracking cycle)."""
+        return self.warmup_cycles + self.warmup_turns
+
     def _turning_warmup(self, robot, model, reference, direction, sizes):
         """Run and learn the ``warmup_turns`` turning cycles (class docstring); returns the last end pose."""
         learned = ModelMotion(model, self.resolution)

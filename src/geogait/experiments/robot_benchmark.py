@@ -333,15 +333,16 @@ def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None =
 
 # -- the gait family shared by every method -----------------------------------------------------
 class _Family:
-    """Order-1 gait family of a case, with the joint-limit repair every black-box method uses."""
+    """Gait family of a case (order 1 for every method; studies may ask for more), with the joint-limit repair
+    every black-box method uses."""
 
-    def __init__(self, case: BenchmarkCase, seed: FourierGait, period: float):
-        self.family = {"symmetric": lambda: SymmetricGaitFamily.from_gait(seed, order=1),
-                       "mirror": lambda: MirrorGaitFamily(seed.n_joints, 1),
-                       "free": lambda: FreeGaitFamily(seed.n_joints, 1)}[case.family]()
+    def __init__(self, case: BenchmarkCase, seed: FourierGait, period: float, order: int = 1):
+        self.family = {"symmetric": lambda: SymmetricGaitFamily.from_gait(seed, order=order),
+                       "mirror": lambda: MirrorGaitFamily(seed.n_joints, order),
+                       "free": lambda: FreeGaitFamily(seed.n_joints, order)}[case.family]()
         self.r_max = case.max_joint_angle
         self.period_range, self.seed_period = case.period_range, period
-        self.seed_params = self.family.params_of(seed.with_order(1))
+        self.seed_params = self.family.params_of(seed.with_order(order))
         if self.period_range is not None:  # one more coordinate: r_max · log(T / T₀)
             self.seed_params = np.append(self.seed_params, 0.0)
 

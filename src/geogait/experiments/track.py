@@ -316,7 +316,7 @@ def run_track(settings: TrackSettings, *, callback: Callable[[str, dict | None],
                               warmup_turns=s.warmup_turns, horizon=s.horizon,
                               model=tracking_model(s.model, symmetric=s.robot is None),
                               change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit())
-        with _robot(s, system, gait) as device:  # a driver that cannot start fails here
+        with _robot(s, system, gait, tracker.warmup_length) as device:  # a driver that cannot start fails here
             if callback is not None:
                 callback(name, None)
             show = None if callback is None else (lambda row, name=name: callback(name, row))
@@ -387,13 +387,13 @@ def _reference_path(text: str, step: float, scale: float) -> ReferencePath:
     return tracking_path(text, step, scale) if text in BUILT_IN_PATHS else ReferencePath.from_csv(text)
 
 
-def _robot(s: TrackSettings, system, gait):
+def _robot(s: TrackSettings, system, gait, warmup_length: int):
     """A fresh robot for one controller: a driver process, or the swimmer at the run's seed and drag ratios."""
     if s.robot is not None:
         return ProcessRobot(s.robot, timeout=s.robot_timeout)
     start = system.with_drag_ratio(s.drag_ratios[0])
-    schedule = DragRatioSchedule(start, s.drag_ratios, s.warmup + s.warmup_turns + s.change_cycle) \
-        if len(s.drag_ratios) == 2 else None
+    schedule = DragRatioSchedule(start, s.drag_ratios, warmup_length + s.change_cycle) if len(s.drag_ratios) == 2 \
+        else None
     std = s.perturbation if s.exploration == "fixed" else s.exploration_high
     return contextlib.nullcontext(SwimmerStream(start, gait, perturbation=Perturbation.from_std(std),
                                                 sensor_noise=s.noise, environment=schedule, seed=s.seed))

@@ -293,11 +293,6 @@ def tracking_path(kind: str, step: float, scale: float = 10.0) -> ReferencePath:
     return ReferencePath.named(kind, size)
 
 
-def _warmup_length(tracker: PathTracker) -> int:
-    """Cycles a tracker runs before its first tracking cycle (straight, then turning)."""
-    return tracker.warmup_cycles + tracker.warmup_turns
-
-
 def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratios, n_cycles: int, change_cycle: int,
                     warmup_cycles: int, sensor_noise: float, perturbation: float, path_scale: float,
                     line_offset: float, turn_limit: float, heading_weight: float, controllers,
@@ -362,7 +357,7 @@ def tracking_trials(trial_indices, seeds, *, n_links: int, scenarios, drag_ratio
             sizes = "fixed" if exploration == "fixed" else rule
             for controller in order:
                 tracker = PathTracker(controller=controller, exploration=sizes, **settings)
-                schedule = (DragRatioSchedule(system, tuple(drag_ratios), _warmup_length(tracker) + change_cycle)
+                schedule = (DragRatioSchedule(system, tuple(drag_ratios), tracker.warmup_length + change_cycle)
                             if environment == "change" else None)
                 robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(start_std),
                                       sensor_noise=sensor_noise, environment=schedule, seed=seed)
@@ -415,7 +410,7 @@ def track_trials(trial_indices, seeds, *, n_links: int, path: ReferencePath, n_c
         for controller in sorted(controllers, key=lambda c: c != "adaptive"):  # the adaptive run sizes δ
             tracker = PathTracker(controller=controller, exploration=sizes, warmup_cycles=warmup_cycles,
                                   **tracker_options)
-            schedule = (DragRatioSchedule(system, tuple(drag_ratios), _warmup_length(tracker) + change_cycle)
+            schedule = (DragRatioSchedule(system, tuple(drag_ratios), tracker.warmup_length + change_cycle)
                         if len(drag_ratios) == 2 else None)
             robot = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                   sensor_noise=sensor_noise, environment=schedule, seed=seed)
