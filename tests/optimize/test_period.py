@@ -4,78 +4,17 @@ the in-situ optimiser finding the best period of a robot whose actuators lag."""
 import numpy as np
 import pandas as pd
 import pytest
+from _robots import LaggingRobot, lagging_gain
 
-from geogait import se2
 from geogait.gaits import FourierGait, seed_gait
 from geogait.optimize import InSituOptimizer
 from geogait.optimize._period import PeriodSearch
-from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
+from geogait.simulate import SwimmerStream, cycle_displacement
 from geogait.systems import PurcellSwimmer
-
-TAU = 0.6 / (2 * np.pi)  # actuator time constant: the best period of LaggingRobot is near 2πτ = 0.6 s
-
-
-def _gain(period):
-    """Amplitude response of a first-order actuator at the gait's frequency 2π / T."""
-    return 1 / np.sqrt(1 + (2 * np.pi * TAU / period) ** 2)
-
-
-class LaggingRobot:
-    """A kinematic 3-link swimmer driven by first-order actuators: at period T every joint realises
-    the command scaled by 1/√(1 + (2πτ/T)²). Shorter cycles are faster until the joints no longer
-    follow, so speed per second peaks at a period the model cannot know (about 2πτ).
-    Written here, independently of the package's robots: the Robot protocol and set_cycle_period.
-    """
-
-    def __init__(self, cycle_period=1.0, samples_per_cycle=80, seed=0):
-        self.system = PurcellSwimmer(3)
-        self.n_joints, self.cycle_period, self.samples = 2, cycle_period, samples_per_cycle
-        self._gait, self.pose, self.elapsed = seed_gait(2), np.zeros(3), 0.0
-        self.rng = np.random.default_rng(seed)
-        self.periods = []
-
-    @property
-    def gait(self):
-        return self._gait
-
-    def set_gait(self, gait):
-        self._gait = gait
-
-    def set_cycle_period(self, period):
-        self.cycle_period = round(period / 0.01) * 0.01  # a robot with a 10 ms clock
-
-    def robot_state(self):
-        return {"rng": self.rng.bit_generator.state, "pose": self.pose.copy(), "elapsed": self.elapsed,
-                "cycle_period": self.cycle_period, "gait": self._gait.coefficients.copy()}
-
-    def restore_robot_state(self, state):
-        self.rng.bit_generator.state = state["rng"]
-        self.pose, self.elapsed = np.asarray(state["pose"]), state["elapsed"]
-        self.cycle_period, self._gait = state["cycle_period"], FourierGait(np.asarray(state["gait"]))
-
-    def next_cycle(self):
-        n, period = self.samples, self.cycle_period
-        rate, gain = 2 * np.pi / period, _gain(period)
-        phase = 2 * np.pi * np.arange(n) / n
-        offset = self.rng.uniform(0, 2 * np.pi, 2)
-        wobble = 0.1 * np.sin(np.outer(phase, [3, 5]) + offset)
-        wobble_rate = 0.1 * np.array([3, 5]) * np.cos(np.outer(phase, [3, 5]) + offset)
-        commanded = self._gait.shape(phase) + wobble
-        shape = gain * commanded
-        shape_velocity = gain * (self._gait.velocity(phase) + wobble_rate) * rate
-        body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
-        poses = se2.integrate_body_velocity(body_velocity, period / n, self.pose)
-        self.pose = poses[-1]
-        time = self.elapsed + np.arange(n) * period / n
-        self.elapsed += period
-        self.periods.append(period)
-        return Trajectory(time=time, phase=phase, cycle=np.full(n, len(self.periods) - 1), shape=shape,
-                          shape_velocity=shape_velocity, body_velocity=body_velocity, pose=poses[:-1],
-                          commanded_shape=commanded)
 
 
 def _true_speed(gait, period):
-    scaled = FourierGait(gait.coefficients * _gain(period))
+    scaled = FourierGait(gait.coefficients * lagging_gain(period))
     return np.hypot(*cycle_displacement(PurcellSwimmer(3), scaled, resolution=128)[:2]) / period
 
 

@@ -105,6 +105,10 @@ def optimize(
     climb_rule: Annotated[str | None, typer.Option(
         help="How the measured climb proposes candidates: cobyqa (SciPy's COBYQA: quadratic models of the "
              "measured outcomes) or es (a mirrored (1+1) evolution strategy) [default: cobyqa].")] = None,
+    model_class_cycles: Annotated[int, typer.Option(
+        min=0, help="Test first whether the robot is inside the model class: run the seed gait this many cycles "
+                    "at its period and at twice it (>= 3; the robot must offer set_cycle_period); outside, the "
+                    "model takes no step [default: 0, no test].")] = 0,
     robot: Annotated[str | None, typer.Option(
         help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
     robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
@@ -134,7 +138,8 @@ def optimize(
                         max_joint_angle=max_joint_angle,
                         max_joint_velocity=max_joint_velocity, settle_cycles=settle_cycles,
                         max_tracking_error=max_tracking_error, method=method, family=family,
-                        step_rule=step_rule, climb=climb, climb_rule=climb_rule, robot=robot,
+                        step_rule=step_rule, climb=climb, climb_rule=climb_rule,
+                        model_class_cycles=model_class_cycles, robot=robot,
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
@@ -253,6 +258,9 @@ def _optimizer(settings) -> InSituOptimizer:
         if settings["cycles"] > MAX_CYCLES:
             raise typer.BadParameter(f"at most {MAX_CYCLES} cycles, got {settings['cycles']}", param_hint="--cycles")
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
+    if 0 < settings.get("model_class_cycles", 0) < 3:
+        raise typer.BadParameter(f"expected 0 (no test) or at least 3 cycles per period, got "
+                                 f"{settings['model_class_cycles']}", param_hint="--model-class-cycles")
     forgetting = settings["forgetting_factor"]
     if settings["method"] == "auto" and forgetting is not None:
         raise typer.BadParameter("applies to --method adaptive or shape; auto chooses its model's own",
@@ -294,6 +302,8 @@ def _optimizer(settings) -> InSituOptimizer:
                            max_tracking_error=None if tracking == "off" else tracking,
                            # the built-in swimmer: --perturbation sizes the exploration geogait commands
                            exploration="auto" if settings["robot"] is not None else settings["perturbation"],
+                           # (absent from the run.json of a run that predates the test)
+                           model_class_cycles=settings.get("model_class_cycles", 0),
                            random_state=settings.get("seed") or 0).validate()
 
 

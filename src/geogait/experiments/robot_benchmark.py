@@ -80,7 +80,7 @@ from ..simulate import SwimmerStream
 from ..sweep import run_trials
 from ..systems import PurcellSwimmer
 
-__all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials",
+__all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials", "case_optimizer",
            "run_robot_benchmark", "benchmark_table", "plot_benchmark", "evaluate_gait"]
 
 _OWNER = "run_robot_benchmark"
@@ -501,6 +501,30 @@ def _variant_options(robot, variant: str) -> dict | None:
     return {}
 
 
+def case_optimizer(case: BenchmarkCase, **options) -> InSituOptimizer:
+    """The in-situ optimiser the benchmark runs on ``case``: its objective (``"forward"`` in the body frame),
+    joint limit, settling cycles, gait family and period range, with ``options`` (further
+    :class:`~geogait.optimize.InSituOptimizer` parameters) on top.
+
+    Parameters
+    ----------
+    case : BenchmarkCase
+    **options
+        Parameters of :class:`~geogait.optimize.InSituOptimizer`.
+
+    Returns
+    -------
+    InSituOptimizer
+    """
+    settings = dict(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
+                    family="free" if case.family == "free" else "auto")
+    if case.objective == "forward":
+        settings.update(objective="forward", direction=case.direction, direction_frame="body")
+    if case.period_range is not None:
+        settings.update(optimize_period=True, period_range=case.period_range)
+    return InSituOptimizer(**{**settings, **options})
+
+
 def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: str, random_state: int,
              geogait_options: dict | None = None) -> _Trace:
     options = _variant_options(robot.robot, variant)
@@ -508,12 +532,7 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: s
         raise GeogaitError(f"geogait-{variant} needs a robot that gives its chain geometry")
     options.update(geogait_options or {})
     options["random_state"] = random_state  # its exploration and climb: the seed's own random numbers
-    if case.objective == "forward":
-        options.update(objective="forward", direction=case.direction, direction_frame="body")
-    if case.period_range is not None:
-        options.update(optimize_period=True, period_range=case.period_range)
-    optimizer = InSituOptimizer(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
-                                family="free" if case.family == "free" else "auto", **options)
+    optimizer = case_optimizer(case, **options)
     seed, period = robot.gait, robot.cycle_period
     result = optimizer.run(robot, budget)
     log = result.log

@@ -5,7 +5,7 @@ data is :mod:`geogait.io`."""
 
 from ._fit import LogFit, LogPrediction, fit_log, predict_log
 from ._learner import OnlineDifferentiator, StreamLearner, load_stream_model
-from ._model_class import ModelClassVerdict, model_class_verdict
+from ._model_class import ModelClassVerdict, model_class_verdict, period_verdict, shape_amplitude
 from ._streaming import run_stream
 
 __all__ = [
@@ -17,6 +17,8 @@ __all__ = [
     "fit_log",
     "load_stream_model",
     "model_class_verdict",
+    "period_verdict",
     "predict_log",
     "run_stream",
+    "shape_amplitude",
 ]

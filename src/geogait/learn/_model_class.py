@@ -35,7 +35,7 @@ from .. import se2
 from .._validation import check_float, check_int, fail
 from ..io import Log
 
-__all__ = ["ModelClassVerdict", "model_class_verdict"]
+__all__ = ["ModelClassVerdict", "model_class_verdict", "period_verdict", "shape_amplitude"]
 
 _OWNER = "model_class_verdict"
 
@@ -102,7 +102,48 @@ def model_class_verdict(log: Log, cycle, *, z: float = 3.0, tolerance: float = 0
         raise fail("cycle", _OWNER, f"an int array of shape ({log.n_samples},): the cycle of every sample",
                    f"{cycle.dtype} array of shape {cycle.shape}")
     periods, nets, amplitudes = _complete_cycles(log, cycle)
-    unit = f" {log.time_unit}" if log.time_unit else ""
+    return period_verdict(periods, nets, amplitudes, z=z, tolerance=tolerance, min_period_ratio=min_period_ratio,
+                          min_cycles=min_cycles, time_unit=log.time_unit)
+
+
+def period_verdict(period, net_motion, shape_amplitude, *, z: float = 3.0, tolerance: float = 0.05,
+                   min_period_ratio: float = 1.25, min_cycles: int = 3, time_unit: str = "") -> ModelClassVerdict:
+    """The test of :func:`model_class_verdict` on cycles already cut out: one row per complete cycle.
+
+    The in-situ optimiser runs it on its own cycles (``InSituOptimizer(model_class_cycles=n)``: the seed gait
+    at two periods).
+
+    Parameters
+    ----------
+    period : array-like of shape (n_cycles,)
+        Each cycle's duration.
+    net_motion : array-like of shape (n_cycles, 3)
+        Each cycle's net (x, y, heading) motion in the body frame at its start.
+    shape_amplitude : array-like of shape (n_cycles,)
+        Each cycle's realised gait size (:func:`shape_amplitude`).
+    z, tolerance, min_period_ratio, min_cycles
+        As in :func:`model_class_verdict`.
+    time_unit : str
+        Unit of ``period`` for the reason's text ("" for none).
+
+    Returns
+    -------
+    ModelClassVerdict
+    """
+    owner = "period_verdict"
+    z = check_float(z, "z", owner, low=0, low_open=True)
+    tolerance = check_float(tolerance, "tolerance", owner, low=0)
+    min_period_ratio = check_float(min_period_ratio, "min_period_ratio", owner, low=1, low_open=True)
+    min_cycles = check_int(min_cycles, "min_cycles", owner, minimum=2)
+    periods = np.asarray(period, dtype=float).reshape(-1)
+    nets = np.asarray(net_motion, dtype=float)
+    amplitudes = np.asarray(shape_amplitude, dtype=float)
+    if nets.shape != (periods.size, 3) or amplitudes.shape != periods.shape:
+        raise fail("net_motion", owner, f"arrays of shapes ({periods.size}, 3) and ({periods.size},) for "
+                   f"{periods.size} periods", f"shapes {nets.shape} and {amplitudes.shape}")
+    if not (np.all(np.isfinite(nets)) and np.all(np.isfinite(amplitudes)) and np.all(periods > 0)):
+        raise fail("net_motion", owner, "finite motions and amplitudes, positive periods", "NaN, inf or a period <= 0")
+    unit = f" {time_unit}" if time_unit else ""
     if periods.size < 2 * min_cycles:
         return ModelClassVerdict(None, f"{periods.size} complete cycles: too few to compare periods")
     if periods.max() < min_period_ratio * periods.min():
@@ -164,9 +205,14 @@ def _complete_cycles(log: Log, cycle: np.ndarray) -> tuple[np.ndarray, np.ndarra
             rows = labels == label
             periods.append(float(dt[rows].sum()))
             nets.append(se2.displacement(velocity[rows], dt[rows]))
-            shape = shapes[rows]
-            amplitudes.append(float(np.sqrt(((shape - shape.mean(axis=0)) ** 2).mean(axis=0)).mean()))
+            amplitudes.append(shape_amplitude(shapes[rows]))
     return np.asarray(periods), np.asarray(nets).reshape(-1, 3), np.asarray(amplitudes)
+
+
+def shape_amplitude(shape) -> float:
+    """A cycle's realised gait size: RMS of its shape samples (n, d) about their mean, joints averaged."""
+    shape = np.asarray(shape, dtype=float)
+    return float(np.sqrt(((shape - shape.mean(axis=0)) ** 2).mean(axis=0)).mean())
 
 
 def _standard_error(values: np.ndarray) -> float:

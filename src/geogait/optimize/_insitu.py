@@ -72,6 +72,7 @@ from ._climb import CLIMB_RULES
 from ._exploration import Exploration
 from ._loop import CycleLoop, new_climb
 from ._measure import peak_phase_speed
+from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period
 from ._models import ONLINE_GAMMA, gate_kind, model_template, run_model, symmetric_chain_model
 from ._objective import OBJECTIVES, feasibility_constraint
 from ._period import PeriodSearch
@@ -232,6 +233,13 @@ class InSituOptimizer(Estimator):
         ``excitation`` column is each cycle's RMS commanded (or, without ``commanded_shape``,
         realised) − nominal shape, and when the cycles of a gait show none (below 1 % of
         ``shape_scale``) the model cannot learn: the run says so (a warning) and takes no model step.
+    model_class_cycles : int
+        Test whether the robot is inside the model class before anything else (module
+        :mod:`geogait.optimize._model_class`): the seed gait runs this many clean cycles at the robot's
+        period and as many at twice (or half) it, and when its net motion per cycle changes with the
+        period (beyond noise and by more than 5 %) the run warns and keeps the model's gate shut: steps come
+        from measured outcomes only. Costs 2 × this + 2 cycles; needs a robot with ``set_cycle_period``.
+        0 (default): no test. Otherwise at least 3.
     random_state : int or None
         Seed of the climb's random directions (default 0: runs repeat exactly; an int, so that a
         checkpoint can name it; None draws fresh entropy).
@@ -262,6 +270,7 @@ class InSituOptimizer(Estimator):
         "optimize_period": Boolean(),
         "climb": Options((True, False, "contradicted", "first")),
         "climb_rule": Options(tuple(CLIMB_RULES)),
+        "model_class_cycles": Integer(minimum=0),
         "random_state": Integer(minimum=0, none=True),
     }
     #: δ std of the optimiser's own excitation, in units of ``shape_scale`` (``exploration="auto"``).
@@ -277,7 +286,7 @@ class InSituOptimizer(Estimator):
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
                  prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0,
                  optimize_period: bool = False, period_range=None, climb: bool | str = "first",
-                 climb_rule: str = "cobyqa", exploration="auto",
+                 climb_rule: str = "cobyqa", exploration="auto", model_class_cycles: int = 0,
                  random_state: int | None = 0):
         self.model = model
         self.gate = gate
@@ -310,6 +319,7 @@ class InSituOptimizer(Estimator):
         self.climb = climb
         self.climb_rule = climb_rule
         self.exploration = exploration
+        self.model_class_cycles = model_class_cycles
         self.random_state = random_state
 
     # -- scikit-learn protocol (get_params, set_params, repr: Estimator) ---------------------
@@ -346,6 +356,9 @@ class InSituOptimizer(Estimator):
                            self.exploration)
         elif self.exploration is not None:
             check_float(self.exploration, "exploration", owner, low=0)
+        if 0 < self.model_class_cycles < 3:
+            raise fail("model_class_cycles", owner, "0 (no test) or at least 3 cycles per period",
+                       self.model_class_cycles)
         if self.period_range is not None:
             bounds = np.asarray(self.period_range, dtype=float) if _is_numeric(self.period_range) else None
             if bounds is None or bounds.shape != (2,) or not np.all(np.isfinite(bounds)) \
@@ -427,6 +440,9 @@ class InSituOptimizer(Estimator):
                          climb=new_climb(self, scale), rng=np.random.default_rng(self.random_state))
         if excites:
             state.exploration = Exploration(self._exploration_std() * scale, gait.n_joints, state.rng)
+        state.check = self._model_class_check(robot, gait, period, period_range, owner)
+        if state.check is not None:  # the test's plan runs the start's settle cycles
+            state.settle_left = 0
         return CycleLoop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
 
     @classmethod
@@ -510,6 +526,23 @@ class InSituOptimizer(Estimator):
         if not low <= period <= high:
             raise fail("period_range", owner, f"a range holding the robot's period ({period:g} s)", (low, high))
         return low, high
+
+    def _model_class_check(self, robot, gait: FourierGait, period: float, period_range, owner: str):
+        """The run's model-class test (``model_class_cycles``), or None."""
+        if not self.model_class_cycles:
+            return None
+        if not callable(getattr(robot, "set_cycle_period", None)):
+            raise fail("robot", owner, "a robot with set_cycle_period(seconds) for model_class_cycles > 0 (the "
+                       "test runs the seed gait at two periods)", type(robot).__name__)
+        low, high = period_range if period_range is not None else (0.0, np.inf)
+        shortest = 0.0 if self.max_joint_velocity is None \
+            else peak_phase_speed(gait) * 2 * np.pi / self.max_joint_velocity
+        other = second_period(period, low, high, shortest)
+        if other is None:
+            raise fail("model_class_cycles", owner, f"0, or a period range and joint-velocity limit that allow "
+                       f"{PERIOD_RATIO:g} x or 1/{PERIOD_RATIO:g} x the robot's period ({period:g} s)",
+                       self.model_class_cycles)
+        return ModelClassCheck(period, other, self.model_class_cycles, settle_cycles=self.settle_cycles)
 
     def _joint_limit(self, robot, owner: str) -> float:
         """r_max: the parameter, or (``"auto"``) from the robot's declared joint ranges."""

@@ -11,6 +11,7 @@ from .. import __version__
 from .._files import write_state
 from .._validation import GeogaitError, GeogaitWarning
 from ..gaits import FreeGaitFamily
+from ..learn import shape_amplitude
 from ..simulate import Trajectory, cycle_displacement
 from ._climb import MeasuredClimb
 from ._measure import measure_cycle, peak_phase_speed
@@ -67,12 +68,15 @@ class CycleLoop:
                             cycle_period=period,
                             gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
                             shape_scale=state.scale, direction=state.direction, family=family_kind(state.family),
+                            model_class=None if state.check is None else state.check.verdict,
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:
         optimizer, state = self.optimizer, self.state
         ran, ran_period = state.robot_gait, state.robot_period
         measured = measure_cycle(chunk, ran, ran_period, "InSituOptimizer.run")
+        if state.check is not None and not state.check.done:
+            return self._check_cycle(chunk, measured, ran, ran_period)
         search = state.period_search
         was_trial = search is not None and search.trial_from is not None
         was_candidate = state.climb.candidate == (ran, ran_period)
@@ -116,6 +120,8 @@ class CycleLoop:
         row.update(climb=kind == "climb", period_change=kind == "period",
                    candidate=bool(was_candidate and state.climb.base != (ran, ran_period)
                                   or was_trial and not (search.trial_from is None and state.period == ran_period)))
+        if state.check is not None:
+            row["model_class_check"] = False
         if step or rejected or reverted:
             state.gaits.append(state.gait)
         state.robot_gait = state.gait
@@ -124,13 +130,38 @@ class CycleLoop:
         self._command_excitation()
         return row
 
+    def _check_cycle(self, chunk, measured, gait, period) -> dict:
+        """A cycle of the model-class test (:mod:`geogait.optimize._model_class`): recorded, neither learned from
+        nor measured for the objective; the robot then runs the test's next period."""
+        state, check = self.state, self.state.check
+        verdict = check.record(period, measured.net, shape_amplitude(chunk.shape))
+        if verdict is not None and verdict.principally_kinematic is False:
+            warnings.warn(f"InSituOptimizer: {verdict.reason}. The model's gate stays shut: "
+                          + ("steps come from the measured climb only." if self.optimizer.climb
+                             else "no step is taken (climb=False)."), GeogaitWarning, stacklevel=4)
+        state.world_heading = float(measured.start[2])
+        row = self._row(gait, np.nan, False, False, True, np.nan, measured, np.nan, False, period)
+        row.update(climb=False, period_change=False, candidate=False, model_class_check=True)
+        following = check.next_period()
+        if following != state.robot_period:
+            self.robot.set_cycle_period(following)
+            state.robot_period = float(self.robot.cycle_period)
+        self._command_excitation()
+        return row
+
+    def _model_excluded(self) -> bool:
+        """The model-class test found the robot outside the model class: no model steps."""
+        return self.state.check is not None and self.state.check.outside
+
     def _command_excitation(self) -> None:
-        """Send the next cycle's excitation when the optimiser owns the exploration (none while climbing)."""
+        """Send the next cycle's excitation when the optimiser owns the exploration (none while climbing or
+        testing the model class)."""
         state = self.state
         if state.exploration is None:
             return
         delta, rate = state.exploration.next_cycle(state.robot_period)
-        if state.climb.active:  # the climb measures outcomes: clean cycles, as a black-box method runs them
+        testing = state.check is not None and not state.check.done
+        if state.climb.active or testing:  # measured outcomes: clean cycles, as a black-box method runs them
             delta, rate = np.zeros_like(delta), np.zeros_like(rate)
         state.excitation_next = (delta, rate)
         self.robot.set_excitation(delta, rate)
@@ -165,8 +196,8 @@ class CycleLoop:
         kind, prediction_ok = None, np.nan
         if optimizer.climb == "first" and state.climb.base is None:  # nothing known yet: twice the model's step
             self._start_climb(sigma=2 * optimizer.max_trust_radius * state.scale)
-        elif not state.climb.active and self._unexcited():
-            if optimizer.climb:
+        elif not state.climb.active and (self._model_excluded() or self._unexcited()):
+            if optimizer.climb:  # (a model outside its class, or one that cannot learn, takes no step)
                 self._start_climb()
         elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
@@ -251,7 +282,8 @@ class CycleLoop:
                 climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
                             self._rotation_holds(key, climb.base),
                             tests_model=climb.search is None or not climb.search.designing)
-                if climb.model_trusted_again:  # back to model steps, from the best gait, on a fresh record
+                # back to model steps (unless outside its class), from the best gait, on a fresh record
+                if climb.model_trusted_again and not self._model_excluded():
                     climb.active = False
                     state.distrust = state.prediction_failures = state.stall = 0
                     state.radius = optimizer.trust_radius * state.scale

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from ..gaits import FourierGait
+from ..learn import ModelClassVerdict
 from ..simulate import Trajectory
 
 __all__ = ["InSituResult"]
@@ -39,7 +40,8 @@ class InSituResult:
         ``true_y``, ``true_heading``, ``true_progress``, ``true_objective``; ``improvement``
         (relative to the seed: true values where there is a truth, else the measured objective over
         the mean measured objective of the seed's cycles so far), ``ceiling_fraction`` (when a
-        ceiling is given), and ``param_*``.
+        ceiling is given), ``model_class_check`` (with ``model_class_cycles``: a cycle of the
+        model-class test, which is also ``settling``), and ``param_*``.
     initial_gait, final_gait : FourierGait
     gaits : list of FourierGait
         Every nominal gait commanded, in order (rejected ones included).
@@ -58,6 +60,10 @@ class InSituResult:
         The model as the run left it (learned from every learned cycle; with the ``"cycles"`` gate
         the last fit): what the next step would have used. Inspect it against a simulator's truth,
         or save it.
+    model_class : ModelClassVerdict or None
+        The run's model-class test (``model_class_cycles``; None without one, or when the run ended
+        before it did): ``principally_kinematic`` False when the robot was found outside the model
+        class (the model then took no step).
     """
 
     log: pd.DataFrame
@@ -71,6 +77,7 @@ class InSituResult:
     direction: np.ndarray | None = None
     cycle_period: float | None = None
     family: str | None = None
+    model_class: ModelClassVerdict | None = None
 
     @property
     def n_steps(self) -> int:
@@ -117,6 +124,8 @@ class InSituResult:
             "forward_direction": None if self.direction is None else [float(v) for v in self.direction],
             "final_gait_params": self.final_gait.params.tolist(),
         }
+        if self.model_class is not None:
+            summary["model_class"] = self.model_class.to_dict()
         if "true_objective" in log:
             summary.update({
                 "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),

@@ -16,6 +16,7 @@ from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGait
 from ..models import has_gait_model_members, model_from_state
 from ._climb import MeasuredClimb
 from ._exploration import Exploration
+from ._model_class import ModelClassCheck
 from ._period import PeriodSearch
 from ._search import QuadraticSearch
 
@@ -102,6 +103,7 @@ class RunState:
     excitation_next: tuple | None = None  # (δ, δ̇) commanded for the next cycle (re-sent on resume)
     iteration_excitation: list = field(default_factory=list)  # excitation RMS of this iteration's cycles
     warned_no_excitation: bool = False
+    check: ModelClassCheck | None = None  # the model-class test (model_class_cycles; None: none)
 
     def rate(self, period: float) -> float:
         """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
@@ -218,6 +220,10 @@ class RunState:
             arrays["exploration/state"] = self.exploration.state
             arrays["exploration/next_shape"], arrays["exploration/next_shape_velocity"] = self.excitation_next
         metadata["direction_fixed"] = bool(self.direction_fixed)
+        metadata["model_class"] = None
+        if self.check is not None:
+            metadata["model_class"], check_arrays = self.check.to_checkpoint()
+            arrays.update(check_arrays)
         for k, parts in enumerate(self.iteration_data):
             for name, value in zip(("phase", "shape", "shape_velocity", "body_velocity"), parts, strict=True):
                 arrays[f"iteration_data/{k}/{name}"] = value
@@ -277,6 +283,8 @@ class RunState:
         state.trial_tracking = arrays["trial_tracking"].tolist() if "trial_tracking" in arrays else []
         state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
         state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
+        if scalars.get("model_class") is not None:
+            state.check = ModelClassCheck.from_checkpoint(scalars["model_class"], arrays)
         if scalars.get("exploration_std") is not None:
             state.exploration = Exploration(scalars["exploration_std"], state.gait.n_joints, state.rng,
                                             initial_state=np.array(arrays["exploration/state"], dtype=float))

@@ -218,6 +218,7 @@ class ElasticaSnake:
         self._rng = np.random.default_rng(seed)
         self._perturbation = self.perturbation.stream(self.timestep, d, self._rng)
         self.cycle = 0
+        self._cycle_start = 0.0  # time stamp of the next cycle's first sample (s, from the end of the warm-up)
         self._closed = False
         self._build()
         self._heading = 0.0
@@ -334,6 +335,24 @@ class ElasticaSnake:
         self._check_gait(gait, "ElasticaSnake.set_gait")
         self._gait = gait
 
+    def set_cycle_period(self, cycle_period: float) -> None:
+        """Run the following cycles at ``cycle_period`` seconds, the nearest the physics can time.
+
+        A cycle is ``samples_per_cycle`` samples of a whole number of physics steps, so the period becomes
+        the nearest multiple of ``samples_per_cycle × timestep`` (``cycle_period`` reads it back). The
+        friction is the robot's, not re-scaled with the period: running faster raises the Froude number,
+        as on a real snake. :class:`~geogait.optimize.InSituOptimizer` uses it with ``optimize_period=True``
+        and for its model-class test (``model_class_cycles``).
+        """
+        owner = "ElasticaSnake.set_cycle_period"
+        period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
+        unit = self.samples_per_cycle * self.timestep
+        steps = int(round(period / unit))
+        if steps < 1:
+            raise fail("cycle_period", owner, f"at least one physics step per sample ({unit:g} s)", period)
+        self.steps_per_sample = steps
+        self.cycle_period = steps * unit
+
     def set_excitation(self, shape, shape_velocity) -> None:
         """Run the next cycle with this excitation instead of the snake's own perturbation.
 
@@ -401,11 +420,12 @@ class ElasticaSnake:
         shape_velocity = curvature_rate(nodes, rates) @ self._projector.T
         index = np.arange(n)
         trajectory = Trajectory(
-            time=(self.cycle * n + index) * (self.cycle_period / n), phase=phase[::k].copy(),
+            time=self._cycle_start + index * (self.cycle_period / n), phase=phase[::k].copy(),
             cycle=np.full(n, self.cycle), shape=shape, shape_velocity=shape_velocity,
             body_velocity=body_velocity(nodes, rates, masses=self._masses), pose=pose,
             commanded_shape=command[::k].copy())
         self.cycle += 1
+        self._cycle_start += self.cycle_period
         return trajectory
 
     def next_cycles(self, n_cycles: int) -> Trajectory:
@@ -424,13 +444,15 @@ class ElasticaSnake:
         dict
             The rod's ``position_collection``, ``velocity_collection``, ``director_collection``,
             ``omega_collection`` (the position-Verlet state), ``time``, ``perturbation`` (δ, δ̇ per
-            mode), ``gait`` (coefficients), ``rng`` (the generator's state, JSON values), ``cycle``
-            and ``heading`` (the unwrapped heading of the last sample).
+            mode), ``gait`` (coefficients), ``rng`` (the generator's state, JSON values), ``cycle``,
+            ``heading`` (the unwrapped heading of the last sample), ``cycle_period`` and ``cycle_start``
+            (the next cycle's first time stamp).
         """
         state = {name: np.array(getattr(self.rod, name)) for name in self._ROD_STATE}
         state.update({"time": float(self._time), "perturbation": self._perturbation.state.copy(),
                       "gait": np.array(self._gait.coefficients), "rng": copy.deepcopy(self._rng.bit_generator.state),
-                      "cycle": int(self.cycle), "heading": float(self._heading)})
+                      "cycle": int(self.cycle), "heading": float(self._heading),
+                      "cycle_period": float(self.cycle_period), "cycle_start": float(self._cycle_start)})
         return state
 
     def restore_robot_state(self, state: dict) -> None:
@@ -461,6 +483,9 @@ class ElasticaSnake:
         self._rng.bit_generator.state = copy.deepcopy(state["rng"])
         self.cycle = int(state["cycle"])
         self._heading = float(state["heading"])
+        if "cycle_period" in state:  # (states from before the period could change: the snake's own)
+            self.set_cycle_period(float(state["cycle_period"]))
+        self._cycle_start = float(state.get("cycle_start", self.cycle * self.cycle_period))
 
     def close(self) -> None:
         """Drop the simulation; later cycles raise an error."""
