@@ -4,13 +4,15 @@ faster cycles can exceed what a robot's joints follow)
 (:func:`geogait.learn.model_class_verdict`); optionally a log of your own (e.g. the kinematic-snake package's,
 from ``studies/kinematic_snake_log.py``).
 
-    python studies/model_class.py --cycles 20 --out docs/results/model-class.json \
+    python studies/model_class.py --cycles 20 --in-run 8 --out docs/results/model-class/model-class.json \
         --log kinematic-snake=tests/data/kinematic_snake_froude1.csv
 
 Γ comes from each robot with its own exploration (the benchmark's robots, seed 0) and the benchmark's sensor
 noise; the verdict from its seed gait run clean (no exploration, no noise) at both periods, where the test
 resolves a 5 % difference (with exploration the cycle-to-cycle spread needs hundreds of cycles for that). The
-first 2 cycles at each period are dropped (settling). Robots whose extras are missing are skipped with one line.
+first 2 cycles at each period are dropped (settling). With ``--in-run N`` also the in-situ optimiser's own test
+(``InSituOptimizer(model_class_cycles=3)``: the seed gait clean at the robot's period and at twice it, within a
+run with its exploration and noise) on seeds 0 … N−1. Robots whose extras are missing are skipped with one line.
 """
 
 from __future__ import annotations
@@ -22,8 +24,7 @@ import warnings
 
 import pandas as pd
 
-from geogait.experiments.robot_benchmark import CASES, available_cases
-from geogait.gaits import Perturbation
+from geogait.experiments.robot_benchmark import CASES, available_cases, case_optimizer
 from geogait.io import read_log
 from geogait.learn import fit_log
 from geogait.simulate import Trajectory
@@ -64,15 +65,24 @@ def robot_row(name: str, cycles: int) -> dict:
     robot = case.make_robot(0, False, False)
     period = float(robot.cycle_period)
     first = record(robot, cycles)
-    if callable(getattr(robot, "set_cycle_period", None)):
-        robot.set_cycle_period(2 * period)
-    else:  # (ElasticaSnake takes its period when built)
-        from geogait.robots import ElasticaSnake
-        robot = ElasticaSnake(cycle_period=2 * period, seed=0, perturbation=Perturbation(eta=0))
+    robot.set_cycle_period(2 * period)
     second = record(robot, cycles)
     gamma = measure(explored, None)["held_out_gamma"]
     return {"system": name, "description": case.description, "period": period, **measure(first, second),
             "held_out_gamma": gamma}
+
+
+def in_run_rows(name: str, seeds: int, cycles: int = 3) -> list[dict]:
+    """The in-situ optimiser's own test (``model_class_cycles``) on the robot with its exploration and noise, as
+    the robot benchmark runs it (its settling cycles, objective and period range), one row per seed."""
+    case, rows = CASES[name], []
+    for seed in range(seeds):
+        optimizer = case_optimizer(case, model_class_cycles=cycles, random_state=seed)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # (the verdict is recorded, not printed)
+            result = optimizer.run(case.make_robot(seed, True, True), case.settle_cycles + 2 * cycles + 2)
+        rows.append({"system": name, "seed": seed, **result.model_class.to_dict()})
+    return rows
 
 
 def log_row(name: str, path: str) -> dict:
@@ -88,6 +98,8 @@ def main():
     parser.add_argument("--cases", default=",".join(CASES))
     parser.add_argument("--cycles", type=int, default=20, help="cycles per period (2 of them settle)")
     parser.add_argument("--log", action="append", default=[], help="NAME=CSV: a log of two periods (two segments)")
+    parser.add_argument("--in-run", type=int, default=0,
+                        help="seeds of the optimiser's own test (model_class_cycles=3) per robot (0: none)")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     names, skipped = available_cases(args.cases.split(","))
@@ -104,10 +116,15 @@ def main():
         rows.append(log_row(name, path))
         print(f"{name}: Γ {rows[-1]['held_out_gamma']:.3f}, principally kinematic: {rows[-1]['principally_kinematic']}"
               f" — {rows[-1]['reason']}")
+    in_run = []
+    for name in names if args.in_run else ():
+        in_run += in_run_rows(name, args.in_run)
+        verdicts = [row["principally_kinematic"] for row in in_run if row["system"] == name]
+        print(f"{name}, the optimiser's test over {args.in_run} seeds: {verdicts}", flush=True)
     with open(args.out, "w") as file:
         json.dump({"command": "python studies/model_class.py " + " ".join(f"--{k.replace('_', '-')} {v}" for k, v in
                                                                         vars(args).items() if k != "log")
-                   + "".join(f" --log {v}" for v in args.log), "rows": rows}, file, indent=1)
+                   + "".join(f" --log {v}" for v in args.log), "rows": rows, "in_run": in_run}, file, indent=1)
     print(f"wrote {args.out}")
 
 

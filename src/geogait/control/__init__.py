@@ -12,7 +12,7 @@
   controller's prediction residual, set on robots with ``set_perturbation_std`` (the simulated swimmers).
 """
 
-from ..simulate import end_pose
+from ..simulate import TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import PATH_KINDS, ReferencePath
 from ._steering import (
@@ -20,7 +20,6 @@ from ._steering import (
     ModelMotion,
     SteeringFamily,
     SteeringSolution,
-    TrueMotion,
     max_feasible_turn,
     max_step_family,
     solve_steering_gait,

@@ -31,34 +31,13 @@ from .._validation import check_array, check_float, check_int, fail
 from ..gaits import FourierGait
 from ..models import ModelMotion
 from ..optimize import joint_limit_constraints
-from ..simulate import cycle_displacement
 
-__all__ = ["ModelMotion", "TrueMotion", "SteeringSolution", "SteeringFamily", "travel_rows",
+__all__ = ["ModelMotion", "SteeringSolution", "SteeringFamily", "travel_rows",
            "solve_steering_gait", "steering_family", "max_step_family", "max_feasible_turn", "TURN_SPACING"]
 
 DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 TURN_SPACING = 0.1
 """Spacing of a steering family's turns (rad per cycle) where none is given."""
-
-
-class TrueMotion:
-    """Net motion per cycle with the true connection of a known system (the oracle, for the ceiling).
-
-    Parameters
-    ----------
-    system : System
-    resolution : int
-        Magnus steps over the cycle (:func:`geogait.simulate.cycle_displacement`; 64 steps are
-        accurate to ~1e-7 on the Purcell swimmers).
-    """
-
-    def __init__(self, system, resolution: int = 64):
-        self.system = system
-        self.resolution = resolution
-
-    def __call__(self, gait: FourierGait, jacobian: bool = False):
-        """``(Δx, Δy, Δθ)`` ``(3,)`` of one cycle of ``gait`` (and ``(3, p)`` Jacobian)."""
-        return cycle_displacement(self.system, gait, resolution=self.resolution, jacobian=jacobian)
 
 
 def travel_rows(direction: float) -> np.ndarray:

@@ -56,7 +56,7 @@ from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import feasibility_constraint
 from ..robots import check_robot
-from ..simulate import Trajectory, cycle_displacement, end_pose
+from ..simulate import Trajectory, TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
 from ._steering import (
@@ -64,7 +64,6 @@ from ._steering import (
     TURN_SPACING,
     ModelMotion,
     SteeringFamily,
-    TrueMotion,
     max_feasible_turn,
     solve_steering_gait,
     steering_family,
@@ -408,8 +407,7 @@ class PathTracker(Estimator):
                                            feasibility=self._region)
             command = solution.gait if solution.converged else family.start_for(turn)
             predicted = solution.pose if solution.converged else family.interpolate(turn)
-            truth = (cycle_displacement(system, command, resolution=self.resolution)
-                     if system is not None else np.full(3, np.nan))
+            truth = TrueMotion(system, self.resolution)(command) if system is not None else np.full(3, np.nan)
             robot.set_gait(command)
             std = sizes.apply()
             chunk = robot.next_cycle()

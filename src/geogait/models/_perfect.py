@@ -12,7 +12,7 @@ from .._docs import fill_doc
 from .._estimator import Estimator, InstanceOf, Integer
 from .._validation import check_array, fail
 from ..gaits import FourierGait
-from ..simulate import cycle_displacement
+from ..simulate import TrueMotion
 from ..systems import System
 
 __all__ = ["PerfectInformationModel"]
@@ -142,7 +142,7 @@ class PerfectInformationModel(Estimator):
         if not isinstance(gait, FourierGait) or gait.n_joints != system.n_joints:
             raise fail("gait", f"{type(self).__name__}.predict_displacement",
                        f"a FourierGait with {system.n_joints} joints", gait)
-        return cycle_displacement(system, gait, resolution=self.resolution, jacobian=jacobian)
+        return TrueMotion(system, self.resolution)(gait, jacobian=jacobian)
 
     def rebase(self, gait: FourierGait | None = None, **options):
         """Nothing to re-centre; options are accepted and ignored. Returns ``self``.

@@ -12,7 +12,7 @@ from .._files import write_state
 from .._validation import GeogaitError, GeogaitWarning
 from ..gaits import FreeGaitFamily
 from ..learn import shape_amplitude
-from ..simulate import Trajectory, cycle_displacement
+from ..simulate import Trajectory, TrueMotion
 from ._climb import MeasuredClimb
 from ._measure import measure_cycle, peak_phase_speed
 from ._models import gate_kind, run_model
@@ -138,7 +138,7 @@ class CycleLoop:
         if verdict is not None and verdict.principally_kinematic is False:
             warnings.warn(f"InSituOptimizer: {verdict.reason}. The model's gate stays shut: "
                           + ("steps come from the measured climb only." if self.optimizer.climb
-                             else "no step is taken (climb=False)."), GeogaitWarning, stacklevel=4)
+                             else "no step is taken (climb=False)."), GeogaitWarning, stacklevel=5)
         state.world_heading = float(measured.start[2])
         row = self._row(gait, np.nan, False, False, True, np.nan, measured, np.nan, False, period)
         row.update(climb=False, period_change=False, candidate=False, model_class_check=True)
@@ -713,7 +713,7 @@ class _Oracle:
         system = self.system()
         key = (id(system), gait)
         if key not in self.cache:
-            self.cache[key] = cycle_displacement(system, gait, resolution=128)
+            self.cache[key] = TrueMotion(system, resolution=128)(gait)
         pose = self.cache[key]
         if self.objective == "forward" and state.direction is None:
             return pose, np.nan

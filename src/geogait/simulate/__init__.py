@@ -1,8 +1,8 @@
 """Simulation: trajectories and sample streams of a gait on a system, and the per-cycle oracle."""
 
-from ._oracle import cycle_displacement, cycle_velocity
+from ._oracle import TrueMotion, cycle_displacement, cycle_velocity
 from ._stream import DragRatioSchedule, SwimmerStream, simulate, simulate_rate
 from ._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory, end_pose
 
-__all__ = ["BODY_VELOCITY_COLUMNS", "POSE_COLUMNS", "DragRatioSchedule", "SwimmerStream", "Trajectory",
+__all__ = ["BODY_VELOCITY_COLUMNS", "POSE_COLUMNS", "DragRatioSchedule", "SwimmerStream", "Trajectory", "TrueMotion",
            "cycle_displacement", "cycle_velocity", "end_pose", "simulate", "simulate_rate"]

@@ -21,7 +21,7 @@ from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..systems import System
 
-__all__ = ["cycle_displacement", "cycle_velocity"]
+__all__ = ["TrueMotion", "cycle_displacement", "cycle_velocity"]
 
 
 def cycle_displacement(system: System, gait: FourierGait, resolution: int = 256, jacobian: bool = False):
@@ -102,3 +102,25 @@ def _cycle_velocity(system: System, gait: FourierGait, resolution: int, jacobian
     velocity_jacobian = (d_velocity_d_shape[..., :, :, None] * basis[..., None, None, :]
                          - connection[..., :, :, None] * d_basis[..., None, None, :])  # (n, 2, 3, d, c)
     return velocity, step, velocity_jacobian.reshape(velocity_jacobian.shape[:-2] + (-1,))
+
+
+class TrueMotion:
+    """Net motion per cycle with the true connection of a known system: :func:`cycle_displacement` at one
+    resolution, the one true-motion helper of the closed loops (the in-situ optimiser's truth columns, the path
+    follower's ``"true"`` controller and steering families, :class:`~geogait.models.PerfectInformationModel`).
+
+    Parameters
+    ----------
+    system : System
+    resolution : int
+        Magnus steps over the cycle (64 steps are accurate to ~1e-7 on the Purcell swimmers; each caller keeps
+        its own: 64 for steering, 128 for the optimiser's truth and the perfect-information model).
+    """
+
+    def __init__(self, system, resolution: int = 64):
+        self.system = system
+        self.resolution = resolution
+
+    def __call__(self, gait: FourierGait, jacobian: bool = False):
+        """``(Δx, Δy, Δθ)`` ``(3,)`` of one cycle of ``gait`` (and ``(3, p)`` Jacobian)."""
+        return cycle_displacement(self.system, gait, resolution=self.resolution, jacobian=jacobian)
