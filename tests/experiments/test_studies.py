@@ -1,6 +1,6 @@
 """Studies run end to end on a tiny budget: the plateau study (it leans on private optimiser hooks),
 the online phase study, the resistance model's geometry-error study, the model-gradient study, the optimiser
-settings study and the Swimmer-v5 family study."""
+settings study, the Swimmer-v5 family study and the model-class study."""
 
 import re
 import subprocess
@@ -104,3 +104,15 @@ def test_swimmer_v5_family_study_scores_each_start_by_its_episode_return(tmp_pat
     assert [run["order"] for run in runs] == [3, 3] and all(run["evaluations"] <= 4 for run in runs)
     assert all(run["largest_joint_angle"] <= 1.745 and run["episode_return"] > 0 for run in runs)
     assert runs[0]["improvement"] >= 0 and len(runs[0]["params"]) == 2 * (2 * 3 + 1)
+
+
+def test_model_class_study_judges_a_robot_from_logs_and_in_a_run(tmp_path):
+    """The built-in 3-link swimmer: consistent at both periods from its log, and the optimiser's own test agrees."""
+    import json
+    out = tmp_path / "model-class.json"
+    subprocess.run([sys.executable, str(STUDIES / "model_class.py"), "--cases", "swimmer3", "--cycles", "10",
+                    "--in-run", "2", "--out", str(out)], capture_output=True, text=True, check=True, timeout=300)
+    written = json.loads(out.read_text())
+    assert [row["system"] for row in written["rows"]] == ["swimmer3"]
+    assert written["rows"][0]["principally_kinematic"] is True
+    assert [(row["seed"], row["principally_kinematic"]) for row in written["in_run"]] == [(0, True), (1, True)]
