@@ -111,3 +111,13 @@ def test_the_tracker_keeps_a_simulators_region_in_every_steering_gait(bent):
         > LIMIT  # without the region the same steering leaves it
     with pytest.raises(GeogaitError, match="'gait'.*feasible region"):
         PathTracker(controller="true").run(SwimmerStream(bent, seed_gait(2), seed=0), ReferencePath.circle(1.0), 2)
+
+
+def test_the_symmetric_family_keeps_the_region_too(bent):
+    """The front-back symmetric family about the seed: a ceiling inside the region (0.0522 per cycle), above the
+    seed's and not above the free family's (0.0652): a family is a subset of the free gaits."""
+    ceiling = optimize_ceiling(bent, family="symmetric", starts=3)
+    phases = np.linspace(0, 2 * np.pi, 8192, endpoint=False)
+    assert ceiling.gait.shape(phases)[:, 0].max() <= LIMIT
+    seed = float(np.hypot(*cycle_displacement(bent, bent.seed_gait())[:2]))
+    assert seed < ceiling.value <= optimize_ceiling(bent, starts=4).value + 1e-9

@@ -120,6 +120,7 @@ def solve_steering_gait(motion, reference: FourierGait, target, *, direction: fl
     --------
     >>> from geogait.systems import PurcellSwimmer
     >>> from geogait.gaits import seed_gait
+    >>> from geogait.simulate import TrueMotion
     >>> motion = TrueMotion(PurcellSwimmer(3))
     >>> solution = solve_steering_gait(motion, seed_gait(2), [np.nan, np.nan, 0.05])
     >>> solution.converged, round(float(solution.pose[2]), 6)

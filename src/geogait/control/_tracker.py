@@ -54,7 +54,7 @@ from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
-from ..optimize import feasibility_constraint
+from ..optimize import robot_feasibility
 from ..robots import check_robot
 from ..simulate import Trajectory, TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
@@ -347,12 +347,11 @@ class PathTracker(Estimator):
             raise fail("gait", owner, f"a gait within max_joint_angle = {self.max_joint_angle:.4g}",
                        f"a gait reaching {reference.joint_limit().max():.4g} rad")
         oracle = getattr(robot, "current_system", None)
-        # a simulator's feasible region (FeasibleSystem): every steering gait keeps it, as the joint limits
-        self._region = feasibility_constraint(oracle(), reference.n_joints, reference.order) if callable(oracle) \
-            else None
+        # the robot's feasible region (its own, or its simulator's): every steering gait keeps it, as the joint limits
+        self._region = robot_feasibility(robot, reference.n_joints, reference.order)
         lowest = float(self._region(reference.params)[0].min()) if self._region is not None else 0.0
         if lowest < -FEASIBILITY_TOLERANCE:
-            raise fail("gait", owner, "a straight gait inside the system's feasible region",
+            raise fail("gait", owner, "a straight gait inside the robot's feasible region",
                        f"a gait whose feasibility falls to {lowest:.4g}")
         if self.controller == "true" and not callable(oracle):
             raise GeogaitError(f"The 'true' controller of {owner} needs a simulated robot with current_system(); "

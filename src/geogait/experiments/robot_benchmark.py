@@ -68,17 +68,17 @@ import numpy as np
 import pandas as pd
 
 from .. import __version__
-from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
+from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._files import write_text
 from .._validation import GeogaitError, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
 from ..models import BatchGaitModel, ResistanceModel
-from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle
+from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle, robot_feasibility
 from ..optimize._search import onto_joint_limit
 from ..plotting import plt, save_figure
 from ..simulate import SwimmerStream
 from ..sweep import run_trials
-from ..systems import PurcellSwimmer
+from ..systems import KinematicSnake, PurcellSwimmer
 
 __all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials", "case_optimizer",
            "run_robot_benchmark", "benchmark_table", "plot_benchmark", "evaluate_gait"]
@@ -186,6 +186,16 @@ def _builtin_robot(n_links, seed, explore, noise, gait=None):
                          perturbation=None if explore else Perturbation(eta=0))
 
 
+def _wheeled_snake_robot(seed, explore, noise, gait=None):
+    snake = KinematicSnake()
+    return SwimmerStream(snake, snake.seed_gait() if gait is None else gait, seed=seed,
+                         sensor_noise=0.1 if noise else 0.0, perturbation=None if explore else Perturbation(eta=0))
+
+
+def _wheeled_snake_ceiling():
+    return cached_ceiling(KinematicSnake(), family="free").gait
+
+
 def _builtin_ceiling(n_links):
     return cached_ceiling(PurcellSwimmer(n_links), family="symmetric").gait
 
@@ -247,6 +257,10 @@ def _cases() -> dict[str, BenchmarkCase]:
         cases[f"swimmer{n}"] = BenchmarkCase(
             name=f"swimmer{n}", description=f"built-in {n}-link Purcell swimmer (RFT), sensor noise 0.1",
             make_robot=partial(_builtin_robot, n), family="symmetric", ceiling=partial(_builtin_ceiling, n))
+    cases["wheeled-snake"] = BenchmarkCase(
+        name="wheeled-snake", description="3-link wheeled kinematic snake (no-slip axles at the link centres), "
+        "kept 0.2 rad from its singular line r0 = r1, sensor noise 0.1", make_robot=_wheeled_snake_robot,
+        ceiling=_wheeled_snake_ceiling)
     cases["mujoco-purcell5-unequal"] = BenchmarkCase(
         name="mujoco-purcell5-unequal",
         description=f"MuJoCo 5-link Purcell swimmer, RFT drag, links {UNEQUAL_LINKS}, PD joints",
@@ -375,22 +389,41 @@ class _Trace:
 
 
 class _Objective:
-    """Black-box evaluation of one candidate: charged cycles, measured (penalised) value."""
+    """Black-box evaluation of one candidate: charged cycles, measured (penalised) value.
+
+    A candidate outside the robot's declared feasible region (:func:`~geogait.optimize.robot_feasibility`:
+    e.g. the wheeled snake's margin from its singular set, on the phase grid geogait's steps use) is not run:
+    it is answered with the worst value measured so far (the seed's before any), as geogait's own climb answers
+    it, and charged no cycle. A method that keeps asking for such candidates stops after
+    ``MAX_REFUSALS_PER_CYCLE`` × budget of them.
+    """
+
+    MAX_REFUSALS_PER_CYCLE = 20
 
     def __init__(self, case: BenchmarkCase, robot: _CountingRobot, family: _Family, budget: int,
                  held: bool, seed_value: float):
         self.case, self.robot, self.family, self.budget = case, robot, family, budget
         self.weight = 2 * abs(seed_value) / case.rotation_limit if held else 0.0
+        self.region = robot_feasibility(robot, family.family.n_joints, family.family.order)
+        self.worst, self.refused = seed_value, 0
 
     def affordable(self) -> bool:
-        return self.robot.cycles + self.case.settle_cycles + 1 <= self.budget
+        return (self.robot.cycles + self.case.settle_cycles + 1 <= self.budget
+                and self.refused < self.MAX_REFUSALS_PER_CYCLE * self.budget)
 
     def __call__(self, params) -> float:
         gait, period = self.family.gait(params), self.family.period(params)
+        if self.region is not None and self.region(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
+            self.refused += 1
+            return self.worst
         net = _run_measured(self.robot, self.case, gait, 1, period)[0]
         excess = max(0.0, abs(net[2]) - self.case.rotation_limit)
         rate = 1 / self.robot.cycle_period if period is not None else 1.0
-        return _value(self.case, net) * rate - self.weight * excess
+        value = _value(self.case, net) * rate - self.weight * excess
+        self.worst = min(self.worst, value)
+        return value
+
+
 
 
 def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):

@@ -46,6 +46,7 @@ class PerfectInformationModel(Estimator):
     --------
     >>> from geogait.systems import PurcellSwimmer
     >>> from geogait.gaits import seed_gait
+    >>> from geogait.simulate import cycle_displacement
     >>> model = PerfectInformationModel(system=PurcellSwimmer(3))
     >>> bool(np.allclose(model.predict_displacement(seed_gait(2)),
     ...                  cycle_displacement(PurcellSwimmer(3), seed_gait(2), resolution=128)))

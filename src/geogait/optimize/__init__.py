@@ -15,6 +15,7 @@ from ._objective import (
     objective,
     path_length,
     rms_speed,
+    robot_feasibility,
 )
 from ._result import InSituResult
 from ._state import read_checkpoint_metadata
@@ -39,6 +40,7 @@ __all__ = [
     "linear_step",
     "measure_cycle",
     "objective",
+    "robot_feasibility",
     "optimize_ceiling",
     "read_checkpoint_metadata",
     "path_length",

@@ -74,7 +74,7 @@ from ._loop import CycleLoop, new_climb
 from ._measure import peak_phase_speed
 from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period
 from ._models import ONLINE_GAMMA, gate_kind, model_template, run_model, symmetric_chain_model
-from ._objective import OBJECTIVES, feasibility_constraint
+from ._objective import OBJECTIVES, robot_feasibility
 from ._period import PeriodSearch
 from ._result import InSituResult
 from ._state import (
@@ -425,10 +425,11 @@ class InSituOptimizer(Estimator):
         period_range = self._period_range(robot, period, owner)
         excites = self._excites(robot, owner)
         family = self._family(robot, gait)
-        feasibility = _feasibility(robot, gait, self.order)
+        feasibility = robot_feasibility(robot, gait.n_joints, self.order)
         if feasibility is not None and feasibility(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
-            raise fail("robot", owner, "a seed gait inside the system's feasible region (its singular set's "
-                       "margin; e.g. the system's own seed_gait())", "a seed gait that leaves it")
+            raise fail("robot", owner, "a seed gait inside the robot's feasible region (its system's singular set's "
+                       "margin, or the region it declares; e.g. the system's own seed_gait())",
+                       "a seed gait that leaves it")
         robot.set_gait(gait)
         scale = self._shape_scale(gait)
         state = RunState(gait=gait, radius=self.trust_radius * scale,
@@ -488,7 +489,7 @@ class InSituOptimizer(Estimator):
             state.climb = new_climb(optimizer, state.scale)
         if "rng" not in metadata["state"]:
             state.rng = np.random.default_rng(optimizer.random_state)
-        state.feasibility = _feasibility(robot, state.gait, optimizer.order)
+        state.feasibility = robot_feasibility(robot, state.gait.n_joints, optimizer.order)
         if n_cycles is not None:
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
@@ -643,8 +644,4 @@ def _declares_symmetry(robot) -> bool:
     return bool(np.allclose(lengths, lengths[::-1]))
 
 
-def _feasibility(robot, gait: FourierGait, order: int):
-    """The feasible region of a simulator's system (``current_system()``) as step constraints, or None."""
-    system = robot.current_system() if hasattr(robot, "current_system") else None
-    return None if system is None else feasibility_constraint(system, gait.n_joints, order)
 

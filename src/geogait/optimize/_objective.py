@@ -38,7 +38,7 @@ from ..systems import FeasibleSystem
 
 __all__ = [
     "OBJECTIVES", "default_objective", "feasibility_constraint", "objective", "path_length", "joint_limit_constraints",
-    "rms_speed",
+    "rms_speed", "robot_feasibility",
 ]
 
 OBJECTIVES = ("progress", "efficiency", "forward", "budget")
@@ -214,12 +214,41 @@ def feasibility_constraint(system, n_joints: int, order: int):
     """
     if not isinstance(system, FeasibleSystem):
         return None
+    return _region_rows(system.feasibility, n_joints, order)
+
+
+def robot_feasibility(robot, n_joints: int, order: int):
+    """The feasible region a robot declares, as :func:`feasibility_constraint`'s rows (None: none).
+
+    A robot's own ``feasibility(shapes, jacobian=False)`` (e.g. a :class:`~geogait.systems.LinearRegion`, what
+    :class:`~geogait.robots.ProcessRobot` offers when the driver's hello declares ``"shape_constraints"``) comes
+    first; otherwise a simulator's system (``current_system()``) when it is a
+    :class:`~geogait.systems.FeasibleSystem`.
+
+    Parameters
+    ----------
+    robot : Robot
+    n_joints : int
+    order : int
+
+    Returns
+    -------
+    callable or None
+    """
+    own = getattr(robot, "feasibility", None)
+    if callable(own):
+        return _region_rows(own, n_joints, order)
+    system = robot.current_system() if callable(getattr(robot, "current_system", None)) else None
+    return None if system is None else feasibility_constraint(system, n_joints, order)
+
+
+def _region_rows(feasibility, n_joints: int, order: int):
     phase = np.linspace(0, 2 * np.pi, FEASIBILITY_PHASES * order, endpoint=False)
     basis = fourier_basis(phase, order)  # (n, c)
 
     def rows(params):
         shapes = basis @ np.reshape(params, (n_joints, -1)).T  # (n, d)
-        value, gradient = system.feasibility(shapes, jacobian=True)
+        value, gradient = feasibility(shapes, jacobian=True)
         return value - FEASIBILITY_SLACK, (gradient[:, :, None] * basis[:, None, :]).reshape(len(phase), -1)
 
     return rows

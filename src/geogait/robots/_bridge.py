@@ -14,8 +14,11 @@ whose motion reverses with time (the optimiser then searches the rotation-free s
 (then, on a robot without that front–back symmetry, the rotation-free half-wave symmetric family);
 ``"joint_ranges": [[low,
 high], ...]`` (one pair per joint, shape units, low < 0 < high) the joint limits the optimiser
-derives its own from; ``"chain": {"link_lengths": [...], "body_frame": "middle", "frame_offset": [x, y,
-angle], "resistive": true}`` the robot as a chain of straight links, which
+derives its own from; ``"shape_constraints": [[a_0, ..., a_(d-1), b], ...]`` linear shape limits
+a · r ≤ b (e.g. ``[1, -1, 0.9]`` and ``[-1, 1, 0.9]`` for joints that may not bend more than 0.9 rad
+against each other) that every commanded gait keeps on its phase grid, as it keeps the joint limits
+(:class:`~geogait.systems.LinearRegion`); ``"chain": {"link_lengths": [...], "body_frame": "middle",
+"frame_offset": [x, y, angle], "resistive": true}`` the robot as a chain of straight links, which
 :class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`): n_joints + 1
 lengths, tail first; ``body_frame`` one of :class:`~geogait.systems.PurcellSwimmer`'s frames or a link
 index (default ``"middle"``); ``frame_offset`` optional; ``resistive`` (default false) says the medium's
@@ -88,7 +91,7 @@ from .._validation import GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory
-from ..systems import BODY_FRAMES
+from ..systems import BODY_FRAMES, LinearRegion
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
 
@@ -146,6 +149,11 @@ class ProcessRobot:
         As declared by the driver (None: not said).
     joint_ranges : ndarray of shape (d, 2) or None
         As declared by the driver (None: not said).
+    shape_constraints : LinearRegion or None
+        The linear shape limits the driver declared (None: not said).
+    feasibility : callable or None
+        ``shape_constraints.feasibility``: the region the optimiser and the path follower keep every commanded
+        gait in (:func:`~geogait.optimize.robot_feasibility`); None without constraints.
     chain : dict or None
         The chain geometry the driver declared (None: not said): :meth:`chain_geometry`'s keyword arguments.
     resistive_medium : bool
@@ -515,6 +523,20 @@ class ProcessRobot:
             self.joint_ranges = values
         self.chain, self.resistive_medium = (None, False) if hello.get("chain") is None \
             else self._read_chain(hello["chain"])
+        self.shape_constraints = None if hello.get("shape_constraints") is None \
+            else self._read_constraints(hello["shape_constraints"])
+        self.feasibility = None if self.shape_constraints is None else self.shape_constraints.feasibility
+
+    def _read_constraints(self, rows) -> LinearRegion:
+        """The hello's ``shape_constraints``: rows [a_0 … a_(d-1), b], a · r ≤ b, a not all zero."""
+        d = self.n_joints
+        if isinstance(rows, list) and 1 <= len(rows) <= 10_000 and all(
+                isinstance(row, list) and len(row) == d + 1 and all(map(_is_number, row)) for row in rows):
+            values = np.array(rows, dtype=float)
+            if np.all(np.isfinite(values)) and np.all(np.abs(values[:, :d]).max(axis=1) > 0):
+                return LinearRegion.from_rows(values)
+        raise self._failure(f"'shape_constraints' must be a list of rows [a_0, ..., a_{d - 1}, b] of finite numbers "
+                            f"(a · shape <= b, shape units; a not all zero), got {_cut(repr(rows), 80)}")
 
     def _read_chain(self, chain) -> tuple[dict, bool]:
         """The hello's ``chain`` (n_joints + 1 positive link lengths, a body frame, an optional frame offset) and

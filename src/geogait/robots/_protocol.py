@@ -32,12 +32,14 @@ __all__ = ["Robot", "check_robot", "ROBOT_EXTRAS"]
 #: for the next cycle instead of the robot's own: the optimiser's ``exploration``),
 #: ``set_cycle_period(seconds)`` (run the following cycles at that period, or the nearest the robot
 #: can time, read back from ``cycle_period``: the optimiser's ``optimize_period``), ``joint_ranges``
-#: ((d, 2) array of joint limits in shape units: the optimiser's automatic limit) and
+#: ((d, 2) array of joint limits in shape units: the optimiser's automatic limit), ``feasibility(shapes,
+#: jacobian=False)`` (a signed margin ≥ 0 inside the shapes the robot may take, e.g. a
+#: :class:`~geogait.systems.LinearRegion`: every commanded gait keeps it) and
 #: ``front_back_symmetric`` (bool: the symmetric gait family applies) and ``mirror_symmetric`` (bool:
 #: the body and its medium read the same in a mirror along the body's axis, so the half-wave
 #: symmetric gait family applies).
 ROBOT_EXTRAS = ("current_system", "robot_state", "restore_robot_state", "close", "set_excitation",
-                "set_cycle_period", "joint_ranges", "front_back_symmetric", "mirror_symmetric")
+                "set_cycle_period", "joint_ranges", "feasibility", "front_back_symmetric", "mirror_symmetric")
 
 
 @runtime_checkable

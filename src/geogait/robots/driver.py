@@ -35,6 +35,9 @@ def _arguments(argv):
     parser.add_argument("--period", type=float, default=1.0, help="seconds per cycle (default 1)")
     parser.add_argument("--samples-per-cycle", type=int, default=100, help="samples per cycle (default 100)")
     parser.add_argument("--poses-only", action="store_true", help="send poses but no body velocities")
+    parser.add_argument("--shape-constraints", default=None,
+                        help="JSON rows [a_0, ..., a_(d-1), b] (a · shape <= b) the hello declares, e.g. "
+                             "'[[1, -1, 1.6], [-1, 1, 1.6]]' for |r0 - r1| <= 1.6")
     parser.add_argument("--protocol", type=int, choices=(1, 2), default=2,
                         help="protocol version to speak (default 2: the swimmer runs the exploration geogait sends)")
     return parser.parse_args(argv)
@@ -75,6 +78,11 @@ def main(argv=None) -> int:
              "gait": {"order": stream.gait.order, "params": stream.gait.params.tolist()}}
     if excitation:
         hello["excitation"] = True
+    if args.shape_constraints is not None:
+        try:
+            hello["shape_constraints"] = json.loads(args.shape_constraints)
+        except json.JSONDecodeError as error:
+            raise SystemExit(f"error: --shape-constraints must be JSON rows [a_0, ..., a_(d-1), b]: {error}") from None
     if hasattr(stream, "chain_geometry"):  # the swimmer: its chain, for the resistance model
         geometry = stream.chain_geometry()
         hello["chain"] = {"link_lengths": [float(v) for v in geometry["link_lengths"]],

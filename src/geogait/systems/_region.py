@@ -1,5 +1,5 @@
 r"""A feasible shape region of the user's on any system (a joint that must stay bent one way, a
-self-collision, a singular set the user knows).
+self-collision, a singular set the user knows), and linear shape limits a robot declares.
 
 The user gives a smooth margin :math:`g(r)`, positive inside the region (radians for a distance);
 :class:`RegionSystem` makes the system a :class:`~geogait.systems.FeasibleSystem`, so that
@@ -19,7 +19,7 @@ from .._validation import GeogaitError, fail
 from ..gaits import FourierGait
 from ._base import check_shapes
 
-__all__ = ["RegionSystem"]
+__all__ = ["LinearRegion", "RegionSystem"]
 
 _STEP = 1e-6  # central differences of the margin (error ~1e-10 for a smooth g of unit scale)
 _CHECK_PHASES = 1024  # the seed gait is checked on this many phases
@@ -146,3 +146,77 @@ class RegionSystem:
         if not np.all(np.isfinite(value)):
             raise GeogaitError(f"The '{what}' callable of {self.name} must return finite values. Got NaN or inf.")
         return value
+
+
+class LinearRegion:
+    r"""Shapes within linear limits :math:`a_i \cdot r \le b_i`: the region a robot declares without a
+    simulator (joints that may not bend far against each other, :math:`|r_0 - r_1| \le c`; a self-collision
+    half-plane).
+
+    The margin is the least signed distance to a face, :math:`g(r) = \min_i (b_i - a_i\cdot r) / |a_i|` (in the
+    shape's units: radians for joint angles), with the gradient of the nearest face. A robot offers it as its
+    ``feasibility`` (the bridge's hello field ``"shape_constraints"``), and
+    :class:`~geogait.optimize.InSituOptimizer` and :class:`~geogait.control.PathTracker` keep every gait they
+    command inside it on their phase grids, as they keep the joint limits.
+
+    Parameters
+    ----------
+    normals : array-like of shape (m, d)
+        The rows :math:`a_i`, none zero.
+    bounds : array-like of shape (m,)
+        The :math:`b_i`.
+
+    Examples
+    --------
+    >>> bent_apart = LinearRegion([[1.0, -1.0], [-1.0, 1.0]], [1.2, 1.2])  # |r0 - r1| <= 1.2
+    >>> bool(bent_apart.feasible([0.5, -0.5])), bool(bent_apart.feasible([0.8, -0.8]))
+    (True, False)
+    >>> round(float(bent_apart.feasibility([0.0, 0.0])), 4)  # 1.2 / sqrt(2)
+    0.8485
+    """
+
+    def __init__(self, normals, bounds):
+        owner = "LinearRegion"
+        normals, bounds = np.asarray(normals, dtype=float), np.asarray(bounds, dtype=float)
+        if normals.ndim != 2 or normals.shape[0] < 1 or bounds.shape != (normals.shape[0],):
+            raise fail("normals", owner, "an (m, d) array with m >= 1 and bounds of shape (m,)",
+                       f"shapes {normals.shape} and {bounds.shape}")
+        lengths = np.linalg.norm(normals, axis=1)
+        if not (np.all(np.isfinite(normals)) and np.all(np.isfinite(bounds)) and np.all(lengths > 0)):
+            raise fail("normals", owner, "finite rows, none zero, and finite bounds", normals.tolist())
+        self.normals, self.bounds, self._lengths = normals, bounds, lengths
+
+    @classmethod
+    def from_rows(cls, rows) -> LinearRegion:
+        """From rows ``[a_0, …, a_{d-1}, b]`` (the bridge hello's ``"shape_constraints"``)."""
+        rows = np.asarray(rows, dtype=float)
+        if rows.ndim != 2 or rows.shape[1] < 2:
+            raise fail("rows", "LinearRegion.from_rows", "rows [a_0, ..., a_(d-1), b]", f"shape {rows.shape}")
+        return cls(rows[:, :-1], rows[:, -1])
+
+    @property
+    def n_joints(self) -> int:
+        return self.normals.shape[1]
+
+    def __repr__(self) -> str:
+        return f"LinearRegion(normals={self.normals.tolist()}, bounds={self.bounds.tolist()})"
+
+    def feasibility(self, shapes, jacobian: bool = False):
+        """Signed margin g(r) ``(...,)``, ≥ 0 inside (and ∂g/∂r ``(..., d)`` with ``jacobian``).
+
+        Parameters
+        ----------
+        shapes : array-like of shape (..., d)
+        jacobian : bool, default False
+        """
+        shapes = check_shapes(shapes, self.n_joints, "LinearRegion.feasibility")
+        distance = (self.bounds - shapes @ self.normals.T) / self._lengths  # (..., m)
+        nearest = np.argmin(distance, axis=-1)
+        margin = np.take_along_axis(distance, nearest[..., None], axis=-1)[..., 0]
+        if not jacobian:
+            return margin
+        return margin, -(self.normals / self._lengths[:, None])[nearest]
+
+    def feasible(self, shapes) -> np.ndarray:
+        """``feasibility(shapes) >= 0`` as a bool array ``(...,)``."""
+        return self.feasibility(shapes) >= 0
