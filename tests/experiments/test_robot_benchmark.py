@@ -314,3 +314,31 @@ def test_the_cobyqa_baseline_is_scipys_cobyqa_from_the_seed(monkeypatch):
         np.testing.assert_allclose(asked[k] - seed, case.max_joint_angle / 8 * np.eye(seed.size)[k - 1], atol=1e-12)
     best = int(np.argmax(values))
     np.testing.assert_allclose(trace.at(5)[0].params, family.gait(asked[best]).params)
+
+
+def test_a_candidate_outside_the_declared_region_is_answered_unrun_with_the_worst_value():
+    """The wheeled snake declares a margin from its singular line: a black-box candidate that crosses it is not
+    run and not charged; it gets the worst value measured so far, as geogait's own climb answers it."""
+    case = bench.CASES["wheeled-snake"]
+    robot = bench._CountingRobot(case.make_robot(None, explore=False, noise=False))
+    family = bench._Family(case, robot.gait, robot.cycle_period)
+    objective = bench._Objective(case, robot, family, 10, held=False, seed_value=0.28)
+    assert objective.region is not None
+    seed_value = objective(family.seed_params)
+    assert robot.cycles == 1 and seed_value == pytest.approx(0.28, rel=0.01)
+    smaller = family.seed_params.copy()
+    smaller[[1, 2, 4, 5]] *= 0.5  # the seed's offsets ±0.6, half its amplitude: inside, and slower
+    slower = objective(smaller)
+    assert slower < seed_value
+    crossing = family.seed_params.copy()
+    crossing[[0, 3]] = 0.0  # no offsets: the two joints cross each other, r0 = r1, every cycle
+    assert objective(crossing) == slower and robot.cycles == 2 and objective.refused == 1
+    objective.refused = objective.MAX_REFUSALS_PER_CYCLE * objective.budget
+    assert not objective.affordable()  # a method that only asks for such candidates stops
+
+
+def test_the_wheeled_snakes_ceiling_keeps_its_margin():
+    case = bench.CASES["wheeled-snake"]
+    snake = case.make_robot(None, explore=False, noise=False).current_system()
+    phases = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    assert snake.feasibility(case.ceiling().shape(phases)).min() >= 0
