@@ -40,11 +40,13 @@ def lagging_gain(period):
 class LaggingRobot:
     """A kinematic 3-link swimmer driven by first-order actuators: at period T every joint realises
     the command scaled by 1/√(1 + (2πτ/T)²). Shorter cycles are faster until the joints no longer
-    follow, so speed per second peaks at a period the model cannot know (about 2πτ).
+    follow, so speed per second peaks at a period the model cannot know (about 2πτ). With ``joint_stop``
+    every joint also stops at ±joint_stop rad (it rests there, at zero rate, while the command goes beyond).
     Written here, independently of the package's robots: the Robot protocol and set_cycle_period.
     """
 
-    def __init__(self, cycle_period=1.0, samples_per_cycle=80, seed=0):
+    def __init__(self, cycle_period=1.0, samples_per_cycle=80, seed=0, joint_stop=None):
+        self.joint_stop = joint_stop
         self.system = PurcellSwimmer(3)
         self.n_joints, self.cycle_period, self.samples = 2, cycle_period, samples_per_cycle
         self._gait, self.pose, self.elapsed = seed_gait(2), np.zeros(3), 0.0
@@ -80,6 +82,9 @@ class LaggingRobot:
         commanded = self._gait.shape(phase) + wobble
         shape = gain * commanded
         shape_velocity = gain * (self._gait.velocity(phase) + wobble_rate) * rate
+        if self.joint_stop is not None:
+            stopped = np.abs(shape) > self.joint_stop
+            shape, shape_velocity = np.clip(shape, -self.joint_stop, self.joint_stop), np.where(stopped, 0, shape_velocity)
         body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
         poses = se2.integrate_body_velocity(body_velocity, period / n, self.pose)
         self.pose = poses[-1]
@@ -93,8 +98,8 @@ class LaggingRobot:
 
 class CoastingSwimmer:
     """The built-in 3-link swimmer whose body velocity lags the kinematic one through a first-order filter
-    (time constant ``tau`` s): a body with inertia that coasts. Its net motion per cycle shrinks as the cycles
-    get shorter. Written here, around SwimmerStream, with its pose re-integrated from the lagged velocity."""
+    (time constant ``tau`` s): a body with inertia that coasts. Its net motion per cycle changes with the cycle
+    period. Written here, around SwimmerStream, with its pose re-integrated from the lagged velocity."""
 
     def __init__(self, tau=0.1, seed=0):
         self.stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=seed, samples_per_cycle=100)

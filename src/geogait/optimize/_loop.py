@@ -490,13 +490,16 @@ class CycleLoop:
         state.promised = None
         state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         previous = (state.previous_gait, state.previous_period)
+        trial = search is not None and search.trial_from is not None
+        if state.climb.candidate != (state.gait, state.period) and not trial:
+            state.distrust += 1  # the model chose a gait the robot cannot run: a promise measured broken
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
             if state.climb.search is not None:
                 state.climb.search.refuse(state.climb.pending)
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
             previous = state.climb.base  # (the gait before it may be another failed candidate)
         self._change_gait(*previous)
-        if search is not None and search.trial_from is not None:  # a period the robot cannot follow
+        if trial:  # a period the robot cannot follow
             search.judge(-np.inf, 0.0)
             search.turn = False
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
