@@ -252,8 +252,9 @@ def test_a_checkpoint_from_before_the_climb_rule_resumes_with_the_evolution_stra
 @pytest.mark.parametrize("climb", [True, "contradicted"])
 def test_model_steps_the_robot_cannot_follow_hand_the_steps_to_the_measured_climb(climb):
     """Joints that stop at 1.1 rad: the model (kinematic, no actuator limits) keeps proposing larger gaits, which
-    the robot cannot follow. Two such rejections without a kept promise between them are two broken promises: the
-    climb takes over (before the rejections counted, none had by cycle 30)."""
+    the robot cannot follow and which do not gain what the model promised. Two such rejections without a kept
+    promise between them are two broken promises: the climb takes over (before they counted, none had by cycle
+    30)."""
     log = InSituOptimizer(climb=climb).run(LaggingRobot(cycle_period=20.0, joint_stop=1.1, seed=1), 30).log
     assert log["climb"].any()
     first = int(np.flatnonzero(log["climb"])[0])

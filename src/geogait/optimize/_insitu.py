@@ -200,7 +200,8 @@ class InSituOptimizer(Estimator):
     climb : bool, "contradicted" or "first"
         When measured outcomes contradict the model — two broken promises in a row (a promised gain
         of at least 1 % unconfirmed at the smallest trust radius, a revert to the best gait, or a model
-        step to a gait the robot could not follow: a tracking rejection), its
+        step to a gait the robot could not follow whose cycle measured under a quarter of the promised
+        gain), its
         prediction check failed twice in a row, or cycles without exploration — or when the model
         has levelled off (three gate decisions in a row without a step promising 1 %), take steps from the
         measured outcomes instead (COBYQA or an evolution strategy in the same family and limits:

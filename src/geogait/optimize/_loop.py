@@ -95,7 +95,7 @@ class CycleLoop:
                 state.seed_measured.append(value)
                 state.seed_tracking.append(measured.tracking_error)
                 state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.seed_tracking)))
-            rejected = self._tracking_rejects(measured)
+            rejected = self._tracking_rejects(measured, value)
             if not rejected:
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
@@ -476,8 +476,9 @@ class CycleLoop:
         state.iteration_measured = list(values)
         state.measured[(state.gait, state.period)] = [v * state.rate(state.period) for v in values]
 
-    def _tracking_rejects(self, measured) -> bool:
-        """Reject the current gait (back to the previous one) if the robot could not follow it."""
+    def _tracking_rejects(self, measured, value: float) -> bool:
+        """Reject the current gait (back to the previous one) if the robot could not follow it; a model step
+        whose cycle (``value``, the measured objective) also fell short of its promise is a broken promise."""
         optimizer, state = self.optimizer, self.state
         search = state.period_search
         if search is not None and search.trial_from is not None:
@@ -487,12 +488,14 @@ class CycleLoop:
         limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
+        trial = search is not None and search.trial_from is not None
+        if state.promised is not None and state.climb.candidate != (state.gait, state.period) and not trial:
+            before, promised, _ = state.promised  # a model step: did the cycle the robot ran deliver its gain?
+            if abs(promised - before) >= 0.01 * abs(before) and (value - before) < 0.25 * (promised - before):
+                state.distrust += 1  # a gait the robot cannot run, and a gain not measured: a broken promise
         state.promised = None
         state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         previous = (state.previous_gait, state.previous_period)
-        trial = search is not None and search.trial_from is not None
-        if state.climb.candidate != (state.gait, state.period) and not trial:
-            state.distrust += 1  # the model chose a gait the robot cannot run: a promise measured broken
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
             if state.climb.search is not None:
                 state.climb.search.refuse(state.climb.pending)
