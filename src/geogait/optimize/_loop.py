@@ -19,7 +19,15 @@ from ._models import gate_kind, run_model
 from ._objective import joint_limit_constraints, objective
 from ._result import InSituResult
 from ._search import QuadraticSearch, onto_joint_limit
-from ._state import CHECKPOINT_FORMAT, CHECKPOINT_VERSION, REJECTION_FLOOR, TRACKING_FLOOR, family_kind, params_to_json
+from ._state import (
+    CHECKPOINT_FORMAT,
+    CHECKPOINT_VERSION,
+    REJECTION_FLOOR,
+    TRACKING_FLOOR,
+    broken_promise,
+    family_kind,
+    params_to_json,
+)
 from ._steps import StepProblem, take_step
 
 
@@ -490,9 +498,8 @@ class CycleLoop:
             return False
         trial = search is not None and search.trial_from is not None
         if state.promised is not None and state.climb.candidate != (state.gait, state.period) and not trial:
-            before, promised, _ = state.promised  # a model step: did the cycle the robot ran deliver its gain?
-            if abs(promised - before) >= 0.01 * abs(before) and (value - before) < 0.25 * (promised - before):
-                state.distrust += 1  # a gait the robot cannot run, and a gain not measured: a broken promise
+            if broken_promise(*state.promised[:2], value):  # a model step the robot could not run, gain unmeasured
+                state.distrust += 1
         state.promised = None
         state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         previous = (state.previous_gait, state.previous_period)

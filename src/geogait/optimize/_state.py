@@ -26,6 +26,17 @@ TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never f
 #: shape_scale units: after a gait the robot could not follow, the trust radius halves down to this even below
 #: min_trust_radius (a rejection is a measured fact, not a noisy ratio test); the default min_trust_radius.
 REJECTION_FLOOR = 0.02
+#: The trust region's ratio test, gain seen over gain promised: under BROKEN_PROMISE the promise is broken (the
+#: radius halves), over KEPT_PROMISE it is kept (a step that reached the boundary grows the radius by RADIUS_GROWTH);
+#: only a promise of at least SIGNIFICANT_GAIN (relative) can count as broken.
+BROKEN_PROMISE, KEPT_PROMISE, RADIUS_GROWTH, SIGNIFICANT_GAIN = 0.25, 0.75, 1.5, 0.01
+
+
+def broken_promise(before: float, promised: float, seen: float) -> bool:
+    """A promise worth checking (a change of at least ``SIGNIFICANT_GAIN``), under ``BROKEN_PROMISE`` of it seen."""
+    if promised == before or abs(promised - before) < SIGNIFICANT_GAIN * abs(before):
+        return False
+    return (seen - before) / (promised - before) < BROKEN_PROMISE
 
 
 def read_checkpoint_metadata(path) -> dict:
@@ -153,14 +164,13 @@ class RunState:
             return
         before, promised, boundary = self.promised
         ratio = (value_now - before) / (promised - before) if promised != before else 1.0
-        # a promise worth checking (at least 1 %) broken at the smallest radius: the model misleads
-        significant = abs(promised - before) >= 0.01 * abs(before)
-        self.distrust = self.distrust + 1 if ratio < 0.25 and significant and self.radius <= low * (1 + 1e-12) \
-            else 0
-        if ratio < 0.25:  # (a radius a rejection took below low stays there)
+        # a promise worth checking broken at the smallest radius: the model misleads
+        at_floor = self.radius <= low * (1 + 1e-12)
+        self.distrust = self.distrust + 1 if at_floor and broken_promise(before, promised, value_now) else 0
+        if ratio < BROKEN_PROMISE:  # (a radius a rejection took below low stays there)
             self.radius = max(min(low, self.radius), self.radius / 2)
-        elif ratio > 0.75 and boundary:
-            self.radius = min(high, self.radius * 1.5)
+        elif ratio > KEPT_PROMISE and boundary:
+            self.radius = min(high, self.radius * RADIUS_GROWTH)
         self.promised = None
 
     # -- checkpoint ---------------------------------------------------------------------------
