@@ -120,3 +120,19 @@ def test_a_bridge_driver_declares_shape_constraints(tmp_path):
     bad = [sys.executable, "-m", "geogait.robots.driver", "--shape-constraints", "[[1, -1]]"]
     with pytest.raises(ValueError, match="'shape_constraints' must be a list of rows"):
         ProcessRobot(bad)
+
+
+def test_a_robot_runs_summary_records_the_declared_limits(tmp_path):
+    import json
+    import shlex
+
+    from typer.testing import CliRunner
+
+    from geogait.cli import app
+
+    driver = shlex.join([sys.executable, "-m", "geogait.robots.driver", "--shape-constraints",
+                         f"[[1, -1, {APART}], [-1, 1, {APART}]]"])
+    result = CliRunner().invoke(app, ["optimize", "--robot", driver, "--cycles", "2", "--out", str(tmp_path / "run")])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["results"]["robot"]["shape_constraints"] == [[1.0, -1.0, APART], [-1.0, 1.0, APART]]

@@ -192,8 +192,11 @@ _SWIMMER_ONLY = ("links", "seed", "noise", "perturbation", "period")
 def _declared(robot, result) -> dict:
     """What the robot declared and what the run made of it (a --robot run's summary)."""
     ranges = getattr(robot, "joint_ranges", None)
+    region = getattr(robot, "shape_constraints", None)  # (a bridge driver's linear limits, a · r <= b)
     return {"n_joints": int(robot.n_joints), "cycle_period_s": float(robot.cycle_period),
             "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
+            "shape_constraints": None if region is None
+            else np.column_stack([region.normals, region.bounds]).tolist(),
             "seed_gait_params": result.initial_gait.params.tolist(),
             "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
             "chain": getattr(robot, "chain", None), "resistive_medium": bool(getattr(robot, "resistive_medium", False)),
