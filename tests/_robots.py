@@ -84,7 +84,8 @@ class LaggingRobot:
         shape_velocity = gain * (self._gait.velocity(phase) + wobble_rate) * rate
         if self.joint_stop is not None:
             stopped = np.abs(shape) > self.joint_stop
-            shape, shape_velocity = np.clip(shape, -self.joint_stop, self.joint_stop), np.where(stopped, 0, shape_velocity)
+            shape = np.clip(shape, -self.joint_stop, self.joint_stop)
+            shape_velocity = np.where(stopped, 0, shape_velocity)
         body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
         poses = se2.integrate_body_velocity(body_velocity, period / n, self.pose)
         self.pose = poses[-1]

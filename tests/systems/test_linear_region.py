@@ -30,7 +30,8 @@ finite = st.floats(-3, 3, allow_nan=False)
 
 
 @settings(max_examples=60, deadline=None)
-@given(arrays(float, (3, 2), elements=finite), arrays(float, 3, elements=finite), arrays(float, (5, 2), elements=finite))
+@given(arrays(float, (3, 2), elements=finite), arrays(float, 3, elements=finite),
+       arrays(float, (5, 2), elements=finite))
 def test_the_margin_is_the_least_distance_to_a_face_and_its_gradient_the_nearest_faces(normals, bounds, shapes):
     normals = normals + np.where(np.linalg.norm(normals, axis=1, keepdims=True) < 0.1, 1.0, 0.0)  # no zero rows
     region = LinearRegion(normals, bounds)

@@ -240,7 +240,8 @@ class InSituOptimizer(Estimator):
         :mod:`geogait.optimize._model_class`): the seed gait runs this many clean cycles at the robot's
         period and as many at twice (or half) it, and when its net motion per cycle changes with the
         period (beyond noise and by more than 5 %) the run warns and keeps the model's gate shut: steps come
-        from measured outcomes only. Costs 2 × this + 2 cycles; needs a robot with ``set_cycle_period``.
+        from measured outcomes only. Costs 2 × this + 2 cycles (more with ``settle_cycles``); needs a robot
+        with ``set_cycle_period``.
         0 (default): no test. Otherwise at least 3.
     random_state : int or None
         Seed of the climb's random directions (default 0: runs repeat exactly; an int, so that a
