@@ -93,17 +93,12 @@ def model_class_verdict(log: Log, cycle, *, z: float = 3.0, tolerance: float = 0
     -------
     ModelClassVerdict
     """
-    z = check_float(z, "z", _OWNER, low=0, low_open=True)
-    tolerance = check_float(tolerance, "tolerance", _OWNER, low=0)
-    min_period_ratio = check_float(min_period_ratio, "min_period_ratio", _OWNER, low=1, low_open=True)
-    min_cycles = check_int(min_cycles, "min_cycles", _OWNER, minimum=2)
+    settings = _settings(z, tolerance, min_period_ratio, min_cycles, _OWNER)
     cycle = np.asarray(cycle)
     if cycle.shape != (log.n_samples,) or not np.issubdtype(cycle.dtype, np.integer):
         raise fail("cycle", _OWNER, f"an int array of shape ({log.n_samples},): the cycle of every sample",
                    f"{cycle.dtype} array of shape {cycle.shape}")
-    periods, nets, amplitudes = _complete_cycles(log, cycle)
-    return period_verdict(periods, nets, amplitudes, z=z, tolerance=tolerance, min_period_ratio=min_period_ratio,
-                          min_cycles=min_cycles, time_unit=log.time_unit)
+    return _judge(*_complete_cycles(log, cycle), *settings, log.time_unit)
 
 
 def period_verdict(period, net_motion, shape_amplitude, *, z: float = 3.0, tolerance: float = 0.05,
@@ -131,10 +126,7 @@ def period_verdict(period, net_motion, shape_amplitude, *, z: float = 3.0, toler
     ModelClassVerdict
     """
     owner = "period_verdict"
-    z = check_float(z, "z", owner, low=0, low_open=True)
-    tolerance = check_float(tolerance, "tolerance", owner, low=0)
-    min_period_ratio = check_float(min_period_ratio, "min_period_ratio", owner, low=1, low_open=True)
-    min_cycles = check_int(min_cycles, "min_cycles", owner, minimum=2)
+    settings = _settings(z, tolerance, min_period_ratio, min_cycles, owner)
     periods = np.asarray(period, dtype=float).reshape(-1)
     nets = np.asarray(net_motion, dtype=float)
     amplitudes = np.asarray(shape_amplitude, dtype=float)
@@ -143,6 +135,17 @@ def period_verdict(period, net_motion, shape_amplitude, *, z: float = 3.0, toler
                    f"{periods.size} periods", f"shapes {nets.shape} and {amplitudes.shape}")
     if not (np.all(np.isfinite(nets)) and np.all(np.isfinite(amplitudes)) and np.all(periods > 0)):
         raise fail("net_motion", owner, "finite motions and amplitudes, positive periods", "NaN, inf or a period <= 0")
+    return _judge(periods, nets, amplitudes, *settings, time_unit)
+
+
+def _settings(z, tolerance, min_period_ratio, min_cycles, owner: str) -> tuple:
+    return (check_float(z, "z", owner, low=0, low_open=True), check_float(tolerance, "tolerance", owner, low=0),
+            check_float(min_period_ratio, "min_period_ratio", owner, low=1, low_open=True),
+            check_int(min_cycles, "min_cycles", owner, minimum=2))
+
+
+def _judge(periods, nets, amplitudes, z, tolerance, min_period_ratio, min_cycles, time_unit) -> ModelClassVerdict:
+    """The verdict from checked per-cycle arrays and settings (module notes)."""
     unit = f" {time_unit}" if time_unit else ""
     if periods.size < 2 * min_cycles:
         return ModelClassVerdict(None, f"{periods.size} complete cycles: too few to compare periods")

@@ -489,14 +489,14 @@ class CycleLoop:
         whose cycle (``value``, the measured objective) also fell short of its promise is a broken promise."""
         optimizer, state = self.optimizer, self.state
         search = state.period_search
-        if search is not None and search.trial_from is not None:
+        trial = search is not None and search.trial_from is not None
+        if trial:
             state.trial_tracking.append(measured.tracking_error)
             if optimizer.max_tracking_error == "auto":  # another period tracks otherwise: judged by outcome
                 return False
         limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
-        trial = search is not None and search.trial_from is not None
         if state.promised is not None and state.climb.candidate != (state.gait, state.period) and not trial:
             if broken_promise(*state.promised[:2], value):  # a model step the robot could not run, gain unmeasured
                 state.distrust += 1
