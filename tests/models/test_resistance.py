@@ -164,6 +164,27 @@ def test_the_hybrid_learns_what_the_resistive_structure_misses():
     assert np.median(connection_error(alone, swimmer, rng, reach=1.0)) < 0.02
 
 
+@pytest.mark.parametrize("noise", [0.0, 0.1])
+def test_the_residual_share_tells_a_resistive_medium_from_one_that_is_not(noise):
+    """The hybrid's residual share: zero on the swimmer's own noise-free samples (the structure is exact),
+    noise-sized with 10 % sensor noise, and of the drift's size where a forward drift no drag coefficients
+    make is added; NaN for the structure alone."""
+    swimmer = PurcellSwimmer(3)
+
+    def drifting(shapes):
+        extra = np.zeros(np.shape(shapes)[:-1] + (3, 2))
+        extra[..., 0, :] = 0.05 * np.cos(shapes)
+        return swimmer.connection(shapes) + extra
+
+    shares = {}
+    for name, system in (("resistive", swimmer), ("drifting", FunctionSystem(drifting, 2))):
+        run = simulate(system, seed_gait(2), n_cycles=4, sensor_noise=noise, seed=5)
+        shares[name] = fit_by_cycles(ResistanceModel.from_swimmer(swimmer, residual_degree=2), run, 4).residual_share_
+        assert np.isnan(fit_by_cycles(ResistanceModel.from_swimmer(swimmer), run, 4).residual_share_)
+    assert shares["resistive"] < (1e-6 if noise == 0 else 0.1)
+    assert shares["drifting"] > 0.5
+
+
 def test_forgetting_relearns_a_changed_medium():
     gait = seed_gait(4)
     before = simulate(PurcellSwimmer(5, drag_ratio=2.0), gait, n_cycles=8, sensor_noise=0.05, seed=8)

@@ -536,7 +536,8 @@ def _variant_options(robot, variant: str) -> dict | None:
 
 def case_optimizer(case: BenchmarkCase, **options) -> InSituOptimizer:
     """The in-situ optimiser the benchmark runs on ``case``: its objective (``"forward"`` in the body frame),
-    joint limit, settling cycles, gait family and period range, with ``options`` (further
+    joint limit, settling cycles, gait family, period range and rotation limit (``rotation_tolerance``: what
+    the held black-box methods are held to), with ``options`` (further
     :class:`~geogait.optimize.InSituOptimizer` parameters) on top.
 
     Parameters
@@ -550,7 +551,7 @@ def case_optimizer(case: BenchmarkCase, **options) -> InSituOptimizer:
     InSituOptimizer
     """
     settings = dict(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
-                    family="free" if case.family == "free" else "auto")
+                    family="free" if case.family == "free" else "auto", rotation_tolerance=case.rotation_limit)
     if case.objective == "forward":
         settings.update(objective="forward", direction=case.direction, direction_frame="body")
     if case.period_range is not None:

@@ -113,7 +113,12 @@ class InSituOptimizer(Estimator):
         instead, with the structured model's step settings (``geogait.optimize.STRUCTURED_MODEL_STEPS``:
         SQP, trust radius 0.25–0.5, the measured climb only when contradicted) for those of
         ``step_rule``, ``climb`` and the trust region (``trust_radius``, ``min_trust_radius``,
-        ``max_trust_radius``, taken together) left at their defaults.
+        ``max_trust_radius``, taken together) left at their defaults. A structured model that reports how
+        much of its prediction the physics leaves to the data (``residual_share_``: the hybrid
+        ``ResistanceModel(residual_degree=...)``) and reports more than 0.15 at a decision before the climb
+        has begun is contradicted by its data: the run leans on them, with the data-driven step settings
+        (the defaults of ``step_rule``, ``climb`` and the trust region) for those still at the structured model's, and logs the share
+        (column ``residual_share``).
     gate : {"gamma", "cycles"}, optional
         ``"gamma"`` (paper): a step as soon as the online Γ over the current iteration reaches
         ``gamma_threshold``. ``"cycles"`` (Bittner et al. 2018): ``cycles_per_iteration`` cycles,
@@ -607,12 +612,26 @@ class InSituOptimizer(Estimator):
                 or not callable(getattr(robot, "chain_geometry", None)):
             return None
         defaults = {name: p.default for name, p in inspect.signature(type(self).__init__).parameters.items()}
-        steps = {}
-        for group in (("step_rule",), ("climb",), ("trust_radius", "min_trust_radius", "max_trust_radius")):
-            if all(getattr(self, name) == defaults[name] for name in group):  # a trust region given is kept whole
-                steps.update({name: STRUCTURED_MODEL_STEPS[name] for name in group})
+        steps = self._replace_steps(defaults, STRUCTURED_MODEL_STEPS)
         return type(self)(**{**self.get_params(deep=False), **steps,
                              "model": models.ResistanceModel(**robot.chain_geometry())}).validate()
+
+    def _leaning_on_data(self):
+        """This optimiser with the data-driven step settings (the defaults of ``step_rule``, ``climb`` and the
+        trust region) for each of them still at the structured model's (``STRUCTURED_MODEL_STEPS``), for a
+        structured model whose physics the data contradict; None when every one was set otherwise."""
+        defaults = {name: p.default for name, p in inspect.signature(type(self).__init__).parameters.items()}
+        steps = self._replace_steps(STRUCTURED_MODEL_STEPS, defaults)
+        return type(self)(**{**self.get_params(deep=False), **steps}).validate() if steps else None
+
+    def _replace_steps(self, current: dict, new: dict) -> dict:
+        """``new``'s values of each group of step settings (the step rule, the climb, the trust region taken
+        together: one given is kept whole) whose values here are all ``current``'s."""
+        steps = {}
+        for group in (("step_rule",), ("climb",), ("trust_radius", "min_trust_radius", "max_trust_radius")):
+            if all(getattr(self, name) == current[name] for name in group):
+                steps.update({name: new[name] for name in group})
+        return steps
 
     def _gate(self) -> str:
         return gate_kind(self.gate, self.model)

@@ -23,6 +23,7 @@ from ._state import (
     CHECKPOINT_FORMAT,
     CHECKPOINT_VERSION,
     REJECTION_FLOOR,
+    RESIDUAL_SHARE_LIMIT,
     TRACKING_FLOOR,
     broken_promise,
     family_kind,
@@ -130,6 +131,8 @@ class CycleLoop:
                                   or was_trial and not (search.trial_from is None and state.period == ran_period)))
         if state.check is not None:
             row["model_class_check"] = False
+        if hasattr(type(state.model), "residual_share_"):
+            row["residual_share"] = self._residual_share() if not (settling or rejected) else np.nan
         if step or rejected or reverted:
             state.gaits.append(state.gait)
         state.robot_gait = state.gait
@@ -196,9 +199,12 @@ class CycleLoop:
         Returns the kind of change made (``"period"``, ``"model"``, ``"climb"`` or None) and the
         prediction check's outcome (NaN when none was made).
         """
-        state, optimizer = self.state, self.optimizer
+        state = self.state
         if self.gate == "cycles":
             state.fit_iteration()
+        if state.climb.base is None:  # (the climb has not begun)
+            self._check_structure()
+        optimizer = self.optimizer
         if state.period_search is not None and not state.climb.active and self._period_move():
             return "period", np.nan
         kind, prediction_ok = None, np.nan
@@ -230,6 +236,26 @@ class CycleLoop:
         if kind is None and self.gate == "cycles":  # prior work: another block of cycles, then retry
             state.cycles_in_iteration = 0
         return kind, prediction_ok
+
+    def _check_structure(self) -> None:
+        """Until the climb begins: a structured model whose residual carries more than ``RESIDUAL_SHARE_LIMIT``
+        of its prediction (``residual_share_``: the physics does not hold) hands the run to the data-driven
+        step settings (the defaults of those still at the structured model's: the climb first, the data-driven trust
+        region), as though the model were data-driven."""
+        state = self.state
+        if not self._residual_share() > RESIDUAL_SHARE_LIMIT:
+            return
+        leaning = self.optimizer._leaning_on_data()
+        if leaning is not None:
+            self.optimizer = leaning
+            state.radius = leaning.trust_radius * state.scale
+            state.climb = new_climb(leaning, state.scale)
+
+    def _residual_share(self) -> float:
+        """The model's ``residual_share_`` (NaN for a model without one, or not fitted yet)."""
+        model = self.state.model
+        fitted = getattr(model, "__sklearn_is_fitted__", lambda: True)()
+        return float(getattr(model, "residual_share_", np.nan)) if fitted else np.nan
 
     def _command_period(self) -> None:
         """Command the state's period; the robot may round it (its timing), and the run uses what it runs."""

@@ -1,0 +1,73 @@
+"""A structured model whose physics the data contradict leans on the data: the hybrid resistance model's residual
+share (how much of its prediction the resistive structure leaves to the residual) against the limit, on a medium
+with a forward drift no chain of drag coefficients makes and on the resistive swimmer itself."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from geogait.gaits import seed_gait
+from geogait.models import ResistanceModel
+from geogait.optimize import STRUCTURED_MODEL_STEPS, InSituOptimizer
+from geogait.optimize._state import RESIDUAL_SHARE_LIMIT
+from geogait.simulate import SwimmerStream
+from geogait.systems import FunctionSystem, PurcellSwimmer
+
+SWIMMER = PurcellSwimmer(3)
+
+
+def drifting(shapes):
+    """The swimmer's connection plus a smooth forward drift ∝ cos r: not resistive."""
+    extra = np.zeros(np.shape(shapes)[:-1] + (3, 2))
+    extra[..., 0, :] = 0.05 * np.cos(shapes)
+    return SWIMMER.connection(shapes) + extra
+
+
+def stream(system, seed=3):
+    return SwimmerStream(system, seed_gait(2), sensor_noise=0.1, seed=seed)
+
+
+def hybrid_optimizer(**options):
+    return InSituOptimizer(model=ResistanceModel.from_swimmer(SWIMMER, residual_degree=2),
+                           **{**STRUCTURED_MODEL_STEPS, **options})
+
+
+def first_decision(log) -> int:
+    return int(log.index[log["step"] | log["climb"]][0])
+
+
+def test_a_hybrid_contradicted_by_its_data_climbs_first_and_one_that_holds_steps():
+    drift = hybrid_optimizer().run(stream(FunctionSystem(drifting, 2)), 10).log
+    first = first_decision(drift)
+    assert drift.loc[first, "climb"]  # the data-driven settings: the climb from the first decision
+    assert drift.loc[:first, "residual_share"].max() > RESIDUAL_SHARE_LIMIT
+    holds = hybrid_optimizer().run(stream(SWIMMER), 10).log
+    assert not holds["climb"].any() and holds["step"].any()  # the structured settings: model steps
+    assert holds["residual_share"].iloc[1:].max() < RESIDUAL_SHARE_LIMIT
+
+
+def test_a_step_setting_the_user_chose_is_kept():
+    assert hybrid_optimizer(step_rule="linear", trust_radius=0.2, min_trust_radius=0.1,
+                            max_trust_radius=0.3, climb=True)._leaning_on_data() is None
+    leaning = hybrid_optimizer(trust_radius=0.2, min_trust_radius=0.1, max_trust_radius=0.3)._leaning_on_data()
+    defaults = InSituOptimizer().get_params()
+    assert (leaning.step_rule, leaning.climb) == (defaults["step_rule"], defaults["climb"])
+    assert (leaning.trust_radius, leaning.min_trust_radius, leaning.max_trust_radius) == (0.2, 0.1, 0.3)
+    assert InSituOptimizer()._leaning_on_data() is None  # already data-driven
+
+
+def test_a_run_that_leaned_on_the_data_resumes_bit_identically(tmp_path):
+    path = tmp_path / "run.npz"
+    system = FunctionSystem(drifting, 2)
+
+    def stop(row):
+        if row["cycle"] == 6:
+            raise KeyboardInterrupt
+
+    whole = hybrid_optimizer().run(stream(system), 12)
+    assert first_decision(whole.log) < 6  # the settings changed before the interruption
+    with pytest.raises(KeyboardInterrupt):
+        hybrid_optimizer().run(stream(system), 12, checkpoint=path, callback=stop)
+    resumed = InSituOptimizer.resume(path, stream(system))
+    pd.testing.assert_frame_equal(resumed.log, whole.log, check_dtype=False)
+    np.testing.assert_array_equal(resumed.final_gait.params, whole.final_gait.params)
