@@ -115,8 +115,8 @@ class InSituOptimizer(Estimator):
         ``step_rule``, ``climb`` and the trust region (``trust_radius``, ``min_trust_radius``,
         ``max_trust_radius``, taken together) left at their defaults. A structured model that reports how
         much of its prediction the physics leaves to the data (``residual_share_``: the hybrid
-        ``ResistanceModel(residual_degree=...)``) and reports more than 0.15 at a decision before the climb
-        has begun is contradicted by its data: the run leans on them, with the data-driven step settings
+        ``ResistanceModel(residual_degree=...)``) and reports more than 0.15 at a decision on the seed gait
+        (before the first step or climb; period trials aside) is contradicted by its data: the run leans on them, with the data-driven step settings
         (the defaults of ``step_rule``, ``climb`` and the trust region) for those still at the structured model's, and logs the share
         (column ``residual_share``).
     gate : {"gamma", "cycles"}, optional

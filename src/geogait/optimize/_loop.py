@@ -202,7 +202,7 @@ class CycleLoop:
         state = self.state
         if self.gate == "cycles":
             state.fit_iteration()
-        if state.climb.base is None:  # (the climb has not begun)
+        if state.climb.base is None and state.gait == state.gaits[0]:  # still on the seed gait
             self._check_structure()
         optimizer = self.optimizer
         if state.period_search is not None and not state.climb.active and self._period_move():
@@ -238,7 +238,8 @@ class CycleLoop:
         return kind, prediction_ok
 
     def _check_structure(self) -> None:
-        """Until the climb begins: a structured model whose residual carries more than ``RESIDUAL_SHARE_LIMIT``
+        """On the seed gait (period trials aside), before the climb: a structured model whose residual carries
+        more than ``RESIDUAL_SHARE_LIMIT``
         of its prediction (``residual_share_``: the physics does not hold) hands the run to the data-driven
         step settings (the defaults of those still at the structured model's: the climb first, the data-driven trust
         region), as though the model were data-driven."""
