@@ -10,7 +10,7 @@ told link lengths each exactly e wrong: length j times (1 + e s_j), signs s_j = 
 the rotation-free ceiling at each checkpoint and writes every trial to ``--out`` (JSON).
 
     python studies/resistance.py LINKS CYCLES TRIALS [--errors 0 0.05 0.1 0.2] [--models resistance hybrid]
-                                 [--checkpoints 30 60] [--jobs 2] [--out FILE]
+                                 [--checkpoints 30 60] [--jobs 2] [--out FILE] [--climb-rule es|cobyqa]
 """
 
 import argparse
@@ -36,26 +36,28 @@ def wrong_lengths(swimmer, error, trial):
     return tuple(np.asarray(swimmer.link_lengths) * (1 + error * signs))
 
 
-def one(links, cycles, model, error, trial, ceiling):
+def one(links, cycles, model, error, trial, ceiling, climb_rule=None):
     start = time.perf_counter()
     swimmer = PurcellSwimmer(links)
     stream = SwimmerStream(swimmer, seed_gait(links - 1), sensor_noise=0.1, seed=trial)
     estimator = ResistanceModel(link_lengths=wrong_lengths(swimmer, error, trial), **MODELS[model])
-    optimizer = InSituOptimizer(model=estimator, **STRUCTURED_MODEL_STEPS)
+    rule = {} if climb_rule is None else {"climb_rule": climb_rule}
+    optimizer = InSituOptimizer(model=estimator, **STRUCTURED_MODEL_STEPS, **rule)
     log = optimizer.run(stream, cycles, ceiling=ceiling).log
     return {"model": model, "geometry_error": error, "trial": trial,
             "ceiling_fraction": log["ceiling_fraction"].round(6).tolist(),
             "largest_rotation": float(np.abs(log["true_heading"]).max()), "seconds": time.perf_counter() - start}
 
 
-def main(links, cycles, trials, errors, models, checkpoints, jobs, out):
+def main(links, cycles, trials, errors, models, checkpoints, jobs, out, climb_rule=None):
     ceiling = cached_ceiling(PurcellSwimmer(links)).value
     checkpoints = [c for c in checkpoints if c <= cycles]
     print(f"{links}-link, {cycles} cycles, {trials} trials; share of the ceiling, median [25-75 %]", flush=True)
     records = []
     for model in models:
         for error in errors:
-            runs = Parallel(n_jobs=jobs)(delayed(one)(links, cycles, model, error, t, ceiling) for t in range(trials))
+            runs = Parallel(n_jobs=jobs)(delayed(one)(links, cycles, model, error, t, ceiling, climb_rule)
+                                         for t in range(trials))
             records += runs
             fractions = np.array([r["ceiling_fraction"] for r in runs])
             cells = []
@@ -80,6 +82,8 @@ if __name__ == "__main__":
     parser.add_argument("--checkpoints", type=int, nargs="+", default=[30, 60])
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", default=None)
+    parser.add_argument("--climb-rule", choices=["es", "cobyqa"], default=None,
+                        help="the measured climb's rule (default: the optimiser's)")
     arguments = parser.parse_args()
     main(arguments.links, arguments.cycles, arguments.trials, arguments.errors, arguments.models,
-         arguments.checkpoints, arguments.jobs, arguments.out)
+         arguments.checkpoints, arguments.jobs, arguments.out, arguments.climb_rule)

@@ -116,9 +116,9 @@ class InSituOptimizer(Estimator):
         ``max_trust_radius``, taken together) left at their defaults. A structured model that reports how
         much of its prediction the physics leaves to the data (``residual_share_``: the hybrid
         ``ResistanceModel(residual_degree=...)``) and reports more than 0.15 at a decision on the seed gait
-        (before the first step or climb; period trials aside) is contradicted by its data: the run leans on them, with the data-driven step settings
-        (the defaults of ``step_rule``, ``climb`` and the trust region) for those still at the structured model's, and logs the share
-        (column ``residual_share``).
+        (before the first step or climb; period trials aside) is contradicted by its data: the run leans on
+        them, with the data-driven step settings (the defaults of ``step_rule``, ``climb`` and the trust
+        region) for those still at the structured model's, and logs the share (column ``residual_share``).
     gate : {"gamma", "cycles"}, optional
         ``"gamma"`` (paper): a step as soon as the online Γ over the current iteration reaches
         ``gamma_threshold``. ``"cycles"`` (Bittner et al. 2018): ``cycles_per_iteration`` cycles,
