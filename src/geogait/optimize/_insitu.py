@@ -611,8 +611,7 @@ class InSituOptimizer(Estimator):
         if self.model is not None or not getattr(robot, "resistive_medium", False) \
                 or not callable(getattr(robot, "chain_geometry", None)):
             return None
-        defaults = {name: p.default for name, p in inspect.signature(type(self).__init__).parameters.items()}
-        steps = self._replace_steps(defaults, STRUCTURED_MODEL_STEPS)
+        steps = self._replace_steps(self._defaults(), STRUCTURED_MODEL_STEPS)
         return type(self)(**{**self.get_params(deep=False), **steps,
                              "model": models.ResistanceModel(**robot.chain_geometry())}).validate()
 
@@ -620,9 +619,13 @@ class InSituOptimizer(Estimator):
         """This optimiser with the data-driven step settings (the defaults of ``step_rule``, ``climb`` and the
         trust region) for each of them still at the structured model's (``STRUCTURED_MODEL_STEPS``), for a
         structured model whose physics the data contradict; None when every one was set otherwise."""
-        defaults = {name: p.default for name, p in inspect.signature(type(self).__init__).parameters.items()}
-        steps = self._replace_steps(STRUCTURED_MODEL_STEPS, defaults)
+        steps = self._replace_steps(STRUCTURED_MODEL_STEPS, self._defaults())
         return type(self)(**{**self.get_params(deep=False), **steps}).validate() if steps else None
+
+    @classmethod
+    def _defaults(cls) -> dict:
+        """Every parameter's default value."""
+        return {name: p.default for name, p in inspect.signature(cls.__init__).parameters.items()}
 
     def _replace_steps(self, current: dict, new: dict) -> dict:
         """``new``'s values of each group of step settings (the step rule, the climb, the trust region taken

@@ -239,10 +239,9 @@ class CycleLoop:
 
     def _check_structure(self) -> None:
         """On the seed gait (period trials aside), before the climb: a structured model whose residual carries
-        more than ``RESIDUAL_SHARE_LIMIT``
-        of its prediction (``residual_share_``: the physics does not hold) hands the run to the data-driven
-        step settings (the defaults of those still at the structured model's: the climb first, the data-driven trust
-        region), as though the model were data-driven."""
+        more than ``RESIDUAL_SHARE_LIMIT`` of its prediction (``residual_share_``: the physics does not hold)
+        hands the run to the data-driven step settings (the defaults of those still at the structured model's:
+        the climb first, the data-driven trust region), as though the model were data-driven."""
         state = self.state
         if not self._residual_share() > RESIDUAL_SHARE_LIMIT:
             return
