@@ -42,7 +42,7 @@ def one(links, cycles, model, error, trial, ceiling, climb_rule=None):
     stream = SwimmerStream(swimmer, seed_gait(links - 1), sensor_noise=0.1, seed=trial)
     estimator = ResistanceModel(link_lengths=wrong_lengths(swimmer, error, trial), **MODELS[model])
     rule = {} if climb_rule is None else {"climb_rule": climb_rule}
-    optimizer = InSituOptimizer(model=estimator, **STRUCTURED_MODEL_STEPS, **rule)
+    optimizer = InSituOptimizer(model=estimator, **{**STRUCTURED_MODEL_STEPS, **rule})
     log = optimizer.run(stream, cycles, ceiling=ceiling).log
     return {"model": model, "geometry_error": error, "trial": trial,
             "ceiling_fraction": log["ceiling_fraction"].round(6).tolist(),

@@ -51,8 +51,13 @@ def test_a_step_setting_the_user_chose_is_kept():
                             max_trust_radius=0.3, climb=True)._leaning_on_data() is None
     leaning = hybrid_optimizer(trust_radius=0.2, min_trust_radius=0.1, max_trust_radius=0.3)._leaning_on_data()
     defaults = InSituOptimizer().get_params()
-    assert (leaning.step_rule, leaning.climb) == (defaults["step_rule"], defaults["climb"])
+    assert (leaning.step_rule, leaning.climb, leaning.climb_rule) == \
+        (defaults["step_rule"], defaults["climb"], defaults["climb_rule"])
+    assert STRUCTURED_MODEL_STEPS["climb_rule"] != defaults["climb_rule"]  # (so the line above tests a change)
     assert (leaning.trust_radius, leaning.min_trust_radius, leaning.max_trust_radius) == (0.2, 0.1, 0.3)
+    # the climb and its rule are one group: one of them given keeps both
+    cobyqa = hybrid_optimizer(climb_rule="cobyqa")._leaning_on_data()
+    assert (cobyqa.climb, cobyqa.climb_rule) == ("contradicted", "cobyqa")
     assert InSituOptimizer()._leaning_on_data() is None  # already data-driven
 
 

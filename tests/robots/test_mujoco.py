@@ -649,6 +649,8 @@ def test_a_resistive_medium_is_read_from_the_model_and_chooses_the_default_model
     structured = InSituOptimizer().run(mujoco_swimmer(3, seed=1), 3)
     assert type(structured.model).__name__ == "ResistanceModel" and structured.log["trust_radius"].iloc[0] == 0.25
     assert structured.model.link_lengths == tuple(mujoco_swimmer(3).chain_geometry()["link_lengths"])
+    chosen = InSituOptimizer()._structured_default(mujoco_swimmer(3))
+    assert (chosen.step_rule, chosen.climb, chosen.climb_rule) == ("sqp", "contradicted", "es")
     kept = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3).run(mujoco_swimmer(3, seed=1), 3)
     assert kept.log["trust_radius"].iloc[0] == 0.15  # a trust region given is the user's
     pytest.importorskip("gymnasium")

@@ -111,14 +111,15 @@ class InSituOptimizer(Estimator):
         ``chain_geometry()``: :class:`~geogait.robots.MujocoRobot` reads both from its model, a bridge
         driver declares them in its hello) gets :class:`~geogait.models.ResistanceModel` on its geometry
         instead, with the structured model's step settings (``geogait.optimize.STRUCTURED_MODEL_STEPS``:
-        SQP, trust radius 0.25–0.5, the measured climb only when contradicted) for those of
-        ``step_rule``, ``climb`` and the trust region (``trust_radius``, ``min_trust_radius``,
-        ``max_trust_radius``, taken together) left at their defaults. A structured model that reports how
-        much of its prediction the physics leaves to the data (``residual_share_``: the hybrid
-        ``ResistanceModel(residual_degree=...)``) and reports more than 0.15 at a decision on the seed gait
-        (before the first step or climb; period trials aside) is contradicted by its data: the run leans on
-        them, with the data-driven step settings (the defaults of ``step_rule``, ``climb`` and the trust
-        region) for those still at the structured model's, and logs the share (column ``residual_share``).
+        SQP, trust radius 0.25–0.5, the measured climb only when contradicted and by the evolution strategy) for
+        those of ``step_rule``, ``climb`` with ``climb_rule``, and the trust region (``trust_radius``,
+        ``min_trust_radius``, ``max_trust_radius``; each group taken together) left at their defaults. A
+        structured model that reports how much of its prediction the physics leaves to the data
+        (``residual_share_``: the hybrid ``ResistanceModel(residual_degree=...)``) and reports more than 0.15
+        at a decision on the seed gait (before the first step or climb; period trials aside) is contradicted
+        by its data: the run leans on them, with the data-driven step settings (the defaults of ``step_rule``,
+        ``climb`` with ``climb_rule``, and the trust region) for those still at the structured model's, and
+        logs the share (column ``residual_share``).
     gate : {"gamma", "cycles"}, optional
         ``"gamma"`` (paper): a step as soon as the online Γ over the current iteration reaches
         ``gamma_threshold``. ``"cycles"`` (Bittner et al. 2018): ``cycles_per_iteration`` cycles,
@@ -628,10 +629,11 @@ class InSituOptimizer(Estimator):
         return {name: p.default for name, p in inspect.signature(cls.__init__).parameters.items()}
 
     def _replace_steps(self, current: dict, new: dict) -> dict:
-        """``new``'s values of each group of step settings (the step rule, the climb, the trust region taken
-        together: one given is kept whole) whose values here are all ``current``'s."""
+        """``new``'s values of each group of step settings (the step rule; the climb and its rule; the trust region
+        taken together: one given is kept whole) whose values here are all ``current``'s."""
         steps = {}
-        for group in (("step_rule",), ("climb",), ("trust_radius", "min_trust_radius", "max_trust_radius")):
+        trust_region = ("trust_radius", "min_trust_radius", "max_trust_radius")
+        for group in (("step_rule",), ("climb", "climb_rule"), trust_region):
             if all(getattr(self, name) == current[name] for name in group):
                 steps.update({name: new[name] for name in group})
         return steps
