@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from geogait import GeogaitError
-from geogait.gaits import seed_gait
+from geogait.gaits import FourierGait, seed_gait
 from geogait.models import ResistanceModel
 from geogait.optimize import InSituOptimizer, cached_ceiling
 from geogait.simulate import SwimmerStream, cycle_displacement, simulate
@@ -112,6 +112,43 @@ def test_predicted_motion_and_gradient_agree_with_the_true_system():
         difference = (model.predict_displacement(other.with_params(other.params + step))
                       - model.predict_displacement(other.with_params(other.params - step))) / (2 * h)
         np.testing.assert_allclose(jacobian[:, k], difference, atol=1e-7)
+
+
+def test_a_shape_map_learns_a_chain_driven_through_fewer_coordinates(tmp_path):
+    """A 6-link chain whose 5 joints follow 2 modal coordinates (r_chain = M q, as a continuum's curvature modes
+    on its discretisation): the model on the chain's geometry with M recovers the drag ratio from noisy data, and
+    predicts the motion and its gradient of a gait the data never visited as the chain itself moves under it."""
+    swimmer = PurcellSwimmer(6, drag_ratio=3.0, body_frame="center_of_mass")
+    nodes = np.arange(1, 6) / 6
+    shape_map = np.stack([np.cos(2 * np.pi * nodes), np.sin(2 * np.pi * nodes)], axis=1) / 2  # (5, 2)
+    robot = FunctionSystem(lambda q: swimmer.connection(q @ shape_map.T) @ shape_map, 2)
+    run = simulate(robot, seed_gait(2, amplitude=1.5), n_cycles=2, sensor_noise=0.1, seed=4)
+    model = ResistanceModel(link_lengths=swimmer.link_lengths, body_frame="center_of_mass", shape_map=shape_map,
+                            link_variation=0.0).fit(run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    np.testing.assert_allclose(np.exp(np.diff(model.log_drag_, axis=1)), 3.0, rtol=0.02)
+    other = seed_gait(2, amplitude=2.0)
+    on_chain = FourierGait(shape_map @ other.coefficients)  # the same motion, as the chain's own gait
+    truth = cycle_displacement(swimmer, on_chain, resolution=128)
+    np.testing.assert_allclose(model.predict_displacement(other), truth, atol=0.02 * np.abs(truth).max())
+    pose, jacobian = model.predict_displacement(other, jacobian=True)
+    h = 1e-6
+    for k in range(other.params.size):
+        step = np.zeros(other.params.size)
+        step[k] = h
+        difference = (model.predict_displacement(other.with_params(other.params + step))
+                      - model.predict_displacement(other.with_params(other.params - step))) / (2 * h)
+        np.testing.assert_allclose(jacobian[:, k], difference, atol=1e-6)
+    assert model.connection(np.zeros((3, 2))).shape == (3, 3, 2)
+    loaded = ResistanceModel.load(model.save(tmp_path / "mapped.npz"))
+    np.testing.assert_array_equal(loaded.predict_displacement(other), model.predict_displacement(other))
+    with pytest.raises(GeogaitError, match="'shape_map' parameter of ResistanceModel.* 5 rows"):
+        ResistanceModel(link_lengths=swimmer.link_lengths, shape_map=shape_map[1:]).fit(
+            run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    with pytest.raises(GeogaitError, match="'shape' parameter .* 2 joints \\(shape_map has 2 columns"):
+        ResistanceModel(link_lengths=swimmer.link_lengths, shape_map=shape_map).fit(
+            run.phase, np.zeros((len(run.phase), 3)), np.zeros((len(run.phase), 3)), run.body_velocity)
+    with pytest.raises(GeogaitError, match="'shape_map' parameter"):
+        ResistanceModel(link_lengths=swimmer.link_lengths, shape_map=[[np.nan, 1.0]] * 5).validate()
 
 
 def test_rotation_std_is_the_linear_spread_of_the_predicted_heading():

@@ -46,6 +46,16 @@ def test_a_hybrid_contradicted_by_its_data_climbs_first_and_one_that_holds_steps
     assert holds["residual_share"].iloc[1:].max() < RESIDUAL_SHARE_LIMIT
 
 
+def test_the_structure_is_checked_before_the_model_is_confident():
+    """With a Γ threshold the model never reaches, a contradicted hybrid still leans on the data (and climbs)
+    once it has its first measured cycles; one whose structure holds waits for Γ and takes no step."""
+    drift = hybrid_optimizer(gamma_threshold=0.999).run(stream(FunctionSystem(drifting, 2)), 6).log
+    assert first_decision(drift) == InSituOptimizer().min_cycles_per_iteration - 1
+    assert drift["climb"].iloc[first_decision(drift)]
+    holds = hybrid_optimizer(gamma_threshold=0.999).run(stream(SWIMMER), 6).log
+    assert not (holds["step"] | holds["climb"]).any()
+
+
 def test_a_step_setting_the_user_chose_is_kept():
     assert hybrid_optimizer(step_rule="linear", trust_radius=0.2, min_trust_radius=0.1,
                             max_trust_radius=0.3, climb=True)._leaning_on_data() is None

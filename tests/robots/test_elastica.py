@@ -9,6 +9,8 @@ from geogait import GeogaitWarning, se2
 from geogait.gaits import FourierGait, Perturbation
 from geogait.optimize import InSituOptimizer
 from geogait.robots import ElasticaSnake, ProcessRobot, Robot, check_robot, elastica_snake, snake_seed_gait
+from geogait.robots.continuum import body_pose, curvature_profile
+from geogait.systems import PurcellSwimmer
 
 STILL = Perturbation(eta=0)
 
@@ -72,6 +74,36 @@ def test_measured_rates_are_the_derivatives_of_the_measured_samples(still_cycles
     assert np.abs(numeric - cycle.shape_velocity[1:-1]).max() < 0.05 * scale
     heading_rate = np.gradient(cycle.pose[:, 2], dt)[1:-1]
     assert np.abs(heading_rate - cycle.body_velocity[1:-1, 2]).max() < 0.05 * np.abs(heading_rate).max()
+
+
+def test_the_chain_geometry_reconstructs_the_rod_and_its_body_frame(still_cycles):
+    """The rod as a chain of its elements: the shape map's joint angles from the measured modal shape rebuild
+    the rod's element directions (to the curvature the modes leave out), and the chain's centre-of-mass
+    frame is the pose the snake measures."""
+    snake, _ = still_cycles
+    geometry = snake.chain_geometry()
+    nodes = snake._nodes()[0]
+    edges = np.diff(nodes, axis=0)
+    element_angle = np.unwrap(np.arctan2(edges[:, 1], edges[:, 0]))
+    _, curvature = curvature_profile(nodes)
+    shape = curvature @ snake._projector.T  # what the snake measures as its shape
+    joints = np.asarray(geometry["shape_map"]) @ shape
+    turning = np.diff(element_angle)
+    assert np.abs(joints - turning).max() < 0.05 * np.abs(turning).max()  # sign, scale, order agree
+    chain = PurcellSwimmer(snake.n_elements, link_lengths=geometry["link_lengths"],
+                           body_frame=geometry["body_frame"])
+    frame = chain._geometry
+    relative = frame["incidence"] @ turning  # the rod's own element angles in element 0's frame
+    np.testing.assert_allclose(relative, element_angle - element_angle[0], atol=1e-12)
+    pose = body_pose(nodes, masses=snake._masses)
+    heading = element_angle[0] + relative @ frame["frame_angle"]
+    assert abs(heading - pose[2]) < 1e-9
+    unit = np.stack([np.cos(element_angle), np.sin(element_angle)])
+    centres = (unit @ frame["centres"].T).T
+    origin = nodes[0] + edges[0] / 2 - centres[0]  # the chain's construction point in the world
+    # (the rod's elements stretch a little; the chain's are its rest lengths)
+    np.testing.assert_allclose(centres + origin, (nodes[:-1] + nodes[1:]) / 2, atol=1e-3 * snake.length)
+    np.testing.assert_allclose(unit @ frame["frame_point"] + origin, pose[:2], atol=1e-3 * snake.length)
 
 
 def test_exploration_perturbs_the_command_and_restore_is_bit_identical():

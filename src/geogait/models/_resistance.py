@@ -47,7 +47,7 @@ from .._validation import check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..simulate import cycle_velocity
-from ..systems import BODY_FRAMES, PurcellSwimmer
+from ..systems import BODY_FRAMES, FunctionSystem, PurcellSwimmer
 from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
@@ -90,6 +90,21 @@ class _FrameOffset:
             raise fail(name, owner, "None or a finite (x, y, angle)", value)
 
 
+class _ShapeMap:
+    """Constraint: None or a finite 2-D array (the chain's joints × the robot's shape coordinates)."""
+
+    def __call__(self, value, name: str, owner: str) -> None:
+        if value is None:
+            return
+        try:
+            matrix = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            matrix = None
+        if matrix is None or matrix.ndim != 2 or 0 in matrix.shape or not np.all(np.isfinite(matrix)):
+            raise fail(name, owner, "None or a finite 2-D array (the chain's joints × the robot's shape coordinates)",
+                       value)
+
+
 class _LinkLengths:
     """Constraint: None or at least two positive, finite link lengths."""
 
@@ -120,6 +135,13 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         The robot's frame relative to ``body_frame`` (:class:`~geogait.systems.PurcellSwimmer`). A MuJoCo
         chain gives all three: ``ResistanceModel(**robot.chain_geometry())``
         (:meth:`MujocoRobot.chain_geometry <geogait.robots.MujocoRobot.chain_geometry>`).
+    shape_map : array-like of shape (N − 1, d), optional
+        The chain's joint angles as a linear function of the robot's d shape coordinates,
+        :math:`r_{chain} = M r`, so that :math:`A(r) = A_{chain}(M r)\, M`: a continuum body's modal
+        coordinates on its discretisation (:meth:`ElasticaSnake.chain_geometry
+        <geogait.robots.ElasticaSnake.chain_geometry>`: its elements as links, each interior node's
+        turning angle the modal curvature there times the element length). None (default): the robot's
+        shape is the chain's joint angles.
     drag_ratio : float in [1e-3, 1e3]
         Prior mean of the lateral over longitudinal drag ratio k (2 for slender bodies at low Reynolds
         number; larger on granular media).
@@ -199,6 +221,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         "link_lengths": _LinkLengths(),
         "body_frame": _BodyFrame(),
         "frame_offset": _FrameOffset(),
+        "shape_map": _ShapeMap(),
         "drag_ratio": Real(low=1e-3, high=1e3),
         "ratio_spread": Real(low=0, high=10, low_open=True),
         "link_variation": Real(low=0, high=10),
@@ -216,7 +239,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         "resolution": Integer(minimum=4),
     }
 
-    def __init__(self, *, link_lengths=None, body_frame: str | int = "middle", frame_offset=None,
+    def __init__(self, *, link_lengths=None, body_frame: str | int = "middle", frame_offset=None, shape_map=None,
                  drag_ratio: float = 2.0,
                  ratio_spread: float = 1.0, link_variation: float = 0.3, memory: int = 4096, iterations: int = 3,
                  residual_degree: int | None = None, residual_symmetry: str | None = None,
@@ -227,6 +250,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self.link_lengths = link_lengths
         self.body_frame = body_frame
         self.frame_offset = frame_offset
+        self.shape_map = shape_map
         self.drag_ratio = drag_ratio
         self.ratio_spread = ratio_spread
         self.link_variation = link_variation
@@ -259,6 +283,9 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         if isinstance(self.body_frame, int | np.integer) and self.body_frame >= len(self.link_lengths):
             raise fail("body_frame", type(self).__name__, f"a link index below {len(self.link_lengths)} (the links "
                        "given)", self.body_frame)
+        if self.shape_map is not None and np.shape(self.shape_map)[0] != len(self.link_lengths) - 1:
+            raise fail("shape_map", type(self).__name__, f"{len(self.link_lengths) - 1} rows (one per joint of the "
+                       f"{len(self.link_lengths)} links given)", f"shape {np.shape(self.shape_map)}")
 
     def _check_samples(self, phase, *arrays, names, owner):
         *out, self._single = check_samples(self, phase, *arrays, names=names, owner=owner)
@@ -271,6 +298,18 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     @property
     def _n_links(self) -> int:
         return len(self.link_lengths)
+
+    @property
+    def _robot_joints(self) -> int:
+        """d: the robot's shape coordinates (the chain's joints without a shape map)."""
+        return self._n_links - 1 if self.shape_map is None else np.shape(self.shape_map)[1]
+
+    def _on_chain(self, *arrays):
+        """Robot shape coordinates (and rates) ``(..., d)`` → the chain's joint angles ``(..., N − 1)``."""
+        if self.shape_map is None:
+            return arrays
+        transpose = np.asarray(self.shape_map, dtype=float).T
+        return tuple(a @ transpose for a in arrays)
 
     def _design(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """θ = θ₀ + G u (θ: log drag multipliers, link-major (N, 2) flattened) and the prior variance of u."""
@@ -322,9 +361,11 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     # -- fitting ------------------------------------------------------------------------------
     def _reset(self, n_joints: int):
         self.validate()
-        if n_joints != self._n_links - 1:
-            raise fail("shape", f"{type(self).__name__}.partial_fit",
-                       f"{self._n_links - 1} joints (link_lengths gives {self._n_links} links)", f"{n_joints} joints")
+        if n_joints != self._robot_joints:
+            given = f"link_lengths gives {self._n_links} links" if self.shape_map is None else \
+                f"shape_map has {self._robot_joints} columns"
+            raise fail("shape", f"{type(self).__name__}.partial_fit", f"{self._robot_joints} joints ({given})",
+                       f"{n_joints} joints")
         _, design, prior = self._design()
         self.n_joints_ = n_joints
         self.batch_shape_ = ()
@@ -389,7 +430,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     def _model(self, parameters, shape, shape_velocity, residual_jacobian):
         """Predicted ξ ``(n, 3)`` and its Jacobian ``(n, 3, n_parameters)`` at ``parameters``."""
         _, design, _ = self._design()
-        velocity, sensitivity = self._chain(parameters).drag_sensitivity(shape, shape_velocity)
+        velocity, sensitivity = self._chain(parameters).drag_sensitivity(*self._on_chain(shape, shape_velocity))
         jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design
         if residual_jacobian is None:
             return velocity, jacobian
@@ -495,13 +536,13 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         if self.residual_degree is None or not len(self._memory):
             return float("nan")
         shape, shape_velocity, _ = np.split(self._memory, [self.n_joints_, 2 * self.n_joints_], axis=-1)
-        resistive = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+        resistive = self.system_.drag_sensitivity(*self._on_chain(shape, shape_velocity))[0]
         residual = polynomial_features(shape, shape_velocity, self._exponents, self.shape_scale) \
             @ self.residual_weights_.reshape(-1, 3)
         return float(np.max(np.sqrt(np.sum(residual**2, axis=0) / np.maximum(np.sum(resistive**2, axis=0), 1e-300))))
 
     def _predict(self, shape, shape_velocity) -> np.ndarray:
-        prediction = self.system_.drag_sensitivity(shape, shape_velocity)[0]
+        prediction = self.system_.drag_sensitivity(*self._on_chain(shape, shape_velocity))[0]
         if self.residual_degree is not None:
             features = polynomial_features(shape, shape_velocity, self._exponents, self.shape_scale)
             prediction = prediction + features @ self.residual_weights_.reshape(-1, 3)
@@ -512,11 +553,22 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         plus, for the hybrid, the residual)."""
         self._check_is_fitted()
         shape = check_array(shape, "shape", f"{type(self).__name__}.connection", trailing=(self.n_joints_,))
-        connection = self.system_.connection(shape)
+        connection = self._resistive_connection(shape)
         if self.residual_degree is not None:
             f = monomials(shape / self.shape_scale, self._exponents)
             connection = connection - np.einsum("...l,ljk->...kj", f, self.residual_weights_)
         return connection
+
+    def _resistive_connection(self, shape) -> np.ndarray:
+        """The fitted chain's connection over the robot's shape coordinates, A_chain(M r) M."""
+        connection = self.system_.connection(*self._on_chain(shape))
+        return connection if self.shape_map is None else connection @ np.asarray(self.shape_map, dtype=float)
+
+    def _robot_system(self):
+        """The fitted chain as a system over the robot's shape coordinates."""
+        if self.shape_map is None:
+            return self.system_
+        return FunctionSystem(self._resistive_connection, self.n_joints_, name="ResistanceModel")
 
     def predict(self, phase, shape, shape_velocity) -> np.ndarray:
         """Predicted body velocity ξ̂ = −A(r)ṙ of samples ``(n, d)`` → ``(n, 3)`` (``phase`` only checked).
@@ -551,7 +603,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         if not isinstance(gait, FourierGait) or gait.n_joints != self.n_joints_:
             raise fail("gait", f"{type(self).__name__}.predict_displacement",
                        f"a FourierGait with {self.n_joints_} joints", gait)
-        parts = cycle_velocity(self.system_, gait, self.resolution, jacobian)
+        parts = cycle_velocity(self._robot_system(), gait, self.resolution, jacobian)
         if self.residual_degree is not None:
             residual = polynomial_cycle_velocity(self.residual_weights_, self._exponents, self.shape_scale, gait,
                                                  self.resolution, jacobian)
@@ -570,7 +622,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self._check_is_fitted()
         nodes, step = gauss_phases(self.resolution)
         shape, rate = gait.shape(nodes), gait.velocity(nodes)
-        _, sensitivity = self.system_.drag_sensitivity(shape, rate)
+        _, sensitivity = self.system_.drag_sensitivity(*self._on_chain(shape, rate))
         _, design, _ = self._design()
         g = (sensitivity[..., 2, :, :].reshape(nodes.shape + (-1,)) @ design).sum(axis=(0, 1)) * step / 2
         if self.residual_degree is not None:
@@ -578,6 +630,12 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         return float(np.sqrt(g @ self.parameter_covariance_ @ g))
 
     # -- persistence --------------------------------------------------------------------------
+    def get_state(self) -> tuple[dict, dict]:
+        metadata, arrays = super().get_state()
+        if self.shape_map is not None:  # (JSON: nested lists)
+            metadata["params"]["shape_map"] = np.asarray(self.shape_map, dtype=float).tolist()
+        return metadata, arrays
+
     def _metadata(self) -> dict:
         return {"n_joints": self.n_joints_, "batch_shape": []}
 

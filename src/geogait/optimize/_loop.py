@@ -115,6 +115,10 @@ class CycleLoop:
                 else:
                     state.measured.setdefault(key, []).append(value * state.rate(state.period))
                     state.rotations.setdefault(key, []).append(float(measured.net[2]))
+                seed = state.climb.base is None and state.gait == state.gaits[0]
+                if seed and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration:
+                    self._check_structure()  # (before the gate: a wrong structure need not wait for Γ)
+                    optimizer = self.optimizer
                 if not state.climb.active and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration \
                         and self._unexcited() and optimizer.climb:  # (Γ cannot rise without exploration)
                     self._start_climb()
@@ -202,8 +206,6 @@ class CycleLoop:
         state = self.state
         if self.gate == "cycles":
             state.fit_iteration()
-        if state.climb.base is None and state.gait == state.gaits[0]:  # still on the seed gait
-            self._check_structure()
         optimizer = self.optimizer
         if state.period_search is not None and not state.climb.active and self._period_move():
             return "period", np.nan
@@ -238,10 +240,11 @@ class CycleLoop:
         return kind, prediction_ok
 
     def _check_structure(self) -> None:
-        """On the seed gait (period trials aside), before the climb: a structured model whose residual carries
-        more than ``RESIDUAL_SHARE_LIMIT`` of its prediction (``residual_share_``: the physics does not hold)
-        hands the run to the data-driven step settings (the defaults of those still at the structured model's:
-        the climb first, the data-driven trust region), as though the model were data-driven."""
+        """On the seed gait (period trials aside), before the climb, at every measured cycle once there are
+        ``min_cycles_per_iteration`` of them (whether or not Γ opens the gate): a structured model whose residual
+        carries more than ``RESIDUAL_SHARE_LIMIT`` of its prediction (``residual_share_``: the physics does not
+        hold) hands the run to the data-driven step settings (the defaults of those still at the structured
+        model's: the climb first by COBYQA, the data-driven trust region), as though the model were data-driven."""
         state = self.state
         if not self._residual_share() > RESIDUAL_SHARE_LIMIT:
             return

@@ -325,6 +325,27 @@ class ElasticaSnake:
         """
         return True
 
+    def chain_geometry(self) -> dict:
+        """The rod as a chain of its elements, for :class:`~geogait.models.ResistanceModel`.
+
+        ``ResistanceModel(**snake.chain_geometry())``: the elements as equal links, the body frame at the centre
+        of mass along the mean element angle (the pose this robot measures: :func:`~geogait.robots.continuum.
+        body_pose`), and the shape map from the modal coordinates to each interior node's turning angle,
+        the modal curvature there times the element length (:func:`~geogait.robots.continuum.curvature_profile`:
+        κ_i = turning angle / element length on the undeformed rod). Only the geometry: the ground's Coulomb
+        friction is not a resistive medium (``resistive_medium`` is not declared, so the default model stays
+        the data-driven one), which the hybrid resistance model's residual share tells.
+
+        Returns
+        -------
+        dict
+            ``link_lengths`` (n_elements × length / n_elements), ``body_frame`` ``"center_of_mass"``,
+            ``frame_offset`` None and ``shape_map`` ``(n_elements − 1, d)`` (nested tuples).
+        """
+        spacing = self.length / self.n_elements
+        return {"link_lengths": (spacing,) * self.n_elements, "body_frame": "center_of_mass", "frame_offset": None,
+                "shape_map": tuple(map(tuple, self._basis * spacing))}
+
     @property
     def n_physics_steps(self) -> int:
         """Physics steps per cycle: ``samples_per_cycle · steps_per_sample``."""
