@@ -181,7 +181,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     noise_std_ : ndarray of shape (3,)
         RMS output error of each body-velocity component over the memory after the last fit.
     system_ : PurcellSwimmer
-        The fitted chain (its ``connection`` is the model's resistive A(r)).
+        The fitted chain (its ``connection`` is the model's resistive A(r); with a ``shape_map`` M, A(r) is
+        ``system_.connection(M r) @ M``).
     residual_weights_ : ndarray of shape (m, d, 3) or None
         The hybrid's residual connection: :math:`\hat\xi_{res} = W^T (f(r/s) \otimes \dot r)` (None without).
     residual_scale_ : float
