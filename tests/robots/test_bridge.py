@@ -111,9 +111,18 @@ def test_hello_declares_a_chain_for_the_resistance_model(tmp_path):
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
         with pytest.raises(ValueError, match="declares no chain geometry"):
             robot.chain_geometry()
+    # a body driven through fewer coordinates than its chain has joints: 4 links, 3 joints, 2 shape coordinates
+    mapped = {"link_lengths": [0.25] * 4, "body_frame": "center_of_mass", "shape_map": [[1, 0], [0.5, 0.5], [0, 1]]}
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=mapped)!r}), flush=True)\n"
+                                        "sys.stdin.readline()\n")) as robot:
+        geometry = robot.chain_geometry()
+    assert geometry["shape_map"] == ((1.0, 0.0), (0.5, 0.5), (0.0, 1.0)) and geometry["body_frame"] == "center_of_mass"
+    assert ResistanceModel(**geometry).validate().shape_map == geometry["shape_map"]
     for bad in ({"link_lengths": [0.3, 0.4]}, {"link_lengths": [0.3, -0.4, 0.3]}, {"link_lengths": [0.3, 0.4, "a"]},
                 dict(chain, body_frame=3), dict(chain, body_frame="head"), dict(chain, frame_offset=[0, 0]),
-                dict(chain, links=3), dict(chain, resistive="yes")):
+                dict(chain, links=3), dict(chain, resistive="yes"), dict(mapped, shape_map=[[1, 0], [0, 1]]),
+                dict(mapped, shape_map=[[1, 0, 0]] * 3), dict(mapped, shape_map=[[1, "a"]] * 3),
+                dict(mapped, body_frame=4)):
         with pytest.raises(ValueError, match="'chain' must be"):
             ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=bad)!r}), flush=True)\n"
                                            "time.sleep(5)\n"))

@@ -21,7 +21,10 @@ against each other) that every commanded gait keeps on its phase grid, as it kee
 "frame_offset": [x, y, angle], "resistive": true}`` the robot as a chain of straight links, which
 :class:`~geogait.models.ResistanceModel` takes as known (:meth:`ProcessRobot.chain_geometry`): n_joints + 1
 lengths, tail first; ``body_frame`` one of :class:`~geogait.systems.PurcellSwimmer`'s frames or a link
-index (default ``"middle"``); ``frame_offset`` optional; ``resistive`` (default false) says the medium's
+index (default ``"middle"``); ``frame_offset`` optional; ``"shape_map": [[...], ...]`` optional, for a body
+driven through fewer shape coordinates than its chain has joints (a continuum's modes): N − 1 rows of
+n_joints numbers for N links, each joint's angle as a linear function of the shape
+(``ResistanceModel(shape_map=...)``); ``resistive`` (default false) says the medium's
 drag is linear in velocity, which makes that model the optimiser's default;
 and, version 2 only, ``"excitation": true`` says the driver runs the
 exploration geogait sends with each cycle (below), so geogait, not the driver, sizes it. ``gait`` is
@@ -243,8 +246,8 @@ class ProcessRobot:
         Returns
         -------
         dict
-            ``link_lengths``, ``body_frame`` and ``frame_offset``: keyword arguments of
-            :class:`~geogait.models.ResistanceModel` (``ResistanceModel(**robot.chain_geometry())``).
+            ``link_lengths``, ``body_frame``, ``frame_offset`` and, when declared, ``shape_map``: keyword
+            arguments of :class:`~geogait.models.ResistanceModel` (``ResistanceModel(**robot.chain_geometry())``).
 
         Raises
         ------
@@ -539,27 +542,39 @@ class ProcessRobot:
                             f"(a · shape <= b, shape units; a not all zero), got {_cut(repr(rows), 80)}")
 
     def _read_chain(self, chain) -> tuple[dict, bool]:
-        """The hello's ``chain`` (n_joints + 1 positive link lengths, a body frame, an optional frame offset) and
-        whether it declares a resistive medium."""
-        expected = (f"'chain' must be {{'link_lengths': {self.n_joints + 1} positive numbers, 'body_frame': one of "
-                    f"{', '.join(BODY_FRAMES)} or a link index in 0..{self.n_joints}, 'frame_offset': [x, y, angle] "
-                    f"or null, 'resistive': true or false}}, got {_cut(repr(chain), 120)}")
-        if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset", "resistive"}:
+        """The hello's ``chain`` (positive link lengths, a body frame, an optional frame offset, an optional shape
+        map) and whether it declares a resistive medium."""
+        d = self.n_joints
+        mapped = isinstance(chain, dict) and chain.get("shape_map") is not None
+        lengths = chain.get("link_lengths") if isinstance(chain, dict) else None
+        n_links = len(lengths) if mapped and isinstance(lengths, list) else d + 1
+        expected = (f"'chain' must be {{'link_lengths': {d + 1} positive numbers (or N >= 2 with a 'shape_map' of "
+                    f"N - 1 rows of {d} numbers: each joint's angle from the {d} shape coordinates), 'body_frame': "
+                    f"one of {', '.join(BODY_FRAMES)} or a link index in 0..{n_links - 1}, 'frame_offset': [x, y, "
+                    f"angle] or null, 'resistive': true or false}}, got {_cut(repr(chain), 120)}")
+        if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset", "resistive",
+                                                        "shape_map"}:
             raise self._failure(expected)
-        lengths, frame, offset = chain.get("link_lengths"), chain.get("body_frame", "middle"), chain.get("frame_offset")
+        frame, offset, shape_map = chain.get("body_frame", "middle"), chain.get("frame_offset"), chain.get("shape_map")
         if not isinstance(chain.get("resistive", False), bool):
             raise self._failure(expected)
-        if not (isinstance(lengths, list) and len(lengths) == self.n_joints + 1 and all(map(_is_number, lengths))
-                and all(np.isfinite(v) and v > 0 for v in lengths)):
+        if not (isinstance(lengths, list) and len(lengths) == n_links and n_links >= 2
+                and all(map(_is_number, lengths)) and all(np.isfinite(v) and v > 0 for v in lengths)):
             raise self._failure(expected)
-        if not (frame in BODY_FRAMES or type(frame) is int and 0 <= frame <= self.n_joints):
+        if not (frame in BODY_FRAMES or type(frame) is int and 0 <= frame < n_links):
             raise self._failure(expected)
         if offset is not None and not (isinstance(offset, list) and len(offset) == 3 and all(map(_is_number, offset))
                                        and all(np.isfinite(v) for v in offset)):
             raise self._failure(expected)
-        return ({"link_lengths": [float(v) for v in lengths], "body_frame": frame,
-                 "frame_offset": None if offset is None else tuple(float(v) for v in offset)},
-                chain.get("resistive", False))
+        if mapped and not (isinstance(shape_map, list) and len(shape_map) == n_links - 1 and all(
+                isinstance(row, list) and len(row) == d and all(map(_is_number, row))
+                and all(np.isfinite(v) for v in row) for row in shape_map)):
+            raise self._failure(expected)
+        geometry = {"link_lengths": [float(v) for v in lengths], "body_frame": frame,
+                    "frame_offset": None if offset is None else tuple(float(v) for v in offset)}
+        if mapped:
+            geometry["shape_map"] = tuple(tuple(float(v) for v in row) for row in shape_map)
+        return geometry, chain.get("resistive", False)
 
     def _read_gait(self, gait) -> FourierGait:
         order = gait.get("order") if isinstance(gait, dict) else None

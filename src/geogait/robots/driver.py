@@ -83,10 +83,12 @@ def main(argv=None) -> int:
             hello["shape_constraints"] = json.loads(args.shape_constraints)
         except json.JSONDecodeError as error:
             raise SystemExit(f"error: --shape-constraints must be JSON rows [a_0, ..., a_(d-1), b]: {error}") from None
-    if hasattr(stream, "chain_geometry"):  # the swimmer: its chain, for the resistance model
+    if hasattr(stream, "chain_geometry"):  # the swimmer's chain, the snake's elements: for the resistance model
         geometry = stream.chain_geometry()
         hello["chain"] = {"link_lengths": [float(v) for v in geometry["link_lengths"]],
                           "body_frame": geometry["body_frame"], "frame_offset": geometry["frame_offset"]}
+        if geometry.get("shape_map") is not None:
+            hello["chain"]["shape_map"] = [[float(v) for v in row] for row in geometry["shape_map"]]
     send(hello)
     out.flush()
     for line in sys.stdin:
