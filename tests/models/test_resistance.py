@@ -39,6 +39,17 @@ def connection_error(model, system, rng, n=400, reach=2.0):
     return np.linalg.norm(model.connection(shapes) - truth, axis=(-1, -2)) / np.linalg.norm(truth, axis=(-1, -2))
 
 
+def assert_jacobian_is_the_derivative(model, gait, atol, h=1e-6):
+    """predict_displacement's Jacobian against central differences in each gait parameter."""
+    _, jacobian = model.predict_displacement(gait, jacobian=True)
+    for k in range(gait.params.size):
+        step = np.zeros(gait.params.size)
+        step[k] = h
+        difference = (model.predict_displacement(gait.with_params(gait.params + step))
+                      - model.predict_displacement(gait.with_params(gait.params - step))) / (2 * h)
+        np.testing.assert_allclose(jacobian[:, k], difference, atol=atol)
+
+
 def test_drag_sensitivity_is_the_derivative_of_the_body_velocity():
     rng = np.random.default_rng(RNG_SEED)
     swimmer = unequal_swimmer(5, rng)
@@ -104,14 +115,7 @@ def test_predicted_motion_and_gradient_agree_with_the_true_system():
     other = seed_gait(3, amplitude=1.4)  # a gait the data never visited
     np.testing.assert_allclose(model.predict_displacement(other), cycle_displacement(swimmer, other, resolution=128),
                                atol=1e-6)
-    pose, jacobian = model.predict_displacement(other, jacobian=True)
-    h = 1e-6
-    for k in range(other.params.size):
-        step = np.zeros(other.params.size)
-        step[k] = h
-        difference = (model.predict_displacement(other.with_params(other.params + step))
-                      - model.predict_displacement(other.with_params(other.params - step))) / (2 * h)
-        np.testing.assert_allclose(jacobian[:, k], difference, atol=1e-7)
+    assert_jacobian_is_the_derivative(model, other, atol=1e-7)
 
 
 def test_a_shape_map_learns_a_chain_driven_through_fewer_coordinates(tmp_path):
@@ -130,14 +134,7 @@ def test_a_shape_map_learns_a_chain_driven_through_fewer_coordinates(tmp_path):
     on_chain = FourierGait(shape_map @ other.coefficients)  # the same motion, as the chain's own gait
     truth = cycle_displacement(swimmer, on_chain, resolution=128)
     np.testing.assert_allclose(model.predict_displacement(other), truth, atol=0.02 * np.abs(truth).max())
-    pose, jacobian = model.predict_displacement(other, jacobian=True)
-    h = 1e-6
-    for k in range(other.params.size):
-        step = np.zeros(other.params.size)
-        step[k] = h
-        difference = (model.predict_displacement(other.with_params(other.params + step))
-                      - model.predict_displacement(other.with_params(other.params - step))) / (2 * h)
-        np.testing.assert_allclose(jacobian[:, k], difference, atol=1e-6)
+    assert_jacobian_is_the_derivative(model, other, atol=1e-6)
     assert model.connection(np.zeros((3, 2))).shape == (3, 3, 2)
     loaded = ResistanceModel.load(model.save(tmp_path / "mapped.npz"))
     np.testing.assert_array_equal(loaded.predict_displacement(other), model.predict_displacement(other))
