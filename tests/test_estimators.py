@@ -158,7 +158,7 @@ def invalid_value(constraint):
         return "yes"
     if isinstance(constraint, InstanceOf):
         return "not an object of the right kind"
-    if type(constraint).__name__ in ("_LinkLengths", "_BodyFrame", "_FrameOffset"):
+    if type(constraint).__name__ in ("_LinkLengths", "_BodyFrame", "_FrameOffset", "_ShapeMap"):
         return [1.0, -1.0]
     raise AssertionError(f"no invalid value for {constraint!r}")
 
