@@ -157,6 +157,9 @@ def test_warmup_turns_default_to_none_with_a_robot_and_are_refused_below_zero(tm
     result = _run("track", "--quick", "--warmup-turns", "-1", "--out", tmp_path / "x")
     assert result.exit_code == 1 and "The '--warmup-turns' option" in result.stderr
     assert not (tmp_path / "x").exists()
+    result = _run("track", "--quick", "--horizon", "3", "--straight-horizon", "4", "--out", tmp_path / "y")
+    assert result.exit_code == 1 and "The '--straight-horizon' option" in result.stderr
+    assert result.stderr.count("\n") == 1 and not (tmp_path / "y").exists()
 
 
 @pytest.mark.parametrize(("options", "message"), [

@@ -403,3 +403,18 @@ def test_model_motion_reuses_the_model_terms_with_the_same_arithmetic():
     check()
     with pytest.raises(GeogaitError, match="gait"):
         motion(seed_gait(2))
+
+
+def test_the_horizon_is_short_on_straight_stretches_and_long_before_a_bend():
+    """Where the path's tangent turns by less than STRAIGHT_BEND within the long horizon's reach, the controller
+    predicts straight_horizon cycles; a corner or a curve within reach restores the long horizon."""
+    tracker = PathTracker(horizon=4, straight_horizon=2)
+    corner = ReferencePath.waypoints([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    assert tracker._horizon_at(ReferencePath.line(), 1.0, 0.2) == 2
+    assert tracker._horizon_at(corner, 0.1, 0.2) == 2  # the corner lies beyond 4 steps of 0.2
+    assert tracker._horizon_at(corner, 0.5, 0.2) == 4  # and within them from here
+    assert tracker._horizon_at(ReferencePath.circle(1.0), 0.0, 0.2) == 4  # 0.8 rad of bend in reach
+    assert tracker._horizon_at(ReferencePath.circle(100.0), 0.0, 0.2) == 2  # 0.008 rad: straight enough
+    assert PathTracker(straight_horizon=None)._horizon_at(ReferencePath.line(), 1.0, 0.2) == 4
+    with pytest.raises(GeogaitError, match="'straight_horizon' parameter of PathTracker"):
+        PathTracker(horizon=3, straight_horizon=4).validate()

@@ -100,7 +100,9 @@ def track(
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
     perturbation: Annotated[float, typer.Option(
         help="Std (rad) of the shape perturbation δ (--exploration fixed).")] = 0.05,
-    horizon: Annotated[int, typer.Option(help="Cycles predicted per decision.")] = 4,
+    horizon: Annotated[int, typer.Option(help="Cycles predicted per decision where the path bends ahead.")] = 4,
+    straight_horizon: Annotated[int, typer.Option(
+        help="Cycles predicted where the path ahead is straight (at most --horizon).")] = 2,
     turn_limit: Annotated[float | None, typer.Option(
         help="Largest turn per cycle (rad) of the steering family [default: 1 rad, cut to what the joint limits "
              "allow].")] = None,
@@ -152,7 +154,7 @@ def track(
         links=links, path=path, drag_ratios=_ratios(drag_ratio), cycles=cycles, change_cycle=change_cycle,
         controllers=None if controllers is None else tuple(v.strip() for v in controllers.split(",") if v.strip()),
         warmup=warmup, warmup_turns=warmup_turns, scale=scale, offset=offset, seed=seed, noise=noise,
-        perturbation=perturbation, horizon=horizon,
+        perturbation=perturbation, horizon=horizon, straight_horizon=straight_horizon,
         turn_limit=turn_limit, exploration=exploration, exploration_low=exploration_low,
         exploration_high=exploration_high, model=model, change_forgetting=change_forgetting, robot=robot,
         robot_timeout=robot_timeout, step=step, trials=trials, jobs=jobs, scheduler=scheduler, quick=quick,

@@ -23,6 +23,12 @@ the course too little for a faster swimmer and overshoot (tested). Only the firs
 steering gait is solved exactly (warm-started from the family) and commanded for one cycle; then the
 loop repeats with the newly measured pose.
 
+The horizon follows the path: within one step of it, where its tangent turns by less than
+:data:`STRAIGHT_BEND` over the reach of :math:`H` cycles ahead, the controller predicts only
+``straight_horizon`` cycles. A long horizon is needed to see a bend coming and to approach the path from
+afar without overshooting; holding a straight stretch it only dilutes the correction of a drift, and a
+controller that knows the true connection then zig-zags more than one that mispredicts its turns.
+
 Three sources of the motion :math:`m`:
 
 * ``"adaptive"``: a gait model (``model``: the window model :class:`~geogait.models.AdaptiveGaitModel`
@@ -74,6 +80,8 @@ __all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "EXPLORATION", "PathTracker", "T
 CONTROLLERS = ("adaptive", "frozen", "true")
 EXPLORATION = ("fixed", "adaptive")
 DEFAULT_TURN_LIMIT = 1.0
+#: Largest turn of the path's tangent (rad) over the horizon's reach ahead that counts as straight.
+STRAIGHT_BEND = 0.1
 """Largest |turn| per cycle (rad) asked of the steering family when ``turn_limit`` is None, before the
 joint limits cut it."""
 WARMUP_TURN_LEVELS = (0.5, -0.5, 1.0, -1.0)
@@ -143,7 +151,11 @@ class PathTracker(Estimator):
     controller : {"adaptive", "frozen", "true"}
         Source of the predicted motion per cycle.
     horizon : int
-        Cycles H predicted per decision.
+        Cycles H predicted per decision where the path bends ahead.
+    straight_horizon : int or None
+        Cycles predicted within one step of the path where it is straight ahead (its tangent turns by less
+        than :data:`STRAIGHT_BEND` over H cycles' reach, at the step the motion source predicts); at most
+        ``horizon``. None: ``horizon`` everywhere.
     turn_limit : float or None
         Largest |turn| per cycle (rad) in the steering family; members the joint limits make
         infeasible are dropped. None (default): :data:`DEFAULT_TURN_LIMIT` = 1 rad cut to what the
@@ -217,6 +229,7 @@ class PathTracker(Estimator):
     _parameter_constraints: ClassVar[dict] = {
         "controller": Options(CONTROLLERS),
         "horizon": Integer(minimum=1),
+        "straight_horizon": Integer(minimum=1, none=True),
         "turn_limit": Real(low=0, high=np.pi, low_open=True, none=True),
         "n_turns": Integer(minimum=3, none=True),
         "n_first_turns": Integer(minimum=3),
@@ -232,13 +245,15 @@ class PathTracker(Estimator):
     }
     _fitted_attribute: ClassVar[str] = "turn_limit_"
 
-    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, turn_limit: float | None = None,
+    def __init__(self, *, controller: str = "adaptive", horizon: int = 4, straight_horizon: int | None = 2,
+                 turn_limit: float | None = None,
                  n_turns: int | None = None, n_first_turns: int = 21, heading_weight: float = 0.5,
                  forgetting_factor: float = 0.99, warmup_cycles: int = 10, warmup_turns: int = 0,
                  max_joint_angle: float = DEFAULT_MAX_JOINT_ANGLE, n_windows: int = 20, resolution: int = 64,
                  family_every: int = 5, exploration="fixed", model=None, change_forgetting: float = 1.0):
         self.controller = controller
         self.horizon = horizon
+        self.straight_horizon = straight_horizon
         self.turn_limit = turn_limit
         self.n_turns = n_turns
         self.n_first_turns = n_first_turns
@@ -256,6 +271,9 @@ class PathTracker(Estimator):
 
     def _check_param_combinations(self) -> None:
         owner = "PathTracker"
+        if self.straight_horizon is not None and self.straight_horizon > self.horizon:
+            raise fail("straight_horizon", owner, f"None or an int in 1..horizon ({self.horizon})",
+                       self.straight_horizon)
         if self.n_turns is not None and self.n_turns % 2 == 0:
             raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member) or None", self.n_turns)
         self._exploration_plan()
@@ -484,6 +502,16 @@ class PathTracker(Estimator):
                                "the joint limits (warm up for more cycles or relax max_joint_angle).")
         return family
 
+    def _horizon_at(self, path: ReferencePath, s: float, step_length: float, cross_track: float = 0.0) -> int:
+        """Cycles to predict from arc length ``s``: ``straight_horizon`` within one step of the path
+        (|``cross_track``| ≤ ``step_length``) where its tangent turns by less than :data:`STRAIGHT_BEND` over
+        ``horizon`` steps of ``step_length`` ahead, else ``horizon``."""
+        if self.straight_horizon is None or abs(cross_track) > step_length:
+            return self.horizon
+        headings = path.heading(s + np.linspace(0.0, self.horizon * step_length, 2 * self.horizon + 1))
+        bend = float(np.abs(se2.wrap_angle(headings - headings[0])).max())
+        return self.straight_horizon if bend < STRAIGHT_BEND else self.horizon
+
     def _plan(self, pose, s, family: SteeringFamily, path: ReferencePath, step_length: float, window: float) -> float:
         """First turn of the best candidate sequence over the horizon (module docstring): a grid of
         first turns, then two finer grids around the best one (turns are continuous; a coarse grid
@@ -491,14 +519,15 @@ class PathTracker(Estimator):
         low, high = family.turn_range
         held = family.turns[family.usable()]
         later = family.interpolate(held)  # (C, 3)
-        _, _, here = path.project(pose[:2], near=s, window=window)
+        _, offset, here = path.project(pose[:2], near=s, window=window)
+        horizon = self._horizon_at(path, s, step_length, float(offset))
 
         def cost(first_turns):  # (F,) -> (F, C)
             first = family.interpolate(first_turns)
             shape = (first_turns.size, held.size)
             current = np.broadcast_to(se2.compose(pose, first)[:, None, :], shape + (3,))
             poses = [np.broadcast_to(pose, shape + (3,)), current]
-            for _ in range(self.horizon - 1):
+            for _ in range(horizon - 1):
                 current = se2.compose(current, later[None, :, :])
                 poses.append(current)
             poses = np.stack(poses)  # (H + 1, F, C, 3)

@@ -88,6 +88,7 @@ class TrackSettings:
     noise: float = 0.1
     perturbation: float = 0.05
     horizon: int = 4
+    straight_horizon: int = 2
     turn_limit: float | None = None
     exploration: str = "fixed"
     exploration_low: float = 0.05
@@ -142,6 +143,12 @@ class TrackSettings:
                                f"{turns!r} instead.")
         if len(ratios) == 2 and not 1 <= change < cycles:
             raise GeogaitError(f"The {name('change_cycle')} must be in [1, {cycles - 1}]. Got {change} instead.")
+        if not (isinstance(self.horizon, int | np.integer) and self.horizon >= 1):
+            raise GeogaitError(f"The {name('horizon')} must be a whole number of cycles >= 1. Got {self.horizon!r} "
+                               "instead.")
+        if not (isinstance(self.straight_horizon, int | np.integer) and 1 <= self.straight_horizon <= self.horizon):
+            raise GeogaitError(f"The {name('straight_horizon')} must be a whole number of cycles in 1..{self.horizon} "
+                               f"(the horizon). Got {self.straight_horizon!r} instead.")
         if self.turn_limit is not None and not TURN_SPACING <= self.turn_limit <= np.pi:
             raise GeogaitError(f"The {name('turn_limit')} must be in [{TURN_SPACING:g}, π] rad. Got {self.turn_limit} "
                                "instead.")
@@ -200,6 +207,7 @@ class TrackSettings:
                     perturbation=self.perturbation if fixed and swimmer else None,
                     exploration=self.exploration, exploration_low=None if fixed else self.exploration_low,
                     exploration_high=None if fixed else self.exploration_high, horizon=self.horizon,
+                    straight_horizon=self.straight_horizon,
                     turn_limit=self.steering_turn_limit(), model=self.model, change_forgetting=self.change_forgetting,
                     quick=self.quick, trials=self.trials, jobs=self.jobs if self.trials > 1 else None,
                     scheduler=self.scheduler if self.trials > 1 else None)
@@ -313,7 +321,7 @@ def run_track(settings: TrackSettings, *, callback: Callable[[str, dict | None],
     sizes = s.exploration_sizes()
     for name in sorted(s.controllers, key=lambda n: n != "adaptive"):  # the adaptive run sizes the exploration
         tracker = PathTracker(controller=name, exploration=sizes, warmup_cycles=s.warmup,
-                              warmup_turns=s.warmup_turns, horizon=s.horizon,
+                              warmup_turns=s.warmup_turns, horizon=s.horizon, straight_horizon=s.straight_horizon,
                               model=tracking_model(s.model, symmetric=s.robot is None),
                               change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit())
         with _robot(s, system, gait, tracker.warmup_length) as device:  # a driver that cannot start fails here
@@ -357,7 +365,8 @@ def _paired_trials(s: TrackSettings, reference: ReferencePath, step: float, prog
                    change_cycle=s.change_cycle, warmup_cycles=s.warmup, sensor_noise=s.noise,
                    perturbation=s.perturbation if s.exploration == "fixed" else s.exploration_high,
                    controllers=s.controllers,
-                   tracker_options=dict(horizon=s.horizon, model=tracking_model(s.model), warmup_turns=s.warmup_turns,
+                   tracker_options=dict(horizon=s.horizon, straight_horizon=s.straight_horizon,
+                                        model=tracking_model(s.model), warmup_turns=s.warmup_turns,
                                         change_forgetting=s.change_forgetting, turn_limit=s.steering_turn_limit()),
                    start_offset=s.start_offset(step), exploration=None if sizes == "fixed" else sizes)
     log, wall, workers = run_sweep(track_trials, s.trials, options, seed=s.seed, chunk_size=1, jobs=s.jobs,
