@@ -428,10 +428,11 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         return prior if self.residual_degree is None else \
             np.concatenate([prior, self._residual_prior(self.residual_scale_)])
 
-    def _model(self, parameters, shape, shape_velocity, residual_jacobian):
-        """Predicted ξ ``(n, 3)`` and its Jacobian ``(n, 3, n_parameters)`` at ``parameters``."""
+    def _model(self, parameters, chain_shape, chain_velocity, residual_jacobian):
+        """Predicted ξ ``(n, 3)`` and its Jacobian ``(n, 3, n_parameters)`` at ``parameters``, from the samples'
+        shapes and rates on the chain (:meth:`_on_chain`)."""
         _, design, _ = self._design()
-        velocity, sensitivity = self._chain(parameters).drag_sensitivity(*self._on_chain(shape, shape_velocity))
+        velocity, sensitivity = self._chain(parameters).drag_sensitivity(chain_shape, chain_velocity)
         jacobian = sensitivity.reshape(sensitivity.shape[:-2] + (-1,)) @ design
         if residual_jacobian is None:
             return velocity, jacobian
@@ -446,6 +447,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         _, design, _ = self._design()
         precision = 1.0 / self._prior_variance()
         residual_jacobian = None if self.residual_degree is None else self._residual_jacobian(shape, shape_velocity)
+        shape, shape_velocity = self._on_chain(shape, shape_velocity)  # (once: every iteration reuses them)
         parameters = self.parameters_
         scale = np.sqrt(np.mean(measured**2, axis=0)) + 1e-300
 
