@@ -116,3 +116,20 @@ def test_model_class_study_judges_a_robot_from_logs_and_in_a_run(tmp_path):
     assert [row["system"] for row in written["rows"]] == ["swimmer3"]
     assert written["rows"][0]["principally_kinematic"] is True
     assert [(row["seed"], row["principally_kinematic"]) for row in written["in_run"]] == [(0, True), (1, True)]
+
+
+def test_snake_variants_study_runs_each_method_on_a_different_snake_per_seed(tmp_path):
+    """Two paired seeds are two snakes (friction and stiffness differ, and so does the seed gait's speed); every
+    method is judged on its seed's snake."""
+    pytest.importorskip("elastica", reason="PyElastica not installed: pip install 'geogait[elastica]'")
+    import json
+
+    out = tmp_path / "snakes.json"
+    subprocess.run([sys.executable, str(STUDIES / "snake_variants.py"), "--seeds", "2", "--methods",
+                    "geogait-first-2x", "--budget", "5", "--jobs", "1", "--out", str(out)],
+                   capture_output=True, text=True, check=True, timeout=300)
+    first, second = json.loads(out.read_text())["records"]
+    assert first["seed"] == 0 and second["seed"] == 1 and first["method"] == second["method"] == "geogait-first-2x"
+    assert first["friction"] != second["friction"] and first["youngs_modulus"] != second["youngs_modulus"]
+    assert abs(first["seed_objective"] / second["seed_objective"] - 1) > 1e-3
+    assert first["cycles_run"] >= 5 and all(abs(r["improvement"]) < 5 for r in (first, second))
