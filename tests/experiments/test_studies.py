@@ -1,6 +1,6 @@
 """Studies run end to end on a tiny budget: the plateau study (it leans on private optimiser hooks),
 the online phase study, the resistance model's geometry-error study, the model-gradient study, the optimiser
-settings study, the Swimmer-v5 family study and the model-class study."""
+settings study, the Swimmer-v5 family study, the model-class study and the snake-variants study."""
 
 import re
 import subprocess
