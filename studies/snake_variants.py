@@ -92,22 +92,19 @@ def main(argv=None) -> None:
     results = Parallel(n_jobs=args.jobs)(delayed(run)(k, method, args.budget, checkpoints)
                                          for k in range(args.seeds) for method in methods)
     records = [row for rows in results for row in rows]
-    frame = pd.DataFrame(records)
-    medians = frame.pivot_table(index="method", columns="cycles", values="improvement", aggfunc="median")
-    print(f"median improvement over each snake's seed gait ({args.seeds} snakes), by cycles used:")
-    print((100 * medians.reindex(methods)).round(1).to_string())
-    reference = "geogait"
-    if reference in methods:
-        for other in (m for m in methods if m != reference):
-            ahead = [int((frame.query("method == @reference and cycles == @c").set_index("seed").improvement
-                          > frame.query("method == @other and cycles == @c").set_index("seed").improvement).sum())
-                     for c in checkpoints]
-            print(f"geogait ahead of {other} on " + " / ".join(f"{a}" for a in ahead) + f" of {args.seeds} snakes")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "study": "PyElastica snakes that differ per seed",
         "command": "python studies/snake_variants.py " + shlex.join(sys.argv[1:] if argv is None else argv),
         "wall_time_s": round(time.perf_counter() - start, 1), "records": records}, indent=1) + "\n")
+    frame = pd.DataFrame(records)
+    improvement = frame.pivot_table(index=["method", "cycles"], columns="seed", values="improvement")
+    print(f"median improvement over each snake's seed gait ({args.seeds} snakes), by cycles used:")
+    print((100 * improvement.median(axis=1).unstack("cycles").reindex(methods)).round(1).to_string())
+    if "geogait" in methods:
+        for other in (m for m in methods if m != "geogait"):
+            ahead = [int((improvement.loc[("geogait", c)] > improvement.loc[(other, c)]).sum()) for c in checkpoints]
+            print(f"geogait ahead of {other} on " + " / ".join(map(str, ahead)) + f" of {args.seeds} snakes")
     print(f"wrote {args.out}")
 
 
