@@ -764,15 +764,17 @@ class _Oracle:
 
 def first_climb_radius(optimizer) -> float:
     """The climb's first σ in units of ``shape_scale`` with ``climb="first"``: twice the largest trust radius,
-    doubled again for a robot that settles after each gait change (``settle_cycles`` ≥ 1).
+    doubled again for COBYQA's climb on a robot that settles after each gait change (``settle_cycles`` ≥ 1).
 
     Every candidate then costs 1 + ``settle_cycles`` cycles, so COBYQA's initial design (2n + 1 candidates
     before its first model step) costs twice as many or more: probing twice as far, the design's best candidate
-    is worth those cycles. Measured on the robot benchmark (paired seeds): the PyElastica snake +50.8 → +68.7 %
+    is worth those cycles. (The evolution strategy has no design to pay for: its σ adapts from its first step.)
+    Measured on the robot benchmark (paired seeds): the PyElastica snake +50.8 → +68.7 %
     at 30 cycles, Gymnasium's swimmer +45.5 → +50.0 %; on the built-in swimmers, which need no settling, the
     doubled radius lost up to 1 point on 5 links and 6–13 points on 9.
     """
-    return 2 * optimizer.max_trust_radius * (2 if optimizer.settle_cycles > 0 else 1)
+    settles = optimizer.settle_cycles > 0 and optimizer.climb_rule == "cobyqa"
+    return 2 * optimizer.max_trust_radius * (2 if settles else 1)
 
 
 def new_climb(optimizer, scale: float) -> MeasuredClimb:
