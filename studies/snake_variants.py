@@ -7,12 +7,12 @@ each, modulus × 0.72–1.40, log-uniform). Every method runs on the same snake 
 is judged as on the benchmark: the gait it would hand over after 30, 60 and 100 cycles, re-run clean on that snake,
 as an improvement of forward speed over the seed gait's.
 
-Methods: the benchmark's (``geogait``, ``cobyqa-held``, ``cmaes-tuned-held`` …) and ``geogait-first-2x``: geogait
-with the first climb's σ at twice the largest trust radius, as it was before it doubled for robots that settle
-(``geogait.optimize._loop.first_climb_radius``, replaced in the worker for that method only).
+Methods: the benchmark's (``geogait``, ``cobyqa-held``, ``cmaes-tuned-held`` …) and, for each entry of
+``--variants`` (a JSON object: name → InSituOptimizer parameters), ``geogait-<name>``: geogait with those settings.
 
-    python studies/snake_variants.py --seeds 12 --methods geogait,geogait-first-2x,cobyqa-held,cmaes-tuned-held \\
-        --jobs 2 --out docs/results/optimizer-robots/snake-variants/snake_variants.json
+    python studies/snake_variants.py --seeds 12 --methods geogait,geogait-wide,cobyqa-held,cmaes-tuned-held \\
+        --variants '{"wide": {"max_trust_radius": 0.3}}' --jobs 2 \\
+        --out docs/results/optimizer-robots/snake-variants/snake_variants.json
 """
 
 from __future__ import annotations
@@ -45,10 +45,9 @@ def snake_physics(k: int) -> dict:
             "youngs_modulus": 1e6 * float(modulus) ** 1.5}
 
 
-def run(k: int, method: str, budget: int, checkpoints: tuple) -> list[dict]:
+def run(k: int, method: str, budget: int, checkpoints: tuple, options: dict | None) -> list[dict]:
     from geogait.experiments import robot_benchmark as bench
     from geogait.gaits import Perturbation
-    from geogait.optimize import _loop
     from geogait.robots import ElasticaSnake
 
     physics = snake_physics(k)
@@ -61,13 +60,9 @@ def run(k: int, method: str, budget: int, checkpoints: tuple) -> list[dict]:
     case = dataclasses.replace(bench.CASES["elastica-snake"], make_robot=make_robot)
     case = dataclasses.replace(case, direction=bench.seed_direction(case))
     seed_value = bench.evaluate_gait(case, make_robot(None, explore=False, noise=False).gait)["objective"]
-    # set for every trial (a worker process runs many), from the function the module had when first imported here
-    rule = vars(_loop).setdefault("_study_first_climb_radius", _loop.first_climb_radius)
-    _loop.first_climb_radius = (lambda optimizer: 2 * optimizer.max_trust_radius) if method == "geogait-first-2x" \
-        else rule
     start = time.perf_counter()
-    trace, used = bench._run_method(case, method.removesuffix("-first-2x"), np.random.SeedSequence(0).spawn(k + 1)[k],
-                                    budget, seed_value)
+    trace, used = bench._run_method(case, "geogait" if options is not None else method,
+                                    np.random.SeedSequence(0).spawn(k + 1)[k], budget, seed_value, options)
     seconds = time.perf_counter() - start
     rows = []
     for cycles in checkpoints:
@@ -81,15 +76,21 @@ def run(k: int, method: str, budget: int, checkpoints: tuple) -> list[dict]:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=12)
-    parser.add_argument("--methods", default="geogait,geogait-first-2x,cobyqa-held,cmaes-tuned-held")
+    parser.add_argument("--methods", default="geogait,cobyqa-held,cmaes-tuned-held")
+    parser.add_argument("--variants", type=json.loads, default={},
+                        help="JSON object: name -> InSituOptimizer parameters, run as method geogait-<name>")
     parser.add_argument("--budget", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     methods = args.methods.split(",")
+    options = {f"geogait-{name}": dict(settings) for name, settings in args.variants.items()}
+    unknown = [m for m in methods if m.startswith("geogait-") and m not in options]
+    if unknown:
+        parser.error(f"--methods: {', '.join(unknown)} not among --variants ({', '.join(options) or 'none'})")
     checkpoints = tuple(c for c in BUDGETS if c <= args.budget) or (args.budget,)
     start = time.perf_counter()
-    results = Parallel(n_jobs=args.jobs)(delayed(run)(k, method, args.budget, checkpoints)
+    results = Parallel(n_jobs=args.jobs)(delayed(run)(k, method, args.budget, checkpoints, options.get(method))
                                          for k in range(args.seeds) for method in methods)
     records = [row for rows in results for row in rows]
     args.out.parent.mkdir(parents=True, exist_ok=True)

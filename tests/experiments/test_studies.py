@@ -125,13 +125,17 @@ def test_snake_variants_study_runs_each_method_on_a_different_snake_per_seed(tmp
     import json
 
     out = tmp_path / "snakes.json"
-    output = subprocess.run([sys.executable, str(STUDIES / "snake_variants.py"), "--seeds", "2", "--methods",
-                             "geogait-first-2x,random-held", "--budget", "5", "--jobs", "1", "--out", str(out)],
+    study = [sys.executable, str(STUDIES / "snake_variants.py"), "--seeds", "2", "--budget", "5", "--jobs", "1",
+             "--out", str(out)]
+    unknown = subprocess.run([*study, "--methods", "geogait-wide"], capture_output=True, text=True, timeout=300)
+    assert unknown.returncode == 2 and "geogait-wide not among --variants" in unknown.stderr
+    output = subprocess.run([*study, "--methods", "geogait-wide,random-held", "--variants",
+                             '{"wide": {"max_trust_radius": 0.3}}'],
                             capture_output=True, text=True, check=True, timeout=300).stdout
-    assert "geogait-first-2x" in output and "random-held" in output
+    assert "geogait-wide" in output and "random-held" in output
     records = json.loads(out.read_text())["records"]
-    assert [(r["seed"], r["method"]) for r in records] == [(0, "geogait-first-2x"), (0, "random-held"),
-                                                           (1, "geogait-first-2x"), (1, "random-held")]
+    assert [(r["seed"], r["method"]) for r in records] == [(0, "geogait-wide"), (0, "random-held"),
+                                                           (1, "geogait-wide"), (1, "random-held")]
     first, second = records[0], records[2]
     assert first["friction"] != second["friction"] and first["youngs_modulus"] != second["youngs_modulus"]
     assert abs(first["seed_objective"] / second["seed_objective"] - 1) > 1e-3

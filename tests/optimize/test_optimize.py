@@ -440,25 +440,6 @@ def test_climb_first_climbs_from_the_first_decision_and_hands_over_to_a_model_th
     assert log["true_objective"].iloc[-1] > 1.2 * log["true_objective"].iloc[0]
 
 
-@pytest.mark.parametrize(("settle_cycles", "climb_rule", "factor"), [(0, "cobyqa", 2), (1, "cobyqa", 4), (1, "es", 2)])
-def test_the_first_climb_probes_twice_as_far_on_a_robot_that_settles(settle_cycles, climb_rule, factor):
-    """climb="first": COBYQA's first design candidate lies 2 × max_trust_radius × shape_scale from the seed,
-    4 × when each candidate costs a settling cycle too (first_climb_radius), and that cycle is run but not
-    measured; the evolution strategy, which has no initial design, starts at 2 × either way."""
-    from geogait.gaits import SymmetricGaitFamily
-
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=2)
-    optimizer = InSituOptimizer(settle_cycles=settle_cycles, climb_rule=climb_rule, random_state=0)
-    log = optimizer.run(stream, 12).log
-    params = log.filter(like="param_").to_numpy()
-    moved = np.flatnonzero(np.any(params != params[0], axis=1))[0]
-    family = SymmetricGaitFamily.from_gait(seed_gait(2))
-    first = family.params_of(FourierGait.from_params(params[moved], 2))
-    distance = np.linalg.norm(first - family.params_of(seed_gait(2)))
-    assert distance == pytest.approx(factor * optimizer.max_trust_radius)
-    assert np.isnan(log.loc[moved, "measured_objective"]) == bool(settle_cycles)
-
-
 def test_the_cobyqa_climb_commands_cobyqas_points_within_the_limits_and_hands_over_its_best():
     """climb_rule="cobyqa" in the free family: from the first gate decision the candidates are COBYQA's own
     initial design (the base, then the base ± σ along each family parameter in turn: the method's published

@@ -78,9 +78,7 @@ def optimize(
     max_joint_angle: Annotated[float | None, typer.Option(
         help="Joint limit r_max (rad) [default: from the robot's declared joint ranges, else 2π/3].")] = None,
     max_joint_velocity: Annotated[float | None, typer.Option(help="Joint speed limit (rad/s) [default: none].")] = None,
-    settle_cycles: Annotated[int, typer.Option(
-        help="Cycles after a gait change run but neither learned from nor measured (with one or more, the "
-             "COBYQA climb's first probes go twice as far: each costs more cycles).")] = 0,
+    settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
     max_tracking_error: Annotated[str, typer.Option(
         help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
     method: Annotated[str, typer.Option(

@@ -216,13 +216,12 @@ class InSituOptimizer(Estimator):
         not when it levels off (a model that holds far from its data, levelled off at its optimum, would
         otherwise be led astray by single noisy cycles). ``"first"`` (default): climb from the first
         decision — after ``min_cycles_per_iteration`` measured cycles of the seed, without waiting for the
-        model's Γ — at twice the largest trust radius (COBYQA's: four times with ``settle_cycles`` ≥ 1, where
-        each candidate costs more cycles, so its initial design probes farther), and hand the steps to the
-        model once it predicts the measured gains of the climb's own steps (True, its former default, lets
-        the model step first). On the robot benchmark (24 paired seeds) climbing first is ahead of model
-        steps first (level on 3 links at 100 cycles) on every robot with a data-driven model, most on those
-        outside the model class and on the 9-link swimmer; the structured model's settings keep
-        ``"contradicted"``.
+        model's Γ — at twice the largest trust radius, and hand the steps to the model once it predicts the
+        measured gains of the climb's own steps (True, its former default, lets the model step first). On
+        the robot benchmark (24 paired seeds) climbing first is ahead of model steps first (level on 3
+        links at 100 cycles) on every robot with a data-driven model, most on those outside the model class
+        and on the 9-link swimmer; the
+        structured model's settings keep ``"contradicted"``.
     climb_rule : {"es", "cobyqa"}
         How the climb proposes its candidates. ``"es"``: the mirrored (1+1) evolution strategy
         above. ``"cobyqa"`` (default): SciPy's COBYQA (module :mod:`geogait.optimize._search`), a

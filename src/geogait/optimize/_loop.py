@@ -211,7 +211,7 @@ class CycleLoop:
             return "period", np.nan
         kind, prediction_ok = None, np.nan
         if optimizer.climb == "first" and state.climb.base is None:  # nothing known yet: twice the model's step
-            self._start_climb(sigma=first_climb_radius(optimizer) * state.scale)
+            self._start_climb(sigma=2 * optimizer.max_trust_radius * state.scale)
         elif not state.climb.active and (self._model_excluded() or self._unexcited()):
             if optimizer.climb:  # (a model outside its class, or one that cannot learn, takes no step)
                 self._start_climb()
@@ -760,21 +760,6 @@ class _Oracle:
         if self.objective == "forward" and state.direction is None:
             return pose, np.nan
         return pose, self.evaluate(pose, np.zeros((3, gait.params.size)), gait)[0]
-
-
-def first_climb_radius(optimizer) -> float:
-    """The climb's first σ in units of ``shape_scale`` with ``climb="first"``: twice the largest trust radius,
-    doubled again for COBYQA's climb on a robot that settles after each gait change (``settle_cycles`` ≥ 1).
-
-    Every candidate then costs 1 + ``settle_cycles`` cycles, so COBYQA's initial design (2n + 1 candidates
-    before its first model step) costs twice as many or more: probing twice as far, the design's best candidate
-    is worth those cycles. (The evolution strategy has no design to pay for: its σ adapts from its first step.)
-    Measured on the robot benchmark (paired seeds): the PyElastica snake +50.8 → +68.7 %
-    at 30 cycles, Gymnasium's swimmer +45.5 → +50.0 %; on the built-in swimmers, which need no settling, the
-    doubled radius lost up to 1 point on 5 links and 6–13 points on 9.
-    """
-    settles = optimizer.settle_cycles > 0 and optimizer.climb_rule == "cobyqa"
-    return 2 * optimizer.max_trust_radius * (2 if settles else 1)
 
 
 def new_climb(optimizer, scale: float) -> MeasuredClimb:
