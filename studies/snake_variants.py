@@ -46,6 +46,7 @@ def snake_physics(k: int) -> dict:
 
 
 def run(k: int, method: str, budget: int, checkpoints: tuple, options: dict | None) -> list[dict]:
+    """One method on snake k (geogait with ``options`` when given), judged at each checkpoint."""
     from geogait.experiments import robot_benchmark as bench
     from geogait.gaits import Perturbation
     from geogait.robots import ElasticaSnake
