@@ -62,8 +62,9 @@ def run(k: int, method: str, budget: int, checkpoints: tuple, options: dict | No
     case = dataclasses.replace(case, direction=bench.seed_direction(case))
     seed_value = bench.evaluate_gait(case, make_robot(None, explore=False, noise=False).gait)["objective"]
     start = time.perf_counter()
-    trace, used = bench._run_method(case, "geogait" if options is not None else method,
-                                    np.random.SeedSequence(0).spawn(k + 1)[k], budget, seed_value, options)
+    paired_seed = np.random.SeedSequence(0, spawn_key=(k,))  # the benchmark's k-th paired seed
+    trace, used = bench._run_method(case, "geogait" if options is not None else method, paired_seed, budget,
+                                    seed_value, options)
     seconds = time.perf_counter() - start
     rows = []
     for cycles in checkpoints:
