@@ -342,3 +342,34 @@ def test_the_wheeled_snakes_ceiling_keeps_its_margin():
     snake = case.make_robot(None, explore=False, noise=False).current_system()
     phases = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
     assert snake.feasibility(case.ceiling().shape(phases)).min() >= 0
+
+
+def test_the_paired_comparison_takes_the_best_method_within_the_rotation_limit_seed_by_seed():
+    """geogait against the best black-box median among methods that keep the rotation limit (a faster method
+    that turns is not the rival), paired by seed; six wins of six is the exact two-sided Wilcoxon p = 2 / 2⁶,
+    and identical runs tie (p = 1)."""
+    import pandas as pd
+
+    seeds = range(6)
+    ours = [0.90, 0.91, 0.92, 0.93, 0.94, 0.95]
+    rows = [("geogait", s, c, v, 0.0) for s, v in zip(seeds, ours, strict=True) for c in (30, 60)]
+    # behind by 1…6 pt after 30 cycles, level after 60
+    rows += [("cobyqa", s, c, v - (0.01 * (s + 1) if c == 30 else 0.0), 0.0)
+             for s, v in zip(seeds, ours, strict=True) for c in (30, 60)]
+    rows += [("tpe", s, c, 0.99, 0.5) for s in seeds for c in (30, 60)]  # ahead, but turns 0.5 rad per cycle
+    rows += [("random-held", s, c, 0.5, 0.0) for s in seeds for c in (30, 60)]
+    records = pd.DataFrame([{"case": "swimmer3", "method": m, "seed": s, "cycles": c, "objective": v,
+                             "ceiling_fraction": v, "improvement": v, "rotation": r, "score": np.nan,
+                             "cycles_run": c} for m, s, c, v, r in rows])
+    info = {"description": "test", "objective": "progress", "seed": {"objective": 1.0}, "ceiling": {"objective": 2.0},
+            "rotation_limit": 0.02, "score": None}
+    result = {"records": records, "cases": {"swimmer3": info}}
+    comparison = bench.paired_comparison(result, (30, 60, 100)).set_index("cycles")
+    assert list(comparison.index) == [30, 60]
+    assert (comparison["rival"] == "cobyqa").all()
+    assert comparison.loc[30, "ahead"] == 6 and comparison.loc[30, "seeds"] == 6
+    assert comparison.loc[30, "median_difference"] == pytest.approx(0.035)
+    assert comparison.loc[30, "p_value"] == pytest.approx(2 / 2**6)
+    assert comparison.loc[60, "ahead"] == 0 and comparison.loc[60, "p_value"] == 1.0
+    table = bench.benchmark_table(result, (30, 60))
+    assert "| 30 | cobyqa (89.0 %) | 6 of 6 | +3.5 pt | 0.031 |" in table

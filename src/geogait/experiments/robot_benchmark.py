@@ -47,6 +47,12 @@ measured cycles), with its objective, net rotation per cycle, share of the ceili
 (Gymnasium Swimmer-v5: the episode return). One run per method and seed serves every budget: a
 method's state after ``c`` cycles does not depend on the budget beyond ``c``.
 
+**Paired comparison** (:func:`paired_comparison`): at each checkpoint, geogait against the black-box method
+with the best median among those whose gaits keep the case's rotation limit (median |net rotation| per cycle
+≤ ``rotation_limit``), seed by seed: in how many seeds geogait's gait is ahead, the median of the paired
+differences and the two-sided Wilcoxon signed-rank test's p-value (ties dropped). Medians over seeds can flip
+on a difference no larger than the seeds' spread; the paired test says whether a gap is one.
+
 Seeds are paired: trial ``s`` of every method drives a robot seeded with
 ``SeedSequence(seed).spawn(n_seeds)[s]`` (same perturbation stream, same sensor noise); a black-box
 method's own random numbers come from the same child.
@@ -81,7 +87,7 @@ from ..sweep import run_trials
 from ..systems import KinematicSnake, PurcellSwimmer
 
 __all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials", "case_optimizer",
-           "run_robot_benchmark", "benchmark_table", "plot_benchmark", "evaluate_gait"]
+           "run_robot_benchmark", "benchmark_table", "paired_comparison", "plot_benchmark", "evaluate_gait"]
 
 _OWNER = "run_robot_benchmark"
 #: Joint limit of geogait's design (rad), used by the built-in and MuJoCo Purcell swimmers.
@@ -733,18 +739,87 @@ def _summary(records: pd.DataFrame, budgets: Sequence[int]) -> pd.DataFrame:
     return summary.reset_index()
 
 
+def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), method: str = "geogait") -> pd.DataFrame:
+    """``method`` against the best black-box method at each checkpoint, paired by seed (module docstring).
+
+    Parameters
+    ----------
+    result : dict
+        :func:`run_robot_benchmark`'s result (or :func:`from_manifest`'s).
+    budgets : sequence of int
+        Checkpoints (cycles used) compared; those not recorded are left out.
+    method : str
+        The method compared (a geogait row).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case and checkpoint with a black-box method keeping the rotation limit: ``case``,
+        ``cycles``, ``method`` and its ``median``, ``rival`` and its ``rival_median`` (share of the ceiling, or
+        improvement over the seed without one), ``ahead`` (seeds where ``method``'s value is larger), ``seeds``
+        (paired), ``median_difference`` and ``p_value`` (Wilcoxon signed-rank, two-sided; 1 when every pair
+        ties).
+    """
+    from scipy.stats import wilcoxon
+
+    records = result["records"]
+    rows = []
+    if records.empty:
+        return pd.DataFrame(rows)
+    black_box = {f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")}
+    summary = _summary(records, [b for b in budgets if b in set(records["cycles"])])
+    for (case, cycles), block in summary.groupby(["case", "cycles"], sort=False):
+        info = result["cases"][case]
+        column = "ceiling" if info["ceiling"] is not None else "improvement"
+        kept = block[block["method"].isin(black_box) & (block["rotation"] <= info["rotation_limit"])]
+        if kept.empty or method not in set(block["method"]):
+            continue
+        rival = kept.loc[kept[column].idxmax()]
+        value = "ceiling_fraction" if info["ceiling"] is not None else "improvement"
+        at = records[(records["case"] == case) & (records["cycles"] == cycles)]
+        ours = at[at["method"] == method].set_index("seed")[value]
+        theirs = at[at["method"] == rival["method"]].set_index("seed")[value]
+        ours, theirs = ours.align(theirs, join="inner")
+        difference = (ours - theirs).to_numpy(dtype=float)
+        nonzero = difference[difference != 0]
+        rows.append({"case": case, "cycles": int(cycles), "method": method,
+                     "median": float(block.loc[block["method"] == method, column].iloc[0]),
+                     "rival": rival["method"], "rival_median": float(rival[column]),
+                     "ahead": int(np.sum(difference > 0)), "seeds": int(difference.size),
+                     "median_difference": float(np.median(difference)) if difference.size else float("nan"),
+                     "p_value": float(wilcoxon(nonzero).pvalue) if nonzero.size else 1.0})
+    return pd.DataFrame(rows)
+
+
+def _paired_lines(comparison: pd.DataFrame, case: str, has_ceiling: bool) -> list:
+    rows = comparison[comparison["case"] == case] if not comparison.empty else comparison
+    if rows.empty:
+        return []
+    unit = "pt" if has_ceiling else "pt of the seed"
+    lines = [f"{rows['method'].iloc[0]} against the best black-box method keeping the rotation limit, paired by seed:",
+             "", "| cycles | best black-box (median) | geogait ahead in | median paired difference | Wilcoxon p |",
+             "|---|---|---|---|---|"]
+    for row in rows.itertuples():
+        share = (lambda v: f"{100 * v:.1f} %") if has_ceiling else (lambda v: f"{100 * v:+.1f} %")
+        lines.append(f"| {row.cycles} | {row.rival} ({share(row.rival_median)}) | {row.ahead} of {row.seeds} | "
+                     f"{100 * row.median_difference:+.1f} {unit} | {row.p_value:.2g} |")
+    return lines + [""]
+
+
 def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str:
     """Markdown table: per case and method, the median clean objective of the gait after each budget.
 
     Each cell is ``median share of the ceiling`` (or median improvement over the seed when no
     ceiling is known), the case's score where it has one, and the median |net rotation| per cycle
-    (rad) of those gaits.
+    (rad) of those gaits; under each case's table, geogait against the best black-box method, paired by
+    seed (:func:`paired_comparison`).
     """
     records = result["records"]
     if records.empty:
         return "No case ran.\n"
     budgets = [b for b in budgets if b in set(records["cycles"])]
     summary = _summary(records, budgets)
+    comparison = paired_comparison(result, budgets)
     lines = []
     for case, block in summary.groupby("case", sort=False):
         info = result["cases"][case]
@@ -772,6 +847,7 @@ def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str
                 cells.append(cell + f" · {row['rotation']:.3f}")
             lines.append(f"| {method} | " + " | ".join(cells) + " |")
         lines.append("")
+        lines += _paired_lines(comparison, case, has_ceiling)
     return "\n".join(lines)
 
 
