@@ -147,6 +147,11 @@ def test_missing_extras_skip_their_case_with_one_line(monkeypatch):
     lines = []
     result = bench.run_robot_benchmark(["swimmer3"], ["random"], n_seeds=1, budget=2, progress=False, log=lines.append)
     assert lines == ["skipped case swimmer3: needs no_such_module_geogait (pip install 'geogait[mujoco]')"]
+    find_spec = bench.importlib.util.find_spec  # the Control Suite's case names its own extra
+    monkeypatch.setattr(bench.importlib.util, "find_spec", lambda name, *a: None if name == "dm_control"
+                        else find_spec(name, *a))
+    assert bench.available_cases(["dm-control-swimmer"])[1] == {
+        "dm-control-swimmer": "needs dm_control (pip install 'geogait[dmcontrol]')"}
     assert result["records"].empty and "swimmer3" in result["skipped"]
     assert bench.benchmark_table(result) == "No case ran.\n"
 
@@ -257,7 +262,8 @@ def test_a_manifest_with_cases_without_ceiling_or_score_redraws(tmp_path):
     assert "improvement over seed" in bench.benchmark_table(loaded, (4,))
 
 
-@pytest.mark.parametrize("name", ["swimmer5", "mujoco-purcell5-unequal", "gymnasium-swimmer", "elastica-snake"])
+@pytest.mark.parametrize("name", ["swimmer5", "mujoco-purcell5-unequal", "gymnasium-swimmer", "dm-control-swimmer",
+                                  "elastica-snake"])
 def test_geogait_defaults_search_the_family_every_black_box_method_searches(name):
     """The rules' "same gait family": a case with a rotation-free family gets it for the black-box methods from the
     case, and geogait (family="auto") finds the same one from what the robot declares."""

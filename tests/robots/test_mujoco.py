@@ -575,6 +575,13 @@ def test_mirror_symmetry_is_read_from_the_model():
     assert tail in xml
     off_axis = xml.replace(tail, tail + '<geom type="sphere" pos="-0.1 0.04 0" size="0.02"/>')
     assert not MujocoRobot(off_axis).mirror_symmetric  # a lump on one side of the tail
+    # a massless lump that touches nothing and has no fluid model of its own exerts no force: a visual geom
+    visual = xml.replace(tail, tail + '<geom type="sphere" pos="-0.1 0.04 0" size="0.02" mass="0"/>')
+    assert MujocoRobot(visual).mirror_symmetric
+    touching = visual.replace('mass="0"/>', 'mass="0" contype="1" conaffinity="1"/>')
+    assert not MujocoRobot(touching).mirror_symmetric
+    in_the_fluid = visual.replace('mass="0"/>', 'mass="0" fluidshape="ellipsoid"/>')
+    assert not MujocoRobot(in_the_fluid).mirror_symmetric
     lopsided_range = xml.replace('range="-2.09439510239 2.09439510239"', 'range="-2.09439510239 1.5"', 1)
     assert not MujocoRobot(lopsided_range).mirror_symmetric
     joint_end = 'limited="true" armature="0.0001"/>'
@@ -673,3 +680,24 @@ def test_the_optimisers_model_class_test_passes_both_swimmers(case):
     assert verdict.principally_kinematic is True, verdict.reason
     assert verdict.periods == pytest.approx((period, 2 * period), rel=0.02)
     assert result.n_steps > 0
+
+
+def test_the_control_suites_swimmer_reads_the_same_in_a_mirror_and_moves_so():
+    """dm_control's 6-link swimmer: its visual geoms (head, nose, eyes, the target) are left out of the symmetry test,
+    and its dynamics agree: the gait −θ gives the mirrored motion (its links lie along y: x → −x, heading → −heading),
+    so half-wave symmetric gaits do not turn it once settled."""
+    pytest.importorskip("dm_control", reason="the Control Suite's swimmer needs dm_control (pip install "
+                                             "'geogait[dmcontrol]')")
+    from geogait.robots import dm_control_swimmer
+
+    robot = dm_control_swimmer(6, perturbation=STILL)
+    assert robot.mirror_symmetric and not robot.front_back_symmetric and not robot.resistive_medium
+    assert robot.body_name == "head" and robot.n_joints == 5 and robot.cycle_period == 4.0
+    np.testing.assert_allclose(robot.joint_ranges, [[-np.pi / 3, np.pi / 3]] * 5)
+    gait = robot.gait
+    run = robot.next_cycles(3)
+    mirrored = dm_control_swimmer(6, gait=FourierGait(-gait.coefficients), perturbation=STILL).next_cycles(3)
+    assert np.abs(run.pose[-1, :2]).max() > 0.1  # it does move
+    np.testing.assert_allclose(mirrored.pose, run.pose * np.array([-1.0, 1.0, -1.0]), rtol=0, atol=1e-9)
+    settled = net_motion(run, robot.samples_per_cycle, 2 * robot.samples_per_cycle)  # the second cycle, whole
+    assert abs(settled[2]) < 0.005 < np.hypot(*settled[:2])

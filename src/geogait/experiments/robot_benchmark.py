@@ -154,7 +154,7 @@ class BenchmarkCase:
         ``(gait) -> float``: the case's own judgement of a gait (e.g. an episode return).
     score_name : str
     requires : tuple of str
-        Optional modules the case needs (``"mujoco"``, ``"gymnasium"``, ``"elastica"``).
+        Optional modules the case needs (``"mujoco"``, ``"gymnasium"``, ``"dm_control"``, ``"elastica"``).
     checkpoints : tuple of int, optional
         Cycles at which gaits are evaluated (default every 10 cycles, 30 and 60); fewer for slow robots.
     period_range : tuple of 2 floats, optional
@@ -226,6 +226,14 @@ def _gymnasium_robot(seed, explore, noise, gait=None):
     return gymnasium_swimmer(seed=seed, **options)
 
 
+def _dm_control_robot(seed, explore, noise, gait=None):
+    from ..robots import dm_control_swimmer
+    options = {} if explore else {"perturbation": Perturbation(eta=0)}
+    if gait is not None:
+        options["gait"] = gait
+    return dm_control_swimmer(6, seed=seed, **options)
+
+
 def _set_period(robot, period):
     if period is not None:
         robot.set_cycle_period(period)
@@ -277,6 +285,10 @@ def _cases() -> dict[str, BenchmarkCase]:
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
         settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return", family="mirror",
         requires=("mujoco", "gymnasium"), period_range=(0.5, 4.0))
+    cases["dm-control-swimmer"] = BenchmarkCase(
+        name="dm-control-swimmer", description="DeepMind Control Suite's 6-link swimmer (MuJoCo's inertia-based "
+        "fluid model), PD on its motors, 4 s", make_robot=_dm_control_robot, objective="forward", direction=None,
+        max_joint_angle=np.pi / 3, settle_cycles=1, eval_cycles=2, family="mirror", requires=("mujoco", "dm_control"))
     cases["elastica-snake"] = BenchmarkCase(
         name="elastica-snake", description="PyElastica continuum snake (Cosserat rod, anisotropic friction), "
         "4 curvature modes, 1 s", make_robot=_elastica_robot, objective="forward", direction=None,
@@ -297,7 +309,7 @@ def available_cases(names: Sequence[str]) -> tuple[list[str], dict[str, str]]:
             raise fail("cases", _OWNER, "names among " + ", ".join(CASES), name)
         missing = CASES[name].missing()
         if missing:
-            extra = "elastica" if "elastica" in missing else "mujoco"
+            extra = "elastica" if "elastica" in missing else "dmcontrol" if "dm_control" in missing else "mujoco"
             skipped[name] = f"needs {', '.join(missing)} (pip install 'geogait[{extra}]')"
         else:
             run.append(name)

@@ -17,6 +17,7 @@ from ._elastica import ElasticaSnake, elastica_snake, snake_seed_gait
 from ._mujoco import (
     MODELS_DIRECTORY,
     MujocoRobot,
+    dm_control_swimmer,
     gymnasium_swimmer,
     load_mujoco_model,
     mujoco_swimmer,
@@ -35,5 +36,5 @@ from .continuum import (
 
 __all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "CurvatureModes", "ElasticaSnake",
            "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "check_robot", "curvature_profile",
-           "curvature_rate", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer",
-           "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles", "SwimmerStream"]
+           "curvature_rate", "dm_control_swimmer", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model",
+           "mujoco_swimmer", "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles", "SwimmerStream"]
