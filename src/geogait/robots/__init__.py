@@ -37,4 +37,5 @@ from .continuum import (
 __all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "CurvatureModes", "ElasticaSnake",
            "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "check_robot", "curvature_profile",
            "curvature_rate", "dm_control_swimmer", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model",
-           "mujoco_swimmer", "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles", "SwimmerStream"]
+           "mujoco_swimmer", "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles",
+           "SwimmerStream"]

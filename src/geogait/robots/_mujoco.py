@@ -44,8 +44,8 @@ from .._validation import GeogaitError, check_choice, check_float, check_int, fa
 from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at, seed_gait
 from ..simulate import Trajectory
 
-__all__ = ["MujocoRobot", "dm_control_swimmer", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer", "purcell_swimmer_xml",
-           "MODELS_DIRECTORY"]
+__all__ = ["MujocoRobot", "dm_control_swimmer", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer",
+           "purcell_swimmer_xml", "MODELS_DIRECTORY"]
 
 #: Folder of the MuJoCo models shipped with geogait (``purcell3.xml``, ``purcell5.xml``).
 MODELS_DIRECTORY = Path(__file__).parent / "models"
