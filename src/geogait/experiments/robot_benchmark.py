@@ -923,7 +923,8 @@ def manifest(result: dict, command: str, wall_time: float) -> dict:
     records = result["records"]
     return {"benchmark": "geogait robot benchmark", "command": command, "wall_time_s": round(wall_time, 1),
             "versions": {"geogait": __version__, "numpy": np.__version__, "python": platform.python_version(),
-                         **{name: version(name) for name in ("cma", "optuna", "mujoco", "gymnasium")}},
+                         **{name: version(name) for name in ("cma", "optuna", "mujoco", "gymnasium", "dm_control",
+                                                             "pyelastica")}},
             "config": result["config"], "cases": result["cases"], "skipped": result["skipped"],
             "records": json.loads(records.to_json(orient="records")) if not records.empty else []}
 
