@@ -3,8 +3,9 @@
 Runs geogait with each named set of InSituOptimizer parameters on the benchmark's cases, paired seeds
 and clean re-runs (``geogait.experiments.robot_benchmark``), and prints per case the median clean
 objective after 30, 60 and 100 cycles for each setting, next to the stored black-box rows of the same
-seeds (the best black-box method at each budget, from the results manifests). Writes one JSON file
-with every record.
+seeds (the best black-box method at each budget, from the results manifests), and each setting paired seed by
+seed with the stored default (``robot_benchmark.paired_test``: seeds ahead, Wilcoxon signed-rank p). Writes one
+JSON file with every record.
 
     python studies/optimizer_robots.py --cases elastica-snake,swimmer5 --seeds 8 --jobs 2 \\
         --variants '{"default": {}, "floor 0.075": {"min_trust_radius": 0.075}}' --out docs/results/optimizer-robots
@@ -37,6 +38,28 @@ _BLACK_BOX = [m for m in bench.METHODS if not m.startswith("geogait")]
 
 def _column(case: dict) -> str:
     return "ceiling_fraction" if case.get("ceiling") else "improvement"
+
+
+def stored_default(n_seeds: int) -> pd.DataFrame:
+    """geogait's default runs in the results manifests, on seeds < ``n_seeds``: case, seed, cycles and values."""
+    frames = []
+    for path in MANIFESTS:
+        if path.exists():
+            records = bench.from_manifest(path)["records"]
+            frames.append(records[(records["method"] == "geogait") & (records["seed"] < n_seeds)])
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+def _paired_line(name: str, ours: pd.DataFrame, stored: pd.DataFrame, column: str, budgets) -> str | None:
+    """A setting's runs against the stored default on the same seeds, at each budget the default has."""
+    cells = []
+    for cycles in budgets:
+        theirs = stored[stored["cycles"] == cycles].set_index("seed")[column] if len(stored) else pd.Series()
+        if theirs.empty:
+            return None
+        test = bench.paired_test(ours[ours["cycles"] == cycles].set_index("seed")[column], theirs)
+        cells.append(f"{test['ahead']} of {test['seeds']} (p {test['p_value']:.2g})")
+    return f"  {name:<28} ahead of the stored default in " + " / ".join(cells)
 
 
 def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
@@ -93,6 +116,7 @@ def main(argv=None) -> int:
         described.update(result["cases"])
     records = pd.concat(frames, ignore_index=True)
     reference = stored_reference(args.seeds, args.budget)
+    default = stored_default(args.seeds)
     lines = []
     for case in cases:
         if case not in described:
@@ -106,6 +130,11 @@ def main(argv=None) -> int:
             rotation = frame[frame["variant"] == name]["rotation"].abs().max()
             lines.append(f"  {name:<28} " + " / ".join(f"{medians[c]:+.3f}" for c in budgets)
                          + "   min " + " / ".join(f"{worst[c]:+.3f}" for c in budgets) + f"   |rot| ≤ {rotation:.3f}")
+        stored = default[default["case"] == case] if len(default) else default
+        for name in variants:
+            paired = _paired_line(name, frame[frame["variant"] == name], stored, column, budgets)
+            if paired is not None:
+                lines.append(paired)
         for kind, label in (("geogait", "geogait default (stored)"), ("black-box", "best black-box (stored)")):
             rows = reference[(reference["case"] == case) & (reference["kind"] == kind)] if len(reference) else []
             if len(rows):

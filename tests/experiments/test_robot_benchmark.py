@@ -379,3 +379,7 @@ def test_the_paired_comparison_takes_the_best_method_within_the_rotation_limit_s
     assert comparison.loc[60, "ahead"] == 0 and comparison.loc[60, "p_value"] == 1.0
     table = bench.benchmark_table(result, (30, 60))
     assert "| 30 | cobyqa (89.0 %) | 6 of 6 | +3.5 pt | 0.031 |" in table
+    # a run against its manifest's ten decimals ties; seeds in only one of the two are left out
+    tie = bench.paired_test(pd.Series([0.5, 0.6123456789012, 0.7], index=[0, 1, 2]),
+                            pd.Series([0.5, 0.6123456789, 0.1], index=[0, 1, 5]))
+    assert tie == {"ahead": 0, "seeds": 2, "median_difference": 0.0, "p_value": 1.0}

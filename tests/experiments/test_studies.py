@@ -67,23 +67,24 @@ def test_model_gradient_study_compares_the_model_with_central_differences(tmp_pa
 
 def test_optimizer_robots_study_runs_each_setting_on_the_benchmark_robot(tmp_path):
     """Three optimiser settings on the built-in 3-link swimmer, one of them on another of the benchmark's geogait
-    rows (``"method"``): one row each in the printed table, and every record (seed, cycles, setting) in the
-    JSON, with the settings as given."""
+    rows (``"method"``): one row each in the printed table, each paired seed by seed with the stored default, and
+    every record (seed, cycles, setting) in the JSON, with the settings as given."""
     import json
 
     pytest.importorskip("cma", reason="the stored black-box rows come from a benchmark that needs cma")
     variants = {"default": {}, "held radius": {"trust_radius": 0.15, "min_trust_radius": 0.15},
                 "batch": {"method": "geogait-batch"}}
     output = subprocess.run([sys.executable, str(STUDIES / "optimizer_robots.py"), "--cases", "swimmer3", "--seeds",
-                             "2", "--budget", "12", "--jobs", "1", "--variants", json.dumps(variants), "--out",
+                             "2", "--budget", "30", "--jobs", "1", "--variants", json.dumps(variants), "--out",
                              str(tmp_path)], capture_output=True, text=True, check=True, timeout=300).stdout
     for name in variants:
         assert re.search(rf"^  {name} +\+0\.\d+ +min \+0\.\d+", output, re.M)
+        assert re.search(rf"^  {name} +ahead of the stored default in [012] of 2 \(p [0-9.e-]+\)$", output, re.M)
     payload = json.loads((tmp_path / "optimizer_robots.json").read_text())
     assert payload["variants"] == variants
     records = payload["records"]
     assert sorted({(r["variant"], r["seed"], r["cycles"]) for r in records}) == [
-        (v, s, 12) for v in ("batch", "default", "held radius") for s in (0, 1)]
+        (v, s, 30) for v in ("batch", "default", "held radius") for s in (0, 1)]
     assert {r["method"] for r in records if r["variant"] == "batch"} == {"geogait-batch"}
     assert {r["method"] for r in records if r["variant"] != "batch"} == {"geogait"}
     assert all(0.3 < r["ceiling_fraction"] <= 1.0 for r in records if r["variant"] != "batch")
