@@ -55,16 +55,17 @@ def _paired_line(name: str, ours: pd.DataFrame, stored: pd.DataFrame, column: st
     cells = []
     for cycles in budgets:
         theirs = stored[stored["cycles"] == cycles].set_index("seed")[column] if len(stored) else pd.Series()
-        if theirs.empty:
-            return None
         test = bench.paired_test(ours[ours["cycles"] == cycles].set_index("seed")[column], theirs)
-        cells.append(f"{test['ahead']} of {test['seeds']} (p {test['p_value']:.2g})")
+        cells.append(f"{test['ahead']} of {test['seeds']} (p {test['p_value']:.2g})" if test["seeds"] else "—")
+    if all(cell == "—" for cell in cells):
+        return None
     return f"  {name:<28} ahead of the stored default in " + " / ".join(cells)
 
 
 def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
     """Per case and budget, from the stored runs on seeds < ``n_seeds``: geogait's default median and the
-    black-box method with the best median (``kind`` "geogait" or "black-box")."""
+    black-box method with the best median among those whose median gait keeps the case's rotation limit
+    (``kind`` "geogait" or "black-box")."""
     rows = []
     for path in MANIFESTS:
         if not path.exists():
@@ -79,9 +80,12 @@ def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
             if frame.empty or frame["seed"].nunique() < n_seeds:
                 continue
             medians = frame.groupby(["cycles", "method"])[_column(case)].median()
+            rotation = frame.assign(turn=frame["rotation"].abs()).groupby(["cycles", "method"])["turn"].median()
             for cycles in BUDGETS:
                 at = medians.loc[cycles]
-                best = at.drop("geogait", errors="ignore")
+                # the best black-box method whose median gait keeps the rotation limit (robot_benchmark's rival)
+                kept = rotation.loc[cycles] <= case["rotation_limit"]
+                best = at[kept.reindex(at.index, fill_value=False)].drop("geogait", errors="ignore").dropna()
                 rows.append({"case": name, "cycles": cycles, "kind": "black-box", "method": best.idxmax(),
                              "median": best.max()})
                 if "geogait" in at:

@@ -582,6 +582,15 @@ def test_mirror_symmetry_is_read_from_the_model():
     assert not MujocoRobot(touching).mirror_symmetric
     in_the_fluid = visual.replace('mass="0"/>', 'mass="0" fluidshape="ellipsoid"/>')
     assert not MujocoRobot(in_the_fluid).mirror_symmetric
+    # an explicit contact pair touches whatever contype and conaffinity say
+    paired = visual.replace('mass="0"/>', 'mass="0" name="lump"/>').replace(
+        "</worldbody>", '<geom name="floor" type="plane" pos="0 0 -1" size="5 5 0.1"/></worldbody>')
+    assert MujocoRobot(paired).mirror_symmetric  # a floor below is allowed
+    paired = paired.replace("</worldbody>", '</worldbody><contact><pair geom1="lump" geom2="floor"/></contact>')
+    assert not MujocoRobot(paired).mirror_symmetric
+    # a heavy body welded to the tail, off its axis: its geom touches nothing, but its mass moves with the tail
+    welded = xml.replace(tail, tail + '<body pos="-0.1 0.04 0"><geom type="sphere" size="0.02" density="5000"/></body>')
+    assert not MujocoRobot(welded).mirror_symmetric
     lopsided_range = xml.replace('range="-2.09439510239 2.09439510239"', 'range="-2.09439510239 1.5"', 1)
     assert not MujocoRobot(lopsided_range).mirror_symmetric
     joint_end = 'limited="true" armature="0.0001"/>'
@@ -683,9 +692,9 @@ def test_the_optimisers_model_class_test_passes_both_swimmers(case):
 
 
 def test_the_control_suites_swimmer_reads_the_same_in_a_mirror_and_moves_so():
-    """dm_control's 6-link swimmer: its visual geoms (head, nose, eyes, the target) are left out of the symmetry test,
-    and its dynamics agree: the gait −θ gives the mirrored motion (its links lie along y: x → −x, heading → −heading),
-    so half-wave symmetric gaits do not turn it once settled."""
+    """dm_control's 6-link swimmer: its target (a sphere off the body's axis, contacts off) is left out of the symmetry
+    test, and its dynamics agree: the gait −θ gives the mirrored motion (its links lie along y: x → −x, heading →
+    −heading), so half-wave symmetric gaits do not turn it once settled."""
     pytest.importorskip("dm_control", reason="the Control Suite's swimmer needs dm_control (pip install "
                                              "'geogait[dmcontrol]')")
     from geogait.robots import dm_control_swimmer

@@ -48,14 +48,14 @@ measured cycles), with its objective, net rotation per cycle, share of the ceili
 method's state after ``c`` cycles does not depend on the budget beyond ``c``.
 
 **Paired comparison** (:func:`paired_comparison`): at each checkpoint, geogait against the black-box method
-with the best median among those whose gaits keep the case's rotation limit (median |net rotation| per cycle
-≤ ``rotation_limit``), seed by seed: in how many seeds geogait's gait is ahead, the median of the paired
-differences and the two-sided Wilcoxon signed-rank test's p-value (ties dropped). Medians over seeds can flip
-on a difference no larger than the seeds' spread; the paired test says whether a gap is one.
+with the best median among those whose median gait keeps the case's rotation limit (median |net rotation| per
+cycle ≤ ``rotation_limit``; single seeds may turn more), seed by seed: in how many seeds geogait's gait is
+ahead, the median of the paired differences and the two-sided Wilcoxon signed-rank test's p-value (ties
+dropped). Medians over seeds can flip on a difference no larger than the seeds' spread; the paired test says
+whether a gap is one.
 
-Seeds are paired: trial ``s`` of every method drives a robot seeded with
-``SeedSequence(seed).spawn(n_seeds)[s]`` (same perturbation stream, same sensor noise); a black-box
-method's own random numbers come from the same child.
+Seeds are paired: trial ``s`` of every method drives a robot seeded with ``SeedSequence(seed).spawn(n_seeds)[s]``
+(same perturbation stream, same sensor noise); a black-box method's own random numbers come from the same child.
 """
 
 from __future__ import annotations
@@ -782,7 +782,8 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
     for (case, cycles), block in summary.groupby(["case", "cycles"], sort=False):
         info = result["cases"][case]
         column = "ceiling" if info["ceiling"] is not None else "improvement"
-        kept = block[block["method"].isin(black_box) & (block["rotation"] <= info["rotation_limit"])]
+        kept = block[block["method"].isin(black_box) & (block["rotation"] <= info["rotation_limit"])
+                     & block[column].notna()]
         if kept.empty or method not in set(block["method"]):
             continue
         rival = kept.loc[kept[column].idxmax()]
@@ -798,13 +799,14 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
 
 def paired_test(ours: pd.Series, theirs: pd.Series) -> dict:
     """Two methods' values on the same seeds (series indexed by seed; seeds in only one are left out): ``ahead``
-    (seeds where ``ours`` is larger), ``seeds``, ``median_difference`` and the two-sided Wilcoxon signed-rank
+    (seeds where ``ours`` is larger), ``seeds`` (paired, without NaN), ``median_difference`` and the two-sided
+    Wilcoxon signed-rank
     test's ``p_value`` (ties dropped; 1 when every pair ties). Values within 1e-9 tie: a manifest keeps ten
     decimals."""
     from scipy.stats import wilcoxon
 
     ours, theirs = ours.align(theirs, join="inner")
-    difference = (ours - theirs).to_numpy(dtype=float)
+    difference = (ours - theirs).dropna().to_numpy(dtype=float)
     difference = np.where(np.abs(difference) <= 1e-9, 0.0, difference)
     nonzero = difference[difference != 0]
     return {"ahead": int(np.sum(difference > 0)), "seeds": int(difference.size),
@@ -817,8 +819,10 @@ def _paired_lines(comparison: pd.DataFrame, case: str, has_ceiling: bool) -> lis
     if rows.empty:
         return []
     unit = "pt" if has_ceiling else "pt of the seed"
-    lines = [f"{rows['method'].iloc[0]} against the best black-box method keeping the rotation limit, paired by seed:",
-             "", "| cycles | best black-box (median) | geogait ahead in | median paired difference | Wilcoxon p |",
+    method = rows["method"].iloc[0]
+    lines = [f"{method} against the best black-box method whose median gait keeps the rotation limit, paired by "
+             "seed:", "", f"| cycles | best black-box (median) | {method} ahead in | median paired difference | "
+             "Wilcoxon p |",
              "|---|---|---|---|---|"]
     for row in rows.itertuples():
         share = (lambda v: f"{100 * v:.1f} %") if has_ceiling else (lambda v: f"{100 * v:+.1f} %")

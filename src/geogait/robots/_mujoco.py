@@ -365,8 +365,9 @@ class MujocoRobot:
         so the half-wave symmetric gait family is rotation-free
         (:class:`~geogait.optimize.InSituOptimizer`'s ``family="auto"``). True for
         ``purcell_swimmer_xml`` with any link lengths, for Gymnasium's Swimmer-v5 and for the Control Suite's
-        swimmer. A geom that exerts no force (it cannot touch anything and has no fluid model of its own: a
-        visual geom) is left out of the test; its mass, if any, is in its body's inertia, which is tested.
+        swimmer. A geom of a link or of the static world that exerts no force (it cannot touch anything, wraps no
+        tendon and has no fluid model of its own: a visual geom, or the suite's target) is left out of the test;
+        a link's mass and inertia are tested.
         """
         if not hasattr(self, "_mirror"):
             self._mirror = _reads_the_same_in_a_mirror(self.model, self._joint_ids)
@@ -857,8 +858,9 @@ def _reads_the_same_in_a_mirror(model, joints) -> bool:
               int(kinds.mjGEOM_ELLIPSOID)}
     chain_bodies = set(links)
     for g in range(model.ngeom):
-        if _dynamically_inert(model, g):  # a visual geom (the body's mass and inertia are checked below)
-            continue
+        body = int(model.geom_bodyid[g])
+        if _dynamically_inert(model, g) and (body in chain_bodies or model.body_weldid[body] == 0):
+            continue  # a visual geom of a link (whose mass and inertia are checked below) or of the static world
         frame = data.geom_xmat[g].reshape(3, 3)
         if int(model.geom_bodyid[g]) in chain_bodies:
             if int(model.geom_type[g]) not in shapes or not on_line(data.geom_xpos[g]) or not aligned(frame):
@@ -879,12 +881,17 @@ def _reads_the_same_in_a_mirror(model, joints) -> bool:
 
 
 def _dynamically_inert(model, geom: int) -> bool:
-    """A geom that exerts no force: it cannot touch anything (contacts disabled, or contype and conaffinity 0) and
-    has no ellipsoid fluid model of its own. Its mass, if any, is in its body's inertia, which is checked apart."""
+    """A geom that exerts no force of its own: it cannot touch anything (contacts disabled, or contype and
+    conaffinity 0 and in no explicit contact pair), wraps no tendon and has no ellipsoid fluid model. Its mass, if
+    any, is in its body's inertia."""
     mujoco = _mujoco()
+    pairs = {*model.pair_geom1.tolist(), *model.pair_geom2.tolist()}
     no_contact = bool(model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT)) \
-        or (model.geom_contype[geom] == 0 and model.geom_conaffinity[geom] == 0)
-    return no_contact and model.geom_fluid[geom, 0] == 0
+        or (model.geom_contype[geom] == 0 and model.geom_conaffinity[geom] == 0 and geom not in pairs)
+    wrapping = {int(kind) for kind in (mujoco.mjtWrap.mjWRAP_SPHERE, mujoco.mjtWrap.mjWRAP_CYLINDER)}
+    wraps = any(int(kind) in wrapping and int(obj) == geom
+                for kind, obj in zip(model.wrap_type, model.wrap_objid, strict=True))
+    return no_contact and not wraps and model.geom_fluid[geom, 0] == 0
 
 
 def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, link_lengths=None,
@@ -1087,12 +1094,12 @@ def dm_control_swimmer(n_links: int = 6, **options) -> MujocoRobot:
     The suite's N-link swimmer (``dm_control.suite.swimmer``, as its ``swimmer6`` and ``swimmer15`` tasks build it):
     0.1 m links, joints of ±60°, ``motor`` actuators with gear 5·10⁻⁴ and ctrlrange ±1, MuJoCo's inertia-based
     fluid model (density 3000), contacts off, timestep 0.002 s; the shape joints ``joint_0`` … and the pose of
-    the ``head`` body. Its geoms that exert no force (the head's ellipsoid, nose and eyes, the target) do not
+    the ``head`` body. Its target, a sphere off the body's axis that exerts no force (contacts are off), does not
     break its mirror symmetry (:attr:`MujocoRobot.mirror_symmetric`).
 
     Parameters
     ----------
-    n_links : int >= 2
+    n_links : int >= 3
         Links of the swimmer (the suite's tasks: 6 and 15).
     **options
         Keywords of :class:`MujocoRobot`; ``cycle_period`` defaults to 4 s here (its motors saturate on the
@@ -1103,7 +1110,7 @@ def dm_control_swimmer(n_links: int = 6, **options) -> MujocoRobot:
     MujocoRobot
     """
     mujoco = _mujoco()
-    n_links = check_int(n_links, "n_links", "dm_control_swimmer", minimum=2)
+    n_links = check_int(n_links, "n_links", "dm_control_swimmer", minimum=3)
     try:
         with warnings.catch_warnings():  # importing the suite looks for a display (GLFW) it does not need here
             warnings.simplefilter("ignore")
