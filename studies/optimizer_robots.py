@@ -33,20 +33,26 @@ from geogait.experiments import robot_benchmark as bench  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 MANIFESTS = (ROOT / "docs/results/robots/robots.json", ROOT / "docs/results/robots-elastica/robots.json")
 BUDGETS = (30, 60, 100)
-_BLACK_BOX = [m for m in bench.METHODS if not m.startswith("geogait")]
 
 
 def _column(case: dict) -> str:
     return "ceiling_fraction" if case.get("ceiling") else "improvement"
 
 
-def stored_default(n_seeds: int) -> pd.DataFrame:
-    """geogait's default runs in the results manifests, on seeds < ``n_seeds``: case, seed, cycles and values."""
-    frames = []
+def stored_runs(n_seeds: int) -> list[dict]:
+    """The results manifests (each read once), their records cut to seeds < ``n_seeds``."""
+    runs = []
     for path in MANIFESTS:
         if path.exists():
-            records = bench.from_manifest(path)["records"]
-            frames.append(records[(records["method"] == "geogait") & (records["seed"] < n_seeds)])
+            stored = bench.from_manifest(path)
+            stored["records"] = stored["records"][stored["records"]["seed"] < n_seeds]
+            runs.append(stored)
+    return runs
+
+
+def stored_default(runs: list[dict]) -> pd.DataFrame:
+    """geogait's default runs in the stored manifests: case, seed, cycles and values."""
+    frames = [stored["records"][stored["records"]["method"] == "geogait"] for stored in runs]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 
@@ -62,36 +68,24 @@ def _paired_line(name: str, ours: pd.DataFrame, stored: pd.DataFrame, column: st
     return f"  {name:<28} ahead of the stored default in " + " / ".join(cells)
 
 
-def stored_reference(n_seeds: int, budget: int) -> pd.DataFrame:
-    """Per case and budget, from the stored runs on seeds < ``n_seeds``: geogait's default median and the
-    black-box method with the best median among those whose median gait keeps the case's rotation limit
-    (``kind`` "geogait" or "black-box")."""
+def stored_reference(runs: list[dict], n_seeds: int, budget: int) -> pd.DataFrame:
+    """Per case and budget of the stored runs with every one of ``n_seeds`` seeds: geogait's default median and the
+    benchmark's rival (:func:`~geogait.experiments.robot_benchmark.paired_comparison`: the black-box method with
+    the best median among those whose median gait keeps the case's rotation limit); ``kind`` "geogait" or
+    "black-box"."""
     rows = []
-    for path in MANIFESTS:
-        if not path.exists():
-            continue
-        stored = bench.from_manifest(path)
-        records = stored["records"]
+    for stored in runs:
         if stored["config"]["budget"] != budget:
             continue
-        records = records[(records["seed"] < n_seeds) & (records["method"].isin(["geogait", *_BLACK_BOX]))]
-        for name, case in stored["cases"].items():
-            frame = records[records["case"] == name]
-            if frame.empty or frame["seed"].nunique() < n_seeds:
-                continue
-            medians = frame.groupby(["cycles", "method"])[_column(case)].median()
-            rotation = frame.assign(turn=frame["rotation"].abs()).groupby(["cycles", "method"])["turn"].median()
-            for cycles in BUDGETS:
-                at = medians.loc[cycles]
-                # the best black-box method whose median gait keeps the rotation limit (robot_benchmark's rival)
-                kept = rotation.loc[cycles] <= case["rotation_limit"]
-                best = at[kept.reindex(at.index, fill_value=False)].drop("geogait", errors="ignore").dropna()
-                rows.append({"case": name, "cycles": cycles, "kind": "black-box", "method": best.idxmax(),
-                             "median": best.max()})
-                if "geogait" in at:
-                    rows.append({"case": name, "cycles": cycles, "kind": "geogait", "method": "geogait",
-                                 "median": at["geogait"]})
-    return pd.DataFrame(rows)
+        seeds = stored["records"].groupby("case")["seed"].nunique()
+        comparison = bench.paired_comparison(stored, BUDGETS)
+        for row in comparison.itertuples():
+            if seeds.get(row.case, 0) >= n_seeds:
+                rows += [{"case": row.case, "cycles": row.cycles, "kind": "black-box", "method": row.rival,
+                          "median": row.rival_median},
+                         {"case": row.case, "cycles": row.cycles, "kind": "geogait", "method": "geogait",
+                          "median": row.median}]
+    return pd.DataFrame(rows).sort_values(["case", "cycles"], kind="stable") if rows else pd.DataFrame(rows)
 
 
 def main(argv=None) -> int:
@@ -119,8 +113,9 @@ def main(argv=None) -> int:
         frames.append(result["records"].assign(variant=name))
         described.update(result["cases"])
     records = pd.concat(frames, ignore_index=True)
-    reference = stored_reference(args.seeds, args.budget)
-    default = stored_default(args.seeds)
+    runs = stored_runs(args.seeds)
+    reference = stored_reference(runs, args.seeds, args.budget)
+    default = stored_default(runs)
     lines = []
     for case in cases:
         if case not in described:

@@ -207,12 +207,18 @@ def _builtin_ceiling(n_links):
     return cached_ceiling(PurcellSwimmer(n_links), family="symmetric").gait
 
 
-def _mujoco_unequal_robot(seed, explore, noise, gait=None):
-    from ..robots import MujocoRobot, purcell_swimmer_xml
+def _mujoco_options(explore: bool, gait) -> dict:
+    """MujocoRobot keywords of a case's robot: no exploration of its own unless asked, the gait if given."""
     options = {} if explore else {"perturbation": Perturbation(eta=0)}
     if gait is not None:
         options["gait"] = gait
-    return MujocoRobot(purcell_swimmer_xml(5, link_lengths=UNEQUAL_LINKS), seed=seed, **options)
+    return options
+
+
+def _mujoco_unequal_robot(seed, explore, noise, gait=None):
+    from ..robots import MujocoRobot, purcell_swimmer_xml
+    return MujocoRobot(purcell_swimmer_xml(5, link_lengths=UNEQUAL_LINKS), seed=seed,
+                       **_mujoco_options(explore, gait))
 
 
 def _mujoco_unequal_ceiling():
@@ -221,18 +227,12 @@ def _mujoco_unequal_ceiling():
 
 def _gymnasium_robot(seed, explore, noise, gait=None):
     from ..robots import gymnasium_swimmer
-    options = {} if explore else {"perturbation": Perturbation(eta=0)}
-    if gait is not None:
-        options["gait"] = gait
-    return gymnasium_swimmer(seed=seed, **options)
+    return gymnasium_swimmer(seed=seed, **_mujoco_options(explore, gait))
 
 
 def _dm_control_robot(seed, explore, noise, gait=None):
     from ..robots import dm_control_swimmer
-    options = {} if explore else {"perturbation": Perturbation(eta=0)}
-    if gait is not None:
-        options["gait"] = gait
-    return dm_control_swimmer(6, seed=seed, **options)
+    return dm_control_swimmer(6, seed=seed, **_mujoco_options(explore, gait))
 
 
 def _set_period(robot, period):
@@ -781,13 +781,13 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
     summary = _summary(records, [b for b in budgets if b in set(records["cycles"])])
     for (case, cycles), block in summary.groupby(["case", "cycles"], sort=False):
         info = result["cases"][case]
-        column = "ceiling" if info["ceiling"] is not None else "improvement"
+        # the summary's median column, and the per-seed column it is the median of
+        column, value = ("ceiling", "ceiling_fraction") if info["ceiling"] is not None else ("improvement",) * 2
         kept = block[block["method"].isin(black_box) & (block["rotation"] <= info["rotation_limit"])
                      & block[column].notna()]
         if kept.empty or method not in set(block["method"]):
             continue
         rival = kept.loc[kept[column].idxmax()]
-        value = "ceiling_fraction" if info["ceiling"] is not None else "improvement"
         at = records[(records["case"] == case) & (records["cycles"] == cycles)]
         ours = at[at["method"] == method].set_index("seed")[value]
         theirs = at[at["method"] == rival["method"]].set_index("seed")[value]
@@ -800,9 +800,8 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
 def paired_test(ours: pd.Series, theirs: pd.Series) -> dict:
     """Two methods' values on the same seeds (series indexed by seed; seeds in only one are left out): ``ahead``
     (seeds where ``ours`` is larger), ``seeds`` (paired, without NaN), ``median_difference`` and the two-sided
-    Wilcoxon signed-rank
-    test's ``p_value`` (ties dropped; 1 when every pair ties). Values within 1e-9 tie: a manifest keeps ten
-    decimals."""
+    Wilcoxon signed-rank test's ``p_value`` (ties dropped; 1 when every pair ties). Values within 1e-9 tie: a
+    manifest keeps ten decimals."""
     from scipy.stats import wilcoxon
 
     ours, theirs = ours.align(theirs, join="inner")
@@ -819,13 +818,13 @@ def _paired_lines(comparison: pd.DataFrame, case: str, has_ceiling: bool) -> lis
     if rows.empty:
         return []
     unit = "pt" if has_ceiling else "pt of the seed"
+    share = (lambda v: f"{100 * v:.1f} %") if has_ceiling else (lambda v: f"{100 * v:+.1f} %")
     method = rows["method"].iloc[0]
     lines = [f"{method} against the best black-box method whose median gait keeps the rotation limit, paired by "
              "seed:", "", f"| cycles | best black-box (median) | {method} ahead in | median paired difference | "
              "Wilcoxon p |",
              "|---|---|---|---|---|"]
     for row in rows.itertuples():
-        share = (lambda v: f"{100 * v:.1f} %") if has_ceiling else (lambda v: f"{100 * v:+.1f} %")
         lines.append(f"| {row.cycles} | {row.rival} ({share(row.rival_median)}) | {row.ahead} of {row.seeds} | "
                      f"{100 * row.median_difference:+.1f} {unit} | {row.p_value:.2g} |")
     return lines + [""]

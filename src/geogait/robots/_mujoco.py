@@ -857,12 +857,13 @@ def _reads_the_same_in_a_mirror(model, joints) -> bool:
     shapes = {int(kinds.mjGEOM_CAPSULE), int(kinds.mjGEOM_CYLINDER), int(kinds.mjGEOM_SPHERE), int(kinds.mjGEOM_BOX),
               int(kinds.mjGEOM_ELLIPSOID)}
     chain_bodies = set(links)
+    inert = _force_free_geoms(model)
     for g in range(model.ngeom):
         body = int(model.geom_bodyid[g])
-        if _dynamically_inert(model, g) and (body in chain_bodies or model.body_weldid[body] == 0):
+        if g in inert and (body in chain_bodies or model.body_weldid[body] == 0):
             continue  # a visual geom of a link (whose mass and inertia are checked below) or of the static world
         frame = data.geom_xmat[g].reshape(3, 3)
-        if int(model.geom_bodyid[g]) in chain_bodies:
+        if body in chain_bodies:
             if int(model.geom_type[g]) not in shapes or not on_line(data.geom_xpos[g]) or not aligned(frame):
                 return False
         elif int(model.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_PLANE) or abs(frame[:, 2] @ normal) < 1 - tolerance:
@@ -880,18 +881,18 @@ def _reads_the_same_in_a_mirror(model, joints) -> bool:
     return abs(model.opt.gravity @ across) <= tolerance and abs(model.opt.wind @ across) <= tolerance
 
 
-def _dynamically_inert(model, geom: int) -> bool:
-    """A geom that exerts no force of its own: it cannot touch anything (contacts disabled, or contype and
-    conaffinity 0 and in no explicit contact pair), wraps no tendon and has no ellipsoid fluid model. Its mass, if
-    any, is in its body's inertia."""
+def _force_free_geoms(model) -> set:
+    """The geoms that exert no force of their own: they cannot touch anything (contacts disabled, or contype and
+    conaffinity 0 and in no explicit contact pair), wrap no tendon and have no ellipsoid fluid model. Their mass,
+    if any, is in their body's inertia."""
     mujoco = _mujoco()
+    contacts_off = bool(model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT))
     pairs = {*model.pair_geom1.tolist(), *model.pair_geom2.tolist()}
-    no_contact = bool(model.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_CONTACT)) \
-        or (model.geom_contype[geom] == 0 and model.geom_conaffinity[geom] == 0 and geom not in pairs)
-    wrapping = {int(kind) for kind in (mujoco.mjtWrap.mjWRAP_SPHERE, mujoco.mjtWrap.mjWRAP_CYLINDER)}
-    wraps = any(int(kind) in wrapping and int(obj) == geom
-                for kind, obj in zip(model.wrap_type, model.wrap_objid, strict=True))
-    return no_contact and not wraps and model.geom_fluid[geom, 0] == 0
+    wrapping = np.isin(model.wrap_type, [int(mujoco.mjtWrap.mjWRAP_SPHERE), int(mujoco.mjtWrap.mjWRAP_CYLINDER)])
+    wrapped = set(model.wrap_objid[wrapping].tolist())
+    return {g for g in range(model.ngeom)
+            if (contacts_off or (model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0 and g not in pairs))
+            and g not in wrapped and model.geom_fluid[g, 0] == 0}
 
 
 def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, link_lengths=None,
