@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from scipy.optimize import minimize
+from scipy.optimize import NonlinearConstraint, minimize
 
 from geogait.optimize._search import QuadraticSearch
 
@@ -60,6 +60,34 @@ def test_known_limits_and_bounds_are_passed_to_cobyqa():
     values = [v if known(p)[0] <= 1e-6 else -np.inf for p, v in zip(points, search.values, strict=True)]
     best = points[int(np.argmax(values))]
     assert np.hypot(best[0], best[1]) == pytest.approx(0.2, abs=1e-3) and best[2] == pytest.approx(0.5, abs=1e-3)
+
+
+def test_a_known_limit_is_computed_once_per_point_although_every_replay_asks_again():
+    """Each replay re-runs COBYQA over every point so far and asks the known limit again at each; the search
+    computes it once per distinct point (the rest of a replay costs milliseconds, the limit may not: a robot's
+    feasible region), and still proposes what scipy's own single run with the same limit evaluates."""
+    def limit(x):
+        return np.array([x[0] ** 2 + x[1] ** 2 - 0.04])
+
+    calls = []
+
+    def known(x):
+        calls.append(np.array(x, copy=True))
+        return limit(x)
+
+    evaluated = []
+
+    def fun(x):
+        evaluated.append(np.array(x, copy=True))
+        return -_objective(x)
+
+    minimize(fun, np.zeros(4), method="COBYQA", constraints=[NonlinearConstraint(limit, -np.inf, 0.0)],
+             options={"initial_tr_radius": 0.3, "final_tr_radius": 1e-4, "maxfev": 30})
+    search = _drive(QuadraticSearch(origin=np.zeros(4), radius=0.3, final_radius=1e-4, period=1.0), 30,
+                    known=known)
+    np.testing.assert_allclose(np.array(search.points), np.array(evaluated[:30]), rtol=0, atol=1e-12)
+    distinct = {point.tobytes() for point in calls}
+    assert len(calls) == len(distinct) <= len(search.points) + 1
 
 
 def test_a_measured_rotation_limit_keeps_the_search_off_turning_points():

@@ -88,6 +88,7 @@ class QuadraticSearch:
     points: list = field(default_factory=list)
     values: list = field(default_factory=list)
     rotations: list = field(default_factory=list)
+    _known_values: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         self.origin = np.asarray(self.origin, dtype=float)
@@ -117,7 +118,10 @@ class QuadraticSearch:
         bounds : sequence of (low, high), optional
             Bounds on each coordinate (None or ±inf: unbounded).
         known : callable, optional
-            Constraints computed without a measurement, ``known(x) -> (m,)``, feasible where ≤ 0.
+            Constraints computed without a measurement, ``known(x) -> (m,)``, feasible where ≤ 0; the same
+            function at every call: its values are kept per point, since every replay asks for the same
+            points again (on a robot with a feasible region the replays otherwise spend most of a run's time
+            in it).
         rotation_limit : float, optional
             Largest |net rotation| per cycle (a nonlinear constraint on the measured rotations).
         """
@@ -131,9 +135,15 @@ class QuadraticSearch:
                 index[key] = len(index)
             return index[key]
 
+        def remembered(x):
+            key = np.asarray(x, dtype=float).tobytes()
+            if key not in self._known_values:
+                self._known_values[key] = np.asarray(known(x), dtype=float)
+            return self._known_values[key].copy()
+
         constraints = []
         if known is not None:
-            constraints.append(NonlinearConstraint(known, -np.inf, 0.0))
+            constraints.append(NonlinearConstraint(remembered, -np.inf, 0.0))
         if rotation_limit is not None:
             constraints.append(NonlinearConstraint(
                 lambda x: (self.rotations[recorded(x)] / rotation_limit) ** 2, -np.inf, 1.0))
