@@ -135,14 +135,14 @@ class QuadraticSearch:
                 index[key] = len(index)
             return index[key]
 
-        def remembered(x):
-            key = np.asarray(x, dtype=float).tobytes()
-            if key not in self._known_values:
-                self._known_values[key] = np.asarray(known(x), dtype=float)
-            return self._known_values[key].copy()
-
         constraints = []
         if known is not None:
+            def remembered(x):
+                key = np.asarray(x, dtype=float).tobytes()
+                if key not in self._known_values:
+                    self._known_values[key] = np.asarray(known(x), dtype=float)
+                return self._known_values[key].copy()
+
             constraints.append(NonlinearConstraint(remembered, -np.inf, 0.0))
         if rotation_limit is not None:
             constraints.append(NonlinearConstraint(
