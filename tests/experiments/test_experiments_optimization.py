@@ -119,7 +119,7 @@ def test_optimize_command_takes_the_climb_rule(tmp_path):
     assert resumed.exit_code == 0, resumed.output
     assert _optimizer_config(tmp_path)["climb_rule"] == "cobyqa"
     bad = _optimize("--links", 3, "--cycles", 2, "--climb-rule", "bobyqa", "--out", tmp_path / "bad")
-    assert bad.exit_code == 1 and "--climb-rule must be one of es, cobyqa; got 'bobyqa'" in bad.output
+    assert bad.exit_code == 1 and "--climb-rule must be one of auto, es, cobyqa, bayes; got 'bobyqa'" in bad.output
     assert bad.output.count("\n") == 1
 
 

@@ -470,6 +470,34 @@ def test_the_cobyqa_climb_commands_cobyqas_points_within_the_limits_and_hands_ov
     assert np.hypot(*cycle_displacement(PurcellSwimmer(3), result.final_gait)[:2]) > 1.3 * seed_value
 
 
+def test_the_bayesian_climb_moves_every_parameter_at_once_within_the_limits_and_climbs():
+    """climb_rule="bayes" in the free family: its candidates move several parameters at once (COBYQA's first
+    2n + 1 move one), every commanded gait keeps the joint limit, and after 40 cycles the result is well above
+    the seed (the 3-link swimmer, measured with little noise)."""
+    from geogait.gaits import FreeGaitFamily
+
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.01, seed=3)
+    optimizer = InSituOptimizer(climb="first", climb_rule="bayes", family="free", max_joint_angle=1.5)
+    result = optimizer.run(stream, 40)
+    params = result.log.filter(like="param_").to_numpy()
+    base = FreeGaitFamily(2, 1).params_of(seed_gait(2))
+    moved = [np.sum(~np.isclose(p, base, atol=1e-9)) for p in np.unique(params, axis=0)]
+    assert sorted(moved)[-3] >= 3
+    assert max(gait.joint_limit().max() for gait in result.gaits) <= 1.5 + 1e-9
+    seed_value = np.hypot(*cycle_displacement(PurcellSwimmer(3), seed_gait(2))[:2])
+    assert np.hypot(*cycle_displacement(PurcellSwimmer(3), result.final_gait)[:2]) > 1.2 * seed_value
+
+
+@pytest.mark.parametrize(("n", "settle", "rule"), [(10, 1, "bayes"), (8, 1, "bayes"), (7, 1, "cobyqa"),
+                                                    (12, 0, "cobyqa"), (15, 0, "bayes"), (4, 2, "cobyqa")])
+def test_the_automatic_climb_rule_is_bayesian_where_cobyqas_design_takes_more_than_thirty_cycles(n, settle, rule):
+    """(2n + 1)(settle + 1) cycles before COBYQA's first step of its own: 42, 34, 30, 25, 31 and 27 here."""
+    from geogait.optimize._climb import climb_rule_for
+
+    assert climb_rule_for("auto", n, settle) == rule
+    assert climb_rule_for("cobyqa", n, settle) == "cobyqa" and climb_rule_for("es", 40, 3) == "es"
+
+
 def test_in_a_rotation_free_family_the_climb_judges_rotation_against_the_noise_of_its_own_cycles():
     """The climb's rotation limit (the start base's) is at least twice the RMS rotation of its clean cycles
     in a rotation-free family, where a single cycle's rotation is noise; in the free family it is not."""

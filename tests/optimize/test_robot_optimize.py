@@ -181,7 +181,8 @@ def _interrupted_then_resumed(tmp_path, make_optimizer, stop_after, n_cycles):
     lambda: InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=3, objective="forward"),
     lambda: InSituOptimizer(model=ShapeSpaceModel(degree=2), family="free", step_rule="sqp"),
     lambda: InSituOptimizer(climb="first", climb_rule="cobyqa", family="free", settle_cycles=1),
-], ids=["adaptive", "batch-forward", "shape-space-sqp", "cobyqa-climb"])
+    lambda: InSituOptimizer(climb="first", climb_rule="bayes", family="free", settle_cycles=1),
+], ids=["adaptive", "batch-forward", "shape-space-sqp", "cobyqa-climb", "bayes-climb"])
 def test_resume_is_bit_identical_to_an_uninterrupted_run(tmp_path, make_optimizer):
     whole = make_optimizer().run(_stream(seed=5), 14, ceiling=0.1)
     resumed = _interrupted_then_resumed(tmp_path, make_optimizer, stop_after=8, n_cycles=14)
@@ -244,7 +245,7 @@ def test_a_checkpoint_from_before_the_climb_rule_resumes_with_the_evolution_stra
     from geogait.optimize._state import params_from_json, params_to_json
 
     params = params_to_json(InSituOptimizer())
-    assert params_from_json(params)["climb_rule"] == "cobyqa"
+    assert params_from_json(params)["climb_rule"] == "auto"
     del params["climb_rule"]
     assert InSituOptimizer(**params_from_json(params)).climb_rule == "es"
 

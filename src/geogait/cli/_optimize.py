@@ -104,8 +104,10 @@ def optimize(
              "resistance, else first].")] = None,
     climb_rule: Annotated[str | None, typer.Option(
         help="How the measured climb proposes candidates: cobyqa (SciPy's COBYQA: quadratic models of the "
-             "measured outcomes) or es (a mirrored (1+1) evolution strategy) [default: es for --method resistance "
-             "and a robot that declares a resistive medium, else cobyqa].")] = None,
+             "measured outcomes), bayes (trust-region Bayesian optimisation: a Gaussian process of every measured "
+             "outcome), auto (bayes where COBYQA's initial design would take more than 30 cycles, else cobyqa) or "
+             "es (a mirrored (1+1) evolution strategy) [default: es for --method resistance and a robot that "
+             "declares a resistive medium, else auto].")] = None,
     model_class_cycles: Annotated[int, typer.Option(
         min=0, help="Test first whether the robot is inside the model class: run the seed gait this many cycles "
                     "at its period and at twice it (>= 3; the robot must offer set_cycle_period); outside, the "

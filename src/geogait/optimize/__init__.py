@@ -3,7 +3,7 @@ prior-work batch baseline and the trust-region step rules."""
 
 from .._defaults import STRUCTURED_MODEL_STEPS
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
-from ._climb import CLIMB_RULES
+from ._climb import BAYES_DESIGN_CYCLES, CLIMB_RULES, climb_rule_for
 from ._exploration import Exploration
 from ._insitu import InSituOptimizer, symmetric_chain_model
 from ._measure import CycleMeasurement, measure_cycle
@@ -22,6 +22,7 @@ from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
+    "BAYES_DESIGN_CYCLES",
     "CLIMB_RULES",
     "OBJECTIVES",
     "STEP_RULES",
@@ -34,6 +35,7 @@ __all__ = [
     "Step",
     "StepProblem",
     "cached_ceiling",
+    "climb_rule_for",
     "default_objective",
     "feasibility_constraint",
     "joint_limit_constraints",

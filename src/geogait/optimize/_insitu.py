@@ -222,15 +222,21 @@ class InSituOptimizer(Estimator):
         links at 100 cycles) on every robot with a data-driven model, most on those outside the model class
         and on the 9-link swimmer; the
         structured model's settings keep ``"contradicted"``.
-    climb_rule : {"es", "cobyqa"}
+    climb_rule : {"auto", "es", "cobyqa", "bayes"}
         How the climb proposes its candidates. ``"es"``: the mirrored (1+1) evolution strategy
-        above. ``"cobyqa"`` (default): SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
+        above. ``"cobyqa"``: SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
         derivative-free trust-region method that interpolates quadratic models of the measured outcomes
-        from every candidate it has measured (2n + 1 of them before its first model step, n the family's
-        parameters), starting at the climb's σ and ending at ``min_trust_radius``; a point beyond the joint
+        from every candidate it has measured (2n + 1 of them before its first model step, n the search's
+        coordinates), starting at the climb's σ and ending at ``min_trust_radius``; a point beyond the joint
         limit is run scaled back onto it, and in the free family the measured rotation is its constraint. Far fewer
         cycles than the strategy (measured on the robot benchmark: ahead or level on every robot there);
-        it trusts every single measurement, so a very noisy one can mislead it.
+        it trusts every single measurement, so a very noisy one can mislead it. ``"bayes"``: trust-region
+        Bayesian optimisation (module :mod:`geogait.optimize._bayes`): a Gaussian process of the measured
+        outcomes proposes every candidate from all the points measured, with no initial design, in a box
+        of half-width σ around the best, down to ``min_trust_radius``; its candidates are judged by their
+        measured outcome alone (not rejected for their tracking error). ``"auto"`` (default): ``"bayes"`` where
+        COBYQA's design would take more than 30 robot cycles ((2n + 1)(``settle_cycles`` + 1)), else
+        ``"cobyqa"`` (:func:`geogait.optimize.climb_rule_for`).
     exploration : "auto", float or None
         Who explores. ``"auto"`` (default): the optimiser commands the excitation of eq. 8
         (δ std 0.15 × ``shape_scale``, two oscillations per cycle; :class:`Exploration`) to robots
@@ -295,7 +301,7 @@ class InSituOptimizer(Estimator):
                  min_gain: float = 0.005, settle_cycles: int = 0, max_tracking_error="auto",
                  prediction_tolerance: float | None = 0.5, shape_scale="auto", revert_tolerance: float | None = 2.0,
                  optimize_period: bool = False, period_range=None, climb: bool | str = "first",
-                 climb_rule: str = "cobyqa", exploration="auto", model_class_cycles: int = 0,
+                 climb_rule: str = "auto", exploration="auto", model_class_cycles: int = 0,
                  random_state: int | None = 0):
         self.model = model
         self.gate = gate

@@ -13,7 +13,8 @@ from .._validation import GeogaitError, GeogaitWarning
 from ..gaits import FreeGaitFamily
 from ..learn import shape_amplitude
 from ..simulate import Trajectory, TrueMotion
-from ._climb import MeasuredClimb
+from ._bayes import BayesianSearch
+from ._climb import MeasuredClimb, climb_rule_for
 from ._measure import measure_cycle, peak_phase_speed
 from ._models import gate_kind, run_model
 from ._objective import joint_limit_constraints, objective
@@ -281,19 +282,23 @@ class CycleLoop:
         state = self.state
         best = self._best_key() if base is None else base
         state.climb.start(best, self.optimizer.max_trust_radius * state.scale if sigma is None else sigma)
-        if self.optimizer.climb_rule == "cobyqa":
+        if self.optimizer.climb_rule != "es":
             state.climb.search = self._new_search(best, state.climb.sigma)
         if state.period_search is not None:
             state.period_search.trial_from = None
 
-    def _new_search(self, base: tuple, radius: float) -> QuadraticSearch:
-        """COBYQA from ``base`` = (gait, period) at trust radius ``radius`` down to the smallest trust radius."""
+    def _new_search(self, base: tuple, radius: float) -> QuadraticSearch | BayesianSearch:
+        """The climb rule's search from ``base`` = (gait, period) at trust radius (half-width) ``radius`` down
+        to the smallest trust radius."""
         state = self.state
         origin = state.family.params_of(base[0], tolerance=1e-8)
         if state.period_search is not None:
             origin = np.append(origin, 0.0)
-        return QuadraticSearch(origin=origin, radius=radius, period=base[1],
-                               final_radius=self.optimizer.min_trust_radius * state.scale)
+        settings = dict(origin=origin, radius=radius, period=base[1],
+                        final_radius=self.optimizer.min_trust_radius * state.scale)
+        if climb_rule_for(self.optimizer.climb_rule, origin.size, self.optimizer.settle_cycles) == "bayes":
+            return BayesianSearch(**settings, seed=int(state.rng.integers(2**31 - 1)))
+        return QuadraticSearch(**settings)
 
     def _best_key(self) -> tuple:
         """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
@@ -390,9 +395,9 @@ class CycleLoop:
         return True
 
     def _search_candidate(self) -> bool:
-        """Command COBYQA's next point (:class:`QuadraticSearch`), scaled back onto the joint limit when beyond
-        it; one that breaks another limit (joint speed, the feasible region) is answered with the worst value
-        measured, unrun. A converged search starts afresh from the base."""
+        """Command the search's next point (:class:`QuadraticSearch`, :class:`BayesianSearch`), scaled back onto
+        the joint limit when beyond it; one that breaks another limit (joint speed, the feasible region) is
+        answered with the worst value measured, unrun. A converged search starts afresh from the base."""
         state, climb = self.state, self.state.climb
         n = state.family.n_params
         for _ in range(100):
@@ -523,6 +528,8 @@ class CycleLoop:
             state.trial_tracking.append(measured.tracking_error)
             if optimizer.max_tracking_error == "auto":  # another period tracks otherwise: judged by outcome
                 return False
+        if isinstance(state.climb.search, BayesianSearch) and state.climb.candidate == (state.gait, state.period):
+            return False  # judged by its measured outcome alone (refused, the process would learn a false cliff)
         limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False

@@ -14,6 +14,7 @@ from .._files import read_state
 from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import has_gait_model_members, model_from_state
+from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb
 from ._exploration import Exploration
 from ._model_class import ModelClassCheck
@@ -281,7 +282,8 @@ class RunState:
                 else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
                 direction=arrays.get("climb/direction"), pending=arrays.get("climb/pending"))
             if climb.get("search") is not None:
-                state.climb.search = QuadraticSearch.from_checkpoint(climb["search"], arrays, "climb/search")
+                rule = BayesianSearch if climb["search"].get("rule") == "bayes" else QuadraticSearch
+                state.climb.search = rule.from_checkpoint(climb["search"], arrays, "climb/search")
         state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
         promised = scalars["promised"]
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
