@@ -23,12 +23,14 @@ search restored from a checkpoint proposes exactly what the original would have.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
 from scipy.optimize import minimize
 from scipy.special import ndtr
+
+from ._search import MeasuredSearch
 
 __all__ = ["BayesianSearch", "GaussianProcess"]
 
@@ -115,53 +117,25 @@ def _expected_improvement(mean, std, best):
 
 
 @dataclass
-class BayesianSearch:
-    """Trust-region Bayesian optimisation from ``origin``, as the values measured so far (module docstring).
+class BayesianSearch(MeasuredSearch):
+    """Trust-region Bayesian optimisation from ``origin``, as the values measured so far (module docstring);
+    parameters as :class:`~geogait.optimize._search.MeasuredSearch` (``radius``: the box's first half-width;
+    ``final_radius``: the half-width below which the search has converged), and
 
-    Parameters
-    ----------
-    origin : ndarray of shape (n,)
-        Start point (the climb's base) in the search's coordinates (as :class:`QuadraticSearch`).
-    radius, final_radius : float
-        The box's first half-width, and the half-width below which the search has converged.
-    period : float
-        The origin's cycle period.
     seed : int
         Seed of the random candidates (with the number of values told).
-    points, values, rotations : list
-        Every point proposed, in order, with its measured objective (to maximise) and net rotation per cycle.
     """
 
-    origin: np.ndarray
-    radius: float
-    final_radius: float
-    period: float
     seed: int = 0
-    points: list = field(default_factory=list)
-    values: list = field(default_factory=list)
-    rotations: list = field(default_factory=list)
 
+    rule = "bayes"
+    _checkpointed = ("seed",)
+    designing = False  # (no initial design: every candidate is the search's own step)
     #: Random candidates scored per proposal (uniform in the box); the best-scored whose neighbourhoods are searched,
     #: and those neighbourhoods' widths (share of the box).
     CANDIDATES = 1000
     LEADERS = 10
     REFINE = (0.1, 0.03, 0.01)
-
-    def __post_init__(self):
-        self.origin = np.asarray(self.origin, dtype=float)
-
-    designing = False  # (no initial design: every candidate is the search's own step)
-
-    def tell(self, point, value: float, rotation: float) -> None:
-        """Record the measured ``value`` and net ``rotation`` of ``point`` (the one :meth:`next` returned)."""
-        self.points.append(np.asarray(point, dtype=float))
-        self.values.append(float(value))
-        self.rotations.append(float(rotation))
-
-    def refuse(self, point) -> None:
-        """Answer ``point`` unrun (beyond a limit, or not followed by the robot): no better than the worst
-        value measured, and no rotation, so the search turns away."""
-        self.tell(point, min(self.values), 0.0)
 
     def half_width(self) -> float:
         """The box's half-width after the values told (TuRBO's rule, module docstring)."""
@@ -226,20 +200,3 @@ class BayesianSearch:
             near = np.clip(near + spread * (high - low) * rng.standard_normal(near.shape), low, high)
             candidates = np.concatenate([leaders, near])
         return best_feasible(candidates, 1)[0]
-
-    # -- checkpoint ---------------------------------------------------------------------------
-    def to_checkpoint(self, prefix: str) -> tuple[dict, dict]:
-        metadata = {"rule": "bayes", "radius": self.radius, "final_radius": self.final_radius,
-                    "period": self.period, "seed": self.seed}
-        arrays = {f"{prefix}/origin": self.origin,
-                  f"{prefix}/points": np.reshape(np.asarray(self.points, dtype=float), (-1, self.origin.size)),
-                  f"{prefix}/values": np.asarray(self.values, dtype=float),
-                  f"{prefix}/rotations": np.asarray(self.rotations, dtype=float)}
-        return metadata, arrays
-
-    @classmethod
-    def from_checkpoint(cls, metadata: dict, arrays: dict, prefix: str) -> BayesianSearch:
-        return cls(origin=arrays[f"{prefix}/origin"], radius=metadata["radius"],
-                   final_radius=metadata["final_radius"], period=metadata["period"], seed=metadata["seed"],
-                   points=list(arrays[f"{prefix}/points"]), values=arrays[f"{prefix}/values"].tolist(),
-                   rotations=arrays[f"{prefix}/rotations"].tolist())

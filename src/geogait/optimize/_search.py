@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import NonlinearConstraint, minimize
 
-__all__ = ["QuadraticSearch", "onto_joint_limit"]
+__all__ = ["MeasuredSearch", "QuadraticSearch", "onto_joint_limit"]
 
 
 def onto_joint_limit(family, params, max_joint_angle: float):
@@ -64,21 +64,22 @@ class _Ask(Exception):
 
 
 @dataclass
-class QuadraticSearch:
-    """COBYQA's run from ``origin``, as the values measured so far (module docstring).
+class MeasuredSearch:
+    """A search's history, shared by the climb's COBYQA and Bayesian rules: every point it proposed, in order,
+    with its measured objective and net rotation per cycle; the search itself is a function of it, so a
+    checkpoint of it resumes the search exactly.
 
     Parameters
     ----------
     origin : ndarray of shape (n,)
         Start point (the climb's base) in the search's coordinates.
     radius, final_radius : float
-        COBYQA's initial and final trust-region radius.
+        The search's initial and final trust-region radius.
     period : float
         The origin's cycle period (with ``optimize_period`` the last coordinate is
         ``shape_scale · log(T / period)``).
     points, values, rotations : list
-        Every point COBYQA asked for, in order, with its measured objective (to maximise) and net
-        rotation per cycle.
+        Every point proposed, in order, with its measured objective (to maximise) and net rotation per cycle.
     """
 
     origin: np.ndarray
@@ -88,7 +89,9 @@ class QuadraticSearch:
     points: list = field(default_factory=list)
     values: list = field(default_factory=list)
     rotations: list = field(default_factory=list)
-    _known_values: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    rule = None  # the climb rule, recorded in a checkpoint
+    _checkpointed = ()  # further fields a checkpoint keeps
 
     def __post_init__(self):
         self.origin = np.asarray(self.origin, dtype=float)
@@ -99,16 +102,44 @@ class QuadraticSearch:
         self.values.append(float(value))
         self.rotations.append(float(rotation))
 
+    def refuse(self, point) -> None:
+        """Answer ``point`` unrun (beyond a limit, or not followed by the robot): no better than the worst value
+        measured, and no rotation, so the search turns back."""
+        self.tell(point, min(self.values), 0.0)
+
+    def to_checkpoint(self, prefix: str) -> tuple[dict, dict]:
+        metadata = {"rule": self.rule, "radius": self.radius, "final_radius": self.final_radius,
+                    "period": self.period, **{name: getattr(self, name) for name in self._checkpointed}}
+        arrays = {f"{prefix}/origin": self.origin,
+                  f"{prefix}/points": np.reshape(np.asarray(self.points, dtype=float), (-1, self.origin.size)),
+                  f"{prefix}/values": np.asarray(self.values, dtype=float),
+                  f"{prefix}/rotations": np.asarray(self.rotations, dtype=float)}
+        return metadata, arrays
+
+    @classmethod
+    def from_checkpoint(cls, metadata: dict, arrays: dict, prefix: str) -> MeasuredSearch:
+        return cls(origin=arrays[f"{prefix}/origin"], radius=metadata["radius"],
+                   final_radius=metadata["final_radius"], period=metadata["period"],
+                   points=list(arrays[f"{prefix}/points"]), values=arrays[f"{prefix}/values"].tolist(),
+                   rotations=arrays[f"{prefix}/rotations"].tolist(),
+                   **{name: metadata[name] for name in cls._checkpointed})
+
+
+@dataclass
+class QuadraticSearch(MeasuredSearch):
+    """COBYQA's run from ``origin``, as the values measured so far (module docstring); parameters as
+    :class:`MeasuredSearch` (``radius``, ``final_radius``: COBYQA's initial and final trust-region radius)."""
+
+    _known_values: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    rule = "cobyqa"
+
     @property
     def designing(self) -> bool:
         """The last value told belongs to COBYQA's initial design (its first 2n + 1 points: the origin
         and ±radius along each coordinate), not to a step of its own model."""
         return len(self.values) <= 2 * self.origin.size + 1
 
-    def refuse(self, point) -> None:
-        """Answer ``point`` unrun (beyond a limit, or not followed by the robot): no better than the worst
-        value measured, and no rotation, so the search turns back."""
-        self.tell(point, min(self.values), 0.0)
 
     def next(self, bounds=None, known=None, rotation_limit: float | None = None) -> np.ndarray | None:
         """The next point to measure, or None when COBYQA has converged (its final radius).
@@ -155,19 +186,3 @@ class QuadraticSearch:
         except _Ask as ask:
             return ask.point
         return None
-
-    # -- checkpoint ---------------------------------------------------------------------------
-    def to_checkpoint(self, prefix: str) -> tuple[dict, dict]:
-        metadata = {"radius": self.radius, "final_radius": self.final_radius, "period": self.period}
-        arrays = {f"{prefix}/origin": self.origin,
-                  f"{prefix}/points": np.reshape(np.asarray(self.points, dtype=float), (-1, self.origin.size)),
-                  f"{prefix}/values": np.asarray(self.values, dtype=float),
-                  f"{prefix}/rotations": np.asarray(self.rotations, dtype=float)}
-        return metadata, arrays
-
-    @classmethod
-    def from_checkpoint(cls, metadata: dict, arrays: dict, prefix: str) -> QuadraticSearch:
-        return cls(origin=arrays[f"{prefix}/origin"], radius=metadata["radius"],
-                   final_radius=metadata["final_radius"], period=metadata["period"],
-                   points=list(arrays[f"{prefix}/points"]), values=arrays[f"{prefix}/values"].tolist(),
-                   rotations=arrays[f"{prefix}/rotations"].tolist())

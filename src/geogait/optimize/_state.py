@@ -282,7 +282,7 @@ class RunState:
                 else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
                 direction=arrays.get("climb/direction"), pending=arrays.get("climb/pending"))
             if climb.get("search") is not None:
-                rule = BayesianSearch if climb["search"].get("rule") == "bayes" else QuadraticSearch
+                rule = BayesianSearch if climb["search"].get("rule") == BayesianSearch.rule else QuadraticSearch
                 state.climb.search = rule.from_checkpoint(climb["search"], arrays, "climb/search")
         state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
         promised = scalars["promised"]
