@@ -131,6 +131,7 @@ class BayesianSearch(MeasuredSearch):
     rule = "bayes"
     _checkpointed = ("seed",)
     designing = False  # (no initial design: every candidate is the search's own step)
+    refuses_untracked = False  # judged by its measured outcome alone (refused, the process would learn a false cliff)
     #: Random candidates scored per proposal (uniform in the box); the best-scored whose neighbourhoods are searched,
     #: and those neighbourhoods' widths (share of the box).
     CANDIDATES = 1000
@@ -141,12 +142,13 @@ class BayesianSearch(MeasuredSearch):
         """The box's half-width after the values told (TuRBO's rule, module docstring)."""
         width, successes, failures = self.radius, 0, 0
         patience = max(4, self.origin.size // 2)
-        for k in range(1, len(self.values)):
-            best = max(self.values[:k])
-            if self.values[k] > best + 1e-3 * abs(best):
+        best = self.values[0] if self.values else np.nan
+        for value in self.values[1:]:
+            if value > best + 1e-3 * abs(best):
                 successes, failures = successes + 1, 0
             else:
                 successes, failures = 0, failures + 1
+            best = max(best, value)
             if successes == 3:
                 width, successes = min(2 * width, 4 * self.radius), 0
             if failures == patience:

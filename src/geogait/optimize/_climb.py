@@ -6,10 +6,11 @@ promised gains are not measured, the ratio test shrinks the trust radius to its 
 stalls. The in-situ optimiser then climbs on what the robot measures, in the same gait family, by one
 of three rules (``climb_rule``):
 
-* ``"cobyqa"`` (default): SciPy's COBYQA proposes every candidate from quadratic models of the
+* ``"cobyqa"``: SciPy's COBYQA proposes every candidate from quadratic models of the
   measured outcomes (module :mod:`geogait.optimize._search`);
 * ``"bayes"``: trust-region Bayesian optimisation, a Gaussian process of every measured outcome
-  proposing each candidate (module :mod:`geogait.optimize._bayes`);
+  proposing each candidate (module :mod:`geogait.optimize._bayes`); ``"auto"`` (default) picks one of these
+  two by the length of COBYQA's initial design (:func:`climb_rule_for`);
 * ``"es"``: a (1+1) evolution strategy with mirrored sampling (Brockhoff, Auger, Hansen, Arnold &
   Hohm, PPSN 2010). From the base gait (the best measured so far) a candidate is commanded at
   distance σ in a random direction (or, after a failure, in the opposite direction); σ grows by half
@@ -32,8 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._bayes import BayesianSearch
-from ._search import QuadraticSearch
+from ._search import MeasuredSearch
 
 __all__ = ["BAYES_DESIGN_CYCLES", "CLIMB_RULES", "MeasuredClimb", "climb_rule_for"]
 
@@ -53,8 +53,8 @@ def climb_rule_for(rule: str, n_coordinates: int, settle_cycles: int) -> str:
 
     COBYQA takes no step of its own before its design is complete; Bayesian optimisation needs no design, but
     its trust region walks slowly. On the robot benchmark (24 paired seeds; 16 on the PyElastica snake) the
-    process was ahead where the design takes 34–42 cycles (the Control Suite's swimmer and the snake) and behind
-    where it takes 13–25 (Gymnasium's swimmer, the built-in 5- and 9-link swimmers).
+    process was ahead where the design takes 34–42 cycles (the Control Suite's swimmer and the snake), behind
+    where it takes 22–25 (Gymnasium's swimmer, the built-in 9-link swimmer) and level at 13 (5 links).
     """
     if rule != "auto":
         return rule
@@ -85,7 +85,7 @@ class MeasuredClimb:
         Largest |mean measured net rotation| per cycle of a kept candidate: the start base's as the
         climb measures it (clean when the optimiser owns the exploration), or the optimiser's rotation
         tolerance if larger; fixed for the whole climb so it cannot ratchet up (NaN until measured).
-    search : QuadraticSearch, BayesianSearch or None
+    search : MeasuredSearch or None
         With ``climb_rule="cobyqa"`` or ``"bayes"``: the search that proposes the candidates (modules
         :mod:`geogait.optimize._search`, :mod:`geogait.optimize._bayes`), and ``pending``, the point of the
         candidate being measured.
@@ -109,7 +109,7 @@ class MeasuredClimb:
     measured: dict = field(default_factory=dict)
     rotations: dict = field(default_factory=dict)
     rotation_limit: float = np.nan
-    search: QuadraticSearch | BayesianSearch | None = None
+    search: MeasuredSearch | None = None
     pending: np.ndarray | None = None
 
     def start(self, base: tuple, sigma: float) -> None:

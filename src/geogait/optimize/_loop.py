@@ -528,8 +528,9 @@ class CycleLoop:
             state.trial_tracking.append(measured.tracking_error)
             if optimizer.max_tracking_error == "auto":  # another period tracks otherwise: judged by outcome
                 return False
-        if isinstance(state.climb.search, BayesianSearch) and state.climb.candidate == (state.gait, state.period):
-            return False  # judged by its measured outcome alone (refused, the process would learn a false cliff)
+        search_refuses = state.climb.search is None or state.climb.search.refuses_untracked
+        if not search_refuses and state.climb.candidate == (state.gait, state.period):
+            return False  # (a search that judges its candidates by their measured outcome alone)
         limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
