@@ -248,6 +248,27 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     new["cases"]["swimmer3"] = {"family": "mirror"}
     merged, _ = bench.merge_results(old, new, "fourth")
     assert merged["records"]["method"].tolist() == ["geogait"]
+    # a case evaluated otherwise since (more settling cycles from rest): the same; a manifest from before
+    # eval_settle_cycles evaluated after the case's settling cycles
+    old["cases"]["swimmer3"] = {"family": "mirror", "settle_cycles": 1}
+    old["records"] = result([("swimmer3", "random", 0, 2.0)], [])["records"]
+    new["cases"]["swimmer3"] = {"family": "mirror", "settle_cycles": 1, "eval_settle_cycles": 1}
+    assert bench.merge_results(old, new, "fifth")[0]["records"]["method"].tolist() == ["geogait", "random"]
+    new["cases"]["swimmer3"]["eval_settle_cycles"] = 4
+    assert bench.merge_results(old, new, "sixth")[0]["records"]["method"].tolist() == ["geogait"]
+
+
+@pytest.mark.parametrize(("settle", "eval_settle", "ran"), [(1, None, 3), (1, 4, 6), (0, 2, 4)])
+def test_a_gait_is_evaluated_from_rest_after_the_evaluation_settling_cycles(monkeypatch, settle, eval_settle, ran):
+    """A clean evaluation runs ``eval_settle_cycles`` (default the case's ``settle_cycles``) on a fresh robot, then
+    ``eval_cycles`` measured ones, and is recorded in the case's description."""
+    _SelfCountingRobot.log = []
+    case = _counting_case(settle_cycles=settle, eval_settle_cycles=eval_settle, eval_cycles=2)
+    bench.evaluate_gait(case, seed_gait(2))
+    assert [robot.ran for robot, _, _ in _SelfCountingRobot.log] == [ran]
+    monkeypatch.setitem(bench.CASES, case.name, case)
+    result = bench.run_robot_benchmark([case.name], ["random"], n_seeds=1, budget=2, progress=False)
+    assert result["cases"][case.name]["eval_settle_cycles"] == (settle if eval_settle is None else eval_settle)
 
 
 def test_a_manifest_with_cases_without_ceiling_or_score_redraws(tmp_path):

@@ -41,8 +41,8 @@ free family).
 
 **What is reported**, at every ``checkpoint`` (cycles used): each method's current gait — geogait's
 commanded gait, CMA-ES's mean, the best candidate so far for TPE and random search — re-run on a
-clean robot (no exploration, no sensor noise: the case's settling cycles, then ``eval_cycles``
-measured cycles), with its objective, net rotation per cycle, share of the ceiling where one is known
+clean robot from rest (no exploration, no sensor noise: the case's ``eval_settle_cycles``, then
+``eval_cycles`` measured cycles), with its objective, net rotation per cycle, share of the ceiling where one is known
 (the analytic swimmer's ceiling gait, re-run on the same clean robot) and a case's own score
 (Gymnasium Swimmer-v5: the episode return). One run per method and seed serves every budget: a
 method's state after ``c`` cycles does not depend on the budget beyond ``c``.
@@ -149,6 +149,10 @@ class BenchmarkCase:
         |net rotation| per cycle (rad) the ``held`` black-box variants are held to.
     eval_cycles : int
         Measured clean cycles per final-gait evaluation.
+    eval_settle_cycles : int, optional
+        Cycles a final-gait evaluation runs from rest before its measured ones (default ``settle_cycles``):
+        enough for a body with momentum to reach the gait's steady speed, which one settling cycle after
+        another gait (the methods' own measurements) need not be from rest.
     ceiling : callable, optional
         ``() -> FourierGait``: the gait whose clean objective on this robot is the ceiling.
     score : callable, optional
@@ -174,6 +178,7 @@ class BenchmarkCase:
     family: str = "free"
     rotation_limit: float = 0.02
     eval_cycles: int = 1
+    eval_settle_cycles: int | None = None
     ceiling: Callable | None = None
     score: Callable | None = None
     score_name: str = ""
@@ -284,7 +289,8 @@ def _cases() -> dict[str, BenchmarkCase]:
     cases["gymnasium-swimmer"] = BenchmarkCase(
         name="gymnasium-swimmer", description="Gymnasium Swimmer-v5 model (quadratic drag, inertia), PD joints, 2 s",
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
-        settle_cycles=1, eval_cycles=2, score=swimmer_v5_return, score_name="episode return", family="mirror",
+        settle_cycles=1, eval_cycles=2, eval_settle_cycles=4, score=swimmer_v5_return, score_name="episode return",
+        family="mirror",
         requires=("mujoco", "gymnasium"), period_range=(0.5, 4.0))
     cases["dm-control-swimmer"] = BenchmarkCase(
         name="dm-control-swimmer", description="DeepMind Control Suite's 6-link swimmer (MuJoCo's inertia-based "
@@ -324,11 +330,13 @@ def _value(case: BenchmarkCase, net: np.ndarray) -> float:
     return float(np.hypot(net[0], net[1]))
 
 
-def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int, period=None) -> np.ndarray:
-    """Command ``gait`` (at ``period``), run the settling cycles, return the net motion of ``n_measured`` cycles."""
+def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int, period=None,
+                  settle: int | None = None) -> np.ndarray:
+    """Command ``gait`` (at ``period``), run ``settle`` cycles (default the case's settling cycles), return the
+    net motion of ``n_measured`` cycles."""
     robot.set_gait(gait)
     _set_period(robot, period)
-    for _ in range(case.settle_cycles):
+    for _ in range(case.settle_cycles if settle is None else settle):
         robot.next_cycle()
     return np.array([measure_cycle(robot.next_cycle(), gait, robot.cycle_period, _OWNER).net
                      for _ in range(n_measured)])
@@ -337,15 +345,20 @@ def _run_measured(robot, case: BenchmarkCase, gait: FourierGait, n_measured: int
 def seed_direction(case: BenchmarkCase) -> tuple:
     """Unit body-frame direction of the seed gait's clean motion per cycle."""
     robot = case.make_robot(None, explore=False, noise=False)
-    net = _run_measured(robot, case, robot.gait, case.eval_cycles).mean(axis=0)
+    net = _run_measured(robot, case, robot.gait, case.eval_cycles, settle=_eval_settle(case)).mean(axis=0)
     norm = np.hypot(net[0], net[1])
     if not norm > 0:
         raise GeogaitError(f"case {case.name}: the seed gait does not move, so it has no forward direction")
     return float(net[0] / norm), float(net[1] / norm)
 
 
+def _eval_settle(case: BenchmarkCase) -> int:
+    return case.settle_cycles if case.eval_settle_cycles is None else case.eval_settle_cycles
+
+
 def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None = None) -> dict:
-    """A gait re-run clean (no exploration, no sensor noise) on a fresh robot of ``case``.
+    """A gait re-run clean (no exploration, no sensor noise) on a fresh robot of ``case``, from rest: its
+    evaluation settling cycles (``eval_settle_cycles``), then ``eval_cycles`` measured ones.
 
     Returns
     -------
@@ -355,7 +368,7 @@ def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None =
         when the case has one, ``score``.
     """
     robot = case.make_robot(None, explore=False, noise=False, gait=gait)
-    nets = _run_measured(robot, case, gait, case.eval_cycles, period)
+    nets = _run_measured(robot, case, gait, case.eval_cycles, period, settle=_eval_settle(case))
     rate = 1 / robot.cycle_period if case.period_range is not None else 1.0
     result = {"objective": float(np.mean([_value(case, net) for net in nets])) * rate,
               "rotation": float(np.mean(nets[:, 2])), "period": float(robot.cycle_period)}
@@ -722,6 +735,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         ceiling = evaluate_gait(case, case.ceiling()) if case.ceiling is not None else None
         described[name] = {"description": case.description, "objective": case.objective,
                            "seed": seed_result, "ceiling": ceiling, "settle_cycles": case.settle_cycles,
+                           "eval_settle_cycles": _eval_settle(case),
                            "max_joint_angle": case.max_joint_angle, "rotation_limit": case.rotation_limit,
                            "family": case.family, "score": case.score_name or None,
                            "direction": list(case.direction)}
@@ -963,20 +977,27 @@ def from_manifest(path) -> dict:
         raise GeogaitError(f"{path} is not a robot benchmark manifest: {error}") from None
 
 
+def _case_key(described: dict, key: str):
+    """A case's recorded setting (a manifest from before ``eval_settle_cycles``: its settling cycles)."""
+    if key == "eval_settle_cycles" and key not in described:
+        return described.get("settle_cycles")
+    return described.get(key)
+
+
 def merge_results(old: dict, new: dict, command: str) -> tuple[dict, str]:
     """``old``'s records with those of ``new``'s cases and methods replaced by ``new``'s.
 
     Both runs must share seeds, budget and root seed (so the seeds stay paired); the returned command
-    names both runs. A case whose gait family differs between the runs is replaced whole: records
-    searched in another family are not comparable.
+    names both runs. A case whose gait family or evaluation (settling cycles from rest) differs between the
+    runs is replaced whole: its records are not comparable.
     """
     keys = ("n_seeds", "budget", "seed")
     if any(old["config"][k] != new["config"][k] for k in keys):
         raise GeogaitError("--merge: the runs differ in " + ", ".join(
             f"{k} ({old['config'][k]} vs {new['config'][k]})" for k in keys if old["config"][k] != new["config"][k]))
     records = old["records"]
-    changed = [c for c, described in new["cases"].items()
-               if c in old["cases"] and old["cases"][c].get("family") != described.get("family")]
+    changed = [c for c, described in new["cases"].items() if c in old["cases"] and any(
+        _case_key(old["cases"][c], k) != _case_key(described, k) for k in ("family", "eval_settle_cycles"))]
     records = records[~records["case"].isin(changed)]
     if not new["records"].empty:
         replaced = records.set_index(["case", "method"]).index.isin(
