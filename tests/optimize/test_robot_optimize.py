@@ -11,7 +11,7 @@ from _robots import BareRobot, LaggingRobot
 from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
 from geogait.models import BatchGaitModel, ShapeSpaceModel
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import InSituOptimizer, read_checkpoint_metadata
 from geogait.robots import Robot
 from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
 from geogait.systems import PurcellSwimmer
@@ -129,15 +129,36 @@ def test_saturated_actuators_are_detected_and_their_steps_rejected():
     assert not unchecked["rejected"].any() and unchecked["tracking_error"].max() > 2 * limit
 
 
+def test_the_climb_judges_gaits_the_actuators_follow_badly_by_their_measured_outcome(tmp_path):
+    """With the automatic tracking limit the climb's gaits are judged by what they measure, not refused for their
+    tracking error (twice the seed's would have refused 17 of this run's candidates); the run ends well above the
+    seed, and the limit for the model's steps follows the gait the climb kept last: twice what its cycles track."""
+    result = InSituOptimizer(settle_cycles=1).run(SaturatingRobot(limit=1.05), 60, checkpoint=tmp_path / "run.npz")
+    log = result.log
+    measured = ~log["settling"]
+    seed = log.loc[measured & (log["iteration"] == 0), ["tracking_error", "measured_objective"]].mean()
+    seed_limit = max(0.05, 2 * seed["tracking_error"])
+    assert not log["rejected"].any()
+    assert (log["candidate"] & (log["tracking_error"] > seed_limit)).sum() >= 5
+    assert log.loc[measured, "measured_objective"].tail(4).mean() > 1.3 * seed["measured_objective"]
+    params = log.filter(like="param_").to_numpy()
+    kept = np.flatnonzero(np.all(params == result.final_gait.params, axis=1) & measured)
+    its_cycles = log.loc[kept, "iteration"] == log.loc[kept[0], "iteration"]
+    limit = read_checkpoint_metadata(tmp_path / "run.npz")["state"]["tracking_limit"]
+    assert limit == pytest.approx(2 * log.loc[kept[its_cycles], "tracking_error"].mean(), rel=1e-12)
+    assert limit > 2 * seed_limit
+
+
 def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_base():
-    """A rejected climb candidate goes back to the climb's base, a gait the climb kept, never to the candidate
-    commanded before it (which may itself have failed): after every rejection the next gait is one the run
-    kept before (a row that was not an unjudged candidate)."""
-    result = InSituOptimizer(settle_cycles=1).run(SaturatingRobot(limit=1.05), 60)
+    """Under a tracking limit of one's own (a number: what the robot must not exceed), a climb candidate beyond it is
+    rejected and goes back to the climb's base, a gait the climb kept, never to the candidate commanded before it
+    (which may itself have failed): after every rejection the next gait is one the run kept before (a row that was
+    not an unjudged candidate)."""
+    result = InSituOptimizer(settle_cycles=1, max_tracking_error=0.25).run(SaturatingRobot(limit=1.05), 60)
     log = result.log
     params = log.filter(like="param_").to_numpy()
     rejected = np.flatnonzero(log["rejected"].to_numpy())
-    assert len(rejected) >= 1  # measured: one, at cycle 43 (before the fix it went back to a failed candidate)
+    assert len(rejected) >= 1 and log.loc[log["rejected"], "candidate"].all()
     for k in rejected:
         kept_before = [params[j] for j in range(k) if not log["candidate"].iloc[j] and not log["settling"].iloc[j]]
         assert any(np.array_equal(params[k + 1], p) for p in kept_before)

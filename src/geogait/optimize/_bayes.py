@@ -131,7 +131,6 @@ class BayesianSearch(MeasuredSearch):
     rule = "bayes"
     _checkpointed = ("seed",)
     designing = False  # (no initial design: every candidate is the search's own step)
-    refuses_untracked = False  # judged by its measured outcome alone (refused, the process would learn a false cliff)
     #: Random candidates scored per proposal (uniform in the box); the best-scored whose neighbourhoods are searched,
     #: and those neighbourhoods' widths (share of the box).
     CANDIDATES = 1000

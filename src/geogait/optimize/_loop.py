@@ -101,6 +101,7 @@ class CycleLoop:
         else:
             self._set_direction(measured)
             value = self._evaluate(measured.net, np.zeros((3, ran.params.size)), ran)[0]
+            state.iteration_tracking.append(measured.tracking_error)
             if state.iteration == 0:
                 state.seed_measured.append(value)
                 state.seed_tracking.append(measured.tracking_error)
@@ -321,9 +322,11 @@ class CycleLoop:
             if climb.candidate == key and climb.base in measured:
                 if climb.search is not None:
                     climb.search.tell(climb.pending, np.mean(measured[key]), np.mean(climb.rotations[key]))
-                climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
-                            self._rotation_holds(key, climb.base),
-                            tests_model=climb.search is None or not climb.search.designing)
+                kept = climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
+                                   self._rotation_holds(key, climb.base),
+                                   tests_model=climb.search is None or not climb.search.designing)
+                if kept:
+                    self._follow_tracking()
                 # back to model steps (unless outside its class), from the best gait, on a fresh record
                 if climb.model_trusted_again and not self._model_excluded():
                     climb.active = False
@@ -455,9 +458,8 @@ class CycleLoop:
             trial = float(np.mean(state.measured[(state.gait, state.period)]))
             kept = search.judge(trial, float(np.mean(reference)) if reference else -np.inf)
             search.turn = False
-            tracking, state.trial_tracking = state.trial_tracking, []
-            if kept:  # the automatic tracking limit follows the period: twice what this one tracks
-                state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(tracking)))
+            if kept:  # the automatic tracking limit follows the period
+                self._follow_tracking()
                 return False
             self._change_gait(state.gait, origin)
             return True
@@ -471,7 +473,6 @@ class CycleLoop:
             search.turn = False
             return False
         search.trial_from = state.period
-        state.trial_tracking = []
         self._change_gait(state.gait, period)
         return True
 
@@ -524,13 +525,8 @@ class CycleLoop:
         optimizer, state = self.optimizer, self.state
         search = state.period_search
         trial = search is not None and search.trial_from is not None
-        if trial:
-            state.trial_tracking.append(measured.tracking_error)
-            if optimizer.max_tracking_error == "auto":  # another period tracks otherwise: judged by outcome
-                return False
-        search_refuses = state.climb.search is None or state.climb.search.refuses_untracked
-        if not search_refuses and state.climb.candidate == (state.gait, state.period):
-            return False  # (a search that judges its candidates by their measured outcome alone)
+        if (trial or state.climb.active) and optimizer.max_tracking_error == "auto":
+            return False  # (judged by their measured outcome: the automatic limit then follows the gait kept)
         limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
@@ -551,6 +547,14 @@ class CycleLoop:
             search.turn = False
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
         return True
+
+    def _follow_tracking(self) -> None:
+        """The automatic tracking limit follows a gait kept for its measured outcome (a climb's candidate, a
+        period trial): twice what it tracks, so that the model's steps from it are held to what it does, not to
+        what the seed did."""
+        state = self.state
+        if self.optimizer.max_tracking_error == "auto" and state.iteration_tracking:
+            state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.iteration_tracking)))
 
     def _measured_reverts(self) -> bool:
         """Measured outcomes over the model: go back to the best gait measured so far when the current

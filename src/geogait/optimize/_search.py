@@ -92,7 +92,6 @@ class MeasuredSearch:
 
     rule = None  # the climb rule, recorded in a checkpoint
     #: A candidate the robot cannot follow (tracking error over the limit) is refused: told the worst value.
-    refuses_untracked = True
     _checkpointed = ()  # further fields a checkpoint keeps
 
     def __post_init__(self):

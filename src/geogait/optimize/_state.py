@@ -109,7 +109,7 @@ class RunState:
     previous_period: float = np.nan
     seed_period: float = np.nan
     period_search: PeriodSearch | None = None  # optimize_period's line search (None: period fixed)
-    trial_tracking: list = field(default_factory=list)  # tracking errors of a period trial's cycles
+    iteration_tracking: list = field(default_factory=list)  # tracking errors of this iteration's measured cycles
     climb: MeasuredClimb | None = None  # steps from measured outcomes (the climb parameter)
     rng: np.random.Generator | None = None  # the climb's directions
     distrust: int = 0  # ratio tests failed in a row at the smallest trust radius
@@ -132,6 +132,7 @@ class RunState:
         self.iteration_data = []
         self.iteration_measured = []
         self.iteration_excitation = []
+        self.iteration_tracking = []
 
     def learn(self, chunk, gate):
         self.cycles_in_iteration += 1
@@ -227,8 +228,7 @@ class RunState:
             arrays["direction"] = self.direction
         if self.seed_nets:
             arrays["seed_nets"] = np.asarray(self.seed_nets, dtype=float)
-        if self.trial_tracking:
-            arrays["trial_tracking"] = np.asarray(self.trial_tracking, dtype=float)
+        arrays["iteration_tracking"] = np.asarray(self.iteration_tracking, dtype=float)
         arrays["iteration_excitation"] = np.asarray(self.iteration_excitation, dtype=float)
         metadata["warned_no_excitation"] = bool(self.warned_no_excitation)
         if self.exploration is not None:
@@ -297,7 +297,8 @@ class RunState:
         # checkpoints before the averaged direction fixed it at the first measured cycle
         state.direction_fixed = bool(scalars.get("direction_fixed", state.direction is not None))
         state.seed_nets = list(arrays["seed_nets"]) if "seed_nets" in arrays else []
-        state.trial_tracking = arrays["trial_tracking"].tolist() if "trial_tracking" in arrays else []
+        tracking = arrays.get("iteration_tracking", arrays.get("trial_tracking"))  # (earlier: a period trial's)
+        state.iteration_tracking = [] if tracking is None else tracking.tolist()
         state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
         state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
         if scalars.get("model_class") is not None:
