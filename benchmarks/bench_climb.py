@@ -5,7 +5,6 @@ with the Bayesian climb (a Gaussian process fitted afresh before every candidate
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
@@ -16,8 +15,7 @@ CYCLES = 40
 
 
 def _cycles_per_second(name: str, **options) -> float:
-    case = bench.CASES[name]
-    case = dataclasses.replace(case, direction=bench.seed_direction(case))
+    case = bench.directed(bench.CASES[name])
     robot = case.make_robot(np.random.SeedSequence(0), explore=True, noise=True)
     optimizer = bench.case_optimizer(case, random_state=0, **options)
     start = time.perf_counter()

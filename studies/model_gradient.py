@@ -16,14 +16,13 @@ lengths, and the predicted value against the clean measured one (per second wher
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import time
 
 import numpy as np
 
 from geogait._defaults import window_forgetting_factor
-from geogait.experiments.robot_benchmark import CASES, _Family, evaluate_gait, seed_direction
+from geogait.experiments.robot_benchmark import CASES, _Family, directed, evaluate_gait
 from geogait.models import AdaptiveGaitModel
 from geogait.optimize import objective
 
@@ -74,8 +73,7 @@ def main(argv=None) -> int:
     if case.missing():
         print(f"skipped: case {args.case} needs {', '.join(case.missing())}")
         return 0
-    if case.direction is None:
-        case = dataclasses.replace(case, direction=seed_direction(case))
+    case = directed(case)
     probe = case.make_robot(None, explore=False, noise=False)
     family = _Family(case, probe.gait, probe.cycle_period).family
     seed_params = family.params_of(probe.gait.with_order(1))

@@ -58,8 +58,7 @@ def run(k: int, method: str, budget: int, checkpoints: tuple, options: dict | No
                              youngs_modulus=physics["youngs_modulus"],
                              perturbation=None if explore else Perturbation(eta=0))
 
-    case = dataclasses.replace(bench.CASES["elastica-snake"], make_robot=make_robot)
-    case = dataclasses.replace(case, direction=bench.seed_direction(case))
+    case = bench.directed(dataclasses.replace(bench.CASES["elastica-snake"], make_robot=make_robot))
     seed_value = bench.evaluate_gait(case, make_robot(None, explore=False, noise=False).gait)["objective"]
     start = time.perf_counter()
     paired_seed = np.random.SeedSequence(0, spawn_key=(k,))  # the benchmark's k-th paired seed

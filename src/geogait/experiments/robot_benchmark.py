@@ -352,6 +352,12 @@ def seed_direction(case: BenchmarkCase) -> tuple:
     return float(net[0] / norm), float(net[1] / norm)
 
 
+def directed(case: BenchmarkCase) -> BenchmarkCase:
+    """``case`` with its ``direction``: its own, or where it leaves it to be measured, the seed's
+    (:func:`seed_direction`)."""
+    return case if case.direction is not None else dataclasses.replace(case, direction=seed_direction(case))
+
+
 def _eval_settle(case: BenchmarkCase) -> int:
     return case.settle_cycles if case.eval_settle_cycles is None else case.eval_settle_cycles
 
@@ -719,9 +725,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         log(f"skipped case {name}: {reason}")
     frames, described = [], {}
     for name in names:
-        case = CASES[name]
-        if case.direction is None:
-            case = dataclasses.replace(case, direction=seed_direction(case))
+        case = directed(CASES[name])
         # the built-in swimmers are principally kinematic: in their symmetric family nothing turns, and the held
         # variants would repeat the free runs exactly (a body with inertia may settle slowly, or not symmetrically)
         case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
