@@ -253,9 +253,12 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     old["cases"]["swimmer3"] = {"family": "mirror", "settle_cycles": 1}
     old["records"] = result([("swimmer3", "random", 0, 2.0)], [])["records"]
     new["cases"]["swimmer3"] = {"family": "mirror", "settle_cycles": 1, "eval_settle_cycles": 1}
-    assert bench.merge_results(old, new, "fifth")[0]["records"]["method"].tolist() == ["geogait", "random"]
+    said = []
+    assert bench.merge_results(old, new, "fifth", log=said.append)[0]["records"]["method"].tolist() == ["geogait",
+                                                                                                     "random"]
     new["cases"]["swimmer3"]["eval_settle_cycles"] = 4
-    assert bench.merge_results(old, new, "sixth")[0]["records"]["method"].tolist() == ["geogait"]
+    assert bench.merge_results(old, new, "sixth", log=said.append)[0]["records"]["method"].tolist() == ["geogait"]
+    assert len(said) == 1 and "swimmer3" in said[0] and "replaced" in said[0]  # said, not silent
 
 
 @pytest.mark.parametrize(("settle", "eval_settle", "ran"), [(1, None, 3), (1, 4, 6), (0, 2, 4)])

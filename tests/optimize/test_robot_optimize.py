@@ -149,12 +149,14 @@ def test_the_climb_judges_gaits_the_actuators_follow_badly_by_their_measured_out
     assert limit > 2 * seed_limit
 
 
-def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_base():
+@pytest.mark.parametrize("climb_rule", ["cobyqa", "bayes"])
+def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_base(climb_rule):
     """Under a tracking limit of one's own (a number: what the robot must not exceed), a climb candidate beyond it is
     rejected and goes back to the climb's base, a gait the climb kept, never to the candidate commanded before it
     (which may itself have failed): after every rejection the next gait is one the run kept before (a row that was
     not an unjudged candidate)."""
-    result = InSituOptimizer(settle_cycles=1, max_tracking_error=0.25).run(SaturatingRobot(limit=1.05), 60)
+    result = InSituOptimizer(settle_cycles=1, max_tracking_error=0.25, climb_rule=climb_rule).run(
+        SaturatingRobot(limit=1.05), 60)
     log = result.log
     params = log.filter(like="param_").to_numpy()
     rejected = np.flatnonzero(log["rejected"].to_numpy())

@@ -988,7 +988,7 @@ def _case_key(described: dict, key: str):
     return described.get(key)
 
 
-def merge_results(old: dict, new: dict, command: str) -> tuple[dict, str]:
+def merge_results(old: dict, new: dict, command: str, log: Callable = print) -> tuple[dict, str]:
     """``old``'s records with those of ``new``'s cases and methods replaced by ``new``'s.
 
     Both runs must share seeds, budget and root seed (so the seeds stay paired); the returned command
@@ -1002,6 +1002,8 @@ def merge_results(old: dict, new: dict, command: str) -> tuple[dict, str]:
     records = old["records"]
     changed = [c for c, described in new["cases"].items() if c in old["cases"] and any(
         _case_key(old["cases"][c], k) != _case_key(described, k) for k in ("family", "eval_settle_cycles"))]
+    for case in changed:
+        log(f"--merge: case {case} searched or evaluated otherwise than in the manifest: all its records replaced")
     records = records[~records["case"].isin(changed)]
     if not new["records"].empty:
         replaced = records.set_index(["case", "method"]).index.isin(

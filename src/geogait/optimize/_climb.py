@@ -55,7 +55,7 @@ def climb_rule_for(rule: str, n_coordinates: int, settle_cycles: int) -> str:
     its trust region walks slowly. On the robot benchmark (24 paired seeds; 16 on the PyElastica snake) the
     process was ahead where the design takes 34–42 cycles (the Control Suite's swimmer and the snake), behind at
     25 (the built-in 9-link swimmer), level at 22 (Gymnasium's swimmer, since every climb is judged by its
-    measured outcome; behind before) and at 13 (5 links).
+    measured outcome under the automatic tracking limit; behind before) and at 13 (5 links).
     """
     if rule != "auto":
         return rule

@@ -40,7 +40,8 @@ Safety (the robot is not the model):
   learned from or measured (a body with momentum needs them to forget the old gait);
 * **tracking** — every cycle's RMS difference between realised and commanded shapes is logged; a
   new gait whose tracking error exceeds ``max_tracking_error`` is rejected: the previous gait (for a
-  measured-climb candidate, the climb's base) is commanded again and the trust radius halves;
+  measured-climb candidate, the climb's base) is commanded again and the trust radius halves (with
+  ``"auto"``, the measured climb's gaits and period trials are judged by their outcome instead);
 * **prediction check** — the gate stays closed while the model's predicted objective of the
   current gait differs from the mean measured objective of its cycles by more than
   ``prediction_tolerance`` (relative), however high Γ is;
@@ -190,13 +191,13 @@ class InSituOptimizer(Estimator):
         run but neither learned from nor measured.
     max_tracking_error : float or "auto" or None
         Largest RMS realised − commanded shape error (rad) of an accepted gait; a gait beyond it is rejected
-        and the run goes back to the gait before it. ``"auto"``: a check of the model's steps only, at twice the
-        mean tracking error of the gait the run stands on — the seed's measured cycles at first, then of each gait
-        kept for its measured outcome (a climb's candidate, a period trial) — and at least 0.05 × ``shape_scale``;
-        the measured climb and the period trials are judged by what they measure (on Gymnasium's swimmer, whose
-        fastest gaits its PD joints follow to 0.2–0.7 rad, refusing them cost 7 / 6 / 2 points of the seed's speed
-        at 30 / 60 / 100 cycles). A number holds every gait to it, the climb's candidates too (refused, as beyond a
-        limit). ``None`` disables the check.
+        and the run goes back to the gait before it (a climb's candidate: to the climb's base). ``"auto"``: twice
+        the mean tracking error of the seed's measured cycles, then of each gait kept for its measured outcome (a
+        climb's candidate, a period trial), at least 0.05 × ``shape_scale``; it guards the model's steps (and the
+        gaits they lead back to), while the measured climb and the period trials are judged by what they
+        measure (on Gymnasium's swimmer, whose fastest gaits its PD joints follow to 0.2–0.7 rad, refusing them
+        cost 7 / 6 / 2 points of the seed's speed at 30 / 60 / 100 cycles). A number holds every gait to it, the
+        climb's candidates too (refused, as beyond a limit). ``None`` disables the check.
     prediction_tolerance : float or None
         Largest relative difference between the model's predicted objective of the current gait and
         its mean measured objective for the gate to open. ``None`` disables the check.
@@ -239,8 +240,7 @@ class InSituOptimizer(Estimator):
         it trusts every single measurement, so a very noisy one can mislead it. ``"bayes"``: trust-region
         Bayesian optimisation (module :mod:`geogait.optimize._bayes`): a Gaussian process of the measured
         outcomes proposes every candidate from all the points measured, with no initial design, in a box
-        of half-width σ around the best, down to ``min_trust_radius``; its candidates are judged by their
-        measured outcome alone (not rejected for their tracking error). ``"auto"`` (default): ``"bayes"`` where
+        of half-width σ around the best, down to ``min_trust_radius``. ``"auto"`` (default): ``"bayes"`` where
         COBYQA's design would take more than 30 robot cycles ((2n + 1)(``settle_cycles`` + 1)), else
         ``"cobyqa"`` (:func:`geogait.optimize.climb_rule_for`).
     exploration : "auto", float or None

@@ -334,6 +334,7 @@ class CycleLoop:
                     state.radius = optimizer.trust_radius * state.scale
                     state.measured, state.rotations = {}, {}
                     self._change_gait(*climb.base)
+                    state.previous_gait = None  # (the base was accepted: never refused back to a failed candidate)
                     return True
             climb.candidate = None  # a candidate left early (rejected) is not judged
         remeasure = climb.search is None and key != climb.base and climb.failures >= 3  # (COBYQA: its own model)

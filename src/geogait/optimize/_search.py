@@ -91,7 +91,6 @@ class MeasuredSearch:
     rotations: list = field(default_factory=list)
 
     rule = None  # the climb rule, recorded in a checkpoint
-    #: A candidate the robot cannot follow (tracking error over the limit) is refused: told the worst value.
     _checkpointed = ()  # further fields a checkpoint keeps
 
     def __post_init__(self):

@@ -297,7 +297,10 @@ class RunState:
         # checkpoints before the averaged direction fixed it at the first measured cycle
         state.direction_fixed = bool(scalars.get("direction_fixed", state.direction is not None))
         state.seed_nets = list(arrays["seed_nets"]) if "seed_nets" in arrays else []
-        tracking = arrays.get("iteration_tracking", arrays.get("trial_tracking"))  # (earlier: a period trial's)
+        tracking = arrays.get("iteration_tracking")
+        trial = state.period_search is not None and state.period_search.trial_from is not None
+        if tracking is None and trial:  # earlier checkpoints: a period trial's in progress (else possibly stale)
+            tracking = arrays.get("trial_tracking")
         state.iteration_tracking = [] if tracking is None else tracking.tolist()
         state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
         state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
