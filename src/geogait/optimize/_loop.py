@@ -104,8 +104,7 @@ class CycleLoop:
             state.iteration_tracking.append(measured.tracking_error)
             if state.iteration == 0:
                 state.seed_measured.append(value)
-                state.seed_tracking.append(measured.tracking_error)
-                state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.seed_tracking)))
+                self._follow_tracking()  # (the seed's cycles so far)
             rejected = self._tracking_rejects(measured, value)
             if not rejected:
                 state.learn(chunk, self.gate)
@@ -550,9 +549,9 @@ class CycleLoop:
         return True
 
     def _follow_tracking(self) -> None:
-        """The automatic tracking limit follows a gait kept for its measured outcome (a climb's candidate, a
-        period trial): twice what it tracks, so that the model's steps from it are held to what it does, not to
-        what the seed did."""
+        """The automatic tracking limit: twice what the current gait's measured cycles track — the seed's, then
+        each gait kept for its measured outcome (a climb's candidate, a period trial), so that the model's steps
+        from it are held to what it does, not to what the seed did."""
         state = self.state
         if self.optimizer.max_tracking_error == "auto" and state.iteration_tracking:
             state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.iteration_tracking)))

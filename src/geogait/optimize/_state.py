@@ -94,7 +94,6 @@ class RunState:
     world_heading: float = 0.0
     tracking_limit: float = np.nan
     seed_measured: list = field(default_factory=list)
-    seed_tracking: list = field(default_factory=list)  # tracking errors of the seed's measured cycles
     seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
     rows: list = field(default_factory=list)
     gaits: list = field(default_factory=list)
@@ -207,7 +206,6 @@ class RunState:
         arrays = {"gait": self.gait.coefficients, "robot_gait": self.robot_gait.coefficients,
                   "iteration_measured": np.asarray(self.iteration_measured, dtype=float),
                   "seed_measured": np.asarray(self.seed_measured, dtype=float),
-                  "seed_tracking": np.asarray(self.seed_tracking, dtype=float),
                   "gaits": np.stack([g.coefficients for g in self.gaits])}
         arrays.update(_pack_records("measured", self.measured, self.rotations))
         arrays.update(_pack_records("climb/measured", self.climb.measured, self.climb.rotations))
@@ -301,6 +299,8 @@ class RunState:
         trial = state.period_search is not None and state.period_search.trial_from is not None
         if tracking is None and trial:  # earlier checkpoints: a period trial's in progress (else possibly stale)
             tracking = arrays.get("trial_tracking")
+        elif tracking is None and int(state.iteration) == 0:  # earlier checkpoints: the seed's cycles
+            tracking = arrays.get("seed_tracking")
         state.iteration_tracking = [] if tracking is None else tracking.tolist()
         state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
         state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
@@ -313,7 +313,6 @@ class RunState:
                                      np.array(arrays["exploration/next_shape_velocity"], dtype=float))
         state.iteration_measured = arrays["iteration_measured"].tolist()
         state.seed_measured = arrays["seed_measured"].tolist()
-        state.seed_tracking = arrays["seed_tracking"].tolist()
         state.gaits = [FourierGait(c) for c in arrays["gaits"]]
         state.measured, state.rotations = _unpack_records("measured", arrays, state.period)
         if state.climb is not None:
