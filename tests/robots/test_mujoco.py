@@ -343,6 +343,10 @@ def test_bad_arguments_give_clear_errors():
         MujocoRobot(model, kp=-1.0)
     with pytest.raises(ValueError, match="'kd' parameter of MujocoRobot must be None with control='position'"):
         MujocoRobot(purcell_swimmer_xml(3, actuator="position"), control="position", kd=1.0)
+    with pytest.raises(ValueError, match="'start' parameter of MujocoRobot must be one of 'gait', 'rest'"):
+        MujocoRobot(model, start="bent")
+    with pytest.raises(ValueError, match="'control_interval' parameter of MujocoRobot must be an int >= 1"):
+        MujocoRobot(model, control_interval=0)
     with pytest.raises(ValueError, match="'samples_per_cycle' parameter of MujocoRobot must be an int >= 4"):
         MujocoRobot(model, samples_per_cycle=2)
     with pytest.raises(ValueError, match="'perturbation' parameter of MujocoRobot must be a geogait.gaits"):
@@ -551,7 +555,7 @@ def test_time_reversal_family_turns_a_swimmer_with_inertia_and_the_half_wave_fam
             start = swimmer.next_cycle().pose[0, 2]
             swimmer.next_cycle()
             turns[name].append(abs(swimmer.next_cycle().pose[0, 2] - start) / 2)
-    assert max(turns["mirror"]) < 1e-3 and min(turns["symmetric"]) > 0.01
+    assert max(turns["mirror"]) < 1e-3 and min(turns["symmetric"]) > max(0.003, 100 * max(turns["mirror"]))
 
 
 def test_optimiser_searches_the_symmetric_family_on_a_symmetric_model():
@@ -676,9 +680,11 @@ def test_a_resistive_medium_is_read_from_the_model_and_chooses_the_default_model
 
 @pytest.mark.parametrize("case", ["mujoco-purcell5-unequal", "gymnasium-swimmer"])
 def test_the_optimisers_model_class_test_passes_both_swimmers(case):
-    """The robot benchmark's unequal RFT chain is principally kinematic; Gymnasium's swimmer (quadratic drag,
-    inertia) moves within 2 % per cycle at 2 s and 4 s (docs/results/model-class.md): both pass and are stepped
-    as usual. Both start from rest: the benchmark's settling cycle keeps the start's transient out of the test."""
+    """The robot benchmark's unequal RFT chain is principally kinematic: it passes and is stepped as usual.
+    Gymnasium's swimmer (quadratic drag, inertia) moved within 2 % per cycle at 2 s and 4 s with a PD torque
+    updated every physics step (docs/results/model-class.md); at Swimmer-v5's own action rate (25 Hz) the default
+    gains follow the 2 s cycles less closely than the 4 s ones, so the test says it cannot judge, and why, and the
+    run steps as usual. Both start from rest: the benchmark's settling cycle keeps the start's transient out."""
     from geogait.experiments.robot_benchmark import CASES, case_optimizer
 
     case = CASES[case]
@@ -686,8 +692,11 @@ def test_the_optimisers_model_class_test_passes_both_swimmers(case):
     period = robot.cycle_period
     result = case_optimizer(case, model_class_cycles=3).run(robot, 14)
     verdict = result.model_class
-    assert verdict.principally_kinematic is True, verdict.reason
-    assert verdict.periods == pytest.approx((period, 2 * period), rel=0.02)
+    if case.name == "gymnasium-swimmer":
+        assert verdict.principally_kinematic is None and "realised gait differs between the periods" in verdict.reason
+    else:
+        assert verdict.principally_kinematic is True, verdict.reason
+        assert verdict.periods == pytest.approx((period, 2 * period), rel=0.02)
     assert result.n_steps > 0
 
 
@@ -710,3 +719,39 @@ def test_the_control_suites_swimmer_reads_the_same_in_a_mirror_and_moves_so():
     np.testing.assert_allclose(mirrored.pose, run.pose * np.array([-1.0, 1.0, -1.0]), rtol=0, atol=1e-9)
     settled = net_motion(run, robot.samples_per_cycle, 2 * robot.samples_per_cycle)  # the second cycle, whole
     assert abs(settled[2]) < 0.005 < np.hypot(*settled[:2])
+
+
+def test_a_robot_started_at_rest_begins_straight_and_still_and_then_follows_the_gait():
+    gait = seed_gait(2)
+    on_gait = mujoco_swimmer(3, gait=gait, perturbation=Perturbation(eta=0)).next_cycle()
+    at_rest = mujoco_swimmer(3, gait=gait, perturbation=Perturbation(eta=0), start="rest")
+    first = at_rest.next_cycle()
+    np.testing.assert_allclose(on_gait.shape[0], gait.shape(0.0), atol=1e-12)
+    np.testing.assert_array_equal(first.shape[0], 0.0)
+    np.testing.assert_array_equal(first.shape_velocity[0], 0.0)
+    np.testing.assert_array_equal(first.body_velocity[0], 0.0)
+    later = [at_rest.next_cycle() for _ in range(3)][-1]
+    assert np.sqrt(np.mean((later.shape - later.commanded_shape) ** 2)) < 0.1
+
+
+def test_a_held_pd_torque_is_what_the_gymnasium_environment_runs():
+    """Swimmer-v5 driven by the same PD policy at its own action rate (one action per 4 physics steps) from a
+    reset without noise: the environment's summed forward reward is the benchmark's episode return."""
+    gym = pytest.importorskip("gymnasium")
+    pytest.importorskip("imageio", reason="gymnasium's MuJoCo environments need gymnasium[mujoco]")
+    from geogait.experiments.robot_benchmark import swimmer_v5_return
+    robot = gymnasium_swimmer()
+    gait, period = FourierGait.from_params([0.1, 1.2, 0.6, -0.1, -0.5, 1.1], 2), 1.6
+    env = gym.make("Swimmer-v5", reset_noise_scale=0.0)
+    observation, _ = env.reset(seed=0)
+    forward = 0.0
+    for step in range(1000):
+        phase = 2 * np.pi * step * 0.04 / period
+        error = gait.shape(phase) - observation[1:3]
+        error_rate = gait.velocity(phase) * 2 * np.pi / period - observation[6:8]
+        observation, _, _, _, info = env.step(np.clip(robot.kp * error + robot.kd * error_rate, -1, 1))
+        forward += info["reward_forward"]
+    env.close()
+    ours = swimmer_v5_return(gait, period)
+    assert ours == pytest.approx(forward, rel=0.01)
+    assert robot.control_interval == 4

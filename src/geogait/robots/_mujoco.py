@@ -52,10 +52,11 @@ MODELS_DIRECTORY = Path(__file__).parent / "models"
 
 _INSTALL = "pip install 'geogait[mujoco]'"
 _CONTROLS = ("pd", "position")
+_STARTS = ("gait", "rest")
 #: Tracking error (rad) at which the default PD gains reach the actuator's ctrl limit.
 _DEFAULT_SATURATION_ERROR = 0.05
-#: Largest natural frequency × timestep of a joint's inertia under the default PD gains (the PD law is
-#: explicit: it sees the state at the start of each step).
+#: Largest natural frequency × torque-update interval of a joint's inertia under the default PD gains (the PD law is
+#: explicit: it sees the state at the start of each update).
 _MAX_GAIN_FREQUENCY = 0.4
 
 
@@ -158,9 +159,18 @@ class MujocoRobot:
         PD gains in ctrl units per rad and per rad/s (``control="pd"`` only). Default from the
         model: ``kp`` reaches the ctrl limit at a 0.05 rad error, capped so that the natural
         frequency of the joint's effective inertia 1 / (M⁻¹)_jj (every other degree of freedom
-        free, at the initial pose) stays below ``0.4 / timestep``; ``kd`` damps that critically.
+        free, at the initial pose) stays below ``0.4 / (timestep × control_interval)``; ``kd`` damps that
+        critically.
+    control_interval : int >= 1
+        Physics steps each PD torque is held for (``control="pd"``), counted from the start of each cycle:
+        1 computes it every step; an environment's ``frame_skip`` acts as its agent does (4 on
+        Gymnasium's Swimmer-v5).
     seed : int or numpy.random.SeedSequence, optional
         Seed of the perturbation.
+    start : {"gait", "rest"}
+        Initial state: the joints on the commanded shape and velocity of phase 0 (``"gait"``), or every joint
+        at the model's reference position and at rest (``"rest"``: a Gymnasium reset without its noise;
+        the first cycle then drives the joints onto the gait).
 
     Attributes
     ----------
@@ -177,9 +187,9 @@ class MujocoRobot:
 
     Notes
     -----
-    The joints start on the commanded shape and velocity of phase 0 and the base at rest at the
-    model's reference pose. Samples are taken at the start of each sample interval, before the
-    physics steps of that interval; ``time`` is ``cycle · T + n · T / samples_per_cycle``.
+    The joints start on the commanded shape and velocity of phase 0 (or, with ``start="rest"``, straight
+    and still) and the base at rest at the model's reference pose. Samples are taken at the start of each
+    sample interval, before the physics steps of that interval; ``time`` is ``cycle · T + n · T / samples_per_cycle``.
 
     Examples
     --------
@@ -191,13 +201,15 @@ class MujocoRobot:
 
     def __init__(self, model, *, joints=None, body: str | None = None, gait: FourierGait | None = None,
                  cycle_period: float = 1.0, samples_per_cycle: int = 100, perturbation: Perturbation | None = None,
-                 control: str = "pd", kp=None, kd=None, seed=None):
+                 control: str = "pd", kp=None, kd=None, control_interval: int = 1, seed=None, start: str = "gait"):
         mujoco = _mujoco()
         owner = "MujocoRobot"
         source = load_mujoco_model(model)
         self.model = copy.deepcopy(source) if source is model else source
         self.data = mujoco.MjData(self.model)
         self.control = check_choice(control, "control", owner, _CONTROLS)
+        self.start = check_choice(start, "start", owner, _STARTS)
+        self.control_interval = check_int(control_interval, "control_interval", owner, minimum=1)
         self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
         self.samples_per_cycle = check_int(samples_per_cycle, "samples_per_cycle", owner, minimum=4)
         self._joint_ids = self._resolve_joints(joints)
@@ -481,7 +493,7 @@ class MujocoRobot:
             unit[0, dof] = 1
             mujoco.mj_solveM(self.model, data, column, unit)
             inertia[j] = 1 / column[0, dof]
-        omega = _MAX_GAIN_FREQUENCY / float(self.model.opt.timestep)
+        omega = _MAX_GAIN_FREQUENCY / (float(self.model.opt.timestep) * self.control_interval)  # per torque update
         stable = inertia * omega**2 / np.abs(gear)
         default_kp = np.minimum(limits / _DEFAULT_SATURATION_ERROR, stable)
         kp = default_kp if kp is None else self._gain(kp, "kp", d)
@@ -502,10 +514,12 @@ class MujocoRobot:
         return array
 
     def _start(self, mujoco) -> None:
-        """Joints on the commanded shape of phase 0, base at rest; check the body moves in the x-y plane."""
-        shape, rate = self._commands(np.zeros(1), self._perturbation.state[None])
-        self.data.qpos[self._qpos] = shape[0]
-        self.data.qvel[self._dof] = rate[0]
+        """Joints on the commanded shape of phase 0 (or at rest, ``start="rest"``), base at rest; check the body
+        moves in the x-y plane."""
+        if self.start == "gait":
+            shape, rate = self._commands(np.zeros(1), self._perturbation.state[None])
+            self.data.qpos[self._qpos] = shape[0]
+            self.data.qvel[self._dof] = rate[0]
         mujoco.mj_forward(self.model, self.data)
         z_axis = self.data.xmat[self._body].reshape(3, 3)[:, 2]
         if z_axis[2] < 1 - 1e-9:
@@ -621,11 +635,11 @@ class MujocoRobot:
                 pose[sample] = (data.xpos[body, 0], data.xpos[body, 1], self._heading)
                 shape[sample] = data.qpos[qpos]
                 shape_velocity[sample] = data.qvel[dof]
-            if pd:
+            if not pd:
+                data.ctrl[actuators] = command[step]
+            elif step % self.control_interval == 0:  # held in between, as an environment's frame_skip holds it
                 u = self.kp * (command[step] - data.qpos[qpos]) + self.kd * (command_rate[step] - data.qvel[dof])
                 data.ctrl[actuators] = np.minimum(np.maximum(u, low), high)  # np.clip costs 4x more here
-            else:
-                data.ctrl[actuators] = command[step]
             mujoco.mj_step(model, data)
         index = np.arange(n)
         trajectory = Trajectory(
@@ -1079,13 +1093,15 @@ def gymnasium_swimmer(**options) -> MujocoRobot:
     ----------
     **options
         Keywords of :class:`MujocoRobot`; ``cycle_period`` defaults to 2 s here (at 1 s the
-        actuators saturate on the seed gait).
+        actuators saturate on the seed gait) and ``control_interval`` to 4: the PD torque is held for the
+        environment's 4 physics steps (0.04 s), as a Swimmer-v5 agent's action is.
 
     Returns
     -------
     MujocoRobot
     """
     options.setdefault("cycle_period", 2.0)
+    options.setdefault("control_interval", 4)
     return MujocoRobot("gymnasium:swimmer", **options)
 
 
