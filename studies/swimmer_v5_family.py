@@ -8,8 +8,8 @@ in 0.5-4 s) searched in the half-wave symmetric family of each Fourier order: fr
 (:func:`~geogait.experiments.robot_benchmark.evaluate_gait`, one settling and two measured cycles; a gait
 turning more than 0.02 rad per cycle is penalised), with every point beyond the joint limit run scaled back
 onto it, as every benchmark method runs it. Each start's best gait is then scored by the episode return
-(:func:`~geogait.experiments.robot_benchmark.swimmer_v5_return`, 1000 steps from the reset state). These are thousands of
-clean evaluations: what the family can do, not what any method reaches in 100 cycles.
+(:func:`~geogait.experiments.robot_benchmark.swimmer_v5_return`, 1000 steps from the reset state). These are
+thousands of clean evaluations: what the family can do, not what any method reaches in 100 cycles.
 """
 
 from __future__ import annotations

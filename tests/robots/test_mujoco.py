@@ -755,3 +755,18 @@ def test_a_held_pd_torque_is_what_the_gymnasium_environment_runs():
     ours = swimmer_v5_return(gait, period)
     assert ours == pytest.approx(forward, rel=0.01)
     assert robot.control_interval == 4
+
+
+def test_a_simulation_that_becomes_unstable_is_an_error_not_a_silent_reset(tmp_path, monkeypatch):
+    """MuJoCo resets an unstable model to rest and carries on; the robot says so instead of returning the
+    samples of that other run (the Control Suite's light 6-link swimmer driven at a 0.2 s period)."""
+    pytest.importorskip("dm_control", reason="the Control Suite's swimmer needs dm_control (pip install "
+                                             "'geogait[dmcontrol]')")
+    from geogait.robots import dm_control_swimmer
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT in the working directory
+    calm = dm_control_swimmer(6, perturbation=Perturbation(eta=0), cycle_period=1.0)
+    assert np.all(np.isfinite(calm.next_cycle().pose))
+    fast = dm_control_swimmer(6, perturbation=Perturbation(eta=0), cycle_period=0.2)
+    with pytest.raises(GeogaitError, match=r"MuJoCo's simulation became unstable in cycle 0 .*timestep \(0.002 s\)"):
+        fast.next_cycle()

@@ -596,11 +596,18 @@ class MujocoRobot:
             ``time`` (s), ``phase``, ``cycle``, measured ``shape`` / ``shape_velocity`` (rad, rad/s),
             ``body_velocity`` (v_x, v_y, ω) in the body frame, world ``pose`` (x, y, heading) of the
             body, and ``commanded_shape`` (nominal gait + perturbation), each with n = samples_per_cycle.
+
+        Raises
+        ------
+        GeogaitError
+            When the physics became unstable during the cycle (MuJoCo then resets the model to rest and
+            carries on, which would make the cycle's samples a different run's).
         """
         mujoco = _mujoco()
         if self.data is None:
             raise GeogaitError("This MujocoRobot was closed; build a new one to run more cycles.")
         model, data = self.model, self.data
+        unstable = data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
         k, n = self.steps_per_sample, self.samples_per_cycle
         steps = k * n
         d = self.n_joints
@@ -641,6 +648,11 @@ class MujocoRobot:
                 u = self.kp * (command[step] - data.qpos[qpos]) + self.kd * (command_rate[step] - data.qvel[dof])
                 data.ctrl[actuators] = np.minimum(np.maximum(u, low), high)  # np.clip costs 4x more here
             mujoco.mj_step(model, data)
+        if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > unstable:
+            raise GeogaitError(
+                f"MuJoCo's simulation became unstable in cycle {self.cycle} of this MujocoRobot (the physics reset "
+                f"the model to rest): a gait too fast or too large for the model's timestep "
+                f"({self.timestep:g} s) and PD gains. Command a smaller or slower gait, or lower kp / kd.")
         index = np.arange(n)
         trajectory = Trajectory(
             time=self._elapsed + index * (self.cycle_period / n), phase=2 * np.pi * index / n,
