@@ -77,8 +77,8 @@ def test_period_options_are_checked_before_the_robot_moves():
 def test_resume_with_a_period_search_is_bit_identical(tmp_path):
     path = tmp_path / "run.npz"
 
-    def make():
-        return InSituOptimizer(optimize_period=True, period_range=(0.25, 2.0), settle_cycles=1)
+    def make():  # model steps first (climb=True): period trials between them
+        return InSituOptimizer(optimize_period=True, period_range=(0.25, 2.0), settle_cycles=1, climb=True)
 
     whole = make().run(LaggingRobot(seed=4), 24)
 
@@ -108,3 +108,17 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
     robot = SwimmerStream(PurcellSwimmer(3), gait, seed=0)
     CycleLoop(optimizer, robot, state, checkpoint=None, checkpoint_every=1)._change_gait(other)
     assert state.model is not fresh and state.gait == other and state.previous_gait == gait
+
+
+def test_a_first_climb_searches_the_period_as_its_coordinate_without_a_trial_before_it():
+    """With climb="first" the period is one of the climb's coordinates from its start: no period trial (a change of
+    period on the same gait) comes before the climb's first candidate, and its candidates move the period."""
+    settings = dict(optimize_period=True, period_range=(0.25, 2.0))
+    result = InSituOptimizer(**settings, climb="first").run(LaggingRobot(seed=3), 40)
+    log = result.log
+    first_climb = int(np.flatnonzero(log["climb"].to_numpy(dtype=bool))[0])
+    assert (log["cycle_period"].iloc[:first_climb + 1] == 1.0).all()
+    assert not log["period_change"].iloc[:first_climb + 1].any()
+    assert log["cycle_period"].nunique() >= 3
+    with_trial = InSituOptimizer(**settings, climb=True).run(LaggingRobot(seed=3), 12)
+    assert with_trial.log["period_change"].any()  # model steps first: the line search's trials

@@ -205,7 +205,8 @@ class InSituOptimizer(Estimator):
         Make the cycle period a decision variable and the objective a rate (per second): gait steps
         from the model alternate with period trials judged on measured outcomes
         (a measured line search on log T, module :mod:`geogait.optimize._period`), within ``period_range`` and
-        ``max_joint_velocity``. Needs a robot with ``set_cycle_period`` (e.g.
+        ``max_joint_velocity``; while the measured climb runs, and from the start with ``climb="first"``, the
+        period is one of the climb's coordinates instead. Needs a robot with ``set_cycle_period`` (e.g.
         :class:`~geogait.robots.MujocoRobot`). Default False: the robot's period is kept.
     period_range : tuple of 2 floats, optional
         (shortest, longest) period in seconds for ``optimize_period``; default half to twice the

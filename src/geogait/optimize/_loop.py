@@ -208,10 +208,12 @@ class CycleLoop:
         if self.gate == "cycles":
             state.fit_iteration()
         optimizer = self.optimizer
-        if state.period_search is not None and not state.climb.active and self._period_move():
+        climbs_first = optimizer.climb == "first" and state.climb.base is None
+        # a first climb searches the period as one of its coordinates from its start: no trial before it
+        if state.period_search is not None and not state.climb.active and not climbs_first and self._period_move():
             return "period", np.nan
         kind, prediction_ok = None, np.nan
-        if optimizer.climb == "first" and state.climb.base is None:  # nothing known yet: twice the model's step
+        if climbs_first:  # nothing known yet: twice the model's step
             self._start_climb(sigma=2 * optimizer.max_trust_radius * state.scale)
         elif not state.climb.active and (self._model_excluded() or self._unexcited()):
             if optimizer.climb:  # (a model outside its class, or one that cannot learn, takes no step)
