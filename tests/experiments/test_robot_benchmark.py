@@ -259,6 +259,18 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     new["cases"]["swimmer3"]["eval_settle_cycles"] = 4
     assert bench.merge_results(old, new, "sixth", log=said.append)[0]["records"]["method"].tolist() == ["geogait"]
     assert len(said) == 1 and "swimmer3" in said[0] and "replaced" in said[0]  # said, not silent
+    # the same settings on a robot that changed since (its seed gait evaluates otherwise), or other measured cycles
+    old["cases"]["swimmer3"] = {"family": "mirror", "eval_settle_cycles": 4, "eval_cycles": 2,
+                                "seed": {"objective": 0.22}}
+    new["cases"]["swimmer3"] = {"family": "mirror", "eval_settle_cycles": 4, "eval_cycles": 2,
+                                "seed": {"objective": 0.22 * (1 + 1e-9)}}
+    assert bench.merge_results(old, new, "seventh", log=said.append)[0]["records"]["method"].tolist() == [
+        "geogait", "random"]
+    for changed in ({"seed": {"objective": 0.2287}}, {"eval_cycles": 3}):
+        new["cases"]["swimmer3"] = {**old["cases"]["swimmer3"], **changed}
+        assert bench.merge_results(old, new, "eighth", log=said.append)[0]["records"]["method"].tolist() == [
+            "geogait"]
+    assert len(said) == 3
 
 
 @pytest.mark.parametrize(("settle", "eval_settle", "ran"), [(1, None, 3), (1, 4, 6), (0, 2, 4)])

@@ -742,7 +742,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         ceiling = evaluate_gait(case, case.ceiling()) if case.ceiling is not None else None
         described[name] = {"description": case.description, "objective": case.objective,
                            "seed": seed_result, "ceiling": ceiling, "settle_cycles": case.settle_cycles,
-                           "eval_settle_cycles": _eval_settle(case),
+                           "eval_settle_cycles": _eval_settle(case), "eval_cycles": case.eval_cycles,
                            "max_joint_angle": case.max_joint_angle, "rotation_limit": case.rotation_limit,
                            "family": case.family, "score": case.score_name or None,
                            "direction": list(case.direction)}
@@ -991,22 +991,35 @@ def _case_key(described: dict, key: str):
     return described.get(key)
 
 
+def _comparable(old: dict, new: dict) -> bool:
+    """Whether records of a case described as ``old`` and as ``new`` (manifest ``cases`` entries) can sit in one
+    table: the same gait family and evaluation, and the seed gait's clean objective the same to 1e-6 (so neither
+    the robot nor its evaluation changed in between; a setting an older manifest did not record is not compared)."""
+    keys = ("family", "eval_settle_cycles") + (("eval_cycles",) if "eval_cycles" in old else ())
+    if any(_case_key(old, k) != _case_key(new, k) for k in keys):
+        return False
+    before, after = (float((d.get("seed") or {}).get("objective", np.nan)) for d in (old, new))
+    return not (np.isfinite(before) and np.isfinite(after)) or abs(after - before) <= 1e-6 * max(abs(before), 1e-12)
+
+
 def merge_results(old: dict, new: dict, command: str, log: Callable = print) -> tuple[dict, str]:
     """``old``'s records with those of ``new``'s cases and methods replaced by ``new``'s.
 
     Both runs must share seeds, budget and root seed (so the seeds stay paired); the returned command
-    names both runs. A case whose gait family or evaluation (settling cycles from rest) differs between the
-    runs is replaced whole: its records are not comparable.
+    names both runs. A case whose gait family or evaluation (settling and measured cycles) differs between the
+    runs, or whose seed gait evaluates otherwise (the robot changed), is replaced whole: its records are not
+    comparable.
     """
     keys = ("n_seeds", "budget", "seed")
     if any(old["config"][k] != new["config"][k] for k in keys):
         raise GeogaitError("--merge: the runs differ in " + ", ".join(
             f"{k} ({old['config'][k]} vs {new['config'][k]})" for k in keys if old["config"][k] != new["config"][k]))
     records = old["records"]
-    changed = [c for c, described in new["cases"].items() if c in old["cases"] and any(
-        _case_key(old["cases"][c], k) != _case_key(described, k) for k in ("family", "eval_settle_cycles"))]
+    changed = [c for c, described in new["cases"].items() if c in old["cases"]
+               and not _comparable(old["cases"][c], described)]
     for case in changed:
-        log(f"--merge: case {case} searched or evaluated otherwise than in the manifest: all its records replaced")
+        log(f"--merge: case {case} searched, run or evaluated otherwise than in the manifest (gait family, "
+            "evaluation or the seed's clean objective differ): all its records replaced")
     records = records[~records["case"].isin(changed)]
     if not new["records"].empty:
         replaced = records.set_index(["case", "method"]).index.isin(
