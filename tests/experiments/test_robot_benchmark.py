@@ -419,3 +419,11 @@ def test_the_paired_comparison_takes_the_best_method_within_the_rotation_limit_s
     tie = bench.paired_test(pd.Series([0.5, 0.6123456789012, 0.7], index=[0, 1, 2]),
                             pd.Series([0.5, 0.6123456789, 0.1], index=[0, 1, 5]))
     assert tie == {"ahead": 0, "seeds": 2, "median_difference": 0.0, "p_value": 1.0}
+
+
+def test_a_case_with_a_bad_setting_says_which():
+    for setting, match in (({"eval_settle_cycles": -1}, "'eval_settle_cycles' parameter of BenchmarkCase 'x'"),
+                           ({"eval_cycles": 0}, "'eval_cycles'"), ({"settle_cycles": 1.5}, "'settle_cycles'"),
+                           ({"family": "odd"}, "'family'"), ({"objective": "speed"}, "'objective'")):
+        with pytest.raises(ValueError, match=match):
+            bench.BenchmarkCase(name="x", description="", make_robot=None, **setting)

@@ -76,7 +76,7 @@ import pandas as pd
 from .. import __version__
 from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._files import write_text
-from .._validation import GeogaitError, check_int, fail
+from .._validation import GeogaitError, check_choice, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
 from ..models import BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle, robot_feasibility
@@ -185,6 +185,15 @@ class BenchmarkCase:
     requires: tuple = field(default_factory=tuple)
     checkpoints: tuple | None = None
     period_range: tuple | None = None
+
+    def __post_init__(self):
+        owner = f"BenchmarkCase {self.name!r}"
+        check_choice(self.objective, "objective", owner, ("progress", "forward"))
+        check_choice(self.family, "family", owner, ("symmetric", "mirror", "free"))
+        check_int(self.settle_cycles, "settle_cycles", owner, minimum=0)
+        check_int(self.eval_cycles, "eval_cycles", owner, minimum=1)
+        if self.eval_settle_cycles is not None:
+            check_int(self.eval_settle_cycles, "eval_settle_cycles", owner, minimum=0)
 
     def missing(self) -> list[str]:
         """Optional modules this case needs that are not installed."""
