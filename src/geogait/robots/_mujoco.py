@@ -624,7 +624,7 @@ class MujocoRobot:
         pose = np.empty((n, 3))
         twist = np.empty(6)
         qpos, dof, actuators, body = self._qpos, self._dof, self._actuators, self._body
-        pd = self.control == "pd"
+        pd, interval = self.control == "pd", self.control_interval
         if pd:
             low = np.where(model.actuator_ctrllimited[actuators], model.actuator_ctrlrange[actuators, 0], -np.inf)
             high = np.where(model.actuator_ctrllimited[actuators], model.actuator_ctrlrange[actuators, 1], np.inf)
@@ -644,7 +644,7 @@ class MujocoRobot:
                 shape_velocity[sample] = data.qvel[dof]
             if not pd:
                 data.ctrl[actuators] = command[step]
-            elif step % self.control_interval == 0:  # held in between, as an environment's frame_skip holds it
+            elif step % interval == 0:  # held in between, as an environment's frame_skip holds it
                 u = self.kp * (command[step] - data.qpos[qpos]) + self.kd * (command_rate[step] - data.qvel[dof])
                 data.ctrl[actuators] = np.minimum(np.maximum(u, low), high)  # np.clip costs 4x more here
             mujoco.mj_step(model, data)
