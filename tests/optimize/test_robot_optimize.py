@@ -12,6 +12,7 @@ from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
 from geogait.models import BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import InSituOptimizer, read_checkpoint_metadata
+from geogait.optimize._climb import MeasuredClimb
 from geogait.robots import Robot
 from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
 from geogait.systems import PurcellSwimmer
@@ -147,6 +148,32 @@ def test_the_climb_judges_gaits_the_actuators_follow_badly_by_their_measured_out
     limit = read_checkpoint_metadata(tmp_path / "run.npz")["state"]["tracking_limit"]
     assert limit == pytest.approx(2 * log.loc[kept[its_cycles], "tracking_error"].mean(), rel=1e-12)
     assert limit > 2 * seed_limit
+
+
+def test_a_climb_handing_back_holds_the_models_steps_to_what_its_base_tracks(monkeypatch):
+    """When the climb hands the steps back to the model without having kept a candidate, its base is a gait the
+    model's steps reached, whose tracking error the automatic limit never followed: the limit must now follow the
+    base's cycles, or every model step from it would be refused against twice what the seed tracked. (On this lagging
+    robot the second climb's base tracks 0.196 rad against the seed's 0.101.)"""
+    trusted = MeasuredClimb.model_trusted_again.fget
+    rows, handed_back = [], []
+
+    def spy(climb):
+        if trusted(climb):
+            handed_back.append((len(rows), climb.base[0].params.copy()))
+        return trusted(climb)
+
+    monkeypatch.setattr(MeasuredClimb, "model_trusted_again", property(spy))
+    log = InSituOptimizer(climb_rule="es", random_state=7).run(LaggingRobot(), 80, callback=rows.append).log
+    assert handed_back
+    params = log.filter(like="param_").to_numpy()
+    seed_limit = max(0.05, 2 * log.loc[log["iteration"] == 0, "tracking_error"].mean())
+    for cycle, base in handed_back:
+        runs = np.flatnonzero(np.all(params == base, axis=1) & ~log["settling"].to_numpy())
+        first = runs[runs > cycle][0]  # the base's first measured cycle after the hand-back
+        assert log["tracking_limit"].iloc[first] == pytest.approx(
+            max(0.05, 2 * log["tracking_error"].iloc[first]), rel=1e-12)
+    assert log["tracking_limit"].iloc[-1] > 1.5 * seed_limit  # (the old limit would have stayed at the seed's)
 
 
 @pytest.mark.parametrize("climb_rule", ["cobyqa", "bayes"])

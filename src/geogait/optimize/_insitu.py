@@ -190,14 +190,15 @@ class InSituOptimizer(Estimator):
         Cycles after each gait change — and at the start, when a robot may start from rest — that are
         run but neither learned from nor measured.
     max_tracking_error : float or "auto" or None
-        Largest RMS realised − commanded shape error (rad) of an accepted gait; a gait beyond it is rejected
-        and the run goes back to the gait before it (a climb's candidate: to the climb's base). ``"auto"``: twice
-        the mean tracking error of the seed's measured cycles, then of each gait kept for its measured outcome (a
-        climb's candidate, a period trial), at least 0.05 × ``shape_scale``; it guards the model's steps (and the
-        gaits they lead back to), while the measured climb and the period trials are judged by what they
-        measure (on Gymnasium's swimmer, whose fastest gaits its PD joints follow to 0.2–0.7 rad, refusing them
-        cost 7 / 6 / 2 points of the seed's speed at 30 / 60 / 100 cycles). A number holds every gait to it, the
-        climb's candidates too (refused, as beyond a limit). ``None`` disables the check.
+        Largest RMS realised − commanded shape error (rad) of an accepted gait; a gait beyond it is rejected and the run
+        goes back to the gait before it (a climb's candidate: to the climb's base). ``"auto"``: twice the mean tracking
+        error of the seed's measured cycles, then of each gait kept for its measured outcome (a climb's candidate, a
+        period trial, the base a climb hands back to the model), at least 0.05 × ``shape_scale`` (the log's
+        ``tracking_limit``); it guards the model's steps (and the gaits they lead back to), while the measured climb and
+        the period trials are judged by what they measure (on Gymnasium's swimmer, whose fastest gaits its PD joints
+        follow to 0.2–0.7 rad, refusing them cost 7 / 6 / 2 points of the seed's speed at 30 / 60 / 100 cycles). A
+        number holds every gait to it, the climb's candidates too (refused, as beyond a limit). ``None`` disables the
+        check.
     prediction_tolerance : float or None
         Largest relative difference between the model's predicted objective of the current gait and
         its mean measured objective for the gate to open. ``None`` disables the check.

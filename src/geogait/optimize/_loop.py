@@ -104,7 +104,8 @@ class CycleLoop:
             state.iteration_tracking.append(measured.tracking_error)
             if state.iteration == 0:
                 state.seed_measured.append(value)
-                self._follow_tracking()  # (the seed's cycles so far)
+            if state.tracking_follows:  # (the seed's cycles so far, or the base's a climb handed back)
+                self._follow_tracking()
             rejected = self._tracking_rejects(measured, value)
             if not rejected:
                 state.learn(chunk, self.gate)
@@ -336,6 +337,7 @@ class CycleLoop:
                     state.measured, state.rotations = {}, {}
                     self._change_gait(*climb.base)
                     state.previous_gait = None  # (the base was accepted: never refused back to a failed candidate)
+                    state.tracking_follows = True  # the model's steps are held to what the base tracks
                     return True
             climb.candidate = None  # a candidate left early (rejected) is not judged
         remeasure = climb.search is None and key != climb.base and climb.failures >= 3  # (COBYQA: its own model)
@@ -550,10 +552,15 @@ class CycleLoop:
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
         return True
 
+    def _tracking_limit(self) -> float:
+        """The tracking limit the model's steps are held to now (NaN: none)."""
+        limit = self.optimizer.max_tracking_error
+        return self.state.tracking_limit if limit == "auto" else np.nan if limit is None else float(limit)
+
     def _follow_tracking(self) -> None:
         """The automatic tracking limit: twice what the current gait's measured cycles track — the seed's, then
-        each gait kept for its measured outcome (a climb's candidate, a period trial), so that the model's steps
-        from it are held to what it does, not to what the seed did."""
+        each gait kept for its measured outcome (a climb's candidate, a period trial, the base a climb hands back
+        to the model), so that the model's steps from it are held to what it does, not to what the seed did."""
         state = self.state
         if self.optimizer.max_tracking_error == "auto" and state.iteration_tracking:
             state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.iteration_tracking)))
@@ -699,6 +706,7 @@ class CycleLoop:
         state.iteration += 1
         state.restart_iteration()
         state.settle_left = optimizer.settle_cycles
+        state.tracking_follows = False
 
 
     def _row(self, gait, gamma, step, rejected, settling, prediction_ok, measured, value, reverted, period) -> dict:
@@ -712,7 +720,7 @@ class CycleLoop:
                "measured_x": net[0], "measured_y": net[1], "measured_heading": net[2],
                "measured_progress": progress, "measured_objective": value,
                "measured_speed": progress / period, "cycle_period": period, "tracking_error": measured.tracking_error,
-               "excitation": measured.excitation,
+               "tracking_limit": self._tracking_limit(), "excitation": measured.excitation,
                "world_x": measured.start[0], "world_y": measured.start[1], "world_heading": measured.start[2]}
         pose, true_value = self.truth(gait, state)
         if self.truth.available:

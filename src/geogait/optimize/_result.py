@@ -32,7 +32,8 @@ class InSituResult:
         decision); measured from the robot: ``measured_x``, ``measured_y``, ``measured_heading``
         (net motion of the cycle in the body frame at its start), ``measured_progress`` (its
         length), ``measured_objective``, ``measured_speed`` (progress per second),
-        ``tracking_error`` (RMS realised − commanded shape, rad), ``world_x``, ``world_y``,
+        ``tracking_error`` (RMS realised − commanded shape, rad), ``tracking_limit`` (the limit the model's
+        steps are held to after this cycle, rad; NaN when none), ``world_x``, ``world_y``,
         ``world_heading`` (pose at the start of the cycle), ``cycle_period`` (s), ``climb`` (the step
         after this cycle came from the measured climb), ``period_change`` (a period trial started or
         ended after it), ``candidate`` (this cycle ran a climb candidate or period trial that was

@@ -93,6 +93,7 @@ class RunState:
     direction: np.ndarray | None = None
     world_heading: float = 0.0
     tracking_limit: float = np.nan
+    tracking_follows: bool = True  # the automatic tracking limit follows the current gait's measured cycles
     seed_measured: list = field(default_factory=list)
     seed_value: float = np.nan  # true objective of the seed (oracle), NaN without one
     rows: list = field(default_factory=list)
@@ -190,6 +191,7 @@ class RunState:
         metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS + self._PERIOD_SCALARS}
         metadata["period_search"] = None if self.period_search is None else self.period_search.to_json()
         metadata.update({name: int(getattr(self, name)) for name in self._COUNTERS})
+        metadata["tracking_follows"] = bool(self.tracking_follows)
         metadata["rng"] = self.rng.bit_generator.state
         climb = self.climb
         metadata["climb"] = {"sigma": climb.sigma, "min_sigma": climb.min_sigma, "max_sigma": climb.max_sigma,
@@ -263,6 +265,8 @@ class RunState:
         state.period_search = None if search is None else PeriodSearch.from_json(search)
         for name in cls._COUNTERS:
             setattr(state, name, int(scalars.get(name, 0)))
+        # (older checkpoints: the limit followed the seed's cycles only)
+        state.tracking_follows = bool(scalars.get("tracking_follows", state.iteration == 0))
         state.rng = np.random.default_rng()
         if scalars.get("rng") is not None:
             state.rng.bit_generator.state = scalars["rng"]
