@@ -10,50 +10,71 @@ turning more than 0.02 rad per cycle is penalised), with every point beyond the 
 onto it, as every benchmark method runs it. Each start's best gait is then scored by the episode return
 (:func:`~geogait.experiments.robot_benchmark.swimmer_v5_return`, 1000 steps from the reset state). These are
 thousands of clean evaluations: what the family can do, not what any method reaches in 100 cycles.
+
+``--control computed_torque`` runs the same with the joints on floating-base inverse dynamics at the same 25 Hz
+(:class:`~geogait.robots.MujocoRobot`), which follow each gait to millimetres where the benchmark's PD law
+realises a smaller, distorted one: what the family can do when the commanded gait is the realised one.
+
+    python studies/swimmer_v5_family.py --orders 1 3 --starts 3 --control computed_torque \
+        --out docs/results/swimmer-v5-family/swimmer_v5_family_computed_torque.json
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
+from joblib import Parallel, delayed
 from scipy.optimize import minimize
 
-from geogait.experiments.robot_benchmark import CASES, _Family, evaluate_gait, swimmer_v5_return
+from geogait.experiments.robot_benchmark import CASES, _Family, _gymnasium_robot, evaluate_gait, swimmer_v5_return
 
 ROTATION_LIMIT = 0.02
 
 
-def family_runs(order: int, starts: int, max_evaluations: int, seed: int) -> list[dict]:
-    """The best gait of COBYQA from the seed and ``starts - 1`` random starts in the order-``order`` family."""
-    case = CASES["gymnasium-swimmer"]
+def _case(control: str):
+    return dataclasses.replace(CASES["gymnasium-swimmer"], make_robot=partial(_gymnasium_robot, control=control))
+
+
+def _family(order: int, control: str):
+    """The benchmark's (half-wave) family of order ``order``; its last coordinate is r_max · log(T / T0)."""
+    case = _case(control)
     probe = case.make_robot(None, explore=False, noise=False)
-    family = _Family(case, probe.gait, probe.cycle_period, order)  # the benchmark's (half-wave) family, order K
-    origin, r_max = family.seed_params, case.max_joint_angle  # (last coordinate: r_max · log(T / T0))
+    return case, _Family(case, probe.gait, probe.cycle_period, order)
 
-    def gait_period(x):
-        return family.gait(x), family.period(x)
 
-    def value(x):
-        result = evaluate_gait(case, *gait_period(x))
-        return result["objective"] - 10 * max(0.0, abs(result["rotation"]) - ROTATION_LIMIT)
+def _value(case, family, x) -> float:
+    result = evaluate_gait(case, family.gait(x), family.period(x))
+    return result["objective"] - 10 * max(0.0, abs(result["rotation"]) - ROTATION_LIMIT)
 
-    seed_value = value(origin)
+
+def starts_of(order: int, starts: int, seed: int) -> list[np.ndarray]:
+    """The seed gait's parameters and ``starts - 1`` random ones within the joint range, at the seed's period."""
+    case, family = _family(order, "pd")
+    origin, r_max = family.seed_params, case.max_joint_angle
     rng = np.random.default_rng(seed)
-    runs = []
-    for start in [origin] + [np.append(rng.uniform(-r_max, r_max, origin.size - 1), 0.0) for _ in range(starts - 1)]:
-        found = minimize(lambda x: -value(x), start, method="COBYQA",
-                         options={"initial_tr_radius": 0.4, "final_tr_radius": 1e-3, "maxfev": max_evaluations})
-        gait, period = gait_period(found.x)
-        runs.append({"order": order, "evaluations": int(found.nfev), "improvement": -found.fun / seed_value - 1,
-                     "episode_return": swimmer_v5_return(gait, period), "period": period,
-                     "largest_joint_angle": float(gait.joint_limit().max()), "params": gait.params.tolist()})
-        print(f"order {order}: {runs[-1]['improvement']:+.3f} speed, return {runs[-1]['episode_return']:.1f} "
-              f"at {period:.2f} s ({found.nfev} evaluations)", flush=True)
-    return runs
+    return [origin] + [np.append(rng.uniform(-r_max, r_max, origin.size - 1), 0.0) for _ in range(starts - 1)]
+
+
+def family_run(order: int, start: np.ndarray, max_evaluations: int, control: str = "pd") -> dict:
+    """COBYQA from ``start`` in the order-``order`` family, the joints tracked by ``control``; its best gait."""
+    case, family = _family(order, control)
+    seed_value = _value(case, family, family.seed_params)
+    found = minimize(lambda x: -_value(case, family, x), start, method="COBYQA",
+                     options={"initial_tr_radius": 0.4, "final_tr_radius": 1e-3, "maxfev": max_evaluations})
+    gait, period = family.gait(found.x), family.period(found.x)
+    run = {"order": order, "control": control, "evaluations": int(found.nfev),
+           "improvement": -found.fun / seed_value - 1,
+           "episode_return": swimmer_v5_return(gait, period, control=control), "period": period,
+           "largest_joint_angle": float(gait.joint_limit().max()), "params": gait.params.tolist()}
+    print(f"order {order}: {run['improvement']:+.3f} speed, return {run['episode_return']:.1f} "
+          f"at {period:.2f} s ({found.nfev} evaluations)", flush=True)
+    return run
 
 
 def main(argv=None) -> None:
@@ -62,10 +83,14 @@ def main(argv=None) -> None:
     parser.add_argument("--starts", type=int, default=6)
     parser.add_argument("--max-evaluations", type=int, default=400)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--control", choices=("pd", "computed_torque"), default="pd")
+    parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     started = time.perf_counter()
-    runs = [run for order in args.orders for run in family_runs(order, args.starts, args.max_evaluations, args.seed)]
+    tasks = [(order, start) for order in args.orders for start in starts_of(order, args.starts, args.seed)]
+    runs = Parallel(n_jobs=args.jobs)(delayed(family_run)(order, start, args.max_evaluations, args.control)
+                                      for order, start in tasks)
     best = {order: max((r for r in runs if r["order"] == order), key=lambda r: r["episode_return"])
             for order in args.orders}
     for order, run in best.items():

@@ -105,6 +105,14 @@ def test_swimmer_v5_family_study_scores_each_start_by_its_episode_return(tmp_pat
     assert [run["order"] for run in runs] == [3, 3] and all(run["evaluations"] <= 4 for run in runs)
     assert all(run["largest_joint_angle"] <= 1.745 and run["episode_return"] > 0 for run in runs)
     assert runs[0]["improvement"] >= 0 and len(runs[0]["params"]) == 2 * (2 * 3 + 1)
+    assert all(run["control"] == "pd" for run in runs)
+    # the joints on inverse dynamics: the seed's return is its own (the PD law realises a smaller gait: 241.8)
+    subprocess.run([sys.executable, str(STUDIES / "swimmer_v5_family.py"), "--orders", "1", "--starts", "1",
+                    "--max-evaluations", "1", "--control", "computed_torque", "--out", str(out)],
+                   capture_output=True, text=True, check=True, timeout=300)
+    (run,) = json.loads(out.read_text())["runs"]
+    assert run["control"] == "computed_torque" and run["evaluations"] == 1 and run["improvement"] == 0
+    assert run["episode_return"] > 260
 
 
 def test_model_class_study_judges_a_robot_from_logs_and_in_a_run(tmp_path):

@@ -239,9 +239,9 @@ def _mujoco_unequal_ceiling():
     return cached_ceiling(PurcellSwimmer(5, link_lengths=UNEQUAL_LINKS), family="free").gait
 
 
-def _gymnasium_robot(seed, explore, noise, gait=None, start="gait"):
+def _gymnasium_robot(seed, explore, noise, gait=None, start="gait", control="pd"):
     from ..robots import gymnasium_swimmer
-    return gymnasium_swimmer(seed=seed, start=start, **_mujoco_options(explore, gait))
+    return gymnasium_swimmer(seed=seed, start=start, control=control, **_mujoco_options(explore, gait))
 
 
 def _dm_control_robot(seed, explore, noise, gait=None):
@@ -259,18 +259,19 @@ def _elastica_robot(seed, explore, noise, gait=None):
     return ElasticaSnake(gait=gait, seed=seed, perturbation=None if explore else Perturbation(eta=0))
 
 
-def swimmer_v5_return(gait: FourierGait, period: float | None = None) -> float:
+def swimmer_v5_return(gait: FourierGait, period: float | None = None, *, control: str = "pd") -> float:
     """Gymnasium Swimmer-v5's episode return of ``gait`` run at ``period`` s (default 2) from the
     environment's reset state, without exploration.
 
     The episode's forward reward sums the torso's x-velocity over 1000 steps of 0.04 s, which is
     (x(40 s) − x(0)) / 0.04 on the same MuJoCo model (``gymnasium:swimmer``) driven by
-    :class:`~geogait.robots.MujocoRobot`'s PD tracking of the gait. The episode starts as a reset does
+    :class:`~geogait.robots.MujocoRobot`'s tracking of the gait (``control``: its PD law, or
+    ``"computed_torque"``), one torque per environment step. The episode starts as a reset does
     (without its noise): the body straight and still (``start="rest"``), so the first cycle drives the
     joints onto the gait; x(40 s) is interpolated between samples. The control cost (weight 1e-4,
     |a| ≤ 1 on two motors: at most 0.2 per episode) is left out.
     """
-    robot = _gymnasium_robot(None, explore=False, noise=False, gait=gait, start="rest")
+    robot = _gymnasium_robot(None, explore=False, noise=False, gait=gait, start="rest", control=control)
     _set_period(robot, period)
     duration = _SWIMMER_V5_DT * _SWIMMER_V5_STEPS
     time, x = [], []
