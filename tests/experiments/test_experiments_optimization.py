@@ -61,9 +61,27 @@ def test_optimize_command_writes_report(tmp_path):
     log = pd.read_csv(tmp_path / "cycles.csv")
     assert len(log) == 8 and {"gamma", "true_progress", "ceiling_fraction"} <= set(log.columns)
     summary = json.loads((tmp_path / "summary.json").read_text())["results"]
-    assert summary["final_displacement_per_cycle"] == log["true_objective"].iloc[-1]
+    final = log[np.all(log.filter(like="param_").to_numpy() == summary["final_gait_params"], axis=1)]
+    assert summary["final_displacement_per_cycle"] == final["true_objective"].iloc[-1]
     for name in ("gait.png", "progress.png", "path.png"):
         assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_the_summary_reports_the_final_gait_not_a_trial_left_unjudged(tmp_path):
+    """The demo run ends on a climb candidate that was never judged: the summary's final numbers are those of the
+    gait the run settled on (its final_gait_params), not those of that last trial."""
+    result = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "40", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    log = pd.read_csv(tmp_path / "cycles.csv")
+    summary = json.loads((tmp_path / "summary.json").read_text())["results"]
+    assert log["candidate"].iloc[-1]  # (the run this test is about)
+    final = log[np.all(log.filter(like="param_").to_numpy() == summary["final_gait_params"], axis=1)]
+    assert not final["candidate"].any()
+    assert summary["final_displacement_per_cycle"] == final["true_objective"].iloc[-1]
+    assert summary["final_ceiling_fraction"] == final["ceiling_fraction"].iloc[-1] > 0.99
+    assert summary["final_ceiling_fraction"] != log["ceiling_fraction"].iloc[-1]
+    kept = log[~log["candidate"] & (log["ceiling_fraction"] >= 0.9)]
+    assert summary["first_cycle_at_90_percent_of_ceiling"] == kept["cycle"].iloc[0]
 
 
 def test_optimize_command_takes_model_family_and_step_rule(tmp_path):

@@ -93,9 +93,10 @@ class InSituResult:
 
         Measured values average the learned cycles (no settle or rejected cycles) of the seed's
         iteration and of the last one; with a simulator's truth also the true displacement per cycle
-        of the seed and final gaits and the largest |net rotation| of any commanded gait; with a
-        ``ceiling`` (:class:`~geogait.optimize.Ceiling`) its value, the final share of it and the
-        first cycle at 90 %. Non-finite values become ``None`` (valid JSON).
+        of the seed and final gaits (``final_gait``, not the last cycle's, which may be a trial the run did not
+        keep) and the largest |net rotation| of any commanded gait; with a ``ceiling``
+        (:class:`~geogait.optimize.Ceiling`) its value, the final gait's share of it and the first cycle at 90 %
+        (trials not kept do not count). Non-finite values become ``None`` (valid JSON).
         """
         log = self.log
         measured = log[~log["settling"] & ~log["rejected"]]
@@ -127,18 +128,28 @@ class InSituResult:
         }
         if self.model_class is not None:
             summary["model_class"] = self.model_class.to_dict()
+        # the truth of the final gait (not of the last cycle's, which may be a trial not kept)
+        params = log.filter(regex=r"^param_\d+$").to_numpy()
+        final_gait_rows = log[np.all(params == self.final_gait.params, axis=1)]
+        if self.cycle_period is not None and "cycle_period" in log:
+            final_gait_rows = final_gait_rows[final_gait_rows["cycle_period"] == self.cycle_period]
+
+        def final_truth(column):
+            return _finite(final_gait_rows[column].iloc[-1]) if len(final_gait_rows) else None
+
         if "true_objective" in log:
             summary.update({
                 "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),
-                "final_displacement_per_cycle": _finite(log["true_objective"].iloc[-1]),
-                "final_improvement": _finite(log["improvement"].iloc[-1]),
+                "final_displacement_per_cycle": final_truth("true_objective"),
+                "final_improvement": final_truth("improvement"),
                 "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
             })
         if ceiling is not None:
-            first_90 = log.index[log["ceiling_fraction"] >= 0.9]
+            kept = ~log["candidate"].astype(bool) if "candidate" in log else pd.Series(True, log.index)
+            first_90 = log.index[(log["ceiling_fraction"] >= 0.9) & kept]
             summary.update({
                 "ceiling_displacement_per_cycle": ceiling.value,
-                "final_ceiling_fraction": _finite(log["ceiling_fraction"].iloc[-1]),
+                "final_ceiling_fraction": final_truth("ceiling_fraction"),
                 "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
             })
         return summary
