@@ -299,9 +299,12 @@ def test_predict_refuses_to_overwrite_an_input(fitted):
 
 
 def test_predict_writes_predictions_and_summary_to_two_files(fitted):
-    out = fitted / "p.json"
-    result = CliRunner().invoke(app, ["predict", str(fitted / "fit" / "model.npz"), str(fitted / "log.csv"),
-                                      *CLI_COLUMNS, "--out", str(out)])
+    command = ["predict", str(fitted / "fit" / "model.npz"), str(fitted / "log.csv"), *CLI_COLUMNS, "--out"]
+    result = CliRunner().invoke(app, [*command, str(fitted / "p.json")])  # (a CSV under a JSON name: refused)
+    one_error_line(result, "--out is the predictions CSV file: give a name ending in .csv. Got")
+    assert not (fitted / "p.json").exists() and not (fitted / "p.summary.json").exists()
+    out = fitted / "p.csv"
+    result = CliRunner().invoke(app, [*command, str(out), "--summary", str(fitted / "p.summary.json")])
     assert result.exit_code == 0, result.stderr
     predictions = pd.read_csv(out)
     summary = strict_json((fitted / "p.summary.json").read_text())
@@ -635,3 +638,31 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     assert not list(tmp_path.glob(".*tmp*"))
     with pytest.raises(ValueError, match="'parts'"):
         _Trajectory.concatenate([])
+
+
+@pytest.mark.parametrize(("arguments", "fragments"), [
+    (["optimize", "--method", "adaptive", "--forgetting-factor", "1.5"], ["--forgetting-factor", "(0, 1]"]),
+    (["optimize", "--forgetting-factor", "0.95"], ["--forgetting-factor applies to --method adaptive or shape"]),
+    (["optimize", "--method", "batch", "--forgetting-factor", "0.95"], ["--method batch does not use it"]),
+    (["optimize", "--noise", "inf"], ["--noise", "[0, 100]"]),
+    (["optimize", "--perturbation", "1e308"], ["--perturbation", "[0, 2π]"]),
+    (["optimize", "--robot", "python -m geogait.robots.driver", "--model-class-cycles", "3"],
+     ["--model-class-cycles", "no message that changes a driver's period"]),
+    (["track", "--quick", "--cycles", "-3"], ["'--cycles' option", "1..1000000"]),
+    (["track", "--quick", "--warmup", "0"], ["'--warmup' option"]),
+    (["track", "--quick", "--offset", "nan"], ["'--offset' option", "finite"]),
+    (["track", "--quick", "--links", "2"], ["'--links' option", ">= 3"]),
+    (["track", "--quick", "--noise", "inf"], ["'--noise' option"]),
+    (["track", "--quick", "--seed", "-1"], ["'--seed' option"]),
+    (["simulate", "--links", "2"], ["--links"]),
+    (["figure", "optimization", "--quick", "--links", "2"], ["'links'", ">= 3"]),
+    (["fit", "no-such-log.csv"], ["LOG argument", "'no-such-log.csv' (does not exist)"]),
+])
+def test_bad_options_are_refused_before_anything_runs_or_is_written(tmp_path, arguments, fragments):
+    """Each of these was once refused only after the run had started (a progress line, then the error, and a
+    run.json or lock left in --out that blocked the corrected command), or failed deep inside with another
+    field's name: now one line, naming the option, and --out untouched."""
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, [*arguments, "--out", str(out)])
+    one_error_line(result, *fragments)
+    assert not out.exists() or not any(out.iterdir())

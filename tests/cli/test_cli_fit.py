@@ -168,10 +168,12 @@ def test_too_few_cycles_for_a_held_out_split(tmp_path):
 def test_bad_options(tmp_path):
     result = CliRunner().invoke(app, ["fit", str(tmp_path / "missing.csv"), "--shape", "a,b", "--pose", "x,y,h",
                                       "--out", str(tmp_path)])
-    assert result.exit_code == 1 and "existing file" in result.stderr
+    assert result.exit_code == 1 and "existing log file" in result.stderr
     result = CliRunner().invoke(app, ["fit", "log.csv", "--gait-order", "high", "--out", str(tmp_path)])
     assert result.exit_code != 0 and "'auto' or an integer" in result.output
     result = CliRunner().invoke(app, ["fit", "log.csv", "--shape", "a,,b", "--out", str(tmp_path)])
     assert result.exit_code != 0 and "error: Invalid value for --shape: expected comma-separated names" in result.stderr
-    result = CliRunner().invoke(app, ["fit", "log.csv", "--shape", "a,b", "--out", str(tmp_path)])
+    log = tmp_path / "log.csv"
+    log.write_text("a,b\n1,2\n")
+    result = CliRunner().invoke(app, ["fit", str(log), "--shape", "a,b", "--out", str(tmp_path / "out")])
     assert result.exit_code == 1 and "'pose'" in result.stderr

@@ -244,7 +244,7 @@ def test_track_command_reports_a_driver_that_cannot_start(tmp_path):
     (["--drag-ratio", "2,3,4"], "The '--drag-ratio' option"),
     (["--controllers", "adaptive,psychic"], "The '--controllers' option"),
     (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "The '--change-cycle' option"),
-    (["--links", "1"], "n_links"),
+    (["--links", "1"], "The '--links' option"),
     (["--turn-limit", "0"], "The '--turn-limit' option"),
     (["--exploration", "greedy"], "The '--exploration' option"),
     (["--exploration", "adaptive", "--exploration-low", "0.3"], "The '--exploration-low' option"),

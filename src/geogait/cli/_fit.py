@@ -14,7 +14,8 @@ from typing import Annotated
 import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
-from .._files import check_outputs, default_summary_path
+from .._files import check_outputs, default_summary_path, describe_path_kind
+from .._validation import GeogaitError
 from ..io import read_log, read_log_for_prediction, resolve_mapping
 from ..learn import fit_log, predict_log
 from ..models import AdaptiveGaitModel
@@ -102,10 +103,11 @@ def fit(
     started = time.perf_counter()
     order = _gait_order(gait_order)
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
-    columns = resolve_mapping(mapping, time=time_column, shape=_names(shape, "--shape"),
-                              pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
-                              shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase,
-                              degrees=degrees)
+    names = {"shape": _names(shape, "--shape"), "pose": _names(pose, "--pose"),
+             "body_velocity": _names(body_velocity, "--body-velocity"),
+             "shape_velocity": _names(shape_velocity, "--shape-velocity")}
+    _check_log(log)  # (before the columns are judged against what the log must hold)
+    columns = resolve_mapping(mapping, time=time_column, phase=phase, degrees=degrees, **names)
     output_folder(out)
     check_outputs({"--out": out}, [log, mapping], "fit")
     data = read_log(log, columns, drop_nan=drop_nan, **log_options)
@@ -134,7 +136,8 @@ def predict(
     log: Annotated[Path, typer.Argument(help="Log file: .csv, .parquet or .pq.")],
     phaser: Annotated[Path | None, typer.Option(
         help="Saved Phaser (phaser.npz of 'geogait fit'), for logs without a phase column.")] = None,
-    out: Annotated[Path, typer.Option(help="Predictions CSV (never one of the inputs).")] = Path("predictions.csv"),
+    out: Annotated[Path, typer.Option(
+        help="Predictions CSV, a name ending in .csv (never one of the inputs).")] = Path("predictions.csv"),
     summary: Annotated[Path | None, typer.Option(
         help="Γ summary JSON [default: --out with suffix .json; <name>.summary.json for an --out ending in .json].")
     ] = None,
@@ -155,9 +158,13 @@ def predict(
 ) -> None:
     """Predict the body velocity of every sample of a log; write a CSV and Γ (if ξ was measured)."""
     started = time.perf_counter()
+    _check_log(log)
     summary_path = default_summary_path(out) if summary is None else summary
     inputs = (model, log, phaser, mapping)
     check_outputs({"--out": out, "--summary": summary_path}, inputs, "predict")
+    if out.suffix.lower() != ".csv":
+        raise GeogaitError(f"--out is the predictions CSV file: give a name ending in .csv. Got {str(out)!r} "
+                           "instead (the Γ summary goes to --summary).")
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
     fitted = AdaptiveGaitModel.load(model)
     estimator = None if phaser is None else Phaser.load(phaser)
@@ -177,3 +184,10 @@ def predict(
     typer.echo(f"Γ {value:.3f} over {data.n_samples} samples" if value is not None
                else f"predicted {data.n_samples} samples (no measured body velocity: no Γ)", err=True)
     typer.echo(f"wrote {paths[0]} and {paths[1]}", err=True)
+
+
+def _check_log(log: Path) -> None:
+    """The LOG argument names a readable file (said before any column option is judged)."""
+    if not Path(log).is_file():
+        raise GeogaitError(f"The LOG argument must be an existing log file. Got {str(log)!r} "
+                           f"({describe_path_kind(Path(log)) or 'does not exist'}) instead.")

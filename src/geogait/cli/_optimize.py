@@ -37,6 +37,7 @@ from ..plotting import (
 )
 from ..robots import ProcessRobot
 from ..simulate import SwimmerStream
+from ..simulate._stream import MAX_SENSOR_NOISE
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
 from ._common import claim_output, comma_list, console, listed, output_folder, progress_bar, write_manifest
@@ -67,7 +68,8 @@ def optimize(
     period: Annotated[float, typer.Option(help="Seconds per cycle of the built-in swimmer.")] = 1.0,
     gamma_threshold: Annotated[float, typer.Option(help="Γ* that gates a step.")] = 0.5,
     forgetting_factor: Annotated[float | None, typer.Option(
-        help="λ of the RLS filters [default: 1 - 0.1/d for d joints].")] = None,
+        help="λ of the RLS filters, in (0, 1], with --method adaptive or shape [default: 1 - 0.1/d for d "
+             "joints].")] = None,
     order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
     objective: Annotated[str, typer.Option(
         help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
@@ -267,13 +269,23 @@ def _optimizer(settings) -> InSituOptimizer:
     if 0 < settings.get("model_class_cycles", 0) < 3:
         raise typer.BadParameter(f"expected 0 (no test) or at least 3 cycles per period, got "
                                  f"{settings['model_class_cycles']}", param_hint="--model-class-cycles")
+    if settings.get("model_class_cycles", 0) and settings["robot"] is not None:
+        raise GeogaitError("--model-class-cycles runs the seed gait at two periods, and the JSON-lines bridge has no "
+                           "message that changes a driver's period: run the test on the built-in swimmer, or in "
+                           "Python on a robot with set_cycle_period (InSituOptimizer(model_class_cycles=3), e.g. "
+                           "a MujocoRobot), or on a log of two periods (geogait fit).")
     forgetting = settings["forgetting_factor"]
-    if settings["method"] == "auto" and forgetting is not None:
-        raise typer.BadParameter("applies to --method adaptive or shape; auto chooses its model's own",
-                                 param_hint="--forgetting-factor")
-    if settings["method"] == "resistance" and forgetting is not None:
-        raise typer.BadParameter("applies to --method adaptive or shape; the resistance model keeps a memory of "
-                                 "samples", param_hint="--forgetting-factor")
+    if settings["method"] in ("auto", "resistance", "batch") and forgetting is not None:
+        raise GeogaitError(f"--forgetting-factor applies to --method adaptive or shape; --method "
+                           f"{settings['method']} does not use it.")
+    if forgetting is not None and not 0 < forgetting <= 1:
+        raise typer.BadParameter(f"expected λ in (0, 1], got {forgetting}", param_hint="--forgetting-factor")
+    if not (np.isfinite(settings["noise"]) and 0 <= settings["noise"] <= MAX_SENSOR_NOISE):
+        raise typer.BadParameter(f"expected a fraction in [0, {MAX_SENSOR_NOISE:g}], got {settings['noise']}",
+                                 param_hint="--noise")
+    if not (np.isfinite(settings["perturbation"]) and 0 <= settings["perturbation"] <= 2 * np.pi):
+        raise typer.BadParameter(f"expected a std in [0, 2π] rad, got {settings['perturbation']}",
+                                 param_hint="--perturbation")
     if settings["method"] == "adaptive" and forgetting is None and settings["robot"] is None:
         forgetting = window_forgetting_factor(settings["links"] - 1)  # a robot's d is known once it is connected (_run)
     model = {"auto": lambda: None,

@@ -23,7 +23,8 @@ MAX_SAMPLES = 10_000_000
 
 @app.command()
 def simulate(
-    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer.", min=2)] = 3,
+    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer (one joint cannot move).",
+                                       min=3)] = 3,
     cycles: Annotated[int, typer.Option(help="Number of gait cycles.", min=1)] = 40,
     drag_ratio: Annotated[str, typer.Option(
         help="Drag ratio k, or comma-separated ratios for an environment schedule (e.g. 2,3,4).")] = "2",

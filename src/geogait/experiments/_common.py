@@ -54,11 +54,12 @@ def swimmer_and_gait(n_links: int, owner: str) -> tuple[PurcellSwimmer, FourierG
     return system, seed_gait(system.n_joints)
 
 
-def check_links(n_links, name: str, owner: str) -> int:
-    """A number of links a :class:`~geogait.systems.PurcellSwimmer` accepts (2 to ``PurcellSwimmer.MAX_LINKS``)."""
-    n = check_int(n_links, name, owner, minimum=2)
+def check_links(n_links, name: str, owner: str, minimum: int = 2) -> int:
+    """A number of links a :class:`~geogait.systems.PurcellSwimmer` accepts (``minimum``, default 2, to
+    ``PurcellSwimmer.MAX_LINKS``; 3 where the swimmer must move: with one joint it cannot)."""
+    n = check_int(n_links, name, owner, minimum=minimum)
     if n > PurcellSwimmer.MAX_LINKS:
-        raise fail(name, owner, f"an int in [2, {PurcellSwimmer.MAX_LINKS}]", n_links)
+        raise fail(name, owner, f"an int in [{minimum}, {PurcellSwimmer.MAX_LINKS}]", n_links)
     return n
 
 

@@ -118,7 +118,7 @@ class OptimizationConfig:
         if len(self.links) != len(self.budgets) or not self.links:
             raise fail("budgets", _OWNER, f"one budget per swimmer in links = {self.links}", self.budgets)
         for n_links in self.links:
-            check_links(n_links, "links", _OWNER)
+            check_links(n_links, "links", _OWNER, minimum=3)  # (one joint cannot move: nothing to optimise)
         for budget in self.budgets:
             check_int(budget, "budgets", _OWNER, minimum=1)
         check_int(self.n_trials, "n_trials", _OWNER, minimum=1)

@@ -27,6 +27,7 @@ from ..gaits import Perturbation
 from ..plotting import plt, save_figure
 from ..robots import ProcessRobot
 from ..simulate import DragRatioSchedule, SwimmerStream
+from ..simulate._stream import MAX_SENSOR_NOISE
 from ._common import run_sweep
 from .tracking import (
     TRACKING_MODELS,
@@ -54,6 +55,8 @@ BUILT_IN_PATHS = PATH_KINDS + ("waypoints",)
 MAX_SCALE = 1e5
 #: Tracking and warm-up cycles of a quick run.
 QUICK = {"cycles": 12, "warmup": 5}
+#: Largest number of tracking or warm-up cycles (beyond it, a typo rather than a run).
+MAX_TRACK_CYCLES = 1_000_000
 
 
 def _parameter(name: str) -> str:
@@ -124,7 +127,18 @@ class TrackSettings:
         if self.robot is not None:
             self._check_robot(names, ratios, name)
         else:
-            straight_gait(self.links)  # (checks the number of links)
+            if not (isinstance(self.links, int | np.integer) and self.links >= 3):
+                raise GeogaitError(f"The {name('links')} must be a whole number >= 3 (a swimmer of two links, one "
+                                   f"joint, cannot move: the scallop theorem). Got {self.links!r} instead.")
+            straight_gait(self.links)
+            if not (isinstance(self.seed, int | np.integer) and self.seed >= 0):
+                raise GeogaitError(f"The {name('seed')} must be a whole number >= 0. Got {self.seed!r} instead.")
+            if not (np.isfinite(self.noise) and 0 <= self.noise <= MAX_SENSOR_NOISE):
+                raise GeogaitError(f"The {name('noise')} must be a fraction in [0, {MAX_SENSOR_NOISE:g}] of the "
+                                   f"signal's RMS. Got {self.noise} instead.")
+        if self.offset is not None and not np.isfinite(self.offset):
+            raise GeogaitError(f"The {name('offset')} must be a finite number of body lengths. Got {self.offset} "
+                               "instead.")
         if not (self.path in BUILT_IN_PATHS or self.path.endswith(".csv") or Path(self.path).exists()):
             raise GeogaitError(f"The {name('path')} must be one of {', '.join(BUILT_IN_PATHS)} or a waypoints CSV "
                                f"file (columns x, y). Got {self.path!r} instead.")
@@ -134,6 +148,10 @@ class TrackSettings:
             raise GeogaitError(f"The {name('scale')} must be in (0, {MAX_SCALE:g}] steps. Got {self.scale} instead.")
         cycles = self.cycles if self.cycles is not None else (QUICK["cycles"] if self.quick else 60)
         warmup = self.warmup if self.warmup is not None else (QUICK["warmup"] if self.quick else 10)
+        for field_name, value in (("cycles", cycles), ("warmup", warmup)):
+            if not (isinstance(value, int | np.integer) and 1 <= value <= MAX_TRACK_CYCLES):
+                raise GeogaitError(f"The {name(field_name)} must be a whole number of cycles in 1..{MAX_TRACK_CYCLES}. "
+                                   f"Got {value!r} instead.")
         change = self.change_cycle if self.change_cycle is not None else cycles // 2
         turns = self.warmup_turns
         if turns is None:  # (a robot's own model need not hold over the turning range)

@@ -23,6 +23,8 @@ from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at
 from ..systems import PurcellSwimmer, System
 from ._trajectory import Trajectory
 
+#: Largest sensor noise, as a fraction of the signal's RMS (beyond it a sample is no longer a measurement).
+MAX_SENSOR_NOISE = 100.0
 __all__ = ["DragRatioSchedule", "SwimmerStream", "simulate", "simulate_rate"]
 
 
@@ -129,8 +131,8 @@ class SwimmerStream:
         if self.samples_per_cycle > 100_000:
             raise fail("samples_per_cycle", owner, "an int in [4, 100000]", samples_per_cycle)
         # noise is a fraction of the signal's RMS: beyond 100× it is no longer a measurement
-        self.sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=100)
-        self.shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=100)
+        self.sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=MAX_SENSOR_NOISE)
+        self.shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=MAX_SENSOR_NOISE)
         self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
         if n_trials is not None:
             check_int(n_trials, "n_trials", owner, minimum=1)
@@ -479,7 +481,7 @@ def simulate_rate(system: System, gait: FourierGait, n_cycles: float, *, samples
     n_cycles = check_float(n_cycles, "n_cycles", owner, low=0, low_open=True)
     per_cycle = check_float(samples_per_cycle, "samples_per_cycle", owner, low=4, high=100_000)
     period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
-    sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=100)
+    sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=MAX_SENSOR_NOISE)
     shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=100)
     if isinstance(rate_ramp, str) or not isinstance(rate_ramp, Sequence) or len(rate_ramp) != 2:
         raise fail("rate_ramp", owner, "a pair (start, end) of rate multipliers", rate_ramp)
