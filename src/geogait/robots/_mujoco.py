@@ -757,7 +757,6 @@ class MujocoRobot:
                 f"steps_per_sample={self.steps_per_sample})")
 
 
-# -- shipped models -----------------------------------------------------------------------------
 def _computed_torque(model, data, dofs, actuators, acceleration) -> np.ndarray:
     r"""The ``ctrl`` of the ``motor`` actuators ``actuators`` (one per degree of freedom of ``dofs``) that gives
     those joints the acceleration ``acceleration`` in the current state, every other degree of freedom (the base)
@@ -983,6 +982,7 @@ def _force_free_geoms(model) -> set:
             and g not in wrapped and model.geom_fluid[g, 0] == 0}
 
 
+# -- shipped models -----------------------------------------------------------------------------
 def purcell_swimmer_xml(n_links: int = 3, *, drag: str = "rft", length: float = 1.0, link_lengths=None,
                         radius: float = 0.025,
                         drag_coefficient: float = 1.0, drag_ratio: float = 2.0, body_density: float | None = None,
