@@ -657,6 +657,9 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     (["simulate", "--links", "2"], ["--links"]),
     (["figure", "optimization", "--quick", "--links", "2"], ["'links'", ">= 3"]),
     (["fit", "no-such-log.csv"], ["LOG argument", "'no-such-log.csv' (does not exist)"]),
+    (["optimize", "--robot-timeout", "5"], ["--robot-timeout", "built-in swimmer has none"]),
+    (["optimize", "--robot", "python -m geogait.robots.driver", "--robot-timeout", "-1"], ["--robot-timeout", "> 0"]),
+    (["track", "--quick", "--step", "0.05"], ["'--step' option", "robot"]),
 ])
 def test_bad_options_are_refused_before_anything_runs_or_is_written(tmp_path, arguments, fragments):
     """Each of these was once refused only after the run had started (a progress line, then the error, and a

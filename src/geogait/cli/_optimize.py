@@ -137,6 +137,9 @@ def optimize(
         if ctx is not None and ctx.get_parameter_source("robot_timeout").name == "COMMANDLINE":
             settings["robot_timeout"] = robot_timeout
     else:
+        if robot is None and ctx is not None and ctx.get_parameter_source("robot_timeout").name == "COMMANDLINE":
+            raise GeogaitError("--robot-timeout is the wait for a --robot driver's lines; the built-in swimmer has "
+                               "none (drop it, or give --robot).")
         settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
                         period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
                         order=order, objective=objective, direction_frame=direction_frame,
@@ -266,6 +269,8 @@ def _optimizer(settings) -> InSituOptimizer:
         if settings["cycles"] > MAX_CYCLES:
             raise typer.BadParameter(f"at most {MAX_CYCLES} cycles, got {settings['cycles']}", param_hint="--cycles")
     check_int(settings["checkpoint_every"], "checkpoint_every", "geogait optimize", minimum=1)
+    if not (np.isfinite(settings["robot_timeout"]) and settings["robot_timeout"] > 0):
+        raise typer.BadParameter(f"expected seconds > 0, got {settings['robot_timeout']}", param_hint="--robot-timeout")
     if 0 < settings.get("model_class_cycles", 0) < 3:
         raise typer.BadParameter(f"expected 0 (no test) or at least 3 cycles per period, got "
                                  f"{settings['model_class_cycles']}", param_hint="--model-class-cycles")

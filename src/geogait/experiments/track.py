@@ -127,6 +127,9 @@ class TrackSettings:
         if self.robot is not None:
             self._check_robot(names, ratios, name)
         else:
+            if self.step is not None:
+                raise GeogaitError(f"The {name('step')} sizes the paths of a robot behind {name('robot')}; the "
+                                   "built-in swimmer's step is its straight gait's (drop it, or give a robot).")
             if not (isinstance(self.links, int | np.integer) and self.links >= 3):
                 raise GeogaitError(f"The {name('links')} must be a whole number >= 3 (a swimmer of two links, one "
                                    f"joint, cannot move: the scallop theorem). Got {self.links!r} instead.")
