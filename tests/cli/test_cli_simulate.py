@@ -24,3 +24,9 @@ def test_simulate_rejects_bad_options(tmp_path):
     assert result.exit_code == 1 and "error: Invalid value for '--links'" in result.stderr
     result = CliRunner().invoke(app, ["simulate", "--drag-ratio", "2,x", "--out", str(tmp_path)])
     assert result.exit_code != 0 and "comma-separated" in result.output
+
+
+def test_version_is_printed():
+    import geogait
+    result = CliRunner().invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.stdout.strip() == f"geogait {geogait.__version__}"

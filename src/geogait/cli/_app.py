@@ -162,3 +162,16 @@ app = typer.Typer(
 )
 figure_app = typer.Typer(help="Reproduce the paper's figures.", no_args_is_help=True)
 app.add_typer(figure_app, name="figure")
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        from .. import __version__
+        typer.echo(f"geogait {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                          help="Print geogait's version and exit.")) -> None:
+    """Adaptive, data-driven gait modeling and in-situ gait optimisation of principally kinematic locomotors."""
