@@ -11,6 +11,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
 
 from ._files import atomic_write
 from .gaits import FourierGait
@@ -91,14 +92,22 @@ def plot_joint_angles(ax, gaits: dict[str, FourierGait]):
 
 
 def plot_progress(ax, log, *, seed_value: float, ceiling_value: float | None = None):
-    """Displacement per cycle over cycles — measured on every cycle, the nominal gait's true value
-    where the robot has a truth — steps and rejections marked, Γ on a twin axis."""
+    """Displacement per cycle over cycles: measured on every cycle; the gait the run holds so far (its true value
+    where the robot has a truth), apart from the trials it ran and did not keep (a measured climb's candidates,
+    period trials); model steps and rejections marked; Γ on a twin axis (only on cycles the model is scored on:
+    not the first cycle after a change, so not a climb's one-cycle trials)."""
     ax.plot(log["cycle"], log["measured_objective"], ".", color="0.6", ms=4, label="measured (each cycle)")
     column = "true_objective" if "true_objective" in log else "measured_objective"
-    if column == "true_objective":
-        ax.plot(log["cycle"], log[column], "k-", lw=1.5, label="nominal gait (true)")
-    steps = log[log["step"]]
-    ax.plot(steps["cycle"], steps[column], "k.", ms=6, label="step taken")
+    trial = log["candidate"].astype(bool) if "candidate" in log else pd.Series(False, index=log.index)
+    held = log[column].where(~trial).ffill()  # during a trial the run still holds the gait it kept last
+    ax.plot(log["cycle"], held, "k-", lw=1.5,
+            label="gait held (true)" if column == "true_objective" else "gait held (measured)")
+    if trial.any():
+        ax.plot(log.loc[trial, "cycle"], log.loc[trial, column], "o", mfc="none", mec="C1", ms=4,
+                label="trial not kept (climb candidate, period)")
+    steps = log[log["step"] & ~log["climb"].astype(bool)] if "climb" in log else log[log["step"]]
+    if len(steps):
+        ax.plot(steps["cycle"], steps[column], "k.", ms=6, label="model step taken")
     if "rejected" in log and log["rejected"].any():
         rejected = log[log["rejected"]]
         ax.plot(rejected["cycle"], rejected[column], "rx", ms=6, label="step rejected (tracking)")

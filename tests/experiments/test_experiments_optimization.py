@@ -200,3 +200,19 @@ def test_shape_method_model_for_swimmer_and_robot():
     assert (swimmer.degree, swimmer.symmetry, swimmer.forgetting_factor) == (4, "mirror+reversal", 0.9999)
     robot = shape_method_model(9, robot=True, forgetting_factor=0.99)
     assert (robot.degree, robot.symmetry, robot.degree_shrinkage, robot.forgetting_factor) == (3, None, 1.0, 0.99)
+
+
+def test_the_progress_figure_holds_the_kept_gait_through_trials_not_kept():
+    """A trial the run did not keep is drawn apart: the 'gait held' line stays on the gait kept before it."""
+    from geogait.plotting import plot_progress, plt
+    log = pd.DataFrame({"cycle": range(6), "measured_objective": [1.0, 1.1, 0.5, 1.6, 0.7, 1.5],
+                        "true_objective": [1.0, 1.0, 0.4, 1.5, 0.6, 1.5], "gamma": np.nan,
+                        "step": [False, True, True, True, True, False], "climb": [False, True, True, True, True, False],
+                        "candidate": [False, False, True, False, True, False], "rejected": False})
+    fig, ax = plt.subplots()
+    plot_progress(ax, log, seed_value=1.0)
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    np.testing.assert_array_equal(lines["gait held (true)"].get_ydata(), [1.0, 1.0, 1.0, 1.5, 1.5, 1.5])
+    np.testing.assert_array_equal(lines["trial not kept (climb candidate, period)"].get_ydata(), [0.4, 0.6])
+    assert "model step taken" not in lines  # (every step here was the climb's)
+    plt.close(fig)
