@@ -657,6 +657,7 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     (["simulate", "--links", "2"], ["--links"]),
     (["figure", "optimization", "--quick", "--links", "2"], ["'links'", ">= 3"]),
     (["fit", "no-such-log.csv"], ["LOG argument", "'no-such-log.csv' (does not exist)"]),
+    (["fit", "no-such-log.csv", "--smoothing-window", "2"], ["--smoothing-window", "odd number of samples >= 3"]),
     (["optimize", "--robot-timeout", "5"], ["--robot-timeout", "built-in swimmer has none"]),
     (["optimize", "--robot", "python -m geogait.robots.driver", "--robot-timeout", "-1"], ["--robot-timeout", "> 0"]),
     (["track", "--quick", "--step", "0.05"], ["'--step' option", "robot"]),

@@ -48,6 +48,9 @@ def _names(text: str | None, option: str) -> list[str] | None:
 
 def _log_options(smoothing_window: int | None, time_unit: str | None, outlier_limit: float) -> dict:
     """read_log's keywords for the options that were given (read_log's defaults otherwise)."""
+    if smoothing_window is not None and not (smoothing_window >= 3 and smoothing_window % 2 == 1):
+        raise typer.BadParameter(f"expected an odd number of samples >= 3, got {smoothing_window}",
+                                 param_hint="--smoothing-window")
     options = {} if smoothing_window is None else {"window": smoothing_window}
     if time_unit is not None:
         if time_unit not in TIME_UNITS:
