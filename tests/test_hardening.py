@@ -386,6 +386,11 @@ def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
 def test_check_writable(tmp_path):
     assert check_writable(tmp_path / "x.npz") == tmp_path / "x.npz" and not (tmp_path / "x.npz").exists()
     assert list(tmp_path.iterdir()) == []
+    with pytest.raises(GeogaitError, match="its folder .*missing does not exist"):
+        check_writable(tmp_path / "missing" / "x.npz")
+    (tmp_path / "notes.txt").write_text("a file")  # a path through a file is said as such
+    with pytest.raises(GeogaitError, match=r"notes.txt is a file, not a folder"):
+        check_writable(tmp_path / "notes.txt" / "sub" / "x.npz", "model file")
 
 
 # -- 9. figures redrawn from CSV --------------------------------------------------------------------

@@ -218,6 +218,9 @@ def check_writable(path, what: str = "output file") -> Path:
     if target.is_dir():
         raise GeogaitError(f"Cannot write the {what} {given}: it is a folder.")
     if not target.parent.is_dir():
+        parent = next((folder for folder in target.parents if folder.exists()), None)
+        if parent is not None and not parent.is_dir():  # (a path through a file: say which)
+            raise GeogaitError(f"Cannot write the {what} {given}: {parent} is a file, not a folder.")
         raise GeogaitError(f"Cannot write the {what} {given}: its folder {target.parent} does not exist.")
     try:
         handle, probe = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp")

@@ -239,8 +239,9 @@ class ExperimentResult:
             raise GeogaitError(f"{path} is not a readable {cls.__name__} CSV ({reason}).") from None
         missing = [column for column in cls.COLUMNS if column not in frame.columns]
         if missing or frame.empty:
-            raise GeogaitError(f"{path} is not a {cls.__name__} CSV: expected columns {list(cls.COLUMNS)} and at "
-                               f"least one row. Got columns {list(frame.columns)} and {len(frame)} rows instead.")
+            raise GeogaitError(f"{path} is not {_article(cls.__name__)} {cls.__name__} CSV: expected columns "
+                               f"{list(cls.COLUMNS)} and at least one row. Got columns {list(frame.columns)} and "
+                               f"{len(frame)} rows instead.")
         for column in [c for c in cls.COLUMNS if c in _INTEGER_COLUMNS]:
             values = pd.to_numeric(frame[column], errors="coerce").to_numpy(float)
             bad = np.flatnonzero(~np.isfinite(values) | (values != np.round(values)))
@@ -260,3 +261,7 @@ class ExperimentResult:
     def config_dict(self) -> dict | None:
         """The configuration as a plain dict (None when read from a CSV)."""
         return None if self.config is None else dataclasses.asdict(self.config)
+
+
+def _article(word: str) -> str:
+    return "an" if word[:1].lower() in "aeiou" else "a"
