@@ -489,7 +489,12 @@ def _executor(jobs: int, scheduler) -> Iterator[tuple[Callable, int]]:
         n_jobs = joblib.cpu_count() if jobs == -1 else jobs
         yield (_run_serial if n_jobs == 1 else partial(_run_joblib, n_jobs=n_jobs)), n_jobs
     elif isinstance(scheduler, str):
-        with _distributed().Client(scheduler, set_as_default=False) as client:
+        try:
+            client = _distributed().Client(scheduler, set_as_default=False)
+        except OSError as error:  # (dask's connection timeout, a refused or unknown address)
+            raise GeogaitError(f"Cannot reach the dask scheduler at {scheduler!r}: {error}. Start it first "
+                               "(dask scheduler), or check the address.") from None
+        with client:
             yield partial(_run_dask, client), len(client.nthreads())
     else:
         yield partial(_run_dask, scheduler), len(scheduler.nthreads())

@@ -323,3 +323,16 @@ def test_missing_dask_asks_to_install_the_extra(monkeypatch):
         sweep(scheduler="tcp://127.0.0.1:8786")
     with pytest.raises(ImportError, match=r"pip install geogait\[dask\]"):
         sweep(scheduler=object())
+
+
+def test_an_unreachable_scheduler_is_said_in_one_clear_error(monkeypatch):
+    """Dask's connection error (after its timeout) becomes a GeogaitError naming the address, not an OSError."""
+    class Unreachable:
+        @staticmethod
+        def Client(address, **kwargs):  # noqa: N802 (dask's name)
+            raise OSError(f"Timed out trying to connect to {address} after 30 s")
+
+    monkeypatch.setattr(runner_module, "_distributed", lambda: Unreachable)
+    from geogait import GeogaitError
+    with pytest.raises(GeogaitError, match=r"Cannot reach the dask scheduler at 'tcp://127.0.0.1:1': Timed out"):
+        sweep(scheduler="tcp://127.0.0.1:1")
