@@ -99,9 +99,9 @@ class InSituResult:
         (trials not kept do not count). Non-finite values become ``None`` (valid JSON).
         """
         log = self.log
-        measured = log[~log["settling"] & ~log["rejected"]]
-        if "candidate" in measured:  # the result is the last gait that was not an unjudged climb candidate
-            measured = measured[~measured["candidate"].astype(bool)]
+        # the result is the last gait that was not a trial left unjudged or not kept (a climb's candidate)
+        kept = ~log["candidate"].astype(bool) if "candidate" in log else pd.Series(True, log.index)
+        measured = log[~log["settling"] & ~log["rejected"] & kept]
         seed_rows = measured["iteration"] == 0
         final_rows = measured["iteration"] == measured["iteration"].iloc[-1]
         seed = measured.loc[seed_rows, "measured_objective"].mean()
@@ -145,7 +145,6 @@ class InSituResult:
                 "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
             })
         if ceiling is not None:
-            kept = ~log["candidate"].astype(bool) if "candidate" in log else pd.Series(True, log.index)
             first_90 = log.index[(log["ceiling_fraction"] >= 0.9) & kept]
             summary.update({
                 "ceiling_displacement_per_cycle": ceiling.value,

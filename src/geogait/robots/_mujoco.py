@@ -637,6 +637,7 @@ class MujocoRobot:
         command, command_rate = self._commands(phase, state)
         computed = self.control == "computed_torque"
         if computed:  # fed forward: the gait's acceleration, and the exploration's mean over each held torque
+            base = np.setdiff1d(np.arange(model.nv), self._dof)  # (once per cycle, not at every update)
             command_acceleration = self._gait.acceleration(phase) * (2 * np.pi / self.cycle_period) ** 2
             ahead = np.arange(steps) + self.control_interval  # (not known beyond the cycle: its last interval)
             inside = ahead < steps
@@ -674,7 +675,7 @@ class MujocoRobot:
                     u = self.kp * error + self.kd * rate_error
                 else:
                     u = _computed_torque(model, data, dof, actuators,
-                                        command_acceleration[step] + self.kp * error + self.kd * rate_error)
+                                         command_acceleration[step] + self.kp * error + self.kd * rate_error, base)
                 data.ctrl[actuators] = np.minimum(np.maximum(u, low), high)  # np.clip costs 4x more here
             mujoco.mj_step(model, data)
         if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > unstable:
@@ -757,7 +758,7 @@ class MujocoRobot:
                 f"steps_per_sample={self.steps_per_sample})")
 
 
-def _computed_torque(model, data, dofs, actuators, acceleration) -> np.ndarray:
+def _computed_torque(model, data, dofs, actuators, acceleration, base=None) -> np.ndarray:
     r"""The ``ctrl`` of the ``motor`` actuators ``actuators`` (one per degree of freedom of ``dofs``) that gives
     those joints the acceleration ``acceleration`` in the current state, every other degree of freedom (the base)
     moving freely: floating-base inverse dynamics.
@@ -783,7 +784,7 @@ def _computed_torque(model, data, dofs, actuators, acceleration) -> np.ndarray:
     else:
         mujoco.mj_fullM(model, data, inertia)
     known = data.qfrc_bias - data.qfrc_passive - data.qfrc_actuator
-    base = np.setdiff1d(np.arange(model.nv), dofs)
+    base = np.setdiff1d(np.arange(model.nv), dofs) if base is None else base  # (every dof but the joints')
     base_acceleration = np.linalg.solve(inertia[np.ix_(base, base)],
                                         -known[base] - inertia[np.ix_(base, dofs)] @ acceleration)
     torque = inertia[np.ix_(dofs, base)] @ base_acceleration + inertia[np.ix_(dofs, dofs)] @ acceleration + known[dofs]

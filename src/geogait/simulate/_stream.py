@@ -25,6 +25,7 @@ from ._trajectory import Trajectory
 
 #: Largest sensor noise, as a fraction of the signal's RMS (beyond it a sample is no longer a measurement).
 MAX_SENSOR_NOISE = 100.0
+
 __all__ = ["DragRatioSchedule", "SwimmerStream", "simulate", "simulate_rate"]
 
 
@@ -130,7 +131,6 @@ class SwimmerStream:
         self.samples_per_cycle = check_int(samples_per_cycle, "samples_per_cycle", owner, minimum=4)
         if self.samples_per_cycle > 100_000:
             raise fail("samples_per_cycle", owner, "an int in [4, 100000]", samples_per_cycle)
-        # noise is a fraction of the signal's RMS: beyond 100× it is no longer a measurement
         self.sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=MAX_SENSOR_NOISE)
         self.shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=MAX_SENSOR_NOISE)
         self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
@@ -482,7 +482,7 @@ def simulate_rate(system: System, gait: FourierGait, n_cycles: float, *, samples
     per_cycle = check_float(samples_per_cycle, "samples_per_cycle", owner, low=4, high=100_000)
     period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
     sensor_noise = check_float(sensor_noise, "sensor_noise", owner, low=0, high=MAX_SENSOR_NOISE)
-    shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=100)
+    shape_noise = check_float(shape_noise, "shape_noise", owner, low=0, high=MAX_SENSOR_NOISE)
     if isinstance(rate_ramp, str) or not isinstance(rate_ramp, Sequence) or len(rate_ramp) != 2:
         raise fail("rate_ramp", owner, "a pair (start, end) of rate multipliers", rate_ramp)
     start, end = (check_float(m, "rate_ramp", owner, low=0.1, high=10) for m in rate_ramp)
