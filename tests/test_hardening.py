@@ -649,7 +649,8 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     (["optimize", "--method", "adaptive", "--forgetting-factor", "1.5"], ["--forgetting-factor", "(0, 1]"]),
     (["optimize", "--forgetting-factor", "0.95"], ["--forgetting-factor applies to --method adaptive or shape"]),
     (["optimize", "--method", "batch", "--forgetting-factor", "0.95"], ["--method batch does not use it"]),
-    (["optimize", "--noise", "inf"], ["--noise", "[0, 100]"]),
+    (["optimize", "--noise", "inf"], ["--noise", "finite number ≥ 0"]),
+    (["optimize", "--noise", "200"], ["--noise", "[0, 100]"]),
     (["optimize", "--perturbation", "1e308"], ["--perturbation", "[0, 2π]"]),
     (["optimize", "--robot", "python -m geogait.robots.driver", "--model-class-cycles", "3"],
      ["--model-class-cycles", "no message that changes a driver's period"]),
@@ -660,7 +661,15 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     (["track", "--quick", "--noise", "inf"], ["'--noise' option"]),
     (["track", "--quick", "--seed", "-1"], ["'--seed' option"]),
     (["simulate", "--links", "2"], ["--links"]),
-    (["figure", "optimization", "--quick", "--links", "2"], ["'links'", ">= 3"]),
+    (["figure", "optimization", "--quick", "--links", "2"], ["'--links' option", ">= 3"]),
+    (["figure", "accuracy", "--quick", "--links", "1"], ["'--links' option", ">= 2"]),
+    (["figure", "environments", "--quick", "--forgetting-factors", "2"], ["'--forgetting-factors' option", "(0, 1]"]),
+    (["figure", "tracking", "--quick", "--links", "2"], ["'--links' option", ">= 3"]),
+    (["figure", "tracking", "--quick", "--exploration-low", "-1"], ["'--exploration-low' option"]),
+    (["figure", "tracking", "--quick", "--cycles", "1"], ["'--cycles' option", ">= 2"]),
+    (["simulate", "--amplitude", "nan"], ["'--amplitude' option", "finite number ≥ 0 and ≤ 6.28319", "Got nan"]),
+    (["simulate", "--noise=-inf"], ["'--noise' option", "finite number ≥ 0 and ≤ 100"]),
+    (["optimize", "--noise", "NaN"], ["'--noise' option", "finite number ≥ 0"]),
     (["fit", "no-such-log.csv"], ["LOG argument", "'no-such-log.csv' (does not exist)"]),
     (["fit", "no-such-log.csv", "--smoothing-window", "2"], ["--smoothing-window", "odd number of samples >= 3"]),
     (["optimize", "--robot-timeout", "5"], ["--robot-timeout", "built-in swimmer has none"]),
@@ -675,3 +684,17 @@ def test_bad_options_are_refused_before_anything_runs_or_is_written(tmp_path, ar
     result = CliRunner().invoke(app, [*arguments, "--out", str(out)])
     one_error_line(result, *fragments)
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_simulate_keeps_an_earlier_simulation_unless_told_to_replace_it(tmp_path):
+    out = tmp_path / "sim"
+    arguments = ["simulate", "--cycles", "1", "--samples-per-cycle", "20", "--out", str(out)]
+    assert CliRunner().invoke(app, arguments).exit_code == 0
+    before = (out / "trajectory.csv").read_bytes()
+    one_error_line(CliRunner().invoke(app, [*arguments[:-2], "--seed", "3", "--out", str(out)]),
+                   "is not empty", "--overwrite")
+    assert (out / "trajectory.csv").read_bytes() == before
+    replaced = CliRunner().invoke(app, [*arguments[:-2], "--seed", "3", "--overwrite", "--out", str(out)])
+    assert replaced.exit_code == 0, replaced.output
+    assert (out / "trajectory.csv").read_bytes() != before
+    assert json.loads((out / "manifest.json").read_text())["config"]["seed"] == 3

@@ -85,6 +85,29 @@ def _escape_help(command) -> None:
         _escape_help(child)
 
 
+_NON_FINITE = {"nan", "inf", "infinity"}
+
+
+def _refuse_non_finite(group, args) -> None:
+    """Refuse nan or ±inf given to a number option with a range, naming the option: the range check
+    itself would answer nan with the bound it happens to compare first."""
+    command, rest = group, list(args)
+    while rest and rest[0] in getattr(command, "commands", {}):
+        command = command.commands[rest.pop(0)]
+    ranged = {opt: param for param in getattr(command, "params", [])
+              if getattr(param, "min", None) is not None or getattr(param, "max", None) is not None
+              for opt in param.opts}
+    for position, token in enumerate(rest):
+        name, equals, value = token.partition("=")
+        if not equals:
+            value = rest[position + 1] if position + 1 < len(rest) else ""
+        if name in ranged and value.strip().lower().lstrip("+-") in _NON_FINITE:
+            param = ranged[name]
+            bounds = " and ".join(f"{sign} {bound:g}" for sign, bound in (("≥", param.min), ("≤", param.max))
+                                  if bound is not None)
+            raise GeogaitError(f"The '{name}' option must be a finite number {bounds}. Got {value} instead.")
+
+
 class Terminated(KeyboardInterrupt):
     """SIGINT or SIGTERM, raised where the program is: every ``finally`` and atomic write cleans up."""
 
@@ -130,6 +153,7 @@ class GeogaitGroup(TyperGroup):
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
             with _warnings_as_lines(), _signals_as_interrupts():
+                _refuse_non_finite(self, sys.argv[1:] if args is None else args)
                 code = super().main(args, prog_name, complete_var, False, **extra)
         except KeyboardInterrupt:
             typer.echo(_interrupted_line(), err=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import platform
 import time
@@ -37,6 +38,22 @@ def output_folder(path: Path) -> Path:
     except OSError as error:
         raise GeogaitError(f"Cannot create the output folder {path}: {error.strerror}.") from None
     return path
+
+
+def configure(base, **changes):
+    """``base`` (an experiment's config dataclass) with every option that was given, validated before anything
+    runs: ``changes`` maps a field to ``(option, value)``, and a value of None was not given. A value the config
+    refuses is reported as the option's, not the field's."""
+    given = {field: value for field, (_, value) in changes.items() if value is not None}
+    try:
+        return dataclasses.replace(base, **given).validate()
+    except GeogaitError as error:
+        text = str(error)
+        for field, (option, _) in changes.items():
+            prefix = f"The '{field}' parameter of {type(base).__name__}"
+            if text.startswith(prefix):
+                raise GeogaitError(f"The '{option}' option{text[len(prefix):]}") from None
+        raise
 
 
 def claim_output(path: Path, *, overwrite: bool, run_files=()) -> OutputLock:

@@ -7,7 +7,6 @@ Each command runs its experiment (or, with ``--from-csv``, reads earlier results
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 from typing import Annotated
@@ -18,7 +17,7 @@ from rich.table import Table
 from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 from ._app import figure_app
-from ._common import comma_list, console, listed, output_folder, write_manifest
+from ._common import comma_list, configure, console, listed, output_folder, write_manifest
 
 _A, _E = AccuracyConfig(), EnvironmentConfig()
 _QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
@@ -39,11 +38,6 @@ Perturbation = Annotated[float | None, typer.Option(
 ChunkSize = Annotated[int | None, typer.Option(
     help=f"Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
          f"[default: {_A.chunk_size}].")]
-
-
-def _configure(base, **overrides):
-    """``base`` with every override that was given on the command line."""
-    return dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})
 
 
 def _run_or_redraw(result_class, from_csv, run, extra: dict):
@@ -96,9 +90,11 @@ def accuracy(
     """
     started = time.perf_counter()
     folder = output_folder(out)
-    config = None if from_csv is not None else _configure(
-        _QA if quick else _A, n_trials=trials, n_links=links, n_cycles=cycles, sensor_noise=noise,
-        perturbation=perturbation, samples_per_cycle=samples_per_cycle, chunk_size=chunk_size, seed=seed)
+    config = None if from_csv is not None else configure(
+        _QA if quick else _A, n_trials=("--trials", trials), n_links=("--links", links),
+        n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
+        samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
+        seed=("--seed", seed))
     result, extra = _run_or_redraw(AccuracyResult, from_csv,
                                    lambda: run_accuracy(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})
@@ -149,11 +145,14 @@ def environments(
     """
     started = time.perf_counter()
     folder = output_folder(out)
-    config = None if from_csv is not None else _configure(
-        _QE if quick else _E, n_trials=trials, n_links=links, cycles_per_environment=cycles_per_environment,
-        drag_ratios=comma_list(drag_ratios, "--drag-ratios"),
-        forgetting_factors=comma_list(forgetting_factors, "--forgetting-factors"), sensor_noise=noise,
-        perturbation=perturbation, samples_per_cycle=samples_per_cycle, chunk_size=chunk_size, seed=seed)
+    config = None if from_csv is not None else configure(
+        _QE if quick else _E, n_trials=("--trials", trials), n_links=("--links", links),
+        cycles_per_environment=("--cycles-per-environment", cycles_per_environment),
+        drag_ratios=("--drag-ratios", comma_list(drag_ratios, "--drag-ratios")),
+        forgetting_factors=("--forgetting-factors", comma_list(forgetting_factors, "--forgetting-factors")),
+        sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
+        samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
+        seed=("--seed", seed))
     result, extra = _run_or_redraw(EnvironmentResult, from_csv,
                                    lambda: run_environments(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import hashlib
 import json
 import time
@@ -40,7 +39,7 @@ from ..simulate import SwimmerStream
 from ..simulate._stream import MAX_SENSOR_NOISE
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
-from ._common import claim_output, comma_list, console, listed, output_folder, progress_bar, write_manifest
+from ._common import claim_output, comma_list, configure, console, listed, output_folder, progress_bar, write_manifest
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 _METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
@@ -474,12 +473,14 @@ def figure_optimization(
         result = OptimizationResult.from_csv(from_csv)
     else:
         base = OptimizationConfig.quick() if quick else OptimizationConfig()
-        changes = dict(n_trials=trials, baseline_trials=baseline_trials, baseline_iterations=baseline_iterations,
-                       sensor_noise=noise, seed=seed,
-                       links=comma_list(links, "--links", int), budgets=comma_list(cycles, "--cycles", int))
-        config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
-        if links is not None and cycles is None:
-            config = dataclasses.replace(config, budgets=tuple(map(default_budget, config.links)))
+        swimmers = comma_list(links, "--links", int)
+        budgets = comma_list(cycles, "--cycles", int)
+        if swimmers is not None and budgets is None:  # each swimmer's own budget
+            budgets = tuple(map(default_budget, swimmers))
+        config = configure(base, n_trials=("--trials", trials), baseline_trials=("--baseline-trials", baseline_trials),
+                           baseline_iterations=("--baseline-iterations", baseline_iterations),
+                           sensor_noise=("--noise", noise), seed=("--seed", seed), links=("--links", swimmers),
+                           budgets=("--cycles", budgets))
         result = run_optimization(config, jobs=jobs, scheduler=scheduler)
         result.to_csv(folder / "optimization.csv")
     result.plot(folder / "optimization.png")

@@ -15,7 +15,10 @@ from ..plotting import plot_path, plot_shape_space, plt, save_figure
 from ..simulate import DragRatioSchedule, SwimmerStream, Trajectory
 from ..systems import BODY_FRAMES, PurcellSwimmer
 from ._app import app
-from ._common import comma_list, console, output_folder, progress_bar, write_manifest
+from ._common import claim_output, comma_list, console, progress_bar, write_manifest
+
+#: Every file a simulation writes into its folder (replaced as one set with --overwrite).
+RUN_FILES = ("trajectory.parquet", "trajectory.csv", "trajectory.png", "manifest.json")
 
 #: At most this many samples in one simulation (cycles × samples per cycle): about 1 GB of output.
 MAX_SAMPLES = 10_000_000
@@ -38,7 +41,10 @@ def simulate(
                                                max=100)] = 0.0,
     body_frame: Annotated[str, typer.Option(help=f"Body frame: {', '.join(BODY_FRAMES)}.")] = "middle",
     seed: Annotated[int, typer.Option(help="Root random seed.", min=0)] = 0,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/simulate"),
+    overwrite: Annotated[bool, typer.Option(
+        help="Replace the simulation an existing --out folder holds.")] = False,
+    out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
+        "out/simulate"),
 ) -> None:
     """Simulate the seed gait with perturbations; write Parquet + CSV + a PNG."""
     started = time.perf_counter()
@@ -46,30 +52,31 @@ def simulate(
     if cycles * samples_per_cycle > MAX_SAMPLES:
         raise GeogaitError(f"--cycles × --samples-per-cycle must be at most {MAX_SAMPLES:,} samples. Got "
                            f"{cycles} × {samples_per_cycle} = {cycles * samples_per_cycle:,} instead.")
-    folder = output_folder(out)
-    system = PurcellSwimmer(links, drag_ratio=ratios[0], body_frame=body_frame)
-    gait = seed_gait(system.n_joints, amplitude)
-    schedule = DragRatioSchedule(system, ratios, cycles_per_environment) if len(ratios) > 1 else None
-    stream = SwimmerStream(system, gait, samples_per_cycle=samples_per_cycle,
-                           perturbation=Perturbation.from_std(perturbation), sensor_noise=noise,
-                           shape_noise=shape_noise, environment=schedule, seed=seed)
-    parts = []
-    with progress_bar() as progress:
-        task = progress.add_task("simulating", total=cycles, status="")
-        for _ in range(cycles):
-            parts.append(stream.next_cycle())
-            progress.update(task, advance=1, status=f"k = {stream.current_system().drag_ratio:g}")
-    run = Trajectory.concatenate(parts)
-    run.to_parquet(folder / "trajectory.parquet")
-    run.to_csv(folder / "trajectory.csv")
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
-    plot_path(axes[0], run.pose)
-    plot_shape_space(axes[1], run.shape, {"nominal gait": gait})
-    save_figure(fig, folder / "trajectory.png")
-    config = dict(links=links, cycles=cycles, drag_ratios=ratios, cycles_per_environment=cycles_per_environment,
-                  samples_per_cycle=samples_per_cycle, amplitude=amplitude, perturbation=perturbation,
-                  noise=noise, shape_noise=shape_noise, body_frame=body_frame, seed=seed)
-    net = run.pose[-1] - run.pose[0]
-    write_manifest(folder / "manifest.json", command="simulate", config=config, started=started,
-                   results={"samples": run.n_samples, "net_translation": float((net[:2] ** 2).sum() ** 0.5)})
-    console.print(f"wrote {run.n_samples} samples to {folder}/ (trajectory.parquet, .csv, .png)")
+    with claim_output(out, overwrite=overwrite, run_files=RUN_FILES) as lock:  # checked and locked before any work
+        folder = lock.folder
+        system = PurcellSwimmer(links, drag_ratio=ratios[0], body_frame=body_frame)
+        gait = seed_gait(system.n_joints, amplitude)
+        schedule = DragRatioSchedule(system, ratios, cycles_per_environment) if len(ratios) > 1 else None
+        stream = SwimmerStream(system, gait, samples_per_cycle=samples_per_cycle,
+                               perturbation=Perturbation.from_std(perturbation), sensor_noise=noise,
+                               shape_noise=shape_noise, environment=schedule, seed=seed)
+        parts = []
+        with progress_bar() as progress:
+            task = progress.add_task("simulating", total=cycles, status="")
+            for _ in range(cycles):
+                parts.append(stream.next_cycle())
+                progress.update(task, advance=1, status=f"k = {stream.current_system().drag_ratio:g}")
+        run = Trajectory.concatenate(parts)
+        run.to_parquet(folder / "trajectory.parquet")
+        run.to_csv(folder / "trajectory.csv")
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+        plot_path(axes[0], run.pose)
+        plot_shape_space(axes[1], run.shape, {"nominal gait": gait})
+        save_figure(fig, folder / "trajectory.png")
+        config = dict(links=links, cycles=cycles, drag_ratios=ratios, cycles_per_environment=cycles_per_environment,
+                      samples_per_cycle=samples_per_cycle, amplitude=amplitude, perturbation=perturbation,
+                      noise=noise, shape_noise=shape_noise, body_frame=body_frame, seed=seed)
+        net = run.pose[-1] - run.pose[0]
+        write_manifest(folder / "manifest.json", command="simulate", config=config, started=started,
+                       results={"samples": run.n_samples, "net_translation": float((net[:2] ** 2).sum() ** 0.5)})
+        console.print(f"wrote {run.n_samples} samples to {folder}/ (trajectory.parquet, .csv, .png)")

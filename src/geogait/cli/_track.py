@@ -4,7 +4,6 @@ controllers), and ``geogait figure tracking``: the seeded multi-trial experiment
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import time
 from pathlib import Path
 from typing import Annotated
@@ -28,7 +27,7 @@ from ..experiments.tracking import (
 )
 from ..plotting import plt, save_figure
 from ._app import app, figure_app
-from ._common import claim_output, console, explain_nulls, output_folder, progress_bar, write_manifest
+from ._common import claim_output, configure, console, explain_nulls, output_folder, progress_bar, write_manifest
 
 #: Every file ``geogait track`` writes (replaced together, as one set); ``trials.csv`` with ``--trials`` > 1,
 #: ``family.png`` with one trial.
@@ -274,15 +273,15 @@ def figure_tracking(
         result = TrackingResult.from_csv(from_csv)
     else:
         base = TrackingConfig.quick() if quick else TrackingConfig()
-        changes = dict(n_trials=trials, n_cycles=cycles, sensor_noise=noise, perturbation=perturbation, seed=seed,
-                       links=None if links is None else _links(links), exploration=exploration,
-                       exploration_low=exploration_low, exploration_high=exploration_high, model=model,
-                       change_forgetting=change_forgetting, warmup_turns=warmup_turns,
-                       paths=() if drag_only else paths,
-                       drag_paths=drag_paths, path_file=path_file)
-        config = dataclasses.replace(base, **{k: v for k, v in changes.items() if v is not None})
-        if cycles is not None:
-            config = dataclasses.replace(config, change_cycle=config.n_cycles // 2)
+        config = configure(
+            base, n_trials=("--trials", trials), n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise),
+            perturbation=("--perturbation", perturbation), seed=("--seed", seed),
+            links=("--links", None if links is None else _links(links)), exploration=("--exploration", exploration),
+            exploration_low=("--exploration-low", exploration_low),
+            exploration_high=("--exploration-high", exploration_high), model=("--model", model),
+            change_forgetting=("--change-forgetting", change_forgetting), warmup_turns=("--warmup-turns", warmup_turns),
+            paths=("--path", () if drag_only else paths), drag_paths=("--drag-path", drag_paths),
+            path_file=("--path", path_file), change_cycle=("--cycles", None if cycles is None else cycles // 2))
         result = run_tracking(config, jobs=jobs, scheduler=scheduler)
         result.to_csv(folder / "tracking.csv")
     result.plot(folder / "tracking.png", references)

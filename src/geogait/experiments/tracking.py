@@ -190,7 +190,7 @@ class TrackingConfig:
         if not self.links:
             raise fail("links", _OWNER, "a non-empty tuple of link counts", self.links)
         for n_links in self.links:
-            check_int(n_links, "links", _OWNER, minimum=2)
+            check_int(n_links, "links", _OWNER, minimum=3)  # (one joint cannot steer: the scallop theorem)
         check_int(self.n_trials, "n_trials", _OWNER, minimum=1)
         for name in ("paths", "drag_paths"):
             for path in getattr(self, name):
@@ -218,9 +218,8 @@ class TrackingConfig:
         check_float(self.heading_weight, "heading_weight", _OWNER, low=0)
         if self.exploration not in EXPLORATION:
             raise fail("exploration", _OWNER, "one of " + ", ".join(EXPLORATION), self.exploration)
-        if self.exploration == "adaptive":
-            high = check_fraction(self.exploration_high, "exploration_high", _OWNER)
-            check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=high, low_open=True)
+        high = check_fraction(self.exploration_high, "exploration_high", _OWNER)
+        check_float(self.exploration_low, "exploration_low", _OWNER, low=0, high=high, low_open=True)
         if self.model not in TRACKING_MODELS:
             raise fail("model", _OWNER, "one of " + ", ".join(TRACKING_MODELS), self.model)
         check_float(self.change_forgetting, "change_forgetting", _OWNER, low=1)
