@@ -810,6 +810,43 @@ def test_a_held_pd_torque_is_what_the_gymnasium_environment_runs():
     assert robot.control_interval == 4
 
 
+def test_default_pd_gains_count_the_coupling_between_joints(tmp_path, monkeypatch):
+    """The Control Suite's swimmer with its torque limits lifted, so that the stability cap alone sets the default
+    gains: its light links are strongly coupled through the free head (ν_max 2.5), and the per-joint cap alone
+    (ωT = 0.4 on each joint's effective inertia; gains 1.54 × these) lets a held PD blow up from rest. The
+    default stays stable and tracks the gait; Gymnasium's swimmer (ν_max 1.64) keeps its per-joint gains."""
+    pytest.importorskip("dm_control", reason="the Control Suite's swimmer needs dm_control (pip install "
+                                             "'geogait[dmcontrol]')")
+    from geogait.robots import dm_control_swimmer
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT in the working directory
+    suite = dm_control_swimmer(6)
+    model = suite.model
+    model.actuator_ctrllimited[:] = 0
+    options = dict(joints=[model.joint(j).name for j in suite._joint_ids], gait=suite.gait,
+                   cycle_period=suite.cycle_period, perturbation=Perturbation(eta=0), start="rest")
+    robot = MujocoRobot(model, **options)
+    cycles = [robot.next_cycle() for _ in range(2)]
+    assert np.sqrt(np.mean((cycles[-1].shape - cycles[-1].commanded_shape) ** 2)) < 0.005
+    per_joint = (0.4 * 2.48 / 0.7) ** 2
+    reckless = MujocoRobot(model, kp=robot.kp * per_joint, kd=robot.kd * np.sqrt(per_joint), **options)
+    with pytest.raises(GeogaitError, match="became unstable"):
+        reckless.next_cycle()
+    pytest.importorskip("gymnasium")
+    import mujoco
+
+    swimmer = gymnasium_swimmer()
+    data = mujoco.MjData(swimmer.model)
+    mujoco.mj_forward(swimmer.model, data)
+    mass = np.zeros((swimmer.model.nv, swimmer.model.nv))
+    mujoco.mj_fullM(swimmer.model, data, mass) if not hasattr(data, "qM") else mujoco.mj_fullM(swimmer.model, mass,
+                                                                                                data.qM)
+    inertia = 1 / np.diag(np.linalg.inv(mass))[swimmer._dof]
+    gear = swimmer.model.actuator_gear[swimmer._actuators, 0]
+    omega = 0.4 / (swimmer.model.opt.timestep * swimmer.control_interval)
+    np.testing.assert_allclose(swimmer.kp, np.minimum(1 / 0.05, inertia * omega**2 / gear), rtol=1e-9)
+
+
 def test_a_simulation_that_becomes_unstable_is_an_error_not_a_silent_reset(tmp_path, monkeypatch):
     """MuJoCo resets an unstable model to rest and carries on; the robot says so instead of returning the
     samples of that other run (the Control Suite's light 6-link swimmer driven at a 0.2 s period)."""

@@ -65,6 +65,10 @@ _DEFAULT_SATURATION_ERROR = 0.05
 #: Largest natural frequency × torque-update interval of a joint's inertia under the default PD gains (the PD law is
 #: explicit: it sees the state at the start of each update).
 _MAX_GAIN_FREQUENCY = 0.4
+#: Largest ν_max × ω × interval under the default PD gains, with ν_max the largest eigenvalue of the joints'
+#: normalised mobility (coupling through the other links and the free base). A held, critically damped PD turns
+#: unstable where ν_max ω T reaches 1 (its damping, explicit, overshoots).
+_MAX_COUPLED_FREQUENCY = 0.7
 #: Natural frequency × torque-update interval of the tracking-error dynamics under computed torque (decoupled by
 #: the inverse dynamics: a double integrator held for each interval, whose explicit PD is stable below 1).
 _COMPUTED_TORQUE_FREQUENCY = 0.5
@@ -169,10 +173,13 @@ class MujocoRobot:
         ``control="pd"``: PD gains in ctrl units per rad and per rad/s. Default from the
         model: ``kp`` reaches the ctrl limit at a 0.05 rad error, capped so that the natural
         frequency of the joint's effective inertia 1 / (M⁻¹)_jj (every other degree of freedom
-        free, at the initial pose) stays below ``0.4 / (timestep × control_interval)``; ``kd`` damps that
-        critically. ``control="computed_torque"``: gains of the joints' commanded acceleration on their
-        tracking error, in 1/s² and 1/s; default ω² and 2ω with ω = 0.5 / (timestep × control_interval)
-        (critically damped error dynamics).
+        free, at the initial pose) stays below ``0.4 / (timestep × control_interval)``, and below
+        ``0.7 / (ν_max × timestep × control_interval)`` where the joints are coupled (ν_max: the largest
+        eigenvalue of their normalised mobility D^-½ (M⁻¹)_JJ D^-½, D its diagonal; 1.64 on Gymnasium's
+        swimmer, 2.5 on the Control Suite's; a held, critically damped PD turns unstable where ν_max ωT
+        reaches 1); ``kd`` damps each joint critically. ``control="computed_torque"``: gains of the joints'
+        commanded acceleration on their tracking error, in 1/s² and 1/s; default ω² and 2ω with
+        ω = 0.5 / (timestep × control_interval) (critically damped error dynamics).
     control_interval : int >= 1
         Physics steps each torque is held for (``control="pd"`` or ``"computed_torque"``), counted from the
         start of each cycle: 1 computes it every step; an environment's ``frame_skip`` acts as its agent does
@@ -502,15 +509,20 @@ class MujocoRobot:
         gear = self.model.actuator_gear[self._actuators, 0].copy()
         data = mujoco.MjData(self.model)
         mujoco.mj_forward(self.model, data)
-        # Effective inertia of each joint with every other degree of freedom free: 1 / (M⁻¹)_jj.
-        inertia = np.empty(d)
+        # The joints' mobility W = (M⁻¹)_JJ with every other degree of freedom free; a joint's effective inertia
+        # is 1 / W_jj, and the coupling between them raises the stiffest mode by ν_max = λ_max(D^-½ W D^-½).
+        mobility = np.empty((d, d))
         unit, column = np.zeros((1, self.model.nv)), np.zeros((1, self.model.nv))
         for j, dof in enumerate(self._dof):
             unit[:] = 0
             unit[0, dof] = 1
             mujoco.mj_solveM(self.model, data, column, unit)
-            inertia[j] = 1 / column[0, dof]
-        omega = _MAX_GAIN_FREQUENCY / (float(self.model.opt.timestep) * self.control_interval)  # per torque update
+            mobility[:, j] = column[0, self._dof]
+        inertia = 1 / np.diag(mobility)
+        normalised = np.sqrt(inertia)[:, None] * mobility * np.sqrt(inertia)[None, :]
+        coupling = float(np.linalg.eigvalsh((normalised + normalised.T) / 2).max())
+        frequency = min(_MAX_GAIN_FREQUENCY, _MAX_COUPLED_FREQUENCY / coupling)
+        omega = frequency / (float(self.model.opt.timestep) * self.control_interval)  # per torque update
         stable = inertia * omega**2 / np.abs(gear)
         default_kp = np.minimum(limits / _DEFAULT_SATURATION_ERROR, stable)
         kp = default_kp if kp is None else self._gain(kp, "kp", d)
