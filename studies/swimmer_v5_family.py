@@ -17,6 +17,15 @@ realises a smaller, distorted one: what the family can do when the commanded gai
 
     python studies/swimmer_v5_family.py --orders 1 3 --starts 3 --control computed_torque \
         --out docs/results/swimmer-v5-family/swimmer_v5_family_computed_torque.json
+
+``--warm-start FILE`` searches each order from the best gait of an earlier output instead (lifted to the order,
+at its period; ``--initial-radius`` smaller than the default 0.4 keeps the search near it), and
+``--start-phases K`` scores each order's best gait by the episode return from K start phases (the same gait
+begun at another point of its cycle): the start, not the gait, decides the first cycle's transient.
+
+    python studies/swimmer_v5_family.py --orders 5 7 --warm-start \
+        docs/results/swimmer-v5-family/swimmer_v5_family.json --initial-radius 0.15 --max-evaluations 2500 \
+        --start-phases 12 --jobs 2 --out docs/results/swimmer-v5-family/swimmer_v5_family_warm.json
 """
 
 from __future__ import annotations
@@ -33,6 +42,7 @@ from joblib import Parallel, delayed
 from scipy.optimize import minimize
 
 from geogait.experiments.robot_benchmark import CASES, _Family, _gymnasium_robot, evaluate_gait, swimmer_v5_return
+from geogait.gaits import FourierGait
 
 ROTATION_LIMIT = 0.02
 
@@ -61,12 +71,32 @@ def starts_of(order: int, starts: int, seed: int) -> list[np.ndarray]:
     return [origin] + [np.append(rng.uniform(-r_max, r_max, origin.size - 1), 0.0) for _ in range(starts - 1)]
 
 
-def family_run(order: int, start: np.ndarray, max_evaluations: int, control: str = "pd") -> dict:
+def warm_start(order: int, path: Path) -> np.ndarray:
+    """The best gait (by episode return) of the study's output ``path``, as parameters of the order-``order``
+    family: its Fourier series lifted to ``order`` (or cut to it), at its period."""
+    best = max(json.loads(path.read_text())["runs"], key=lambda run: run["episode_return"])
+    case, family = _family(order, "pd")
+    gait = FourierGait.from_params(best["params"], n_joints=family.family.n_joints).with_order(order)
+    return np.append(family.family.params_of(gait, tolerance=1e-8),
+                     case.max_joint_angle * np.log(best["period"] / family.seed_period))
+
+
+def start_phase_returns(gait: FourierGait, period: float, phases: int, control: str) -> list[float]:
+    """Episode returns of ``gait`` begun at ``phases`` evenly spaced points of its cycle (0 first)."""
+    grid = np.linspace(0, 2 * np.pi, 256, endpoint=False)
+    return [swimmer_v5_return(FourierGait.from_shapes(grid, gait.shape((grid + shift) % (2 * np.pi)), gait.order),
+                              period, control=control)
+            for shift in np.linspace(0, 2 * np.pi, phases, endpoint=False)]
+
+
+def family_run(order: int, start: np.ndarray, max_evaluations: int, control: str = "pd",
+               initial_radius: float = 0.4) -> dict:
     """COBYQA from ``start`` in the order-``order`` family, the joints tracked by ``control``; its best gait."""
     case, family = _family(order, control)
     seed_value = _value(case, family, family.seed_params)
     found = minimize(lambda x: -_value(case, family, x), start, method="COBYQA",
-                     options={"initial_tr_radius": 0.4, "final_tr_radius": 1e-3, "maxfev": max_evaluations})
+                     options={"initial_tr_radius": initial_radius, "final_tr_radius": 1e-3,
+                              "maxfev": max_evaluations})
     gait, period = family.gait(found.x), family.period(found.x)
     run = {"order": order, "control": control, "evaluations": int(found.nfev),
            "improvement": -found.fun / seed_value - 1,
@@ -85,16 +115,33 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--control", choices=("pd", "computed_torque"), default="pd")
     parser.add_argument("--jobs", type=int, default=1)
+    parser.add_argument("--warm-start", type=Path, help="start each order from this output's best gait")
+    parser.add_argument("--initial-radius", type=float, default=0.4)
+    parser.add_argument("--start-phases", type=int, default=0, help="score each order's best from K start phases")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     started = time.perf_counter()
-    tasks = [(order, start) for order in args.orders for start in starts_of(order, args.starts, args.seed)]
-    runs = Parallel(n_jobs=args.jobs)(delayed(family_run)(order, start, args.max_evaluations, args.control)
+    if args.warm_start is not None:
+        tasks = [(order, warm_start(order, args.warm_start)) for order in args.orders]
+    else:
+        tasks = [(order, start) for order in args.orders for start in starts_of(order, args.starts, args.seed)]
+    runs = Parallel(n_jobs=args.jobs)(delayed(family_run)(order, start, args.max_evaluations, args.control,
+                                                          args.initial_radius)
                                       for order, start in tasks)
     best = {order: max((r for r in runs if r["order"] == order), key=lambda r: r["episode_return"])
             for order in args.orders}
+    if args.start_phases:
+        gaits = {order: FourierGait.from_params(run["params"], n_joints=_family(order, "pd")[1].family.n_joints)
+                 for order, run in best.items()}
+        phased = Parallel(n_jobs=args.jobs)(delayed(start_phase_returns)(gaits[order], run["period"],
+                                                                         args.start_phases, args.control)
+                                            for order, run in best.items())
+        for run, returns in zip(best.values(), phased, strict=True):
+            run["start_phase_returns"] = returns
     for order, run in best.items():
-        print(f"order {order}: best episode return {run['episode_return']:.1f}")
+        spread = (f" (from {args.start_phases} start phases: {min(run['start_phase_returns']):.1f}-"
+                  f"{max(run['start_phase_returns']):.1f})" if args.start_phases else "")
+        print(f"order {order}: best episode return {run['episode_return']:.1f}{spread}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"command": "python studies/swimmer_v5_family.py " + " ".join(argv or []),
                                     "wall_time_s": round(time.perf_counter() - started, 1), "runs": runs},

@@ -106,6 +106,20 @@ def test_swimmer_v5_family_study_scores_each_start_by_its_episode_return(tmp_pat
     assert all(run["largest_joint_angle"] <= 1.745 and run["episode_return"] > 0 for run in runs)
     assert runs[0]["improvement"] >= 0 and len(runs[0]["params"]) == 2 * (2 * 3 + 1)
     assert all(run["control"] == "pd" for run in runs)
+    # warm-started one order up: its first point is the earlier best gait itself, begun at phase 0 as before;
+    # begun half a cycle later a half-wave symmetric gait is its own mirror image, which swims as far
+    warm = tmp_path / "warm.json"
+    subprocess.run([sys.executable, str(STUDIES / "swimmer_v5_family.py"), "--orders", "5", "--warm-start", str(out),
+                    "--max-evaluations", "1", "--start-phases", "4", "--out", str(warm)],
+                   capture_output=True, text=True, check=True, timeout=300)
+    (lifted,) = json.loads(warm.read_text())["runs"]
+    earlier = max(runs, key=lambda run: run["episode_return"])
+    assert lifted["order"] == 5 and lifted["period"] == pytest.approx(earlier["period"], rel=1e-9)
+    assert lifted["episode_return"] == pytest.approx(earlier["episode_return"], abs=1e-6)
+    returns = lifted["start_phase_returns"]
+    assert returns[0] == pytest.approx(lifted["episode_return"], abs=1e-6)
+    assert returns[2] == pytest.approx(returns[0], abs=1e-6) and returns[3] == pytest.approx(returns[1], abs=1e-6)
+    assert abs(returns[1] - returns[0]) > 1  # a quarter cycle later: another start, another episode
     # the joints on inverse dynamics: the seed's return is its own (the PD law realises a smaller gait: 241.8)
     subprocess.run([sys.executable, str(STUDIES / "swimmer_v5_family.py"), "--orders", "1", "--starts", "1",
                     "--max-evaluations", "1", "--control", "computed_torque", "--out", str(out)],
