@@ -262,4 +262,4 @@ def test_figure_tracking_follows_a_csv_path(tmp_path):
     both = _run("figure", "tracking", "--quick", "--drag-only", "--path", file, "--out", tmp_path / "both")
     assert both.exit_code == 1 and "'--drag-path'" in both.stderr
     negative = _run("figure", "tracking", "--quick", "--warmup-turns", "-1", "--out", tmp_path / "negative")
-    assert negative.exit_code == 1 and "'warmup_turns'" in negative.stderr
+    assert negative.exit_code == 1 and "The '--warmup-turns' option must be an int >= 0" in negative.stderr
