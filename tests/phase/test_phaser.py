@@ -273,3 +273,24 @@ def test_phaser_files_of_version_1_rebuild_the_waveform(tmp_path):
     online = OnlinePhaser(loaded)
     phases = np.array([online.update(shape) for shape in other.shape][100:], dtype=float)
     assert np.median(circular_error(phases, other.phase[100:])) < 0.07
+
+
+def test_a_failed_fit_leaves_the_phaser_as_it_was():
+    """Checks that only the data can fail (too few cycles, a section channel or level it lacks) come part-way
+    through fitting: a failed refit keeps the earlier fit, and a failed first fit leaves the phaser unfitted."""
+    from geogait import GeogaitError
+
+    _, x = oscillator(0)
+    phaser = Phaser().fit(x)
+    before = phaser.transform(x)
+    three_channels = x[:, :3]
+    with pytest.raises(GeogaitError, match="min_cycles"):
+        phaser.fit(three_channels[:200])
+    np.testing.assert_array_equal(phaser.transform(x), before)
+    with pytest.raises(GeogaitError):
+        phaser.fit(np.column_stack([x[:, 0], np.ones(len(x))]))  # a constant channel
+    np.testing.assert_array_equal(phaser.transform(x), before)
+    fresh = Phaser(section_channel=5)
+    with pytest.raises(GeogaitError, match="section_channel"):
+        fresh.fit(x)
+    assert not fresh.__sklearn_is_fitted__() and not any(k.endswith("_") for k in vars(fresh))

@@ -231,20 +231,21 @@ class Phaser(Estimator):
         self.validate()
         order, min_cycles, edge = self.order, self.min_cycles, self.edge_cycles
         records, _ = _as_records(x, "x", f"{_OWNER}.fit")
-        self.n_channels_ = records[0].shape[1]
-        self._fit_scaling(records)
-        theta = [_protophase(self._zscore(r)) for r in records]
-        self._check_cycles(theta, min_cycles)
-        self.samples_per_cycle_ = sum(len(r) for r in records) / self.n_cycles_
-        keep = self._interior(theta, edge)
-        self.channel_coefficients_ = _density_coefficients(_stack(theta, keep), order)
-        phi = [_correct(t, self.channel_coefficients_) for t in theta]
-        self._fit_combination(_stack(phi, keep))
-        combined = [self._combine(p) for p in phi]
-        self.final_coefficients_ = _density_coefficients(_stack(combined, keep), order)
-        final = [_correct(c, self.final_coefficients_) for c in combined]
-        self.zero_ = self._fit_zero(records, final, keep)
-        self._fit_waveform(records, final, keep)
+        with self._unchanged_on_error():  # (checks on the data come as it is fitted: a failure restores the fit)
+            self.n_channels_ = records[0].shape[1]
+            self._fit_scaling(records)
+            theta = [_protophase(self._zscore(r)) for r in records]
+            self._check_cycles(theta, min_cycles)
+            self.samples_per_cycle_ = sum(len(r) for r in records) / self.n_cycles_
+            keep = self._interior(theta, edge)
+            self.channel_coefficients_ = _density_coefficients(_stack(theta, keep), order)
+            phi = [_correct(t, self.channel_coefficients_) for t in theta]
+            self._fit_combination(_stack(phi, keep))
+            combined = [self._combine(p) for p in phi]
+            self.final_coefficients_ = _density_coefficients(_stack(combined, keep), order)
+            final = [_correct(c, self.final_coefficients_) for c in combined]
+            self.zero_ = self._fit_zero(records, final, keep)
+            self._fit_waveform(records, final, keep)
         return self
 
     def _fit_scaling(self, records: list[np.ndarray]) -> None:
