@@ -129,7 +129,8 @@ class InSituOptimizer(Estimator):
     gamma_threshold : float
         Γ* (default 1/2).
     order : int
-        Fourier order of the gait family optimised (the seed is embedded in it).
+        Fourier order of the gait family optimised (the seed is embedded in it; a seed of higher order is
+        refused rather than cut).
     family : {"auto", "free", "symmetric", "mirror"}
         Gait family searched. ``"symmetric"``: the front–back symmetric, rotation-free family about
         the seed's symmetry phase (the seed must be a member). ``"mirror"``: the half-wave symmetric
@@ -436,6 +437,9 @@ class InSituOptimizer(Estimator):
                                   checkpoint_tag=checkpoint_tag)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
         gait = robot.gait.with_order(self.order)
+        if np.abs(gait.with_order(robot.gait.order).coefficients - robot.gait.coefficients).max() > 0:
+            raise fail("order", owner, f"at least the order of the robot's seed gait ({robot.gait.order}), whose "
+                       "higher harmonics would be dropped", self.order)
         r_max = self._joint_limit(robot, owner)
         if gait.joint_limit().max() > r_max + 1e-12:
             raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
@@ -453,8 +457,9 @@ class InSituOptimizer(Estimator):
             raise fail("robot", owner, "a seed gait inside the robot's feasible region (its system's singular set's "
                        "margin, or the region it declares; e.g. the system's own seed_gait())",
                        "a seed gait that leaves it")
-        robot.set_gait(gait)
         scale = self._shape_scale(gait)
+        check = self._model_class_check(robot, gait, period, period_range, owner)
+        robot.set_gait(gait)  # (every check passed: a refused run leaves the robot as it was)
         state = RunState(gait=gait, radius=self.trust_radius * scale,
                          model=run_model(self.model, gait, period, family, scale),
                          n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
@@ -464,7 +469,7 @@ class InSituOptimizer(Estimator):
                          climb=new_climb(self, scale), rng=np.random.default_rng(self.random_state))
         if excites:
             state.exploration = Exploration(self._exploration_std() * scale, gait.n_joints, state.rng)
-        state.check = self._model_class_check(robot, gait, period, period_range, owner)
+        state.check = check
         if state.check is not None:  # the test's plan runs the start's settle cycles
             state.settle_left = 0
         return CycleLoop(self, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
