@@ -269,3 +269,22 @@ def test_the_gait_model_contract_is_checked_in_one_place():
         InSituOptimizer(model=Partial(), gate="cycles").validate()
     with pytest.raises(GeogaitError, match=r"'model' parameter of PathTracker.*None or an unfitted gait model"):
         PathTracker(model=Partial()).validate()
+
+
+@pytest.mark.parametrize(("factory", "match"), [
+    (lambda: ResistanceModel.from_swimmer(SWIMMER, residual_degree=0, residual_symmetry="mirror"),
+     "'residual_degree' parameter of ResistanceModel"),
+    (lambda: ShapeSpaceModel(smoothing_order=50), "'smoothing_order' parameter of ShapeSpaceModel"),
+    (lambda: ResistanceModel.from_swimmer(SWIMMER, smoothing_order=50), "'smoothing_order' parameter of Resistance"),
+    (lambda: AdaptiveGaitModel(), "'gait' parameter of AdaptiveGaitModel"),
+    (lambda: BatchGaitModel(), "'gait' parameter of BatchGaitModel"),
+], ids=["residual without weights", "shape-space smoothing", "resistance smoothing", "adaptive", "batch"])
+def test_a_failed_first_partial_fit_leaves_the_model_unfitted_as_it_was(factory, match):
+    """A hyper-parameter only the data can judge, or data too short to estimate the gait from: the first
+    partial_fit raises, naming the model's own parameter, and the model is exactly as before (not half-fitted)."""
+    model = factory()
+    before = dict(vars(model))
+    short = slice(None) if "gait" not in match else slice(0, 3)
+    with pytest.raises(GeogaitError, match=match):
+        model.partial_fit(RUN.phase[short], RUN.shape[short], RUN.shape_velocity[short], RUN.body_velocity[short])
+    assert vars(model).keys() == before.keys() and not model.__sklearn_is_fitted__()

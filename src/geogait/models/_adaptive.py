@@ -9,7 +9,7 @@ from .._docs import fill_doc
 from .._estimator import Real
 from .._validation import MAX_MAGNITUDE, check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
-from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase, check_finite_banks
+from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase, check_finite_banks, unfitted_unchanged_on_error
 from ._features import n_regressors, regressors
 from ._online_gamma import OnlineGamma
 from ._phase import phase_baseline
@@ -134,6 +134,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
 
+    @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn from samples in time order (one sample or a batch; optional leading trial axes).
 

@@ -129,6 +129,23 @@ def gamma(error_model, error_baseline) -> np.ndarray:
     return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
 
 
+def check_smoothing_order(smoothing_order: int, n_windows: int, owner: str) -> None:
+    """The Fourier smoothing along φ needs at least 2 K + 1 windows."""
+    if 2 * smoothing_order + 1 > n_windows:
+        raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}", smoothing_order)
+
+
+def unfitted_unchanged_on_error(partial_fit):
+    """Wrap a gait model's ``partial_fit``: its first call (on a model not fitted yet) leaves the model unfitted, as
+    it was, when it raises part-way (a hyper-parameter only the data can judge, a model that breaks down)."""
+    @functools.wraps(partial_fit)
+    def wrapper(self, *args, **kwargs):
+        if hasattr(self, "batch_shape_"):
+            return partial_fit(self, *args, **kwargs)
+        with self._unchanged_on_error():
+            return partial_fit(self, *args, **kwargs)
+    return wrapper
+
 class PhaseWindowModel(Estimator):
     """What every phase-window model shares: windows, sample checks, the RLS rounds across windows,
     Fourier smoothing along φ and the model file format."""
@@ -148,9 +165,7 @@ class PhaseWindowModel(Estimator):
         width = 4 * np.pi / n_windows if self.window_width is None else float(self.window_width)
         if width < 2 * np.pi / n_windows - 1e-12:
             raise fail("window_width", owner, f">= the window spacing 2π/{n_windows}", width)
-        if 2 * self.smoothing_order + 1 > n_windows:
-            raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}",
-                       self.smoothing_order)
+        check_smoothing_order(self.smoothing_order, n_windows, owner)
         return PhaseWindows(n_windows, width)
 
     def _check_samples(self, phase, *arrays, names, owner):

@@ -7,7 +7,7 @@ import numpy as np
 from .._docs import fill_doc
 from .._estimator import Real
 from ..gaits import FourierGait
-from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase
+from ._base import GAIT_MODEL_CONSTRAINTS, GaitModelBase, unfitted_unchanged_on_error
 from ._features import n_regressors, regressors
 from ._phase import phase_baseline
 
@@ -78,6 +78,7 @@ class BatchGaitModel(GaitModelBase):
         self.phase_model_ = phase_baseline(self, 1.0)
         self.n_samples_seen_ = 0
 
+    @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Add samples (batch + (n,) arrays) to the normal equations and re-solve. Returns ``self``.
 

@@ -48,7 +48,14 @@ from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..simulate import cycle_velocity
 from ..systems import BODY_FRAMES, FunctionSystem, PurcellSwimmer
-from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_samples
+from ._base import (
+    FORMAT,
+    FORMAT_VERSION,
+    SampleModel,
+    check_samples,
+    check_smoothing_order,
+    unfitted_unchanged_on_error,
+)
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
 from ._shape_space import (
@@ -278,6 +285,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
 
     # -- validation ---------------------------------------------------------------------------
     def _check_param_combinations(self) -> None:
+        check_smoothing_order(self.smoothing_order, self.n_windows, type(self).__name__)
         if self.link_lengths is None:
             raise fail("link_lengths", type(self).__name__, "the chain's link lengths (the model's known geometry; "
                        "e.g. ResistanceModel.from_swimmer(swimmer))", None)
@@ -390,6 +398,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         self.n_samples_seen_ = 0
         self._system = None
 
+    @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Predict the new samples (for Γ), add them to the memory and refit the drag coefficients.
 

@@ -59,7 +59,16 @@ from .._estimator import Estimator, Integer, Options, Real
 from .._validation import GeogaitError, check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import SERIES_THRESHOLD, gauss_phases, integrate_cycle
-from ._base import FORMAT, FORMAT_VERSION, SampleModel, check_finite_banks, check_samples, check_stored_sizes
+from ._base import (
+    FORMAT,
+    FORMAT_VERSION,
+    SampleModel,
+    check_finite_banks,
+    check_samples,
+    check_smoothing_order,
+    check_stored_sizes,
+    unfitted_unchanged_on_error,
+)
 from ._displacement import phase_basis
 from ._online_gamma import OnlineGamma
 from ._phase import PhaseModel
@@ -274,6 +283,9 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         return out
 
     # -- fitting ------------------------------------------------------------------------------
+    def _check_param_combinations(self) -> None:
+        check_smoothing_order(self.smoothing_order, self.n_windows, type(self).__name__)
+
     def _reset(self, batch: tuple, n_joints: int):
         self.validate()
         exponents = monomial_exponents(n_joints, self.degree)
@@ -307,6 +319,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         """Regressors x = f(r/s) ⊗ ṙ, ``(..., m d)`` (row-major: entry l d + j is f_l ṙ_j)."""
         return polynomial_features(shape, shape_velocity, self.exponents_, self.shape_scale)
 
+    @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
         """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
 
