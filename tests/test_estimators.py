@@ -225,7 +225,7 @@ def test_save_load_predicts_identically(name, tmp_path):
     path = estimator.save(tmp_path / "estimator.npz")
     loaded = type(estimator).load(path)
     assert type(loaded) is type(estimator)
-    assert loaded.get_params(deep=False).keys() == estimator.get_params(deep=False).keys()
+    assert repr(loaded.get_params(deep=False)) == repr(estimator.get_params(deep=False))  # values, not only names
     for a, b in zip(use(estimator, kind), use(loaded, kind), strict=True):
         np.testing.assert_array_equal(a, b)
     if kind != "phaser":  # the gait-model format is one family: load_model reads every member

@@ -107,12 +107,16 @@ class BatchGaitModel(GaitModelBase):
         return self
 
     def _state(self) -> dict:
-        return {"gram": self.gram_, "moment": self.moment_, "gait": self.gait_.coefficients,
-                "n_samples_seen": self.n_samples_seen_,
-                **self._baseline_state()}
+        state = {"gram": self.gram_, "moment": self.moment_, "gait": self.gait_.coefficients,
+                 "n_samples_seen": self.n_samples_seen_,
+                 **self._baseline_state()}
+        if self.gait is not None:  # (the hyper-parameter, which a refit of the loaded model uses again)
+            state["initial_gait"] = self.gait.coefficients
+        return state
 
     def _set_state(self, state, metadata):
         batch, d = tuple(metadata["batch_shape"]), int(metadata["n_joints"])
+        self.gait = FourierGait(state["initial_gait"]) if "initial_gait" in state else None
         self._reset(batch, d, FourierGait(state["gait"]))
         for name in ("gram", "moment"):
             saved, current = np.asarray(state[name], dtype=float), getattr(self, f"{name}_")

@@ -657,6 +657,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
                 "memory": self._memory, "residual_scale": self.residual_scale_, **self._baseline_state()}
 
     def _set_state(self, state: dict, metadata: dict) -> None:
+        self.link_lengths = tuple(self.link_lengths)  # (as given; JSON kept it as a list)
         self._reset(int(metadata["n_joints"]))
         parameters = np.asarray(state["parameters"], dtype=float)
         if parameters.shape != self.parameters_.shape:
