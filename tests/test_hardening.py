@@ -450,6 +450,15 @@ def test_degrees_given_as_radians_are_warned_about(run, config, tmp_path):
     (lambda r: (r.phase[:0], r.shape[:0], r.shape_velocity[:0], r.body_velocity[:0]), r"at least one sample"),
     (lambda r: (r.phase, r.shape.T, r.shape_velocity, r.body_velocity), r"'shape' .*\(transposed\?"),
     (lambda r: (r.phase, r.shape, r.shape_velocity, r.body_velocity.T), r"'body_velocity' .*\(transposed\?"),
+    (lambda r: (r.phase, r.shape + 1j, r.shape_velocity, r.body_velocity), r"'shape' .* real numbers. Got 'complex"),
+    (lambda r: (r.phase.astype(str), r.shape, r.shape_velocity, r.body_velocity), r"'phase' .* Got 'text \(<U"),
+    (lambda r: (r.phase, r.shape, r.shape_velocity.astype(object).astype(str).astype(object), r.body_velocity),
+     r"'shape_velocity' .* Got 'text or complex numbers among"),
+    (lambda r: (r.phase[None, :0], r.shape[None, :0], r.shape_velocity[None, :0], r.body_velocity[None, :0]),
+     r"at least one sample"),
+    (lambda r: (r.phase[None][:0], r.shape[None][:0], r.shape_velocity[None][:0], r.body_velocity[None][:0]),
+     r"'phase' .* at least one trial along each leading axis"),
+    (lambda r: (r.phase, r.shape[:, :0], r.shape_velocity[:, :0], r.body_velocity), r"'shape' .* at least one column"),
 ])
 def test_partial_fit_bad_arrays_have_clear_errors(run, arrays, message):
     with pytest.raises(GeogaitError, match=message):
@@ -698,3 +707,24 @@ def test_simulate_keeps_an_earlier_simulation_unless_told_to_replace_it(tmp_path
     assert replaced.exit_code == 0, replaced.output
     assert (out / "trajectory.csv").read_bytes() != before
     assert json.loads((out / "manifest.json").read_text())["config"]["seed"] == 3
+
+
+def test_helpers_refuse_what_would_come_back_as_nan(run):
+    """A negative or NaN residual variance, a NaN phase, a negative derivative order: each a clear error, where
+    each once returned NaN (or a silent answer) for the caller to carry on with."""
+    from geogait.gaits import fourier_basis
+    from geogait.models import ResistanceModel, ShapeSpaceModel
+    from geogait.systems import PurcellSwimmer
+
+    arrays = (run.phase, run.shape, run.shape_velocity, run.body_velocity)
+    for model in (AdaptiveGaitModel(gait=GAIT).fit(*arrays), ShapeSpaceModel().fit(*arrays),
+                  ResistanceModel.from_swimmer(PurcellSwimmer(3)).fit(*arrays)):
+        for variance in (-1.0, np.nan, "x"):
+            with pytest.raises(GeogaitError, match=r"'residual_variance' parameter .* a variance >= 0"):
+                model.rotation_std(GAIT, variance)
+        assert np.isfinite(model.rotation_std(GAIT, 0.01))
+    with pytest.raises(GeogaitError, match=r"'phase' parameter of fourier_basis must be finite"):
+        GAIT.shape(np.array([0.0, np.nan]))
+    with pytest.raises(GeogaitError, match=r"'derivative' parameter of fourier_basis must be an int >= 0"):
+        fourier_basis(0.0, 2, derivative=-1)
+    np.testing.assert_allclose(fourier_basis(0.3, 1, derivative=1), [0.0, -np.sin(0.3), np.cos(0.3)])

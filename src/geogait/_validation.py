@@ -61,6 +61,23 @@ def check_float(
     return value
 
 
+def _not_real(value) -> str | None:
+    """What makes ``value`` other than real numbers (complex numbers, text), or None."""
+    dtype = getattr(value, "dtype", None)
+    if not isinstance(dtype, np.dtype):  # a list, a scalar: as NumPy reads it (a ragged one fails later)
+        try:
+            dtype = np.asarray(value).dtype
+        except (TypeError, ValueError):
+            return None
+    if dtype.kind == "c":
+        return "complex numbers"
+    if dtype.kind in "USV":
+        return f"text ({dtype}), not numbers"
+    if dtype.kind == "O" and any(isinstance(item, str | bytes | complex) for item in np.asarray(value).flat):
+        return "text or complex numbers among its values"
+    return None
+
+
 def check_array(
     value,
     name: str,
@@ -79,6 +96,9 @@ def check_array(
     """
     if value is None:
         raise fail(name, owner, "an array of real numbers", None)
+    what = _not_real(value)
+    if what is not None:  # (float() would drop an imaginary part or read "1.5" as a number)
+        raise fail(name, owner, "an array of real numbers", what)
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):

@@ -135,6 +135,17 @@ def check_smoothing_order(smoothing_order: int, n_windows: int, owner: str) -> N
         raise fail("smoothing_order", owner, f"at most (n_windows - 1) / 2 = {(n_windows - 1) // 2}", smoothing_order)
 
 
+def check_residual_variance(value, owner: str):
+    """σ²_ω of ``rotation_std``: a variance >= 0 (scalar or batch; inf where nothing is known yet)."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise fail("residual_variance", owner, "a variance >= 0 (inf: not known yet)", value) from None
+    if not np.all(array >= 0):  # (NaN fails too)
+        raise fail("residual_variance", owner, "a variance >= 0 (inf: not known yet)", value)
+    return array
+
+
 def unfitted_unchanged_on_error(partial_fit):
     """Wrap a gait model's ``partial_fit``: its first call (on a model not fitted yet) leaves the model unfitted, as
     it was, when it raises part-way (a hyper-parameter only the data can judge, a model that breaks down)."""
@@ -426,12 +437,17 @@ def check_samples(model, phase, *arrays, names, owner):
         phase = phase[..., None]
     if phase.shape[-1] == 0:
         raise fail("phase", owner, "at least one sample (n >= 1)", f"shape {phase.shape}")
+    if 0 in phase.shape[:-1]:
+        raise fail("phase", owner, "at least one trial along each leading axis", f"shape {phase.shape}")
     out = [phase]
     for array, name in zip(arrays, names, strict=True):
         width = 3 if name == "body_velocity" else None
         value = check_array(array, name, owner, trailing=(width,), limit=MAX_MAGNITUDE)
         if single:
             value = value[..., None, :]
+        if value.shape[-1] == 0:
+            raise fail(name, owner, "an array with at least one column (a shape of one joint or more)",
+                       f"shape {value.shape}")
         if value.shape[:-1] != phase.shape:
             columns = "3" if width else "d"
             hint = (" (transposed? samples go along the first axis)"
