@@ -224,3 +224,18 @@ def test_the_period_changes_only_at_a_cycle_boundary_and_survives_a_saved_state(
     again = copy.next_cycle()
     for name in ("time", "shape", "shape_velocity", "body_velocity", "pose"):
         np.testing.assert_array_equal(getattr(again, name), getattr(expected, name))
+
+
+def test_simulate_names_a_bad_argument_as_its_own():
+    """A float for the perturbation (its std, as Perturbation.from_std takes it), an array of drag ratios, no
+    cycles: each a clear error naming the argument, where they once failed deep inside."""
+    from geogait import GeogaitError
+
+    swimmer = PurcellSwimmer(3)
+    with pytest.raises(GeogaitError, match=r"'perturbation' parameter of SwimmerStream must be a Perturbation"):
+        simulate(swimmer, seed_gait(2), 1, perturbation=0.1)
+    with pytest.raises(GeogaitError, match=r"'n_cycles' parameter of simulate must be an int >= 1"):
+        simulate(swimmer, seed_gait(2), 0)
+    with pytest.raises(GeogaitError, match=r"'drag_ratios' parameter of DragRatioSchedule must be a non-empty"):
+        DragRatioSchedule(swimmer, 2.0, 10)
+    assert DragRatioSchedule(swimmer, np.array([2.0, 3.0]), 10).drag_ratios == (2.0, 3.0)

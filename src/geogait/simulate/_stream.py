@@ -51,7 +51,7 @@ class DragRatioSchedule:
     cycles_per_environment: int = 40
 
     def __post_init__(self):
-        if not self.drag_ratios:
+        if np.ndim(self.drag_ratios) != 1 or not np.size(self.drag_ratios):
             raise fail("drag_ratios", "DragRatioSchedule", "a non-empty sequence", self.drag_ratios)
         for value in self.drag_ratios:
             check_float(value, "drag_ratios", "DragRatioSchedule", low=0, low_open=True)
@@ -136,6 +136,9 @@ class SwimmerStream:
         self.cycle_period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
         if n_trials is not None:
             check_int(n_trials, "n_trials", owner, minimum=1)
+        if perturbation is not None and not isinstance(perturbation, Perturbation):
+            raise fail("perturbation", owner, "a Perturbation (e.g. Perturbation.from_std(0.15)) or None",
+                       type(perturbation).__name__)
         self.system = system
         self.environment = environment
         self.perturbation = Perturbation() if perturbation is None else perturbation
@@ -410,6 +413,7 @@ def simulate(system: System, gait: FourierGait, n_cycles: int, **options) -> Tra
     >>> run.shape.shape, run.body_velocity.shape
     ((200, 2), (200, 3))
     """
+    n_cycles = check_int(n_cycles, "n_cycles", "simulate", minimum=1)
     return SwimmerStream(system, gait, **options).next_cycles(n_cycles)
 
 
