@@ -33,6 +33,11 @@ def fourier_basis(phase, order: int, derivative: int = 0) -> np.ndarray:
         Order of the φ-derivative of the basis (0 gives the basis itself).
     """
     phase = np.asarray(phase, dtype=float)
+    if not np.all(np.isfinite(phase)):  # (a NaN phase would make every shape NaN downstream)
+        raise fail("phase", "fourier_basis", "finite (no NaN or inf)",
+                   f"{int(phase.size - np.count_nonzero(np.isfinite(phase)))} non-finite value(s)")
+    if isinstance(derivative, bool) or not isinstance(derivative, int | np.integer) or derivative < 0:
+        raise fail("derivative", "fourier_basis", "an int >= 0 (the order of the φ-derivative)", derivative)
     k = np.arange(1, order + 1)
     angle = phase[..., None] * k
     cos, sin = np.cos(angle), np.sin(angle)

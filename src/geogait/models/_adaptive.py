@@ -9,7 +9,14 @@ from .._docs import fill_doc
 from .._estimator import Real
 from .._validation import MAX_MAGNITUDE, check_array, check_choice, check_float, fail, warn_if_degrees
 from ..gaits import FourierGait
-from ._base import GAIT_MODEL_CONSTRAINTS, MAX_PHASE, GaitModelBase, check_finite_banks, unfitted_unchanged_on_error
+from ._base import (
+    GAIT_MODEL_CONSTRAINTS,
+    MAX_PHASE,
+    GaitModelBase,
+    check_finite_banks,
+    check_residual_variance,
+    unfitted_unchanged_on_error,
+)
 from ._features import n_regressors, regressors
 from ._online_gamma import OnlineGamma
 from ._phase import phase_baseline
@@ -252,6 +259,7 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         accepted for the common signature of the gait models (:class:`ShapeSpaceModel` answers for
         any gait); this model answers for its own nominal gait.
         """
+        residual_variance = check_residual_variance(residual_variance, "AdaptiveGaitModel.rotation_std")
         self._check_is_fitted()
         p00 = self.covariance_[..., 0, 0]
         scale = 2 * np.pi / (p00.shape[-1] * self.phase_rate)

@@ -52,6 +52,7 @@ from ._base import (
     FORMAT,
     FORMAT_VERSION,
     SampleModel,
+    check_residual_variance,
     check_samples,
     check_smoothing_order,
     unfitted_unchanged_on_error,
@@ -631,6 +632,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         :math:`\sqrt{g^T C g}` with the parameters' covariance C, which already carries the measured noise
         (``residual_variance``, the optimiser's σ²_ω, is accepted for the common interface and not needed).
         """
+        if residual_variance is not None:
+            check_residual_variance(residual_variance, f"{type(self).__name__}.rotation_std")
         self._check_is_fitted()
         nodes, step = gauss_phases(self.resolution)
         shape, rate = gait.shape(nodes), gait.velocity(nodes)

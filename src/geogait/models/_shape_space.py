@@ -64,6 +64,7 @@ from ._base import (
     FORMAT_VERSION,
     SampleModel,
     check_finite_banks,
+    check_residual_variance,
     check_samples,
     check_smoothing_order,
     check_stored_sizes,
@@ -401,6 +402,7 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         :math:`\sigma_\omega \sqrt{g^T P g}`; with a symmetry, :math:`W_{\cdot\omega} = B w` and the
         block's covariance P of w give :math:`\sigma_\omega \sqrt{(B^T g)^T P\, B^T g}`.
         """
+        residual_variance = check_residual_variance(residual_variance, f"{type(self).__name__}.rotation_std")
         self._check_is_fitted()
         nodes, step = gauss_phases(self.resolution)
         g = self._features(gait.shape(nodes), gait.velocity(nodes)).sum(axis=(0, 1)) * step / 2
