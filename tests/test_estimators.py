@@ -218,6 +218,19 @@ def test_fit_returns_self_and_use_leaves_state_unchanged(name):
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize("name", FITTABLE)
+def test_scikit_learns_own_fitted_check_reads_our_estimators(name):
+    from sklearn.exceptions import NotFittedError
+    from sklearn.utils.validation import check_is_fitted as sklearn_check_is_fitted
+
+    factory, kind = ESTIMATORS[name]
+    estimator = factory()
+    if name not in STATELESS:
+        with pytest.raises(NotFittedError):
+            sklearn_check_is_fitted(estimator)
+    sklearn_check_is_fitted(estimator.fit(*data(kind)))
+
+
 @pytest.mark.parametrize("name", SAVEABLE)
 def test_save_load_predicts_identically(name, tmp_path):
     factory, kind = ESTIMATORS[name]

@@ -192,6 +192,14 @@ class Estimator:
     def __sklearn_is_fitted__(self) -> bool:
         return hasattr(self, self._fitted_attribute)
 
+    def __sklearn_tags__(self):
+        """scikit-learn's tags (read by scikit-learn ≥ 1.6, e.g. in ``sklearn.utils.validation.check_is_fitted``):
+        no estimator type of its own (several arrays in, not ``X, y``), and fitted only where there is a ``fit``."""
+        from sklearn.utils import Tags, TargetTags
+
+        return Tags(estimator_type=None, target_tags=TargetTags(required=False),
+                    requires_fit=callable(getattr(self, "fit", None)))
+
     def _check_is_fitted(self) -> None:
         check_is_fitted(self)
 
@@ -258,7 +266,8 @@ class Estimator:
 def check_is_fitted(estimator) -> None:
     """Raise the standard error unless ``estimator`` is fitted (``__sklearn_is_fitted__``)."""
     if not estimator.__sklearn_is_fitted__():
-        raise GeogaitError(f"This {type(estimator).__name__} is not fitted yet. Call 'fit' or 'partial_fit' first.")
+        calls = " or ".join(f"'{name}'" for name in ("fit", "partial_fit") if callable(getattr(estimator, name, None)))
+        raise GeogaitError(f"This {type(estimator).__name__} is not fitted yet. Call {calls} first.")
 
 
 def estimator_from_state(metadata: dict, state: dict, file_format: str | None = None):
