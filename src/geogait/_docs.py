@@ -95,7 +95,8 @@ def fill_doc(obj):
     if inspect.isclass(obj):
         for member in vars(obj).values():
             function = member.__func__ if isinstance(member, classmethod | staticmethod) else member
-            if inspect.isfunction(function):
+            while inspect.isfunction(function):  # (and the function a decorator wraps: documentation tools read it)
                 function.__doc__ = _filled(function.__doc__)
+                function = getattr(function, "__wrapped__", None)
     obj.__doc__ = _filled(obj.__doc__)
     return obj
