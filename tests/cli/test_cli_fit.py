@@ -177,3 +177,18 @@ def test_bad_options(tmp_path):
     log.write_text("a,b\n1,2\n")
     result = CliRunner().invoke(app, ["fit", str(log), "--shape", "a,b", "--out", str(tmp_path / "out")])
     assert result.exit_code == 1 and "'pose'" in result.stderr
+
+
+def test_fit_refuses_a_folder_whose_files_include_its_inputs(fitted, tmp_path):
+    """The fit replaces its folder's files as one set (mapping.json among them): a mapping read from that very
+    folder would have been overwritten, so the run is refused before anything is written."""
+    _, folder, _ = fitted
+    project = tmp_path / "project"
+    project.mkdir()
+    mapping = project / "mapping.json"
+    mapping.write_text((folder / "out" / "mapping.json").read_text())
+    before = mapping.read_bytes()
+    result = CliRunner().invoke(app, ["fit", str(folder / "log.csv"), "--mapping", str(mapping),
+                                      "--smoothing-window", "21", "--out", str(project)])
+    assert result.exit_code == 1 and "a file other than the inputs (it would be overwritten)" in result.stderr
+    assert mapping.read_bytes() == before and sorted(p.name for p in project.iterdir()) == ["mapping.json"]

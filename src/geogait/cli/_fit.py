@@ -17,7 +17,7 @@ from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._files import check_outputs, default_summary_path, describe_path_kind
 from .._validation import GeogaitError
 from ..io import read_log, read_log_for_prediction, resolve_mapping
-from ..learn import fit_log, predict_log
+from ..learn import LogFit, fit_log, predict_log
 from ..models import AdaptiveGaitModel
 from ..phase import Phaser
 from ._app import app
@@ -112,7 +112,10 @@ def fit(
     _check_log(log)  # (before the columns are judged against what the log must hold)
     columns = resolve_mapping(mapping, time=time_column, phase=phase, degrees=degrees, **names)
     output_folder(out)
+    # (the folder's files are replaced as one set: none of them may be an input, e.g. its own mapping.json)
     check_outputs({"--out": out}, [log, mapping], "fit")
+    for name in LogFit.OUTPUT_FILES:
+        check_outputs({"--out": Path(out) / name}, [log, mapping], "fit")
     data = read_log(log, columns, drop_nan=drop_nan, **log_options)
     result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
                      test_fraction=test_fraction, refit=refit)

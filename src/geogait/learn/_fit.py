@@ -264,6 +264,10 @@ class LogFit:
                          "first_test_row": int(part.row[held[0]]) if held.size else None})
         return rows
 
+    #: Every file :meth:`save` writes into its folder; an earlier fit's that this one does not write is removed.
+    OUTPUT_FILES = ("model.npz", "phaser.npz", "config.json", "mapping.json", "report.json", "phase.png",
+                    "nominal_gait.png", "body_velocity.png")
+
     def save(self, folder, *, mapping: ColumnMapping | None = None, extra: dict | None = None) -> dict[str, Path]:
         """Write model.npz, [phaser.npz], config.json, [mapping.json], report.json and the figures.
 
@@ -282,9 +286,7 @@ class LogFit:
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        members = ("model.npz", "phaser.npz", "config.json", "mapping.json", "report.json", "phase.png",
-                   "nominal_gait.png", "body_velocity.png")
-        with output_set(folder, last=("report.json",), members=members) as staged:  # all of them, or none
+        with output_set(folder, last=("report.json",), members=self.OUTPUT_FILES) as staged:  # all of them, or none
             paths = {"model": self.model.save(staged / "model.npz")}
             if self.phaser is not None:
                 paths["phaser"] = self.phaser.save(staged / "phaser.npz")
