@@ -248,6 +248,55 @@ def test_nan_rows_are_an_error_unless_dropped_which_splits_segments():
     np.testing.assert_allclose(np.hypot(log.body_velocity[:, 0], log.body_velocity[:, 1]), 0.1, atol=1e-4)
 
 
+def test_a_clock_column_is_read_in_seconds_once(run):
+    """Date-times carry their unit: a time_unit besides them would scale them twice (ṙ and ξ 1000× too large
+    with 'ms'), so it is refused; 's' is what they are read in. A first stamp that is NaT, dropped, does not
+    take every other stamp with it."""
+    from geogait import GeogaitError
+
+    frame = mocap_log(run)
+    stamped = frame.assign(t=pd.Timestamp("2025-01-01") + pd.to_timedelta(frame.t, unit="s"))
+    with pytest.raises(GeogaitError, match=r"'time_unit' parameter of read_log must be None or 's' for a column of "
+                                           r"date-times"):
+        read_log(stamped, **COLUMNS, time_unit="ms")
+    np.testing.assert_allclose(read_log(stamped, **COLUMNS, time_unit="s").time, run.time - run.time[0], atol=1e-6)
+    first_missing = stamped.assign(t=stamped.t.where(stamped.index > 0))
+    log = read_log(first_missing, **COLUMNS, drop_nan=True)
+    assert len(log.time) == len(frame) - 1 and log.time[0] == 0.0
+    np.testing.assert_allclose(log.time, run.time[1:] - run.time[1], atol=1e-6)
+
+
+def test_cells_that_are_not_real_numbers_and_repeated_columns_are_named():
+    from geogait import GeogaitError
+
+    frame = small_log(200)
+    for odd, what in ((1 + 2j, "boolean or complex value"), (True, "boolean or complex value")):
+        cells = frame.astype({"q0": object})
+        cells.loc[7, "q0"] = odd
+        with pytest.raises(GeogaitError, match=rf"'q0' parameter .* real numbers. Got '{what}.*row\(s\) \[7\]"):
+            read_log(cells, **COLUMNS)
+    with pytest.raises(GeogaitError, match="a column of complex numbers"):
+        read_log(frame.astype({"q1": complex}), **COLUMNS)
+    with pytest.raises(GeogaitError, match=r"used columns appear once each. Got \"the column\(s\) \['q1'\]"):
+        read_log(pd.concat([frame, frame[["q1"]]], axis=1), **COLUMNS)
+
+
+def test_a_robot_put_back_between_two_recordings_is_not_an_outlier():
+    """Two segments a minute apart, the robot 2 m further on in the second: the pose steps are checked within
+    each segment; the same jump inside one recording is still refused."""
+    from geogait import GeogaitError
+
+    frame = small_log(400)
+    moved = frame.copy()
+    moved.loc[200:, "t"] += 60.0
+    moved.loc[200:, "x"] += 2.0
+    assert read_log(moved, **COLUMNS).n_segments == 2
+    jump = frame.copy()
+    jump.loc[300:, "x"] += 2.0
+    with pytest.raises(GeogaitError, match=r"'x' parameter .*'a step of 2.* at row 300"):
+        read_log(jump, **COLUMNS)
+
+
 def test_gaps_split_the_log_into_independent_segments():
     frame = small_log(200)
     frame.loc[100:, "t"] += 0.5  # a 0.51 s step where 0.01 s is usual

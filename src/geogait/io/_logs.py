@@ -406,18 +406,22 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     limit = None if outlier_limit is None else check_float(outlier_limit, "outlier_limit", _READ, low=0,
                                                            low_open=True)
     frame = load_frame(source)
+    if scale != 1.0 and columns.time in frame.columns and _is_clock(frame[columns.time]):
+        raise fail("time_unit", _READ, "None or 's' for a column of date-times or time deltas (they are read in "
+                   "seconds)", time_unit)
     data = _numeric_columns(frame, columns)
     keep = _finite_rows(data, columns, options.drop_nan)
     rows = np.flatnonzero(keep)
     if rows.size < 2:
         raise fail("source", _READ, "a log with at least 2 usable rows", f"{rows.size} usable row(s)")
     data = {name: values[keep] for name, values in data.items()}
-    _check_plausible(data, columns, rows, limit)
+    _check_magnitudes(data, columns, rows)
     if scale != 1.0:
         data = _to_seconds(data, columns, scale)
     stamps = data[columns.time]
     _check_increasing(stamps, rows, columns.time)
     segment = _segments(stamps, rows, options.gap_factor)
+    _check_outliers(data, columns, rows, segment, limit)
     log = _build(data, columns, options, stamps, segment, rows)
     return log if time_unit is None else replace(log, time_unit="s")
 
@@ -463,9 +467,8 @@ def robust_outliers(values: np.ndarray, limit: float, floor: float = 0.0) -> np.
     return deviation > limit * spread
 
 
-def _check_plausible(data: dict[str, np.ndarray], columns: ColumnMapping, rows: np.ndarray,
-                     limit: float | None) -> None:
-    """Every used value but time within ±MAX_MAGNITUDE; with ``limit``, no robust outliers."""
+def _check_magnitudes(data: dict[str, np.ndarray], columns: ColumnMapping, rows: np.ndarray) -> None:
+    """Every used value but time within ±MAX_MAGNITUDE."""
     for name, values in data.items():
         if name == columns.time:  # only its steps matter (epoch stamps in ns are ~1e18)
             continue
@@ -473,20 +476,27 @@ def _check_plausible(data: dict[str, np.ndarray], columns: ColumnMapping, rows: 
         if big.size:
             raise fail(name, _READ, f"plausible values, within ±{MAX_MAGNITUDE:g}",
                        f"{values[big[0]]:g} at row {rows[big[0]]}")
+
+
+def _check_outliers(data: dict[str, np.ndarray], columns: ColumnMapping, rows: np.ndarray, segment: np.ndarray,
+                    limit: float | None) -> None:
+    """With ``limit``, no robust outliers among the values, nor among the pose steps within a segment (a robot
+    put back elsewhere between two recordings is not a jump)."""
     if limit is None:
         return
-    checked = {name: data[name] for name in columns.shape + (columns.shape_velocity or ())
+    checked = {name: (data[name], np.arange(len(rows))) for name in columns.shape + (columns.shape_velocity or ())
                + (columns.body_velocity or ())}
     if columns.pose is not None:
+        within = np.flatnonzero(np.diff(segment) == 0)  # step i: from sample i to i + 1
         for name in columns.pose[:2]:
-            checked[f"step of {name}"] = np.diff(data[name])
-    for name, values in checked.items():
+            checked[f"step of {name}"] = (np.diff(data[name])[within], within + 1)
+    for name, (values, where) in checked.items():
         if values.size < 8:
             continue
         bad = np.flatnonzero(robust_outliers(values, limit))
         if bad.size:
             i = bad[0]
-            row = rows[i + 1] if name.startswith("step of ") else rows[i]
+            row = rows[where[i]]
             raise fail(name.removeprefix("step of "), _READ,
                        f"plausible: within outlier_limit = {limit:g} robust standard deviations of the column's "
                        f"median{' step' if name.startswith('step of ') else ''} (raise or disable outlier_limit if "
@@ -559,16 +569,27 @@ def _numeric_columns(frame: pd.DataFrame, columns: ColumnMapping) -> dict[str, n
         raise GeogaitError(f"The 'source' parameter of {_READ} must be a table with the columns {wanted}. "
                            f"Got a table without {missing} instead; its columns are "
                            f"{[str(c) for c in frame.columns]}.")
+    repeated = [c for c in wanted if (frame.columns == c).sum() > 1]
+    if repeated:
+        raise fail("source", _READ, "a table whose used columns appear once each",
+                   f"the column(s) {[str(c) for c in repeated]} more than once")
     return {name: _as_float(frame[name], name, is_time=name == columns.time) for name in wanted}
 
 
 def _as_float(series: pd.Series, name: str, is_time: bool) -> np.ndarray:
     types = pd.api.types
-    if is_time and (types.is_datetime64_any_dtype(series) or types.is_timedelta64_dtype(series)):
-        delta = series - series.iloc[0]
+    if is_time and _is_clock(series):
+        delta = series - series.dropna().iloc[0] if series.notna().any() else series - series.iloc[0]
         return delta.dt.total_seconds().to_numpy(float)
     if pd.api.types.is_bool_dtype(series):
         raise fail(name, _READ, "a numeric column", "a column of booleans")
+    if types.is_complex_dtype(series):
+        raise fail(name, _READ, "a numeric column of real numbers", "a column of complex numbers")
+    if series.dtype == object:
+        odd = [i for i, value in enumerate(series) if isinstance(value, bool | complex | np.bool_ | np.complexfloating)]
+        if odd:
+            raise fail(name, _READ, "a numeric column of real numbers",
+                       f"boolean or complex value(s) {[series.iloc[i] for i in odd[:3]]} in row(s) {odd[:10]}")
     converted = pd.to_numeric(series, errors="coerce")
     bad = np.flatnonzero(converted.isna().to_numpy() & series.notna().to_numpy())
     if bad.size:
@@ -576,6 +597,11 @@ def _as_float(series: pd.Series, name: str, is_time: bool) -> np.ndarray:
         raise fail(name, _READ, "a numeric column",
                    f"non-numeric value(s) {examples} in row(s) {bad[:10].tolist()}")
     return converted.to_numpy(float)
+
+
+def _is_clock(series: pd.Series) -> bool:
+    """A column of date-times or time deltas: its stamps carry their own unit."""
+    return pd.api.types.is_datetime64_any_dtype(series) or pd.api.types.is_timedelta64_dtype(series)
 
 
 def _finite_rows(data: dict[str, np.ndarray], columns: ColumnMapping, drop_nan: bool) -> np.ndarray:
