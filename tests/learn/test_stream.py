@@ -350,3 +350,37 @@ def test_the_direct_output_line_is_the_json_line(values, index, learned, no_time
     sink = io.StringIO()
     _JsonLinesWriter(sink).write(output)
     assert sink.getvalue() == dumps_json(output.to_dict()) + "\n"
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    (dict(shape=np.array([np.nan, 0.1])), "shape"),
+    (dict(time=np.nan), "time"),
+    (dict(time=np.inf), "time"),
+    (dict(shape=np.array([0.1, 0.2, 0.3])), "shape"),
+    (dict(body_velocity=np.array([0.1, 0.0])), "body_velocity"),
+    (dict(shape_velocity=np.array([np.inf, 0.0])), "shape_velocity"),
+    (dict(phase=None), "phase"),
+], ids=["nan shape", "nan time", "inf time", "long shape", "short body velocity", "inf rate", "no phase"])
+def test_a_bad_sample_is_named_and_leaves_the_learner_as_it_was(run, change, field):
+    """From Python a sample is not checked by a reader first: each of these once moved the clock or the
+    differentiator on (so the next good sample failed too) or failed inside numpy; now the error names the line
+    and the field, and the stream goes on as if the sample had never come."""
+    from geogait.io import StreamSample
+
+    def sample(i, **fields):
+        given = dict(line=i + 1, shape=run.shape[i], body_velocity=run.body_velocity[i], time=float(run.time[i]),
+                     phase=float(run.phase[i]))
+        return StreamSample(**{**given, **fields})
+
+    learner, twin = (StreamLearner(AdaptiveGaitModel(gait=GAIT)) for _ in range(2))
+    for i in range(30):
+        learner.step(sample(i))
+        twin.step(sample(i))
+    with pytest.raises(GeogaitError, match=rf"'{field}' parameter of input line 31 must be"):
+        learner.step(sample(30, **change))
+    for i in range(30, 40):
+        ours, theirs = learner.step(sample(i)), twin.step(sample(i))
+        assert (ours.index, ours.phase, ours.gamma, ours.learned) == (theirs.index, theirs.phase, theirs.gamma,
+                                                                      theirs.learned) and ours.learned
+        np.testing.assert_array_equal(ours.prediction, theirs.prediction)
+    assert (learner.n_samples, learner.n_learned, learner.n_rejected) == (twin.n_samples, twin.n_learned, 0)

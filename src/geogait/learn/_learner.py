@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import statistics
 import warnings
 from collections import deque
@@ -243,11 +244,9 @@ class StreamLearner:
             raise GeogaitError(self.broken)
         if self.time_scale != 1.0:
             sample = self._in_seconds(sample)
+        values = self._checked_values(sample)  # (before any state changes: a refused sample leaves no trace)
         self._clock(sample)
         d = self.n_joints
-        values = self._values  # [shape, ṙ, ξ]; NaN where not given
-        values[:d], values[2 * d:] = sample.shape, sample.body_velocity
-        values[d:2 * d] = np.nan if sample.shape_velocity is None else sample.shape_velocity
         problem = self._implausible(values)
         own_phase = self.online_phaser is None and sample.phase is not None
         if problem is None and own_phase and abs(sample.phase) > MAX_PHASE:
@@ -358,6 +357,35 @@ class StreamLearner:
                           f"the model's phase_rate {expected:.4g}: are the time stamps in another unit than the "
                           "model's (time_unit, --time-unit s|ms|us|ns)? Shape velocities differentiated from them "
                           "are then wrong by the same factor.", GeogaitWarning, stacklevel=3)
+
+    def _checked_values(self, sample: StreamSample) -> np.ndarray:
+        """[shape, ṙ, ξ] of ``sample`` (NaN where ṙ is not given), or an error naming its line and field: a
+        field of the wrong length, a non-finite value, a time stamp or phase that is not finite, or no phase to
+        learn against."""
+        where, d = f"input line {sample.line}", self.n_joints
+        for name in ("time", "phase"):
+            value = getattr(sample, name)
+            if value is not None and not (isinstance(value, numbers.Real) and math.isfinite(value)):
+                raise fail(name, where, "a finite number (or not given)", value)
+        if sample.phase is None and self.online_phaser is None:
+            raise fail("phase", where, "given (or stream with a fitted Phaser)", None)
+        values = self._values
+        given = [("shape", sample.shape, slice(0, d)), ("body_velocity", sample.body_velocity, slice(2 * d, None))]
+        if sample.shape_velocity is None:
+            values[d:2 * d] = np.nan
+        else:
+            given.append(("shape_velocity", sample.shape_velocity, slice(d, 2 * d)))
+        for name, value, part in given:
+            size = part.stop - part.start if part.stop is not None else 3
+            if np.shape(value) != (size,):
+                raise fail(name, where, f"{size} values", f"shape {np.shape(value)}")
+            try:
+                values[part] = value
+            except (TypeError, ValueError):
+                raise fail(name, where, "numbers", np.asarray(value).tolist()) from None
+            if not np.isfinite(values[part]).all():
+                raise fail(name, where, "finite values (no NaN or inf)", np.asarray(value).tolist())
+        return values
 
     def _clock(self, sample: StreamSample) -> None:
         """Check the time stamp increases; after a gap, restart the differentiator and phase window."""
