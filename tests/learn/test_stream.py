@@ -384,3 +384,16 @@ def test_a_bad_sample_is_named_and_leaves_the_learner_as_it_was(run, change, fie
                                                                       theirs.learned) and ours.learned
         np.testing.assert_array_equal(ours.prediction, theirs.prediction)
     assert (learner.n_samples, learner.n_learned, learner.n_rejected) == (twin.n_samples, twin.n_learned, 0)
+
+
+def test_json_numbers_beyond_a_float_and_deep_nesting_are_input_errors():
+    """Both were reported as a bug in geogait (OverflowError, RecursionError); they are bad input lines."""
+    reader = JsonLinesReader([], 2)
+    huge = "1" + "0" * 400
+    for text, match in ((f'{{"time": {huge}, "phase": 0.1, "shape": [0.1, 0.2], "body_velocity": [0, 0, 0]}}',
+                         r"'time' parameter of input line 3 must be a finite number"),
+                        (f'{{"phase": 0.1, "shape": [{huge}, 0.2], "body_velocity": [0, 0, 0]}}',
+                         r"'shape' parameter of input line 3 must be a list of 2 finite numbers"),
+                        ('{"shape": ' + "[" * 100_000 + "]" * 100_000 + "}", r"JSON nested too deeply")):
+        with pytest.raises(GeogaitError, match=match):
+            reader.parse(text, 3)

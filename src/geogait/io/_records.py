@@ -132,15 +132,23 @@ def _vector(value, name: str, line: int, size: int, required: bool) -> np.ndarra
         return None
     if not isinstance(value, list) or len(value) != size or not all(type(v) in (int, float) for v in value):
         raise fail(name, f"input line {line}", f"a list of {size} numbers", value)
-    if not all(math.isfinite(v) for v in value):
+    if not all(_finite(v) for v in value):
         raise fail(name, f"input line {line}", f"a list of {size} finite numbers", value)
     return np.array(value, dtype=float)
+
+
+def _finite(value: int | float) -> bool:
+    """A finite JSON number (an integer beyond a float's range is not: math.isfinite would overflow on it)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def _scalar(value, name: str, line: int) -> float | None:
     if value is None:
         return None
-    if type(value) not in (int, float) or not math.isfinite(value):
+    if type(value) not in (int, float) or not _finite(value):
         raise fail(name, f"input line {line}", "a finite number", value)
     return float(value)
 
@@ -180,6 +188,8 @@ class JsonLinesReader:
         except json.JSONDecodeError as error:
             raise fail("record", f"input line {line}", "a JSON object",
                        f"invalid JSON ({error.msg} at column {error.colno})") from None
+        except RecursionError:
+            raise fail("record", f"input line {line}", "a JSON object", "JSON nested too deeply to read") from None
         if type(record) is dict and record.keys() <= _KEY_SET:
             sample = self._plain(record, line)
             if sample is not None:
