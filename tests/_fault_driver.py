@@ -7,7 +7,7 @@ cycle, period 1 s) and, from cycle ``cycle`` on for ``cycles`` cycles, does what
 * plausibility faults (geogait must quarantine the cycle): ``phase_stuck``, ``time_scale`` (time
   stamps × ``magnitude``), ``pose_jump`` (first pose of the cycle moved by ``magnitude``),
   ``frozen_joints``, ``ignore_set_gait`` (every cycle, whatever ``cycle`` says);
-* protocol faults (geogait must stop with a clear error): ``string_numbers``, ``bool_numbers``,
+* protocol faults (geogait must stop with a clear error): ``string_numbers``, ``bool_numbers``, ``huge_numbers``,
   ``bad_utf8``, ``endless_line``, ``huge_error``, ``huge_stderr``, ``deep_json``;
 * ``"hello"``: keys that replace those of the hello line (``{"version": 1.0}``, ``{"cycle_period": 1e300}``).
 """
@@ -86,6 +86,8 @@ def _protocol_fault(fault: str, samples: list, out, magnitude: float) -> bool:
         samples[1]["time"] = str(samples[1]["time"])
     elif fault == "bool_numbers":
         samples[1]["shape"][0] = True
+    elif fault == "huge_numbers":
+        samples[1]["pose"][0] = 1e300
     elif fault == "bad_utf8":
         out.write(b'{"type": "sample", "time": "\xff\xfe"}\n')
     elif fault == "endless_line":
@@ -99,7 +101,7 @@ def _protocol_fault(fault: str, samples: list, out, magnitude: float) -> bool:
         out.write(b"[" * 100_000 + b"]" * 100_000 + b"\n")
     else:
         return False
-    if fault in ("string_numbers", "bool_numbers"):
+    if fault in ("string_numbers", "bool_numbers", "huge_numbers"):
         return False
     out.flush()
     time.sleep(5 if fault == "endless_line" else 0.2)

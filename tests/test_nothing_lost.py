@@ -347,7 +347,10 @@ def fault_robot(**config):
     ({"hello": {"version": True}}, "protocol version True"),
     ({"hello": {"n_joints": 2.0}}, "'n_joints' must be an integer"),
     ({"hello": {"gait": {"order": True, "params": [0, 1, 0, 0, 0, 1]}}}, "'gait' must be"),
-    ({"fault": "string_numbers", "cycle": 1}, "field 'time' must be a finite number (JSON numbers), got '"),
+    ({"fault": "string_numbers", "cycle": 1}, "field 'time' must be a finite number (JSON numbers within ±1e+12), "
+                                              "got '"),
+    ({"fault": "huge_numbers", "cycle": 1}, "field 'pose' must be a list of 3 finite numbers (JSON numbers within "
+                                            "±1e+12)"),
     ({"fault": "bool_numbers", "cycle": 1}, "field 'shape' must be a list of 2 finite numbers"),
     ({"fault": "bad_utf8", "cycle": 1}, "is not UTF-8 (byte 0xff"),
     ({"fault": "endless_line", "cycle": 1}, "longer than 1048576 bytes"),
@@ -366,6 +369,17 @@ def test_a_driver_is_trusted_with_nothing(config, fragment):
     message = str(error.value)
     assert fragment in message and "_fault_driver.py" in message  # the whole command, not argv[0]
     assert len(message) < 1000 and time.perf_counter() - started < 15  # no full timeout, no megabyte "line"
+
+
+def test_after_a_cycle_broke_off_the_robot_refuses_to_go_on():
+    """The rest of a broken cycle's samples are still in the pipe: read on, they would be taken for the next cycle
+    (39 samples starting mid-cycle, plausible enough to pass), and every later cycle would be one behind."""
+    with fault_robot(fault="string_numbers", cycle=1) as robot:
+        robot.next_cycle()
+        with pytest.raises(GeogaitError, match="field 'time' must be a finite number"):
+            robot.next_cycle()
+        with pytest.raises(GeogaitError, match="an earlier cycle broke off part-way .* no longer in step"):
+            robot.next_cycle()
 
 
 @pytest.mark.parametrize("fault", ["huge_error", "huge_stderr"])

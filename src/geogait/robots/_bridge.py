@@ -90,7 +90,7 @@ import warnings
 
 import numpy as np
 
-from .._validation import GeogaitError, GeogaitWarning, check_float, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory
@@ -185,6 +185,7 @@ class ProcessRobot:
         self.check_cycles = bool(check_cycles)
         self.quarantined: list[str] = []
         self.cycles_run = 0
+        self._broken_off: str | None = None  # why a cycle broke off part-way (the driver is then out of step)
         try:
             self._process = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                              stderr=subprocess.PIPE, cwd=cwd)
@@ -262,9 +263,17 @@ class ProcessRobot:
     def next_cycle(self) -> Trajectory:
         """Ask the driver to run one cycle and collect its samples; implausible cycles are quarantined
         (logged in :attr:`quarantined`, warned about, run again; see the module docstring)."""
+        if self._broken_off is not None:  # (its remaining samples would be read as the next cycle's)
+            raise GeogaitError(f"robot driver {self._name()}: an earlier cycle broke off part-way "
+                               f"({self._broken_off}); the driver and geogait are no longer in step: start the "
+                               "driver again")
         in_a_row = 0
         while True:
-            trajectory = self._run_cycle()
+            try:
+                trajectory = self._run_cycle()
+            except GeogaitError as error:
+                self._broken_off = _cut(str(error), 200)
+                raise
             self.cycles_run += 1
             reason = self._implausible(trajectory) if self.check_cycles else None
             self._last_pose = trajectory.pose[-1]
@@ -462,7 +471,7 @@ class ProcessRobot:
         tail = " | ".join(list(self._stderr)[-3:])
         return GeogaitError(f"robot driver {self._name()}: {text}" + (f" (stderr: {tail})" if tail else ""))
 
-    def _field(self, message: dict, name: str, shape: tuple, optional: bool = False):
+    def _field(self, message: dict, name: str, shape: tuple, optional: bool = False, limit: float = MAX_MAGNITUDE):
         value = message.get(name)
         if value is None and optional:
             return None
@@ -476,10 +485,11 @@ class ProcessRobot:
                 array = np.asarray(value, dtype=float)
             except OverflowError:  # an integer beyond the float range
                 array = None
-        if array is None or not np.all(np.isfinite(array)):
+        if array is None or not np.all(np.abs(array) <= limit) or not np.all(np.isfinite(array)):  # (NaN fails <=)
             expected = "a finite number" if shape == () else f"a list of {shape[0]} finite numbers"
-            raise self._failure(f"line {self.line_number}: field '{name}' must be {expected} (JSON numbers), got "
-                                f"{_cut(repr(value), 80)}")
+            within = f" within ±{limit:g}" if np.isfinite(limit) else ""
+            raise self._failure(f"line {self.line_number}: field '{name}' must be {expected} (JSON numbers{within}), "
+                                f"got {_cut(repr(value), 80)}")
         return array
 
     def _handshake(self) -> None:
@@ -496,7 +506,7 @@ class ProcessRobot:
         if isinstance(n_joints, bool) or not isinstance(n_joints, int) or not 1 <= n_joints <= 10_000:
             raise self._failure(f"'n_joints' must be an integer in 1..10000, got {_cut(repr(n_joints), 40)}")
         self.n_joints = n_joints
-        period = self._field(hello, "cycle_period", ())
+        period = self._field(hello, "cycle_period", (), limit=np.inf)  # (its range is checked next)
         low, high = PERIOD_RANGE
         if not low <= period <= high:
             raise self._failure(f"'cycle_period' must be in [{low:g}, {high:g}] seconds, got {float(period):g}")
