@@ -72,6 +72,26 @@ def test_robots_implement_the_protocol():
         InSituOptimizer().run(type("Half", (), {"n_joints": 2})(), 3)
 
 
+@pytest.mark.parametrize(("attribute", "value", "match"), [
+    ("cycle_period", 0.0, r"'cycle_period' > 0 \(seconds, finite\). Got 0.0"),
+    ("cycle_period", float("nan"), r"'cycle_period' > 0 .* Got nan"),
+    ("cycle_period", "1", r"'cycle_period' > 0 .* Got '1'"),
+    ("n_joints", 2.5, r"integer 'n_joints' >= 1. Got 2.5"),
+    ("n_joints", True, r"integer 'n_joints' >= 1. Got True"),
+    ("n_joints", 3, r"a gait of its 'n_joints' = 3 joints. Got a gait of 2"),
+])
+def test_a_robot_declaring_a_bad_period_or_joint_count_is_refused_before_it_runs(attribute, value, match):
+    """These were found only after the robot had run (a ZeroDivisionError, or another model's parameter named)."""
+    from geogait.control import PathTracker, ReferencePath
+
+    robot = BareRobot(_stream())
+    setattr(robot, attribute, value)
+    for run in (lambda: InSituOptimizer().run(robot, 2), lambda: PathTracker().run(robot, ReferencePath.circle(1), 1)):
+        with pytest.raises(ValueError, match=match):
+            run()
+    assert robot._stream.cycle == 0
+
+
 def test_measured_motion_per_cycle_is_the_true_one_without_perturbations():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation(eta=0.0), seed=0,
                            samples_per_cycle=400)

@@ -17,6 +17,8 @@ The contract of one cycle (a :class:`~geogait.simulate.Trajectory` without a tri
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Protocol, runtime_checkable
 
 from .._validation import GeogaitError
@@ -100,3 +102,13 @@ def check_robot(robot, owner: str) -> None:
     if not isinstance(robot.gait, FourierGait):
         raise GeogaitError(f"The 'robot' parameter of {owner} must have a FourierGait 'gait'. "
                            f"Got {type(robot.gait).__name__} instead.")
+    n_joints, period = robot.n_joints, robot.cycle_period
+    if isinstance(n_joints, bool) or not isinstance(n_joints, numbers.Integral) or n_joints < 1:
+        raise GeogaitError(f"The 'robot' parameter of {owner} must have an integer 'n_joints' >= 1. "
+                           f"Got {n_joints!r} instead.")
+    if n_joints != robot.gait.n_joints:
+        raise GeogaitError(f"The 'robot' parameter of {owner} must have a gait of its 'n_joints' = {n_joints} "
+                           f"joints. Got a gait of {robot.gait.n_joints} instead.")
+    if isinstance(period, bool) or not isinstance(period, numbers.Real) or not 0 < period < math.inf:
+        raise GeogaitError(f"The 'robot' parameter of {owner} must have a 'cycle_period' > 0 (seconds, finite). "
+                           f"Got {period!r} instead.")
