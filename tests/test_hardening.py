@@ -728,3 +728,27 @@ def test_helpers_refuse_what_would_come_back_as_nan(run):
     with pytest.raises(GeogaitError, match=r"'derivative' parameter of fourier_basis must be an int >= 0"):
         fourier_basis(0.0, 2, derivative=-1)
     np.testing.assert_allclose(fourier_basis(0.3, 1, derivative=1), [0.0, -np.sin(0.3), np.cos(0.3)])
+
+
+@pytest.mark.parametrize(("options", "match"), [
+    (dict(forgetting_factor=2.0), "'forgetting_factor' parameter"),
+    (dict(n_windows=-1), "'n_windows' parameter"),
+    (dict(max_gait_order="x"), "'max_gait_order' parameter of fit_log"),
+    (dict(gait_order=-1), "'gait_order' parameter of fit_log"),
+    (dict(refit="no"), "'refit' parameter of fit_log must be True or False"),
+])
+def test_fit_log_checks_every_argument_before_it_fits_the_phaser(frame, options, match):
+    """The phaser handed in was fitted first and the bad argument refused after; 'no' counted as True."""
+    from geogait.io import read_log
+    from geogait.learn import fit_log
+    from geogait.phase import Phaser
+
+    log = read_log(frame.drop(columns="phase"), **{**COLUMNS, "phase": None})
+    phaser = Phaser()
+    with pytest.raises(GeogaitError, match=match):
+        fit_log(log, phaser=phaser, **options)
+    assert not phaser.__sklearn_is_fitted__()
+    fitted = fit_log(log, phaser=phaser).phaser
+    assert fitted is phaser and phaser.__sklearn_is_fitted__()
+    with pytest.raises(GeogaitError, match="'phaser' parameter of fit_log must be an unfitted Phaser"):
+        fit_log(log, phaser=phaser)

@@ -43,7 +43,7 @@ import pandas as pd
 from .._defaults import DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._estimator import check_is_fitted
 from .._files import check_outputs, default_summary_path, output_set, write_json, write_text
-from .._validation import GeogaitError, GeogaitWarning, check_float, fail
+from .._validation import GeogaitError, GeogaitWarning, check_float, check_int, fail
 from ..gaits import FourierGait
 from ..io import PREDICTION_COLUMNS, ColumnMapping, Log, mapping_to_json
 from ..models import AdaptiveGaitModel, gamma
@@ -345,6 +345,17 @@ def fit_log(log: Log, *, forgetting_factor: float | None = None, n_windows: int 
     fraction = check_float(test_fraction, "test_fraction", "fit_log", low=0, high=0.9, low_open=True)
     if not isinstance(log, Log):
         raise fail("log", "fit_log", "a Log (see read_log)", type(log).__name__)
+    # every argument before the phaser is fitted: a refused call changes nothing the caller holds
+    hyper = {k: v for k, v in dict(forgetting_factor=forgetting_factor, n_windows=n_windows).items() if v is not None}
+    AdaptiveGaitModel(**hyper).validate()
+    check_int(max_gait_order, "max_gait_order", "fit_log", minimum=1)
+    if gait_order is not None:
+        check_int(gait_order, "gait_order", "fit_log", minimum=0)
+    if not isinstance(refit, bool | np.bool_):
+        raise fail("refit", "fit_log", "True or False", refit)
+    if phaser is not None and (not isinstance(phaser, Phaser) or phaser.__sklearn_is_fitted__()):
+        raise fail("phaser", "fit_log", "an unfitted Phaser (fit_log fits it on the log)",
+                   "a fitted Phaser" if isinstance(phaser, Phaser) else type(phaser).__name__)
     unwrapped, phaser = _unwrapped_phase(log, phaser, fit=True)
     rate = _phase_rate(log, unwrapped)
     log = log.with_phase(unwrapped)
@@ -353,7 +364,6 @@ def fit_log(log: Log, *, forgetting_factor: float | None = None, n_windows: int 
     train = ~test
     nominal = fit_nominal_gait(log.phase[train], log.shape[train], order=gait_order, max_order=max_gait_order,
                                groups=cycle[train])
-    hyper = {k: v for k, v in dict(forgetting_factor=forgetting_factor, n_windows=n_windows).items() if v is not None}
     hyper["phase_rate"] = rate
     evaluation = AdaptiveGaitModel(gait=nominal.gait, **hyper).fit(*_samples(log, train))
     model = evaluation
