@@ -752,3 +752,17 @@ def test_fit_log_checks_every_argument_before_it_fits_the_phaser(frame, options,
     assert fitted is phaser and phaser.__sklearn_is_fitted__()
     with pytest.raises(GeogaitError, match="'phaser' parameter of fit_log must be an unfitted Phaser"):
         fit_log(log, phaser=phaser)
+
+
+def test_a_mapping_or_stream_config_that_is_not_utf8_is_bad_input_not_a_bug(tmp_path):
+    from geogait.io import load_column_mapping
+    from geogait.learn import load_stream_model
+
+    for name, load in (("mapping.json", load_column_mapping), ("config.json", load_stream_model)):
+        path = tmp_path / name
+        path.write_bytes(b"\xff\xfe{}")
+        with pytest.raises(GeogaitError, match=r"'path' parameter of .* must be a UTF-8 text file. .*byte 0xff"):
+            load(path)
+    mapping = str(tmp_path / "mapping.json")
+    result = CliRunner().invoke(app, ["fit", mapping, "--mapping", mapping, "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1 and "bug" not in result.stderr

@@ -351,6 +351,16 @@ MAX_METADATA_BYTES = 16 << 20
 MAX_ARCHIVE_BYTES = 8 << 30
 
 
+def read_utf8(path: Path, owner: str) -> str:
+    """The text of the file ``path``; a file that is not UTF-8 is an error naming ``owner``'s ``path``."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        byte = error.object[error.start]
+        raise GeogaitError(f"The 'path' parameter of {owner} must be a UTF-8 text file. Got {str(path)!r} (byte "
+                           f"{byte:#04x} at position {error.start} is not UTF-8) instead.") from None
+
+
 def describe_path_kind(path: Path) -> str | None:
     """Why ``path`` cannot be read as a file ("is a folder", "is a FIFO", ...); None for a regular file
     and for a path that does not exist."""

@@ -71,7 +71,7 @@ from scipy.signal import savgol_filter
 
 from .. import se2
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
-from .._files import describe_path_kind
+from .._files import describe_path_kind, read_utf8
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float, check_int, fail
 from ..phase import cycle_index
 from ..simulate import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory
@@ -206,7 +206,7 @@ def load_column_mapping(path) -> ColumnMapping:
         raise fail("path", owner, "a .json or .toml file", str(path))
     if not path.is_file():
         raise fail("path", owner, "an existing file", f"{path} ({describe_path_kind(path) or 'does not exist'})")
-    text = path.read_text(encoding="utf-8")
+    text = read_utf8(path, owner)
     try:
         entries = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:

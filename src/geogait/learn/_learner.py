@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import _kernels
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
-from .._files import check_writable, describe_path_kind
+from .._files import check_writable, describe_path_kind, read_utf8
 from .._validation import (
     MAX_MAGNITUDE,
     GeogaitError,
@@ -60,7 +60,7 @@ def load_stream_model(path) -> AdaptiveGaitModel:
             raise fail("path", "load_stream_model", "an existing file",
                        f"{path} ({describe_path_kind(path) or 'does not exist'})")
         try:
-            config = json.loads(path.read_text(encoding="utf-8"))
+            config = json.loads(read_utf8(path, "load_stream_model"))
         except json.JSONDecodeError as error:
             raise fail("path", "load_stream_model", "a valid JSON file", f"{path}: {error}") from None
         return AdaptiveGaitModel.from_config(config, source=str(path))
