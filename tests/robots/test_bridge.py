@@ -233,3 +233,16 @@ def test_sigkill_then_resume_gives_the_uninterrupted_final_gait(tmp_path):
     second = json.loads((killed / "summary.json").read_text())["results"]
     assert second["final_gait_params"] == first["final_gait_params"]
     pd.testing.assert_frame_equal(pd.read_csv(killed / "cycles.csv"), pd.read_csv(tmp_path / "whole" / "cycles.csv"))
+
+
+@pytest.mark.parametrize(("options", "fragment"), [
+    (["--period", "0"], "error: --period must be a finite number of seconds > 0"),
+    (["--period", "nan"], "error: --period must be a finite number of seconds > 0"),
+    (["--links", "1"], "error: The 'n_links' parameter of PurcellSwimmer"),
+    (["--noise", "-1"], "error: The 'sensor_noise' parameter of SwimmerStream"),
+])
+def test_the_reference_driver_ends_a_bad_option_in_one_line(options, fragment):
+    done = subprocess.run([sys.executable, "-m", "geogait.robots.driver", *options], input='{"type": "stop"}\n',
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1 and done.stderr.strip().splitlines() == [done.stderr.strip()]
+    assert done.stderr.startswith(fragment) and "Traceback" not in done.stderr

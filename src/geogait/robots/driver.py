@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
+from .._validation import GeogaitError
 from ..gaits import FourierGait, Perturbation, seed_gait
 from ..simulate import SwimmerStream
 from ..systems import PurcellSwimmer
@@ -65,7 +67,12 @@ def _robot(args):
 
 def main(argv=None) -> int:
     args = _arguments(argv)
-    stream, symmetric = _robot(args)
+    if not 0 < args.period < math.inf:  # (before it divides anything)
+        raise SystemExit(f"error: --period must be a finite number of seconds > 0, got {args.period}")
+    try:
+        stream, symmetric = _robot(args)
+    except GeogaitError as error:  # a bad option: one line and exit code 1, as the geogait commands end
+        raise SystemExit(f"error: {error}") from None
     out = sys.stdout
 
     def send(message):
