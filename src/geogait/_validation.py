@@ -127,6 +127,14 @@ def check_array(
     return array
 
 
+def check_callback(callback, record, owner: str) -> None:
+    """A run's ``callback`` (a callable or None) and ``record`` (True or False), checked before it starts."""
+    if callback is not None and not callable(callback):
+        raise fail("callback", owner, "a callable (called with each log row) or None", type(callback).__name__)
+    if not isinstance(record, bool | np.bool_):
+        raise fail("record", owner, "True or False", record)
+
+
 def check_choice(value, name: str, owner: str, choices: Sequence[str]) -> str:
     if value not in choices:
         raise fail(name, owner, "one of " + ", ".join(repr(c) for c in choices), value)

@@ -92,6 +92,20 @@ def test_a_robot_declaring_a_bad_period_or_joint_count_is_refused_before_it_runs
     assert robot._stream.cycle == 0
 
 
+@pytest.mark.parametrize(("options", "match"), [(dict(callback=42), "'callback' parameter of .* a callable"),
+                                                (dict(record="yes"), "'record' parameter of .* True or False")])
+def test_a_bad_callback_or_record_is_refused_before_the_robot_runs(options, match):
+    """A callback that cannot be called failed at the end of the first cycles (3 of a path tracker's)."""
+    from geogait.control import PathTracker, ReferencePath
+
+    robot = BareRobot(_stream())
+    for run in (lambda: InSituOptimizer().run(robot, 2, **options),
+                lambda: PathTracker().run(robot, ReferencePath.circle(1), 1, **options)):
+        with pytest.raises(ValueError, match=match):
+            run()
+    assert robot._stream.cycle == 0
+
+
 def test_measured_motion_per_cycle_is_the_true_one_without_perturbations():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation(eta=0.0), seed=0,
                            samples_per_cycle=400)

@@ -57,7 +57,7 @@ import pandas as pd
 from .. import se2
 from .._defaults import FEASIBILITY_TOLERANCE
 from .._estimator import Estimator, Integer, Options, Real
-from .._validation import GeogaitError, check_choice, check_float, check_int, fail
+from .._validation import GeogaitError, check_callback, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
@@ -353,6 +353,7 @@ class PathTracker(Estimator):
         """
         self.validate()
         owner = "PathTracker.run"
+        check_callback(callback, record, owner)
         check_robot(robot, owner)
         if not isinstance(path, ReferencePath):
             raise fail("path", owner, "a ReferencePath", type(path).__name__)

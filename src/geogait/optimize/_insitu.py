@@ -64,7 +64,7 @@ from .. import models
 from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._estimator import Boolean, Estimator, Integer, Options, Real
 from .._files import read_state
-from .._validation import GeogaitError, check_float, check_int, fail
+from .._validation import GeogaitError, check_callback, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import check_gait_model, has_gait_model_members
 from ..robots import check_robot
@@ -420,6 +420,7 @@ class InSituOptimizer(Estimator):
         """
         self.validate()
         owner = "InSituOptimizer.run"
+        check_callback(callback, record, owner)
         n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)
         checkpoint_every = check_int(checkpoint_every, "checkpoint_every", owner, minimum=1)
         if ceiling is not None:
@@ -497,6 +498,7 @@ class InSituOptimizer(Estimator):
         n_cycles : int, optional
             New total cycle budget (counting the cycles already run); the checkpoint's by default.
         """
+        check_callback(callback, record, "InSituOptimizer.resume")
         path = Path(checkpoint)
         metadata, arrays = read_state(path, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
         try:
