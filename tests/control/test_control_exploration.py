@@ -267,3 +267,27 @@ def test_tracker_model_and_change_forgetting_errors(three_link):
     for bad in (0.5, np.nan, "x"):
         with pytest.raises(GeogaitError, match="'change_forgetting' parameter of PathTracker"):
             PathTracker(change_forgetting=bad).run(SwimmerStream(system, gait, seed=0), path, 1)
+
+
+def test_a_nan_or_impossible_surprise_input_is_refused_and_the_rule_unchanged():
+    """A NaN measurement once stored a NaN surprise, after which a real change raised no alarm; std 0 gave inf,
+    a negative std a negative surprise, window 0 the whole history."""
+    from geogait.control import AdaptiveExploration, prediction_surprise, surprise_alarm
+
+    rule = AdaptiveExploration()
+    rule.start()
+    for _ in range(4):
+        rule.update([0.1, 0.0, 0.0], [0.1, 0.001, 0.0])
+    before = (list(rule.surprises_), rule.std_, rule.level_)
+    with pytest.raises(GeogaitError, match="'measured' parameter of prediction_surprise must be finite"):
+        rule.update([0.1, 0.0, 0.0], [np.nan, 0.0, 0.0])
+    assert (rule.surprises_, rule.std_, rule.level_) == before
+    rule.update([0.1, 0.0, 0.0], [0.3, 0.2, 0.5])
+    assert rule.alarm_
+    for std in (0.0, -1.0):
+        with pytest.raises(GeogaitError, match="'std' parameter of prediction_surprise"):
+            prediction_surprise([0.1, 0, 0], [0.1, 0, 0], std)
+    with pytest.raises(GeogaitError, match=r"'predicted' parameter of prediction_surprise must be an array of shape"):
+        prediction_surprise([0.1, 0], [0.1, 0, 0], 0.1)
+    with pytest.raises(GeogaitError, match="'window' parameter of surprise_alarm must be an int >= 3"):
+        surprise_alarm(10.0, [1.0] * 5, window=0)

@@ -41,7 +41,7 @@ from typing import ClassVar
 import numpy as np
 
 from .._estimator import Estimator, Integer, Real
-from .._validation import GeogaitError, check_float
+from .._validation import GeogaitError, check_array, check_float, check_int
 
 __all__ = ["AdaptiveExploration", "prediction_surprise", "surprise_alarm"]
 
@@ -56,7 +56,10 @@ def prediction_surprise(predicted, measured, std: float) -> float:
     std : float > 0
         δ std the cycle ran with (rad).
     """
-    predicted, measured = np.asarray(predicted, dtype=float), np.asarray(measured, dtype=float)
+    owner = "prediction_surprise"
+    predicted = check_array(predicted, "predicted", owner, ndim=1, trailing=(3,))
+    measured = check_array(measured, "measured", owner, ndim=1, trailing=(3,))
+    std = check_float(std, "std", owner, low=0, low_open=True)
     step = max(float(np.hypot(*predicted[:2])), 1e-12)
     error = measured - predicted
     return float(np.sqrt((error[0] ** 2 + error[1] ** 2) / step**2 + error[2] ** 2) / std)
@@ -65,6 +68,10 @@ def prediction_surprise(predicted, measured, std: float) -> float:
 def surprise_alarm(surprise: float, past, alarm: float = 5.0, window: int = 10) -> bool:
     """Whether ``surprise`` exceeds ``alarm`` × the median of the last ``window`` of the ``past``
     surprises (never with fewer than 3): the change test of :class:`AdaptiveExploration`."""
+    owner = "surprise_alarm"
+    window = check_int(window, "window", owner, minimum=3)  # (list[-0:] would be the whole history)
+    surprise = check_float(surprise, "surprise", owner, low=0)
+    alarm = check_float(alarm, "alarm", owner, low=0, low_open=True)
     past = list(past)[-window:]
     return len(past) >= 3 and surprise > alarm * float(np.median(past))
 
