@@ -418,3 +418,18 @@ def test_the_horizon_is_short_on_straight_stretches_and_long_before_a_bend():
     assert PathTracker(straight_horizon=None)._horizon_at(ReferencePath.line(), 1.0, 0.2) == 4
     with pytest.raises(GeogaitError, match="'straight_horizon' parameter of PathTracker"):
         PathTracker(horizon=3, straight_horizon=4).validate()
+
+
+def test_reference_paths_refuse_what_they_would_carry_as_inf_or_nan():
+    """A 1e300 line had an infinite length, 'no' made a closed path, a NaN arc length a NaN point."""
+    from geogait.control import ReferencePath
+
+    for make, match in ((lambda: ReferencePath.line(1e300), "'length' parameter of ReferencePath.line"),
+                        (lambda: ReferencePath(np.array([[0.0, 0.0], [1e300, 0.0]])), "within ±1e\\+06"),
+                        (lambda: ReferencePath.waypoints([[0, 0], [1, 0], [1, 1]], closed="no"),
+                         "'closed' parameter of ReferencePath must be True or False"),
+                        (lambda: ReferencePath.line(5).point(np.nan), "'s' parameter of ReferencePath.point"),
+                        (lambda: ReferencePath.line(5).heading("a"), "'s' parameter of ReferencePath.heading")):
+        with pytest.raises(GeogaitError, match=match):
+            make()
+    np.testing.assert_allclose(ReferencePath.line(5).point([1.0, 7.0]), [[1.0, 0.0], [5.0, 0.0]])

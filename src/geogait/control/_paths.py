@@ -64,7 +64,9 @@ class ReferencePath:
     name: str = "path"
 
     def __post_init__(self):
-        points = check_array(self.points, "points", "ReferencePath", trailing=(2,), ndim=2)
+        points = check_array(self.points, "points", "ReferencePath", trailing=(2,), ndim=2, limit=MAX_PATH_SIZE)
+        if not isinstance(self.closed, bool | np.bool_):
+            raise fail("closed", "ReferencePath", "True or False", self.closed)
         if points.shape[0] < 2:
             raise fail("points", "ReferencePath", "at least 2 vertices", f"shape {points.shape}")
         vertices = np.vstack([points, points[:1]]) if self.closed else points
@@ -85,7 +87,7 @@ class ReferencePath:
     @classmethod
     def line(cls, length: float = 100.0) -> ReferencePath:
         """The x axis from the origin, ``length`` body lengths long (travel along +x)."""
-        length = check_float(length, "length", "ReferencePath.line", low=0, low_open=True)
+        length = check_float(length, "length", "ReferencePath.line", low=0, high=MAX_PATH_SIZE, low_open=True)
         return cls(np.array([[0.0, 0.0], [length, 0.0]]), name="line")
 
     @classmethod
@@ -205,13 +207,13 @@ class ReferencePath:
     def point(self, s) -> np.ndarray:
         """Positions ``(..., 2)`` at arc lengths ``s`` ``(...)`` (wrapped for a closed path, clamped
         for an open one)."""
-        index, fraction = self._locate(np.asarray(s, dtype=float))
+        index, fraction = self._locate(check_array(s, "s", "ReferencePath.point"))
         start = self._vertices[index]
         return start + fraction[..., None] * (self._vertices[index + 1] - start)
 
     def heading(self, s) -> np.ndarray:
         """Tangent headings (rad) at arc lengths ``s``."""
-        index, _ = self._locate(np.asarray(s, dtype=float))
+        index, _ = self._locate(check_array(s, "s", "ReferencePath.heading"))
         step = self._vertices[index + 1] - self._vertices[index]
         return np.arctan2(step[..., 1], step[..., 0])
 
