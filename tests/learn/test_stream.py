@@ -397,3 +397,9 @@ def test_json_numbers_beyond_a_float_and_deep_nesting_are_input_errors():
                         ('{"shape": ' + "[" * 100_000 + "]" * 100_000 + "}", r"JSON nested too deeply")):
         with pytest.raises(GeogaitError, match=match):
             reader.parse(text, 3)
+
+
+@pytest.mark.parametrize("window", ["5", None, 2.0, 1])
+def test_stream_learner_names_a_bad_derivative_window_as_its_own(window):
+    with pytest.raises(GeogaitError, match="'derivative_window' parameter of StreamLearner must be an int >= 2"):
+        StreamLearner(AdaptiveGaitModel(gait=GAIT), derivative_window=window)

@@ -208,6 +208,7 @@ class StreamLearner:
         if phaser is not None and phaser.n_channels_ != self.n_joints:
             raise fail("phaser", owner, f"a Phaser of {self.n_joints} channels (the model's joints)",
                        f"{phaser.n_channels_} channels")
+        derivative_window = check_int(derivative_window, "derivative_window", owner, minimum=2)
         self.differentiator = OnlineDifferentiator(derivative_window, min(2, derivative_window - 1))
         self.gap_factor = check_float(gap_factor, "gap_factor", owner, low=1, low_open=True)
         self.save_every = None if save_every is None else check_int(save_every, "save_every", owner, minimum=1)
