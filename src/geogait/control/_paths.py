@@ -23,7 +23,7 @@ import pandas as pd
 
 from .._files import describe_path_kind
 from .._kernels import nearest_segment_kernel
-from .._validation import GeogaitError, check_array, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
 from ..se2 import wrap_angle
 
 __all__ = ["ReferencePath", "PATH_KINDS"]
@@ -64,7 +64,8 @@ class ReferencePath:
     name: str = "path"
 
     def __post_init__(self):
-        points = check_array(self.points, "points", "ReferencePath", trailing=(2,), ndim=2, limit=MAX_PATH_SIZE)
+        # (any finite length: a circle of the largest radius reaches twice it; waypoints are held to MAX_PATH_SIZE)
+        points = check_array(self.points, "points", "ReferencePath", trailing=(2,), ndim=2, limit=MAX_MAGNITUDE)
         if not isinstance(self.closed, bool | np.bool_):
             raise fail("closed", "ReferencePath", "True or False", self.closed)
         if points.shape[0] < 2:
