@@ -362,31 +362,45 @@ class StreamLearner:
     def _checked_values(self, sample: StreamSample) -> np.ndarray:
         """[shape, ṙ, ξ] of ``sample`` (NaN where ṙ is not given), or an error naming its line and field: a
         field of the wrong length, a non-finite value, a time stamp or phase that is not finite, or no phase to
-        learn against."""
-        where, d = f"input line {sample.line}", self.n_joints
+        learn against. (Cheap on the common path: one finiteness count over the whole row.)"""
+        time, phase = sample.time, sample.phase
+        if not ((time is None or type(time) is float and math.isfinite(time))
+                and (phase is None or type(phase) is float and math.isfinite(phase))):
+            self._refuse_scalars(sample)
+        if phase is None and self.online_phaser is None:
+            raise fail("phase", f"input line {sample.line}", "given (or stream with a fitted Phaser)", None)
+        d, values, rate = self.n_joints, self._values, sample.shape_velocity
+        try:
+            values[:d], values[2 * d:] = sample.shape, sample.body_velocity
+            values[d:2 * d] = np.nan if rate is None else rate
+        except (TypeError, ValueError):
+            self._refuse_field(sample)
+        if np.count_nonzero(np.isfinite(values)) != (d + 3 if rate is None else 2 * d + 3):
+            self._refuse_field(sample)
+        return values
+
+    def _refuse_scalars(self, sample: StreamSample) -> None:
         for name in ("time", "phase"):
             value = getattr(sample, name)
             if value is not None and not (isinstance(value, numbers.Real) and math.isfinite(value)):
-                raise fail(name, where, "a finite number (or not given)", value)
-        if sample.phase is None and self.online_phaser is None:
-            raise fail("phase", where, "given (or stream with a fitted Phaser)", None)
-        values = self._values
-        given = [("shape", sample.shape, slice(0, d)), ("body_velocity", sample.body_velocity, slice(2 * d, None))]
-        if sample.shape_velocity is None:
-            values[d:2 * d] = np.nan
-        else:
-            given.append(("shape_velocity", sample.shape_velocity, slice(d, 2 * d)))
-        for name, value, part in given:
-            size = part.stop - part.start if part.stop is not None else 3
+                raise fail(name, f"input line {sample.line}", "a finite number (or not given)", value)
+
+    def _refuse_field(self, sample: StreamSample) -> None:
+        """The error for the first of ``sample``'s arrays of the wrong length, not numbers, or not finite."""
+        d = self.n_joints
+        for name, size in (("shape", d), ("shape_velocity", d), ("body_velocity", 3)):
+            value = getattr(sample, name)
+            if value is None and name == "shape_velocity":
+                continue
             if np.shape(value) != (size,):
-                raise fail(name, where, f"{size} values", f"shape {np.shape(value)}")
+                raise fail(name, f"input line {sample.line}", f"{size} values", f"shape {np.shape(value)}")
             try:
-                values[part] = value
+                finite = np.isfinite(np.asarray(value, dtype=float)).all()
             except (TypeError, ValueError):
-                raise fail(name, where, "numbers", np.asarray(value).tolist()) from None
-            if not np.isfinite(values[part]).all():
-                raise fail(name, where, "finite values (no NaN or inf)", np.asarray(value).tolist())
-        return values
+                raise fail(name, f"input line {sample.line}", "numbers", np.asarray(value).tolist()) from None
+            if not finite:
+                raise fail(name, f"input line {sample.line}", "finite values (no NaN or inf)",
+                           np.asarray(value).tolist())
 
     def _clock(self, sample: StreamSample) -> None:
         """Check the time stamp increases; after a gap, restart the differentiator and phase window."""
