@@ -12,6 +12,7 @@ from geogait.gaits import FourierGait, Perturbation, fourier_basis, seed_gait
 from geogait.models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import (
     InSituOptimizer,
+    cached_ceiling,
     default_objective,
     joint_limit_constraints,
     objective,
@@ -596,3 +597,31 @@ def test_a_cobyqa_point_beyond_the_joint_limit_runs_scaled_back_onto_it():
 
 def _cosine(a, b):
     return float(a @ b / np.linalg.norm(a) / np.linalg.norm(b))
+
+
+def test_the_ceiling_cache_never_mistakes_one_system_for_another(tmp_path, monkeypatch):
+    """A FunctionSystem's repr names its function by address, which a later lambda may reuse: each drag ratio
+    got the first one's ceiling from the cache."""
+    monkeypatch.setenv("GEOGAIT_CACHE", str(tmp_path))
+    for ratio in (2.0, 4.0, 8.0):
+        swimmer = PurcellSwimmer(3, drag_ratio=ratio)
+        wrapped = FunctionSystem(lambda r, swimmer=swimmer: swimmer.connection(r), n_joints=2)
+        assert cached_ceiling(wrapped, starts=1).value == pytest.approx(optimize_ceiling(swimmer, starts=1).value,
+                                                                         rel=1e-9)
+    assert not list(tmp_path.iterdir())  # (not cached at all)
+
+
+@pytest.mark.parametrize(("call", "match"), [
+    (lambda: optimize_ceiling(PurcellSwimmer(4, link_lengths=[1, 2, 3, 4]), family="symmetric", starts=2),
+     "found no feasible gait of purcell-4"),
+    (lambda: optimize_ceiling(PurcellSwimmer(3), starts=1, family="symmetric",
+                              start=FourierGait([[0, 1, 0], [0, 0, 0]])), "'start' parameter .* front-back symmetric"),
+    (lambda: optimize_ceiling(PurcellSwimmer(3), objective_kind="forward"), "'objective_kind' parameter"),
+    (lambda: optimize_ceiling(None), "'system' parameter of optimize_ceiling"),
+    (lambda: optimize_ceiling(PurcellSwimmer(3), seed=-1), "'seed' parameter of optimize_ceiling"),
+])
+def test_a_ceiling_that_cannot_be_found_is_an_error_not_a_number(call, match):
+    """Every start infeasible used to give a ceiling of -inf (cached as null, read back as None); a start off the
+    symmetric family was projected onto it without a word."""
+    with pytest.raises(GeogaitError, match=match):
+        call()

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import numbers
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,18 +16,20 @@ from scipy.optimize import minimize
 
 from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE
 from .._files import write_json
-from .._validation import check_choice, check_float, check_int, fail
+from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, MirrorGaitFamily, SymmetricGaitFamily, seed_gait
 from ..simulate import cycle_displacement
 from ..systems import System
 from ._objective import (
-    OBJECTIVES,
     default_objective,
     feasibility_constraint,
     joint_limit_constraints,
     objective,
     rms_speed,
 )
+
+#: The objectives a ceiling is defined for ("forward" needs a direction the system does not give).
+CEILING_OBJECTIVES = ("progress", "efficiency", "budget")
 
 __all__ = ["Ceiling", "cached_ceiling", "optimize_ceiling"]
 
@@ -146,11 +150,16 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
         First start, of ``d`` joints; it must lie within the joint limits (and the system's
         feasible region, if any). Its order is raised to ``order`` if lower.
     """
+    n_joints = getattr(system, "n_joints", None)
+    if not callable(getattr(system, "connection", None)) or not isinstance(n_joints, numbers.Integral):
+        raise fail("system", "optimize_ceiling", "a geogait System (connection, n_joints)", type(system).__name__)
     order = check_int(order, "order", "optimize_ceiling", minimum=1)
     starts = check_int(starts, "starts", "optimize_ceiling", minimum=1)
+    if seed is not None and not isinstance(seed, np.random.SeedSequence | np.random.Generator):
+        check_int(seed, "seed", "optimize_ceiling", minimum=0)
     r_max = check_float(max_joint_angle, "max_joint_angle", "optimize_ceiling", low=0, high=np.pi, low_open=True)
     kind = default_objective(order) if objective_kind is None else objective_kind
-    check_choice(kind, "objective_kind", "optimize_ceiling", OBJECTIVES)
+    check_choice(kind, "objective_kind", "optimize_ceiling", CEILING_OBJECTIVES)
     check_choice(family, "family", "optimize_ceiling", ("free", "symmetric", "mirror"))
     d = system.n_joints
     limits = joint_limit_constraints(d, order, r_max)
@@ -159,7 +168,11 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
     seed_start = _first_start(system, start, d, order, r_max, feasibility)
     matrix = None
     if family == "symmetric":
-        matrix = SymmetricGaitFamily.from_gait(seed_start).matrix
+        symmetric = SymmetricGaitFamily.from_gait(seed_start)
+        if start is not None and symmetric.residual(seed_start) > 1e-6:
+            raise fail("start", "optimize_ceiling", "a front-back symmetric gait for family 'symmetric'",
+                       f"a gait {symmetric.residual(seed_start):.3g} from the nearest symmetric one")
+        matrix = symmetric.matrix
     elif family == "mirror":
         mirror = MirrorGaitFamily(d, order)
         if mirror.residual(seed_start) > 1e-9:
@@ -186,6 +199,10 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
     tied = np.nonzero(values >= values.max() - 1e-6 * abs(values.max()))[0]
     best = int(tied[np.argmin([rms_speed(results[i][0]) for i in tied])])
     gait, value, pose = results[best]
+    if not np.isfinite(value):
+        raise GeogaitError(f"optimize_ceiling found no feasible gait of {system.name} from its {len(candidates)} "
+                           f"start(s) in family {family!r} (every one broke a constraint): try family='free', "
+                           "more starts, or a feasible start.")
     return Ceiling(gait=gait, value=float(value), displacement=pose, starts=len(candidates), values=values)
 
 
@@ -219,12 +236,18 @@ def cached_ceiling(system: System, **options) -> Ceiling:
     """:func:`optimize_ceiling`, remembered on disk (``$GEOGAIT_CACHE`` or ``~/.cache/geogait``).
 
     The key is the system's ``repr`` (all its parameters) and the options, so any change recomputes.
-    A missing or unreadable cache file is recomputed and rewritten (atomically).
+    A missing or unreadable cache file is recomputed and rewritten (atomically). A system whose ``repr``
+    does not show its parameters (one naming an object by its address, e.g. a ``FunctionSystem`` of a
+    lambda, whose address a later one may reuse) is not cached: it is computed every time.
     """
+    if re.search(r" at 0x[0-9a-fA-F]+", repr(system)):
+        return optimize_ceiling(system, **options)
     key = hashlib.sha256(json.dumps([repr(system), sorted(options.items())], default=str).encode()).hexdigest()[:16]
     path = _cache_folder() / f"ceiling-{key}.json"
     try:
         record = json.loads(path.read_text())
+        if not isinstance(record["value"], float | int):
+            raise ValueError("not a ceiling")
         return Ceiling(gait=FourierGait(np.array(record["gait"])), value=record["value"],
                        displacement=np.array(record["displacement"]), starts=record["starts"],
                        values=np.array(record["values"]))
