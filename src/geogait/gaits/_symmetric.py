@@ -228,7 +228,13 @@ class SymmetricGaitFamily(_SubspaceFamily):
         step = grid[1] - grid[0]
         result = minimize_scalar(distance, bounds=(best - step, best + step), method="bounded",
                                  options={"xatol": 1e-12})
-        center = result.x if result.fun <= values.min() else best
+        center, value = (result.x, result.fun) if result.fun <= values.min() else (best, values.min())
+        # again as an offset from there: the search's tolerance grows with |φ₀| (√eps |φ₀| ≈ 1e-8), an
+        # offset's with the offset, so members come out members to rounding, not to 1e-8
+        refined = minimize_scalar(lambda offset: distance(center + offset), bounds=(-1e-6, 1e-6), method="bounded",
+                                  options={"xatol": 1e-15})
+        if refined.fun < value:
+            center = center + refined.x
         return cls(gait.n_joints, order, float(center))
 
 
