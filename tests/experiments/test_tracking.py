@@ -12,6 +12,7 @@ from geogait.cli import app
 from geogait.experiments.tracking import (
     TrackingConfig,
     TrackingResult,
+    drag_change_cycle,
     drag_change_metrics,
     feasible_turn_limit,
     plot_exploration,
@@ -323,3 +324,13 @@ def test_five_links_relearn_within_a_few_cycles_of_a_drag_change(monkeypatch, fo
         assert relearned >= 0.9
     else:
         assert relearned < 0.75
+
+
+def test_a_tracking_csv_read_back_gives_the_same_summary_whatever_the_change_cycle(tmp_path):
+    """Read back without its config, the frame used to place the drag change at half the run: with the change
+    at cycle 4 of 16 every drag-change number came out different (the recovery 8 cycles became 0)."""
+    result = run_tracking(TrackingConfig.quick(n_trials=1, paths=("line",), change_cycle=4), progress=False)
+    result.to_csv(tmp_path / "t.csv")
+    again = TrackingResult.from_csv(tmp_path / "t.csv")
+    assert again.config is None and drag_change_cycle(again.frame) == 4
+    assert json.dumps(again.summary(), default=str) == json.dumps(result.summary(), default=str)

@@ -20,6 +20,7 @@ from ..experiments.tracking import (
     PATHS,
     TrackingConfig,
     TrackingResult,
+    drag_change_cycle,
     plot_steering_family,
     run_tracking,
     steering_families,
@@ -290,7 +291,7 @@ def figure_tracking(
     for ax, n_links in zip(axes[0], families, strict=True):
         plot_steering_family(ax, steering_families(int(n_links)), int(n_links))
     save_figure(fig, folder / "steering-family.png")
-    change = result.config.change_cycle if result.config is not None else int(result.frame["cycle"].max() + 1) // 2
+    change = result.config.change_cycle if result.config is not None else drag_change_cycle(result.frame)
     write_text(folder / "tracking-trials.csv", trial_stats(result.frame, change).to_csv(index=False))
     summary = result.summary()
     write_manifest(folder / "tracking.json", command="figure tracking",

@@ -68,8 +68,8 @@ __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking"
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
            "drag_change_metrics", "plot_reference", "RECOVERY_FACTOR", "feasible_turn_limit", "TURN_SPACING",
            "plot_exploration", "plot_exploration_curves", "tracking_model", "TRACKING_MODELS", "CONTROLLER_STYLE",
-           "controller_style", "mark_change", "DRAG_WINDOWS", "CUSTOM_PATH", "trial_stats", "per_trial_ratios",
-           "track_trials"]
+           "controller_style", "mark_change", "DRAG_WINDOWS", "drag_change_cycle", "CUSTOM_PATH", "trial_stats",
+           "per_trial_ratios", "track_trials"]
 
 _OWNER = "TrackingConfig"
 PATHS = ("line", "circle", "figure8", "waypoints")
@@ -665,13 +665,25 @@ def drag_change_metrics(frame: pd.DataFrame, change_cycle: int) -> dict:
     return out
 
 
+def drag_change_cycle(frame: pd.DataFrame) -> int:
+    """The cycle at which the drag ratio changes in the ``frame``'s "change" runs, read from its ``drag_ratio``
+    column (a frame read back from CSV has no config); half the run where no ratio changes."""
+    changed = frame[frame["environment"] == "change"]
+    if not changed.empty:
+        first = changed.loc[changed["cycle"] == changed["cycle"].min(), "drag_ratio"].iloc[0]
+        later = changed.loc[~np.isclose(changed["drag_ratio"], first), "cycle"]
+        if not later.empty:
+            return int(later.min())
+    return int(frame["cycle"].max() + 1) // 2
+
+
 def tracking_summary(frame: pd.DataFrame, change_cycle: int | None = None) -> dict:
     """Headline numbers per swimmer, path and environment of the long-format ``frame``: error statistics
     per controller, the adaptive / true ratio of mean cross-track error pooled and per trial (its worst
     trial, the share of trials within 1.5×) and the goals; drag-change windows and recovery after
-    ``change_cycle`` (default: half the run)."""
+    ``change_cycle`` (default: where the frame's drag ratio changes, :func:`drag_change_cycle`)."""
     if change_cycle is None:
-        change_cycle = int(frame["cycle"].max() + 1) // 2
+        change_cycle = drag_change_cycle(frame)
     summary = {}
     for (n_links, kind, environment), group in frame.groupby(["links", "path", "environment"], sort=False):
         entry = {c: error_stats(g) for c, g in group.groupby("controller")}
@@ -774,7 +786,7 @@ def plot_tracking(frame: pd.DataFrame, path, change_cycle: int | None = None, re
     changed = list(dict.fromkeys(frame[frame["environment"] == "change"]["path"]))
     columns = len(constant) + len(changed)
     if change_cycle is None:
-        change_cycle = int(frame["cycle"].max() + 1) // 2
+        change_cycle = drag_change_cycle(frame)
     fig, axes = plt.subplots(len(links), columns, figsize=(3.3 * columns, 3.2 * len(links)), squeeze=False)
     trial = int(frame["trial"].min())
     for row, n_links in zip(axes, links, strict=True):
