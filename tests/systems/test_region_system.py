@@ -121,3 +121,19 @@ def test_the_symmetric_family_keeps_the_region_too(bent):
     assert ceiling.gait.shape(phases)[:, 0].max() <= LIMIT
     seed = float(np.hypot(*cycle_displacement(bent, bent.seed_gait())[:2]))
     assert seed < ceiling.value <= optimize_ceiling(bent, starts=4).value + 1e-9
+
+
+def test_the_seed_keeps_its_harmonics_or_says_why_not():
+    """An order below the seed's dropped its harmonics (a zero gait, a ceiling of 0); order 0 was accepted."""
+    from geogait.gaits import FourierGait
+
+    region = RegionSystem(PurcellSwimmer(3), lambda r: 0.8 - r[..., 0],
+                          seed=FourierGait(np.array([[0, 0, 0.5, 0, 0], [0, 0, 0, 0, 0.5]])))
+    for order, match in ((1, "at least the seed's order 2"), (0, "an int >= 1")):
+        with pytest.raises(GeogaitError, match=rf"'order' parameter .* {match}"):
+            region.seed_gait(order=order)
+    lifted = region.seed_gait(order=3)
+    phase = np.linspace(0, 2 * np.pi, 9)
+    np.testing.assert_allclose(lifted.shape(phase), region.seed_gait(order=2).shape(phase), atol=1e-15)
+    with pytest.raises(GeogaitError, match="'amplitude' parameter"):
+        region.seed_gait(amplitude=np.inf, order=2)

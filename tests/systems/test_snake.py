@@ -251,3 +251,13 @@ def test_in_situ_optimiser_keeps_every_commanded_gait_off_the_singular_set():
     with pytest.raises(GeogaitError, match="feasible region"):
         InSituOptimizer(family="free").run(crossing, 3)
     assert crossing.cycle == 0
+
+
+def test_a_margin_the_seed_circle_cannot_keep_is_said_as_such():
+    """Beyond a margin of about 1.25 the circle, kept off r0 = r1, meets the edges |r_j| = pi: the seed that was
+    promised feasible was not, and optimize_ceiling blamed a 'start' nobody passed."""
+    for margin in (0.2, 1.0, 1.2):
+        snake = KinematicSnake(margin=margin)
+        assert snake.feasibility(snake.seed_gait().shape(np.linspace(0, 2 * np.pi, 512))).min() >= 0
+    with pytest.raises(GeogaitError, match="'margin' parameter of KinematicSnake.seed_gait"):
+        KinematicSnake(margin=1.3).seed_gait()

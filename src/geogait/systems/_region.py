@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .._validation import GeogaitError, fail
+from .._validation import GeogaitError, check_float, check_int, fail
 from ..gaits import FourierGait
 from ._base import check_shapes
 
@@ -123,8 +123,13 @@ class RegionSystem:
         amplitude : float, optional
         order : int, default 1
         """
+        order = check_int(order, "order", f"{self.name}.seed_gait", minimum=1)
         gait = self._seed.with_order(order)
+        if np.abs(gait.with_order(self._seed.order).coefficients - self._seed.coefficients).max() > 0:
+            raise fail("order", f"{self.name}.seed_gait", f"at least the seed's order {self._seed.order} (its higher "
+                       "harmonics would be dropped)", order)
         if amplitude is not None:
+            amplitude = check_float(amplitude, "amplitude", f"{self.name}.seed_gait", low=0, low_open=True)
             coefficients = gait.coefficients.copy()
             largest = float(np.max(gait.joint_limit() - np.abs(coefficients[:, 0])))
             if not amplitude > 0 or largest == 0:

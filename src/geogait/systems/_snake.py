@@ -305,4 +305,9 @@ class KinematicSnake:
         coefficients[:, 0] = [centre, -centre]
         coefficients[0, 1] = amplitude
         coefficients[1, order + 1] = amplitude
-        return FourierGait(coefficients)
+        gait = FourierGait(coefficients)
+        # (the circle keeps off r0 = r1 but not off the singular edges |r_j| = pi that a large margin moves it to)
+        if self.feasibility(gait.shape(np.linspace(0, 2 * np.pi, 512, endpoint=False))).min() < 0:
+            raise fail("margin", "KinematicSnake.seed_gait", "a margin whose seed circle stays in the feasible region "
+                       "(it leaves it near |r_j| = pi; give optimize_ceiling a start of your own)", self.margin)
+        return gait
