@@ -156,3 +156,16 @@ def test_docstring_examples_run():
 
     outcome = doctest.testmod(environments)
     assert outcome.attempted > 0 and outcome.failed == 0
+
+
+def test_every_forgetting_factor_is_its_own_model_and_drawn():
+    """Factors equal to 6 digits were merged into one model; a 6th adaptive model was left out of the figure."""
+    from geogait import GeogaitError
+    from geogait.experiments.environments import _styles
+
+    with pytest.raises(GeogaitError, match="'forgetting_factors' parameter .* differ in their 6 significant digits"):
+        EnvironmentConfig.quick(forgetting_factors=(0.9999991, 0.9999994)).validate()
+    with pytest.raises(GeogaitError, match="'forgetting_factors'"):
+        EnvironmentConfig.quick(forgetting_factors=(0.99, 0.99)).validate()
+    models = [f"adaptive_{lam:g}" for lam in (0.99, 0.9, 0.8, 0.7, 0.6, 0.5)] + ["batch"]
+    assert set(_styles(models)) == set(models)

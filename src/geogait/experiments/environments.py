@@ -50,6 +50,7 @@ the median error curve across trials and per trial (median and fraction of trial
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -155,6 +156,10 @@ class EnvironmentConfig:
             raise fail("forgetting_factors", _OWNER, "a non-empty tuple of floats in (0, 1]", self.forgetting_factors)
         for value in self.forgetting_factors:
             check_float(value, "forgetting_factors", _OWNER, low=0, high=1, low_open=True)
+        names = [adaptive_name(value) for value in self.forgetting_factors]
+        if len(set(names)) < len(names):  # (the models are keyed by it: two would be one)
+            raise fail("forgetting_factors", _OWNER, "factors that differ in their 6 significant digits (each names "
+                       "its model)", self.forgetting_factors)
         check_int(self.n_windows, "n_windows", _OWNER, minimum=1)
         check_int(self.seed, "seed", _OWNER, minimum=0)
         check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
@@ -427,7 +432,8 @@ def _cycles(value):
 def _styles(models) -> dict[str, tuple[str, str]]:
     """(colour, label) per model id: paper colours, blue λ = 0.99, orange λ = 0.7, green batch."""
     adaptive = sorted((m for m in models if m != "batch"), key=lambda m: -float(m.split("_")[1]))
-    styles = {m: (c, f"adaptive, λ = {m.split('_')[1]}") for m, c in zip(adaptive, _ADAPTIVE_COLORS, strict=False)}
+    colours = itertools.cycle(_ADAPTIVE_COLORS + ("tab:gray", "tab:olive", "tab:cyan", "tab:red"))  # (every model)
+    styles = {m: (c, f"adaptive, λ = {m.split('_')[1]}") for m, c in zip(adaptive, colours, strict=False)}
     if "batch" in models:
         styles["batch"] = ("tab:green", "batch, fit on environment 1 only")
     return styles
