@@ -25,7 +25,7 @@ from geogait._files import OutputLock, output_set, read_state, write_state, writ
 from geogait.cli import app
 from geogait.control import ReferencePath
 from geogait.experiments.tracking import drag_change_metrics, plot_reference
-from geogait.gaits import FourierGait
+from geogait.gaits import FourierGait, seed_gait
 from geogait.models import AdaptiveGaitModel, ShapeSpaceModel, load_model
 from geogait.optimize import InSituOptimizer
 from geogait.plotting import plt
@@ -472,3 +472,14 @@ def test_paths_and_plots_are_bounded(tmp_path):
     with pytest.raises(GeogaitError, match="'points' parameter"):
         ReferencePath.waypoints([[0, 0], [1e13, 0]])
     one_error_line(invoke("track", "--scale", "1e9", "--out", tmp_path / "x"), "The '--scale' option")
+
+
+def test_every_gait_given_to_the_shape_space_plot_is_drawn_with_its_start():
+    """A 5th gait was dropped from the figure, and only the first gait's start was marked."""
+    from geogait.plotting import plot_shape_space
+
+    fig, ax = plt.subplots()
+    plot_shape_space(ax, None, {f"gait {k}": seed_gait(2, amplitude=0.2 * (k + 1)) for k in range(5)})
+    assert ax.get_legend_handles_labels()[1] == [f"gait {k}" for k in range(5)]
+    assert sum(line.get_marker() == "o" for line in ax.lines) == 5
+    plt.close(fig)

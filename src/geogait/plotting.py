@@ -42,11 +42,12 @@ def plot_shape_space(ax, shape=None, gaits: dict[str, FourierGait] | None = None
         shape = np.asarray(shape)
         ax.plot(shape[:, i], shape[:, j], ".", color="0.7", ms=1.5, label="measured shape")
     phase = np.linspace(0, 2 * np.pi, 200)
-    styles = ["k-", "C3-", "C0--", "C2:"]
-    for (name, gait), style in zip((gaits or {}).items(), styles, strict=False):
+    styles = [("k", "-"), ("C3", "-"), ("C0", "--"), ("C2", ":")]
+    for k, (name, gait) in enumerate((gaits or {}).items()):  # (beyond four: the colour cycle, solid)
+        color, line = styles[k] if k < len(styles) else (f"C{k}", "-")
         loop = gait.shape(phase)
-        ax.plot(loop[:, i], loop[:, j], style, lw=1.8, label=name)
-        ax.plot(loop[0, i], loop[0, j], style[:2].replace("-", "o").replace(":", "o"), ms=4)
+        ax.plot(loop[:, i], loop[:, j], color=color, ls=line, lw=1.8, label=name)
+        ax.plot(loop[0, i], loop[0, j], "o", color=color, ms=4)  # where the gait starts (φ = 0)
     ax.set_xlabel(f"joint angle $r_{i + 1}$ (rad)")
     ax.set_ylabel(f"joint angle $r_{j + 1}$ (rad)")
     ax.set_aspect("equal", adjustable="datalim")

@@ -1058,7 +1058,7 @@ def write_outputs(result: dict, folder, command: str, wall_time: float | None, b
         paths["manifest"] = folder / "robots.json"
     if not result["records"].empty:
         if wall_time is not None:
-            result["records"].to_csv(folder / "robots.csv", index=False)
+            write_text(folder / "robots.csv", result["records"].to_csv(index=False))  # (atomically, as the rest)
             paths["csv"] = folder / "robots.csv"
         paths["figure"] = plot_benchmark(result, folder / "robots.png")
     return paths
