@@ -96,3 +96,20 @@ def test_bad_sysplotter_files_get_one_clear_line(tmp_path):
     savemat(tmp_path / "other.mat", {"x": np.ones(3)})
     with pytest.raises(GeogaitError, match="no sysplotter struct 's'"):
         GridSystem.from_sysplotter(tmp_path / "other.mat")
+
+
+def test_a_transposed_sysplotter_cell_is_refused_not_misread(tmp_path):
+    """A d × 3 Avec cell holds the same count of fields as a 3 × d one; read column by column it built a
+    connection 0.3 off the true one."""
+    r1, r2 = np.meshgrid(AXIS, AXIS, indexing="ij")
+    values = SWIMMER.connection(np.stack([r1, r2], axis=-1))
+    cells = np.empty((2, 3), dtype=object)
+    for row in range(3):
+        for col in range(2):
+            cells[col, row] = -values[..., row, col]
+    grids = np.empty((2, 1), dtype=object)
+    grids[0, 0], grids[1, 0] = r1, r2
+    path = tmp_path / "transposed.mat"
+    savemat(path, {"s": {"grid": {"eval": grids}, "vecfield": {"eval": {"content": {"Avec": cells}}}}})
+    with pytest.raises(GeogaitError, match=r"Avec in .* is a 2 × 3 cell; expected 3 × 2"):
+        GridSystem.from_sysplotter(path)

@@ -139,6 +139,10 @@ class GridSystem:
                                "s.vecfield.eval.content.Avec.") from None
         grids = _cells(grids, owner, path, "s.grid.eval")
         d = len(grids)
+        layout = np.shape(fields)  # (sysplotter's Avec is a 3 × d cell: rows x, y, θ; a d × 3 one reads wrongly)
+        if len(layout) == 2 and layout != (3, d):
+            raise GeogaitError(f"{owner}: s.vecfield.eval.content.Avec in {path} is a {layout[0]} × {layout[1]} cell; "
+                               f"expected 3 × {d} (rows x, y, θ; a column per joint).")
         fields = _cells(fields, owner, path, "s.vecfield.eval.content.Avec")
         if d < 2 or len(fields) != 3 * d:
             raise GeogaitError(f"{owner}: {path} has {d} grid arrays and {len(fields)} connection fields; "
