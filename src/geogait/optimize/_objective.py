@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import check_choice, fail
+from .._validation import GeogaitError, check_choice, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ..systems import FeasibleSystem
 
@@ -235,11 +235,21 @@ def robot_feasibility(robot, n_joints: int, order: int):
     -------
     callable or None
     """
+    n_joints = check_int(n_joints, "n_joints", "robot_feasibility", minimum=1)
+    order = check_int(order, "order", "robot_feasibility", minimum=1)
     own = getattr(robot, "feasibility", None)
     if callable(own):
         return _region_rows(own, n_joints, order)
     system = robot.current_system() if callable(getattr(robot, "current_system", None)) else None
     return None if system is None else feasibility_constraint(system, n_joints, order)
+
+
+def _describe(answer) -> str:
+    if isinstance(answer, tuple) and len(answer) == 2:
+        shapes = tuple(np.shape(part) for part in answer)
+        finite = all(np.all(np.isfinite(np.asarray(part, dtype=float))) for part in answer)
+        return f"arrays of shapes {shapes[0]} and {shapes[1]}" + ("" if finite else " holding NaN or inf")
+    return f"a {type(answer).__name__}"
 
 
 def _region_rows(feasibility, n_joints: int, order: int):
@@ -248,7 +258,14 @@ def _region_rows(feasibility, n_joints: int, order: int):
 
     def rows(params):
         shapes = basis @ np.reshape(params, (n_joints, -1)).T  # (n, d)
-        value, gradient = feasibility(shapes, jacobian=True)
+        answer = feasibility(shapes, jacobian=True)
+        value, gradient = (answer if isinstance(answer, tuple) and len(answer) == 2 else (None, None))
+        value, gradient = np.asarray(value, dtype=float), np.asarray(gradient, dtype=float)
+        if value.shape != (len(phase),) or gradient.shape != shapes.shape \
+                or not (np.all(np.isfinite(value)) and np.all(np.isfinite(gradient))):
+            raise GeogaitError(f"A feasibility(shapes, jacobian=True) must return finite (value, gradient) arrays "
+                               f"of shapes ({len(phase)},) and {shapes.shape} for shapes of shape {shapes.shape}. "
+                               f"Got {_describe(answer)} instead.")
         return value - FEASIBILITY_SLACK, (gradient[:, :, None] * basis[:, None, :]).reshape(len(phase), -1)
 
     return rows
