@@ -766,3 +766,22 @@ def test_a_mapping_or_stream_config_that_is_not_utf8_is_bad_input_not_a_bug(tmp_
     mapping = str(tmp_path / "mapping.json")
     result = CliRunner().invoke(app, ["fit", mapping, "--mapping", mapping, "--out", str(tmp_path / "out")])
     assert result.exit_code == 1 and "bug" not in result.stderr
+
+
+def test_small_api_gaps_are_clear_errors(tmp_path):
+    """Each of these raised a TypeError or ZeroDivisionError, failed every trial of a sweep, or returned a grid
+    spanning 7.5 rad: now one error naming the argument."""
+    from geogait.experiments import EnvironmentConfig, OptimizationConfig, TrackingConfig
+    from geogait.experiments.robot_benchmark import from_manifest
+    from geogait.se2 import gauss_phases
+
+    for make, match in ((lambda: OptimizationConfig(links=3).validate(), "'links' parameter .* a tuple"),
+                        (lambda: EnvironmentConfig(drag_ratios=(2.0, 1e7)).validate(), "'drag_ratios'"),
+                        (lambda: TrackingConfig(drag_ratios=(2.0, 1e7)).validate(), "'drag_ratios'"),
+                        (lambda: gauss_phases(0), "'resolution' parameter of gauss_phases"),
+                        (lambda: gauss_phases(2.5), "'resolution' parameter of gauss_phases")):
+        with pytest.raises(GeogaitError, match=match):
+            make()
+    (tmp_path / "list.json").write_text("[1, 2]")
+    with pytest.raises(GeogaitError, match="is not a robot benchmark manifest"):
+        from_manifest(tmp_path / "list.json")

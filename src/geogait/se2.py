@@ -331,6 +331,8 @@ _GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3) / 6
 def gauss_phases(resolution: int) -> tuple[np.ndarray, float]:
     """The two Gauss–Legendre nodes of each of ``resolution`` equal phase steps over [0, 2π), ``(n, 2)``,
     and the step."""
+    if isinstance(resolution, bool) or not isinstance(resolution, int | np.integer) or resolution < 1:
+        raise fail("resolution", "gauss_phases", "an int >= 1 (phase steps per cycle)", resolution)
     step = 2 * np.pi / resolution
     starts = np.arange(resolution) * step
     return starts[:, None] + step * _GAUSS, step

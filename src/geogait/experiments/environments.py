@@ -147,7 +147,7 @@ class EnvironmentConfig:
         if not isinstance(self.drag_ratios, tuple) or len(self.drag_ratios) < 2:
             raise fail("drag_ratios", _OWNER, "a tuple of at least two drag ratios", self.drag_ratios)
         for value in self.drag_ratios:
-            check_float(value, "drag_ratios", _OWNER, low=0, low_open=True)
+            check_float(value, "drag_ratios", _OWNER, low=1e-6, high=1e6)  # (the swimmer's own bounds)
         check_int(self.cycles_per_environment, "cycles_per_environment", _OWNER, minimum=REFERENCE_CYCLES + 1)
         check_int(self.samples_per_cycle, "samples_per_cycle", _OWNER, minimum=4)
         check_fraction(self.sensor_noise, "sensor_noise", _OWNER)

@@ -115,6 +115,9 @@ class OptimizationConfig:
 
     def validate(self) -> OptimizationConfig:
         """Check every field (errors name the field); returns ``self``."""
+        for name in ("links", "budgets"):
+            if not isinstance(getattr(self, name), tuple | list):
+                raise fail(name, _OWNER, "a tuple (one entry per swimmer)", getattr(self, name))
         if len(self.links) != len(self.budgets) or not self.links:
             raise fail("budgets", _OWNER, f"one budget per swimmer in links = {self.links}", self.budgets)
         for n_links in self.links:

@@ -990,7 +990,7 @@ def from_manifest(path) -> dict:
         data = json.loads(Path(path).read_text())
         return {"records": _numeric(pd.DataFrame(data["records"])), "cases": data["cases"], "skipped": data["skipped"],
                 "config": data["config"], "command": data["command"]}
-    except (OSError, ValueError, KeyError) as error:
+    except (OSError, ValueError, KeyError, TypeError) as error:  # (TypeError: JSON that is not an object)
         raise GeogaitError(f"{path} is not a robot benchmark manifest: {error}") from None
 
 

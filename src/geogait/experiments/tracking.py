@@ -203,7 +203,7 @@ class TrackingConfig:
         if len(self.drag_ratios) != 2:
             raise fail("drag_ratios", _OWNER, "two drag ratios (before, after)", self.drag_ratios)
         for value in self.drag_ratios:
-            check_float(value, "drag_ratios", _OWNER, low=0, low_open=True)
+            check_float(value, "drag_ratios", _OWNER, low=1e-6, high=1e6)  # (the swimmer's own bounds)
         n_cycles = check_int(self.n_cycles, "n_cycles", _OWNER, minimum=2)
         change = check_int(self.change_cycle, "change_cycle", _OWNER, minimum=1)
         if change >= n_cycles:
