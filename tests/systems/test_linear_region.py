@@ -137,3 +137,21 @@ def test_a_robot_runs_summary_records_the_declared_limits(tmp_path):
     assert result.exit_code == 0, result.output
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["results"]["robot"]["shape_constraints"] == [[1.0, -1.0, APART], [-1.0, 1.0, APART]]
+
+
+def test_regions_and_snakes_refuse_what_they_cannot_hold():
+    """Text or complex normals raised a raw TypeError or were cast; 1e200 normals overflowed to a zero margin;
+    a 1e300 link made an infinite connection; a region without a feasibility function failed later."""
+    import pytest
+
+    from geogait import GeogaitError
+    from geogait.gaits import seed_gait
+    from geogait.systems import KinematicSnake, LinearRegion, PurcellSwimmer, RegionSystem
+
+    for make, match in ((lambda: LinearRegion([["a", 1]], [1]), "'normals' parameter .* real numbers"),
+                        (lambda: LinearRegion([[1 + 1j, 1]], [1]), "'normals' parameter .*'complex numbers'"),
+                        (lambda: LinearRegion([[1e200, 1e200]], [1]), "'normals' parameter .* within ±1e\\+12"),
+                        (lambda: KinematicSnake(link_lengths=(1e300, 1, 1)), "'link_lengths' parameter"),
+                        (lambda: RegionSystem(PurcellSwimmer(3), None, seed=seed_gait(2)), "'feasibility' param")):
+        with pytest.raises(GeogaitError, match=match):
+            make()

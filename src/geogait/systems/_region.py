@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .._validation import GeogaitError, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
 from ..gaits import FourierGait
 from ._base import check_shapes
 
@@ -56,7 +56,7 @@ class RegionSystem:
         if not callable(getattr(system, "connection", None)) or not hasattr(system, "n_joints"):
             raise fail("system", owner, "a System (connection(shapes), n_joints)", type(system).__name__)
         for parameter, value in (("feasibility", feasibility), ("gradient", gradient)):
-            if value is not None and not callable(value):
+            if (value is not None or parameter == "feasibility") and not callable(value):
                 raise fail(parameter, owner, "a callable of shapes (..., d)", value)
         self.system, self.n_joints = system, int(system.n_joints)
         self.name = name or f"{getattr(system, 'name', 'system')} (region)"
@@ -182,7 +182,8 @@ class LinearRegion:
 
     def __init__(self, normals, bounds):
         owner = "LinearRegion"
-        normals, bounds = np.asarray(normals, dtype=float), np.asarray(bounds, dtype=float)
+        normals = check_array(normals, "normals", owner, ndim=2, limit=MAX_MAGNITUDE)
+        bounds = check_array(bounds, "bounds", owner, ndim=1, limit=MAX_MAGNITUDE)
         if normals.ndim != 2 or normals.shape[0] < 1 or bounds.shape != (normals.shape[0],):
             raise fail("normals", owner, "an (m, d) array with m >= 1 and bounds of shape (m,)",
                        f"shapes {normals.shape} and {bounds.shape}")

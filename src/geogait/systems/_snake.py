@@ -97,8 +97,9 @@ class KinematicSnake:
             lengths = np.full(3, 1.0 / 3)
         else:
             lengths = check_array(self.link_lengths, "link_lengths", owner, ndim=1)
-            if lengths.shape != (3,) or np.any(lengths <= 0):
-                raise fail("link_lengths", owner, "3 positive lengths (rear, middle, front)", self.link_lengths)
+            if lengths.shape != (3,) or np.any(lengths < 1e-6) or np.any(lengths > 1e6):
+                raise fail("link_lengths", owner, "3 lengths in [1e-6, 1e6] (rear, middle, front), as a swimmer's",
+                           self.link_lengths)
         wheels = check_array(self.wheel_positions, "wheel_positions", owner, ndim=1)
         if wheels.shape != (3,) or np.any(wheels < 0) or np.any(wheels > 1):
             raise fail("wheel_positions", owner, "3 fractions in [0, 1] (rear, middle, front)", self.wheel_positions)
