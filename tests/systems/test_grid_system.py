@@ -43,19 +43,24 @@ def test_the_grid_reproduces_the_analytic_swimmers_ceiling(grid):
     np.testing.assert_allclose(sampled.gait.joint_limit(), analytic.gait.joint_limit(), atol=1e-2)
 
 
-def test_a_sysplotter_file_gives_the_same_system(tmp_path, grid):
-    """sysplotter keeps −A on ndgrid arrays, cells column by column (as MATLAB writes them)."""
+def sysplotter_file(path, transposed=False):
+    """The swimmer's connection as sysplotter saves it: −A on ndgrid arrays in a 3 × d cell (d × 3 if
+    ``transposed``), cells column by column (as MATLAB writes them)."""
     r1, r2 = np.meshgrid(AXIS, AXIS, indexing="ij")
     values = SWIMMER.connection(np.stack([r1, r2], axis=-1))
-    cells = np.empty((3, 2), dtype=object)
+    cells = np.empty((2, 3) if transposed else (3, 2), dtype=object)
     for row in range(3):
         for col in range(2):
-            cells[row, col] = -values[..., row, col]
+            cells[(col, row) if transposed else (row, col)] = -values[..., row, col]
     grids = np.empty((2, 1), dtype=object)
     grids[0, 0], grids[1, 0] = r1, r2
-    path = tmp_path / "sysf_swimmer_calc.mat"
     savemat(path, {"s": {"grid": {"eval": grids}, "vecfield": {"eval": {"content": {"Avec": cells}}}}})
-    loaded = GridSystem.from_sysplotter(path)
+    return path
+
+
+def test_a_sysplotter_file_gives_the_same_system(tmp_path, grid):
+    """sysplotter keeps −A on ndgrid arrays, cells column by column (as MATLAB writes them)."""
+    loaded = GridSystem.from_sysplotter(sysplotter_file(tmp_path / "sysf_swimmer_calc.mat"))
     assert loaded.name == "sysf_swimmer_calc" and loaded.n_joints == 2
     shapes = np.random.default_rng(2).uniform(-2, 2, (50, 2))
     np.testing.assert_allclose(loaded.connection(shapes), grid.connection(shapes), rtol=0, atol=1e-13)
@@ -101,15 +106,5 @@ def test_bad_sysplotter_files_get_one_clear_line(tmp_path):
 def test_a_transposed_sysplotter_cell_is_refused_not_misread(tmp_path):
     """A d × 3 Avec cell holds the same count of fields as a 3 × d one; read column by column it built a
     connection 0.3 off the true one."""
-    r1, r2 = np.meshgrid(AXIS, AXIS, indexing="ij")
-    values = SWIMMER.connection(np.stack([r1, r2], axis=-1))
-    cells = np.empty((2, 3), dtype=object)
-    for row in range(3):
-        for col in range(2):
-            cells[col, row] = -values[..., row, col]
-    grids = np.empty((2, 1), dtype=object)
-    grids[0, 0], grids[1, 0] = r1, r2
-    path = tmp_path / "transposed.mat"
-    savemat(path, {"s": {"grid": {"eval": grids}, "vecfield": {"eval": {"content": {"Avec": cells}}}}})
     with pytest.raises(GeogaitError, match=r"Avec in .* is a 2 × 3 cell; expected 3 × 2"):
-        GridSystem.from_sysplotter(path)
+        GridSystem.from_sysplotter(sysplotter_file(tmp_path / "transposed.mat", transposed=True))
