@@ -1,10 +1,11 @@
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.linalg import expm, logm
 
-from geogait import se2
+from geogait import GeogaitError, se2
 
 finite = st.floats(-3.0, 3.0, allow_nan=False)
 twists = arrays(float, (3,), elements=finite)
@@ -73,3 +74,21 @@ def test_constant_twist_traces_an_exact_circle():
     poses = se2.integrate_body_velocity(np.tile([1.0, 0.0, 1.0], (n, 1)), 2 * np.pi / n)
     np.testing.assert_allclose(poses[-1], [0, 0, 2 * np.pi], atol=1e-12)
     np.testing.assert_allclose(np.hypot(poses[:, 0], poses[:, 1] - 1), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize(("call", "match"), [
+    (lambda: se2.exp([1.0, 2.0, 3.0, 4.0]), "'twist' parameter of exp must be an array of shape \\(..., 3\\)"),
+    (lambda: se2.log([1.0, 2.0, 3.0, 4.0]), "'pose' parameter of log"),
+    (lambda: se2.compose([1.0, 2.0], [0.0, 0.0, 0.0]), "'first' parameter of compose"),
+    (lambda: se2.hat([1.0, 2.0]), "'twist' parameter of hat"),
+    (lambda: se2.vee(np.eye(2)), "'matrix' parameter of vee must be an array of shape \\(..., 3, 3\\)"),
+    (lambda: se2.integrate_body_velocity(np.ones((5, 3)), np.nan), "'dt' parameter .* finite"),
+    (lambda: se2.integrate_body_velocity(np.ones((5, 3)), -0.1), "'dt' parameter .* durations >= 0"),
+    (lambda: se2.integrate_body_velocity(np.ones((5, 3)), np.ones(3)), "'dt' parameter .* broadcasts"),
+    (lambda: se2.integrate_body_velocity(np.ones((5, 3)), 0.1, initial_pose=[np.nan, 0, 0]), "'initial_pose'"),
+    (lambda: se2.displacement(np.ones((5, 2)), 0.1), "'body_velocity' parameter of displacement"),
+])
+def test_group_operations_refuse_what_is_not_a_twist_or_pose(call, match):
+    """A 4th entry was silently ignored, a 2-vector an IndexError, a NaN or negative dt NaN or reversed poses."""
+    with pytest.raises(GeogaitError, match=match):
+        call()

@@ -59,6 +59,27 @@ def wrap_angle(angle):
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
+def _elements(value, name: str, owner: str, shape: tuple = (3,)) -> np.ndarray:
+    """``value`` as floats whose trailing axes are ``shape`` (a twist or pose: 3 entries; a matrix: 3 × 3), or an
+    error naming it (a 4th entry was silently ignored, a 2-vector an IndexError)."""
+    array = np.asarray(value, dtype=float)
+    if array.shape[array.ndim - len(shape):] != shape:
+        raise fail(name, owner, f"an array of shape (..., {', '.join(map(str, shape))})", f"shape {array.shape}")
+    return array
+
+
+def _durations(dt, steps_shape: tuple, owner: str) -> np.ndarray:
+    """Step durations ``dt`` (finite, ≥ 0) broadcast to the steps' ``steps_shape`` (…, n)."""
+    dt = check_array(dt, "dt", owner)
+    if np.any(dt < 0):
+        raise fail("dt", owner, "durations >= 0", f"{int(np.count_nonzero(dt < 0))} negative value(s)")
+    try:
+        return np.broadcast_to(dt, steps_shape)
+    except ValueError:
+        raise fail("dt", owner, f"a float or an array that broadcasts to the steps' shape {steps_shape}",
+                   f"shape {dt.shape}") from None
+
+
 def hat(twist) -> np.ndarray:
     """Twist ``(..., 3)`` to its 3x3 matrix in se(2), ``(..., 3, 3)``.
 
@@ -68,7 +89,7 @@ def hat(twist) -> np.ndarray:
         (v_x, v_y, omega): linear velocity (body lengths per unit time) and angular velocity (radians per
         unit time), or any such twist already multiplied by a duration.
     """
-    twist = np.asarray(twist, dtype=float)
+    twist = _elements(twist, "twist", "hat")
     out = np.zeros(twist.shape[:-1] + (3, 3))
     out[..., 0, 1] = -twist[..., 2]
     out[..., 1, 0] = twist[..., 2]
@@ -79,7 +100,7 @@ def hat(twist) -> np.ndarray:
 
 def vee(matrix) -> np.ndarray:
     """Inverse of :func:`hat`: ``(..., 3, 3)`` se(2) matrix to twist ``(..., 3)``."""
-    matrix = np.asarray(matrix, dtype=float)
+    matrix = _elements(matrix, "matrix", "vee", (3, 3))
     return np.stack([matrix[..., 0, 2], matrix[..., 1, 2], matrix[..., 1, 0]], axis=-1)
 
 
@@ -96,7 +117,7 @@ def _v_coefficients(omega):
 
 def exp(twist) -> np.ndarray:
     """Group exponential: twist ``(..., 3)`` (already multiplied by time) to pose ``(..., 3)``."""
-    twist = np.asarray(twist, dtype=float)
+    twist = _elements(twist, "twist", "exp")
     vx, vy, omega = twist[..., 0], twist[..., 1], twist[..., 2]
     s, c = _v_coefficients(omega)
     return np.stack([s * vx - c * vy, c * vx + s * vy, omega], axis=-1)
@@ -104,7 +125,7 @@ def exp(twist) -> np.ndarray:
 
 def log(pose) -> np.ndarray:
     """Group logarithm: pose ``(..., 3)`` to the twist ``(..., 3)`` with heading in ``[-pi, pi)``."""
-    pose = np.asarray(pose, dtype=float)
+    pose = _elements(pose, "pose", "log")
     omega = wrap_angle(pose[..., 2])
     s, c = _v_coefficients(omega)
     det = s * s + c * c
@@ -119,8 +140,8 @@ def _rotate(angle, vec_x, vec_y):
 
 def compose(first, second) -> np.ndarray:
     """Group product ``first * second`` of poses ``(..., 3)`` (broadcasting)."""
-    first = np.asarray(first, dtype=float)
-    second = np.asarray(second, dtype=float)
+    first = _elements(first, "first", "compose")
+    second = _elements(second, "second", "compose")
     dx, dy = _rotate(first[..., 2], second[..., 0], second[..., 1])
     return np.stack(
         np.broadcast_arrays(first[..., 0] + dx, first[..., 1] + dy, first[..., 2] + second[..., 2]),
@@ -197,10 +218,15 @@ def integrate_body_velocity(body_velocity, dt, initial_pose=None) -> np.ndarray:
         Pose before the first step followed by the pose after each step.
     """
     xi = check_array(body_velocity, "body_velocity", "integrate_body_velocity", trailing=(None, 3))
-    steps = xi * np.asarray(dt, dtype=float)[..., None]
+    steps = xi * _durations(dt, xi.shape[:-1], "integrate_body_velocity")[..., None]
     if initial_pose is None:
         initial_pose = np.zeros(xi.shape[:-2] + (3,))
-    initial_pose = np.broadcast_to(np.asarray(initial_pose, dtype=float), xi.shape[:-2] + (3,))
+    initial_pose = check_array(initial_pose, "initial_pose", "integrate_body_velocity", trailing=(3,))
+    try:
+        initial_pose = np.broadcast_to(initial_pose, xi.shape[:-2] + (3,))
+    except ValueError:
+        raise fail("initial_pose", "integrate_body_velocity", f"a pose that broadcasts to {xi.shape[:-2] + (3,)}",
+                   f"shape {initial_pose.shape}") from None
     local = exp(steps)  # each step's motion in the frame at the start of the step
     heading_before = initial_pose[..., None, 2] + np.concatenate(
         [np.zeros(xi.shape[:-2] + (1,)), np.cumsum(steps[..., 2], axis=-1)], axis=-1
@@ -222,7 +248,8 @@ def displacement(body_velocity, dt) -> np.ndarray:
     dt : float or array-like of shape (..., n_samples)
         Duration of each step (seconds, or the time unit of ``body_velocity``).
     """
-    return product_of_exponentials(np.asarray(body_velocity, dtype=float) * np.asarray(dt, dtype=float)[..., None])
+    xi = check_array(body_velocity, "body_velocity", "displacement", trailing=(None, 3))
+    return product_of_exponentials(xi * _durations(dt, xi.shape[:-1], "displacement")[..., None])
 
 
 def body_velocity_from_poses(time, pose, *, scheme: str = "forward") -> np.ndarray:
