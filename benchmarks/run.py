@@ -45,11 +45,18 @@ def best_time(function, repeats: int = 5, min_time: float = 0.2) -> float:
 
 
 def main(selection: list[str]) -> None:
+    modules = sorted(HERE.glob("bench_*.py"))
+    if any(s.startswith("-") for s in selection):  # (--help, or an option it does not have)
+        print(__doc__.strip())
+        print("\nmodules: " + " ".join(path.stem.removeprefix("bench_") for path in modules))
+        raise SystemExit(0 if set(selection) <= {"-h", "--help"} else 2)
+    chosen = [path for path in modules if not selection or any(s in path.stem for s in selection)]
+    if not chosen:  # (nothing to run: keep the last results rather than write an empty record)
+        raise SystemExit(f"error: no benchmark module matches {' '.join(selection)}; modules: "
+                         + " ".join(path.stem.removeprefix("bench_") for path in modules))
     sys.path.insert(0, str(HERE))
     rows = []
-    for path in sorted(HERE.glob("bench_*.py")):
-        if selection and not any(s in path.stem for s in selection):
-            continue
+    for path in chosen:
         spec = importlib.util.spec_from_file_location(path.stem, path)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)

@@ -73,3 +73,19 @@ def test_every_parameter_is_documented():
             if not re.search(rf"(?<![\w.]){re.escape(parameter.name)}(?!\w)", doc):
                 missing.append(f"{name}({parameter.name})")
     assert not missing, f"{len(missing)} undocumented parameters: {missing}"
+
+
+def test_the_benchmark_runner_answers_help_and_a_bad_name_without_writing(tmp_path):
+    """`run.py --help` used to run nothing and overwrite the last results with an empty record."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    runner = Path(__file__).resolve().parents[1] / "benchmarks" / "run.py"
+    results = runner.parent / "results" / "benchmarks.json"
+    before = results.read_bytes() if results.exists() else None
+    shown = subprocess.run([sys.executable, str(runner), "--help"], capture_output=True, text=True, timeout=60)
+    assert shown.returncode == 0 and "modules: " in shown.stdout and "models" in shown.stdout
+    missing = subprocess.run([sys.executable, str(runner), "nosuch"], capture_output=True, text=True, timeout=60)
+    assert missing.returncode == 1 and "no benchmark module matches nosuch" in missing.stderr
+    assert (results.read_bytes() if results.exists() else None) == before

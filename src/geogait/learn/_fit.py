@@ -25,7 +25,7 @@ needs 5 cycles too. Fewer raise an error naming the counts.
 
 Γ here is measured against the log's own body velocities, so it is capped by their quality: noise
 in poses (amplified by differentiation) and the low-pass of the Savitzky–Golay filters both count
-as model error. On the simulated 3-link swimmer (tests/test_cli_fit.py) a poses-only log with
+as model error. On the simulated 3-link swimmer (tests/cli/test_cli_fit.py) a poses-only log with
 realistic motion-capture noise scores 0.90 where the true phase and velocities score 0.986;
 noise-free poses score 0.93 (the simulator's shape-velocity perturbation is rougher than any
 filter of sampled shapes can follow).

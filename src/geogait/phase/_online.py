@@ -59,7 +59,7 @@ gait, a saturating actuator) gets a biased phase, as it does offline, where the 
 frozen too. Where the limit cycle passes close to itself (a figure-eight in the channels) the
 nearest point can jump between the two branches; the tracker then smooths the jump over about
 ``window / 4`` samples but does not prevent it. The window trades noise for lag and its
-default suits noisy shapes: on the clean four-channel test oscillator of ``tests/test_phaser.py``
+default suits noisy shapes: on the clean four-channel test oscillator of ``tests/phase/test_phaser.py``
 with its rate ramping up by 50 % over 16 cycles (40 samples per cycle on average), the default
 window of 80 samples lags by 0.028 rad where 20 samples lag by 0.002 rad (median errors 0.029 and
 0.003 rad; offline 0.004). The rate is per sample: the stream must be
