@@ -8,7 +8,7 @@ cycle, period 1 s) and, from cycle ``cycle`` on for ``cycles`` cycles, does what
   stamps × ``magnitude``), ``pose_jump`` (first pose of the cycle moved by ``magnitude``),
   ``frozen_joints``, ``ignore_set_gait`` (every cycle, whatever ``cycle`` says);
 * protocol faults (geogait must stop with a clear error): ``string_numbers``, ``bool_numbers``, ``huge_numbers``,
-  ``bad_utf8``, ``endless_line``, ``huge_error``, ``huge_stderr``, ``deep_json``;
+  ``bad_utf8``, ``endless_line``, ``huge_error``, ``huge_stderr``, ``deep_json``, ``second_hello``;
 * ``"hello"``: keys that replace those of the hello line (``{"version": 1.0}``, ``{"cycle_period": 1e300}``).
 """
 
@@ -97,6 +97,10 @@ def _protocol_fault(fault: str, samples: list, out, magnitude: float) -> bool:
     elif fault == "huge_stderr":
         sys.stderr.write("S" * 3_000_000 + "\n")
         sys.stderr.flush()
+    elif fault == "second_hello":
+        out.write((json.dumps({"type": "hello", "protocol": PROTOCOL, "version": PROTOCOL_VERSION, "n_joints": 5,
+                               "cycle_period": 100.0}) + "\n").encode())
+        return False
     elif fault == "deep_json":
         out.write(b"[" * 100_000 + b"]" * 100_000 + b"\n")
     else:

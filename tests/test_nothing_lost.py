@@ -352,6 +352,7 @@ def fault_robot(**config):
     ({"fault": "huge_numbers", "cycle": 1}, "field 'pose' must be a list of 3 finite numbers (JSON numbers within "
                                             "±1e+12)"),
     ({"fault": "bool_numbers", "cycle": 1}, "field 'shape' must be a list of 2 finite numbers"),
+    ({"fault": "second_hello", "cycle": 1}, "a second 'hello' in the middle of the run"),
     ({"fault": "bad_utf8", "cycle": 1}, "is not UTF-8 (byte 0xff"),
     ({"fault": "endless_line", "cycle": 1}, "longer than 1048576 bytes"),
     ({"fault": "deep_json", "cycle": 1}, "is not JSON (nested too deeply)"),

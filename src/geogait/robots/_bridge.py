@@ -57,7 +57,8 @@ measured joint angles (rad) and rates (rad/s), ``pose`` the world pose of the bo
 ``body_velocity`` ξ in that frame (per second). ``body_velocity`` may be left out: it is then
 computed from consecutive poses (SE(2) logarithms). ``commanded_shape`` is optional (see
 :mod:`geogait.robots`). At any time the driver may send ``{"type": "error", "message": "..."}``.
-Lines of other types are ignored (room for extensions); anything the driver writes to stderr is
+A second ``hello`` is an error (a driver that restarted would otherwise be read as the one that said
+hello first); lines of other types are ignored (room for extensions); anything the driver writes to stderr is
 kept and shown when it fails.
 
 What geogait checks (a driver is trusted with nothing):
@@ -303,6 +304,9 @@ class ProcessRobot:
             kind = message.get("type")
             if kind == "cycle_end":
                 break
+            if kind == "hello":  # (the driver restarted, or says something else than it first did)
+                raise self._failure(f"line {self.line_number}: a second 'hello' in the middle of the run; its "
+                                    "settings cannot change once it has started (restart the run)")
             if kind == "sample":
                 samples.append(self._sample(message))
                 if len(samples) > _MAX_SAMPLES:
