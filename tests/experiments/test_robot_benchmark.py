@@ -427,3 +427,16 @@ def test_a_case_with_a_bad_setting_says_which():
                            ({"family": "odd"}, "'family'"), ({"objective": "speed"}, "'objective'")):
         with pytest.raises(ValueError, match=match):
             bench.BenchmarkCase(name="x", description="", make_robot=None, **setting)
+
+
+def test_evaluate_gait_refuses_a_gait_or_period_the_case_does_not_allow():
+    """A gait beyond the joint limit scored above the ceiling; a period on a case that has none was taken."""
+    from geogait import GeogaitError
+    from geogait.experiments.robot_benchmark import CASES, evaluate_gait
+    from geogait.gaits import seed_gait
+
+    case = CASES["swimmer3"]
+    with pytest.raises(GeogaitError, match="'gait' parameter of evaluate_gait must be a FourierGait within"):
+        evaluate_gait(case, seed_gait(2, amplitude=3.0))
+    with pytest.raises(GeogaitError, match="'period' parameter of evaluate_gait must be None for case 'swimmer3'"):
+        evaluate_gait(case, seed_gait(2), period=1.5)

@@ -76,7 +76,7 @@ import pandas as pd
 from .. import __version__
 from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
 from .._files import write_text
-from .._validation import GeogaitError, check_choice, check_int, fail
+from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
 from ..models import BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle, robot_feasibility
@@ -386,6 +386,15 @@ def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None =
         ``period_range``), ``rotation`` (mean net rotation per cycle, rad), ``period`` (s) and,
         when the case has one, ``score``.
     """
+    owner = "evaluate_gait"
+    if not isinstance(gait, FourierGait) or gait.joint_limit().max() > case.max_joint_angle * (1 + 1e-6):
+        raise fail("gait", owner, f"a FourierGait within the case's joint limit {case.max_joint_angle:.4g} rad",
+                   f"a gait reaching {gait.joint_limit().max():.4g} rad" if isinstance(gait, FourierGait) else gait)
+    if period is not None:
+        if case.period_range is None:
+            raise fail("period", owner, f"None for case {case.name!r}, which runs at its robot's period", period)
+        low, high = case.period_range
+        check_float(period, "period", owner, low=low * (1 - 1e-6), high=high * (1 + 1e-6))
     robot = case.make_robot(None, explore=False, noise=False, gait=gait)
     nets = _run_measured(robot, case, gait, case.eval_cycles, period, settle=_eval_settle(case))
     rate = 1 / robot.cycle_period if case.period_range is not None else 1.0
