@@ -139,6 +139,13 @@ class FourierGait:
         coefficients[:, 1 + order:1 + order + keep] = self.coefficients[:, 1 + self.order:1 + self.order + keep]
         return FourierGait(coefficients)
 
+    def highest_harmonic(self) -> int:
+        """The order of its highest non-zero harmonic (0 for a constant gait): the lowest order that holds it
+        whole (:meth:`with_order` below it drops harmonics)."""
+        nonzero = np.flatnonzero(np.any(self.coefficients[:, 1:1 + self.order] != 0, axis=0)
+                                 | np.any(self.coefficients[:, 1 + self.order:] != 0, axis=0))
+        return int(nonzero[-1]) + 1 if nonzero.size else 0
+
     def with_params(self, params) -> FourierGait:
         """Same family, new flat parameter vector.
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 import statistics
 import warnings
 from collections import deque
@@ -21,6 +20,7 @@ from .._validation import (
     MAX_MAGNITUDE,
     GeogaitError,
     GeogaitWarning,
+    check_array,
     check_choice,
     check_float,
     check_int,
@@ -381,26 +381,14 @@ class StreamLearner:
 
     def _refuse_scalars(self, sample: StreamSample) -> None:
         for name in ("time", "phase"):
-            value = getattr(sample, name)
-            if value is not None and not (isinstance(value, numbers.Real) and math.isfinite(value)):
-                raise fail(name, f"input line {sample.line}", "a finite number (or not given)", value)
+            if getattr(sample, name) is not None:
+                check_float(getattr(sample, name), name, f"input line {sample.line}")
 
     def _refuse_field(self, sample: StreamSample) -> None:
         """The error for the first of ``sample``'s arrays of the wrong length, not numbers, or not finite."""
-        d = self.n_joints
-        for name, size in (("shape", d), ("shape_velocity", d), ("body_velocity", 3)):
-            value = getattr(sample, name)
-            if value is None and name == "shape_velocity":
-                continue
-            if np.shape(value) != (size,):
-                raise fail(name, f"input line {sample.line}", f"{size} values", f"shape {np.shape(value)}")
-            try:
-                finite = np.isfinite(np.asarray(value, dtype=float)).all()
-            except (TypeError, ValueError):
-                raise fail(name, f"input line {sample.line}", "numbers", np.asarray(value).tolist()) from None
-            if not finite:
-                raise fail(name, f"input line {sample.line}", "finite values (no NaN or inf)",
-                           np.asarray(value).tolist())
+        for name, size in (("shape", self.n_joints), ("shape_velocity", self.n_joints), ("body_velocity", 3)):
+            if getattr(sample, name) is not None or name != "shape_velocity":
+                check_array(getattr(sample, name), name, f"input line {sample.line}", trailing=(size,), ndim=1)
 
     def _clock(self, sample: StreamSample) -> None:
         """Check the time stamp increases; after a gap, restart the differentiator and phase window."""

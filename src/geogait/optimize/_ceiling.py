@@ -169,9 +169,10 @@ def optimize_ceiling(system: System, *, order: int = 1, objective_kind: str | No
     matrix = None
     if family == "symmetric":
         symmetric = SymmetricGaitFamily.from_gait(seed_start)
-        if start is not None and symmetric.residual(seed_start) > 1e-6:
+        distance = symmetric.residual(seed_start)
+        if start is not None and distance > 1e-6:
             raise fail("start", "optimize_ceiling", "a front-back symmetric gait for family 'symmetric'",
-                       f"a gait {symmetric.residual(seed_start):.3g} from the nearest symmetric one")
+                       f"a gait {distance:.3g} from the nearest symmetric one")
         matrix = symmetric.matrix
     elif family == "mirror":
         mirror = MirrorGaitFamily(d, order)

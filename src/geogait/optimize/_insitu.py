@@ -437,10 +437,10 @@ class InSituOptimizer(Estimator):
                                   checkpoint=checkpoint, checkpoint_every=checkpoint_every,
                                   checkpoint_tag=checkpoint_tag)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
-        gait = robot.gait.with_order(self.order)
-        if np.abs(gait.with_order(robot.gait.order).coefficients - robot.gait.coefficients).max() > 0:
+        if self.order < robot.gait.highest_harmonic():
             raise fail("order", owner, f"at least the order of the robot's seed gait ({robot.gait.order}), whose "
                        "higher harmonics would be dropped", self.order)
+        gait = robot.gait.with_order(self.order)
         r_max = self._joint_limit(robot, owner)
         if gait.joint_limit().max() > r_max + 1e-12:
             raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",

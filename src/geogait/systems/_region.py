@@ -124,10 +124,10 @@ class RegionSystem:
         order : int, default 1
         """
         order = check_int(order, "order", f"{self.name}.seed_gait", minimum=1)
-        gait = self._seed.with_order(order)
-        if np.abs(gait.with_order(self._seed.order).coefficients - self._seed.coefficients).max() > 0:
+        if order < self._seed.highest_harmonic():
             raise fail("order", f"{self.name}.seed_gait", f"at least the seed's order {self._seed.order} (its higher "
                        "harmonics would be dropped)", order)
+        gait = self._seed.with_order(order)
         if amplitude is not None:
             amplitude = check_float(amplitude, "amplitude", f"{self.name}.seed_gait", low=0, low_open=True)
             coefficients = gait.coefficients.copy()
