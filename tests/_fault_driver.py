@@ -8,7 +8,8 @@ cycle, period 1 s) and, from cycle ``cycle`` on for ``cycles`` cycles, does what
   stamps × ``magnitude``), ``pose_jump`` (first pose of the cycle moved by ``magnitude``),
   ``frozen_joints``, ``ignore_set_gait`` (every cycle, whatever ``cycle`` says);
 * protocol faults (geogait must stop with a clear error): ``string_numbers``, ``bool_numbers``, ``huge_numbers``,
-  ``bad_utf8``, ``endless_line``, ``huge_error``, ``huge_stderr``, ``deep_json``, ``second_hello``;
+  ``bad_utf8``, ``endless_line``, ``huge_error``, ``huge_stderr``, ``deep_json``, ``second_hello``,
+  ``repeated_key`` (a key twice in one line), ``clock_per_cycle`` (time stamps restarting at 0);
 * ``"hello"``: keys that replace those of the hello line (``{"version": 1.0}``, ``{"cycle_period": 1e300}``).
 """
 
@@ -103,6 +104,13 @@ def _protocol_fault(fault: str, samples: list, out, magnitude: float) -> bool:
         return False
     elif fault == "deep_json":
         out.write(b"[" * 100_000 + b"]" * 100_000 + b"\n")
+    elif fault == "repeated_key":  # (json.dumps cannot write one)
+        out.write(b'{"type": "sample", "time": 1.5, "time": 1.6}\n')
+    elif fault == "clock_per_cycle":  # a driver whose time stamps restart every cycle
+        start = samples[0]["time"]
+        for sample in samples:
+            sample["time"] -= start
+        return False
     else:
         return False
     if fault in ("string_numbers", "bool_numbers", "huge_numbers"):

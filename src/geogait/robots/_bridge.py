@@ -63,9 +63,11 @@ kept and shown when it fails.
 
 What geogait checks (a driver is trusted with nothing):
 
-* every line is strict UTF-8 JSON of at most :data:`MAX_LINE_BYTES` bytes; numbers are JSON numbers
-  (not strings or booleans), ``version`` and ``n_joints`` integers; ``cycle_period`` lies in
-  [1e-3, 86 400] s; error messages and stderr lines are cut to :data:`MAX_TEXT` characters;
+* every line is strict UTF-8 JSON of at most :data:`MAX_LINE_BYTES` bytes, with no key given twice in one
+  object; numbers are JSON numbers (not strings or booleans), ``version`` and ``n_joints`` integers;
+  ``cycle_period`` lies in [1e-3, 86 400] s; ``time`` increases strictly through the whole run (one clock
+  from the hello on, not one per cycle); error messages and stderr lines are cut to :data:`MAX_TEXT`
+  characters;
 * every cycle against the hello and the gait it was sent: its samples span about one
   ``cycle_period`` (within a factor 2), the commanded phase sweeps the cycle (no gap over a
   quarter cycle), every joint the gait moves sweeps at least 1 % of the gait's range, the
@@ -98,6 +100,20 @@ from ..simulate import Trajectory
 from ..systems import BODY_FRAMES, LinearRegion
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
+
+
+class _RepeatedKey(ValueError):
+    def __init__(self, key):
+        super().__init__(key)
+        self.key = key
+
+
+def _unique_keys(pairs: list) -> dict:
+    """``json.loads``' object hook: a key given twice is an error (JSON leaves it open; Python keeps the last)."""
+    message = dict(pairs)
+    if len(message) != len(pairs):
+        raise _RepeatedKey(next(key for i, (key, _) in enumerate(pairs) if key in dict(pairs[:i])))
+    return message
 
 PROTOCOL = "geogait-robot"
 PROTOCOL_VERSION = 2
@@ -203,6 +219,7 @@ class ProcessRobot:
         self._earlier: list[FourierGait] = []  # gaits commanded before the current one (newest last)
         self._ignored = 0
         self._last_pose = None
+        self._last_time = -np.inf  # the latest sample time of the run (one clock for the whole run)
         self._excitation = None  # sent with the next run_cycle
         try:
             self._handshake()
@@ -277,7 +294,7 @@ class ProcessRobot:
                 raise
             self.cycles_run += 1
             reason = self._implausible(trajectory) if self.check_cycles else None
-            self._last_pose = trajectory.pose[-1]
+            self._last_pose, self._last_time = trajectory.pose[-1], float(trajectory.time[-1])
             if reason is None:
                 trajectory.cycle[:] = self.cycle
                 self.cycle += 1
@@ -461,7 +478,10 @@ class ProcessRobot:
             self._process.kill()
             raise self._failure(f"line {self.line_number} {line}")
         try:
-            message = json.loads(line)
+            message = json.loads(line, object_pairs_hook=_unique_keys)
+        except _RepeatedKey as repeated:
+            raise self._failure(f"line {self.line_number}: key {_cut(repr(repeated.key), 40)} appears more than "
+                                "once in one JSON object (which one was meant?)") from None
         except (json.JSONDecodeError, RecursionError) as error:
             reason = getattr(error, "msg", "nested too deeply")
             raise self._failure(f"line {self.line_number} is not JSON ({reason}): {_cut(line, 80)!r}") from None
@@ -616,6 +636,10 @@ class ProcessRobot:
         time = np.array(columns["time"])
         if np.any(np.diff(time) <= 0):
             raise self._failure(f"cycle {self.cycle}: 'time' must increase strictly from sample to sample")
+        if not time[0] > self._last_time:
+            raise self._failure(f"cycle {self.cycle}: 'time' went back from {self._last_time:.6g} s (the previous "
+                                f"cycle's last sample) to {time[0]:.6g} s; time stamps must increase through the "
+                                "whole run (one clock since the hello, not one per cycle)")
         phase = np.array(columns["phase"])
         if np.any((phase < 0) | (phase >= 2 * np.pi)):
             raise self._failure(f"cycle {self.cycle}: 'phase' must lie in [0, 2π)")
