@@ -225,13 +225,13 @@ class InSituOptimizer(Estimator):
         the measured gains again. ``"contradicted"``: only when measured outcomes contradict the model,
         not when it levels off (a model that holds far from its data, levelled off at its optimum, would
         otherwise be led astray by single noisy cycles). ``"first"`` (default): climb from the first
-        decision — after ``min_cycles_per_iteration`` measured cycles of the seed (clean: the climb's first
-        measurement of its base), without waiting for the model's Γ — at twice the largest trust radius,
-        and hand the steps to the model once it predicts the measured gains of the climb's own steps (True,
-        its former default, lets the model step first). On the robot benchmark (24 paired seeds) climbing
-        first is ahead of model steps first (level on 3 links at 100 cycles) on every robot with a
-        data-driven model, most on those outside the model class and on the 9-link swimmer; the structured
-        model's settings keep ``"contradicted"``.
+        decision — after ``min_cycles_per_iteration`` measured cycles of the seed, without waiting for the
+        model's Γ — at twice the largest trust radius, and hand the steps to the model once it predicts the
+        measured gains of the climb's own steps (True, its former default, lets the model step first). On
+        the robot benchmark (24 paired seeds) climbing first is ahead of model steps first (level on 3
+        links at 100 cycles) on every robot with a data-driven model, most on those outside the model class
+        and on the 9-link swimmer; the
+        structured model's settings keep ``"contradicted"``.
     climb_rule : {"auto", "es", "cobyqa", "bayes"}
         How the climb proposes its candidates. ``"es"``: the mirrored (1+1) evolution strategy
         above. ``"cobyqa"``: SciPy's COBYQA (module :mod:`geogait.optimize._search`), a
@@ -249,9 +249,8 @@ class InSituOptimizer(Estimator):
     exploration : "auto", float or None
         Who explores. ``"auto"`` (default): the optimiser commands the excitation of eq. 8
         (δ std 0.15 × ``shape_scale``, two oscillations per cycle; :class:`Exploration`) to robots
-        that offer ``set_excitation`` (and to none while the measured climb runs, nor on the seed's cycles
-        before a first climb with ``climb="first"``: their outcomes are measured clean); robots without it
-        explore on their own. A float: that δ std in units of
+        that offer ``set_excitation`` (and to none while the measured climb runs: its outcomes are
+        measured clean); robots without it explore on their own. A float: that δ std in units of
         ``shape_scale`` (the robot must offer ``set_excitation``). None: never commanded — the
         robot's own perturbation (the paper's simulated swimmer). Either way, the log's
         ``excitation`` column is each cycle's RMS commanded (or, without ``commanded_shape``,
