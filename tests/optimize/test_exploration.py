@@ -55,21 +55,6 @@ def test_the_optimiser_explores_a_robot_that_does_not_and_sizes_it_in_shape_unit
     assert half["excitation"].mean() == pytest.approx(0.05, rel=0.35)
 
 
-def test_a_first_climb_measures_the_seed_clean_and_starts_from_those_cycles():
-    """climb="first": the seed's cycles are the climb's first measurement, so they run clean (explored, their mean
-    is off the seed's own value by what the excitation does to the motion) and the first candidate follows them
-    at once, not after a third, clean cycle of the seed."""
-    result = InSituOptimizer(min_cycles_per_iteration=2).run(_quiet_stream(), 4)
-    log = result.log
-    assert (log["excitation"].iloc[:2] < 1e-12).all() and not log["climb"].iloc[0]
-    assert log["climb"].iloc[1] and log["candidate"].iloc[2]  # cycle 2 runs the first candidate
-    assert not np.array_equal(log.filter(like="param_").iloc[2], log.filter(like="param_").iloc[0])
-    measured, true = log["measured_objective"].iloc[:2].mean(), log["true_objective"].iloc[0]
-    assert measured == pytest.approx(true, rel=0.02)
-    explored = InSituOptimizer(climb=True).run(_quiet_stream(), 2).log  # model steps first: the seed explores
-    assert (explored["excitation"] > 0.05).all()
-
-
 def test_a_run_without_exploration_says_so_and_takes_no_model_step():
     with pytest.warns(UserWarning, match="carry no exploration"):
         log = InSituOptimizer(exploration=None, climb=False).run(_quiet_stream(), 12).log

@@ -30,9 +30,8 @@ def test_the_swimmer_passes_and_is_optimised_after_the_test():
     # T for N cycles, then 2 T (a settling cycle and N measured), then one settling cycle back at T
     np.testing.assert_array_equal(log["cycle_period"][test], [1.0] * N + [2.0] * (N + 1) + [1.0])
     assert (log["cycle_period"][~test] == 1.0).all()
-    # clean while testing (the optimiser owns the exploration), and so are the seed's cycles after it: they are
-    # the first climb's first measurement (climb="first")
-    assert (log["excitation"][test] == 0).all() and (log["excitation"][~test].iloc[:2] == 0).all()
+    # clean while testing (the optimiser owns the exploration); the seed's cycles after it are explored
+    assert (log["excitation"][test] == 0).all() and (log["excitation"][~test].iloc[:2] > 0.05).all()
     verdict = result.model_class
     assert verdict.principally_kinematic is True, verdict.reason
     assert verdict.periods == (1.0, 2.0) and verdict.n_cycles == (N, N)

@@ -177,25 +177,15 @@ class CycleLoop:
         if state.exploration is None:
             return
         delta, rate = state.exploration.next_cycle(state.robot_period)
-        if not self._explores():  # measured outcomes: clean cycles, as a black-box method runs them
+        testing = state.check is not None and not state.check.done
+        if state.climb.active or testing:  # measured outcomes: clean cycles, as a black-box method runs them
             delta, rate = np.zeros_like(delta), np.zeros_like(rate)
         state.excitation_next = (delta, rate)
         self.robot.set_excitation(delta, rate)
 
-    def _explores(self) -> bool:
-        """Whether the next cycle carries exploration, when the optimiser owns it: not while the measured climb
-        runs or the model class is tested, nor on the seed's cycles before a first climb (``climb="first"``),
-        whose mean is the climb's first measured value."""
-        state = self.state
-        testing = state.check is not None and not state.check.done
-        climbs_first = self.optimizer.climb == "first" and state.climb.base is None
-        return not (state.climb.active or testing or climbs_first)
-
     def _unexcited(self) -> bool:
         """The current gait's cycles carried no exploration (below 1 % of shape_scale): say so, once."""
         state = self.state
-        if state.exploration is not None and not self._explores():
-            return False  # (left out on purpose)
         if not state.iteration_excitation or np.mean(state.iteration_excitation) >= 0.01 * state.scale:
             return False
         if not state.warned_no_excitation:
@@ -293,12 +283,8 @@ class CycleLoop:
         the largest trust radius). A period trial in progress is dropped: while climbing, the period is
         one of the climb's coordinates."""
         state = self.state
-        seed_clean = state.exploration is not None and self.optimizer.climb == "first" and state.climb.base is None
         best = self._best_key() if base is None else base
         state.climb.start(best, self.optimizer.max_trust_radius * state.scale if sigma is None else sigma)
-        if seed_clean and best in state.measured:  # the seed's cycles ran clean: the climb's first measurement
-            state.climb.measured[best] = list(state.measured[best])
-            state.climb.rotations[best] = list(state.rotations[best])
         if self.optimizer.climb_rule != "es":
             state.climb.search = self._new_search(best, state.climb.sigma)
         if state.period_search is not None:
