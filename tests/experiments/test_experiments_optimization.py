@@ -191,6 +191,25 @@ def test_fig5_models_per_swimmer():
     assert isinstance(in_situ_model("adaptive", 9), AdaptiveGaitModel)
 
 
+def test_fig5_runs_the_papers_loop_steps_from_the_model_alone():
+    """Fig. 5's runs take steps from the model alone: no measured climb and no revert to the best gait measured,
+    which on this 5-link trial the library's default makes twice within 40 cycles."""
+    from geogait.experiments.optimization import paper_optimizer
+    from geogait.gaits import Perturbation, seed_gait
+    from geogait.simulate import SwimmerStream
+    from geogait.systems import PurcellSwimmer
+
+    def stream():
+        return SwimmerStream(PurcellSwimmer(5), seed_gait(4), perturbation=Perturbation.from_std(0.15),
+                             sensor_noise=0.1, seed=1)
+
+    paper = paper_optimizer("adaptive", "auto", 5, 0.5)
+    log = paper.run(stream(), 40).log
+    assert not log["reverted"].any() and not log["climb"].any() and log["step"].sum() >= 5
+    assert log["excitation"].max() > 0.05  # the swimmer's own exploration (eq. 8), not commanded
+    assert paper.set_params(revert_tolerance=2.0).run(stream(), 40).log["reverted"].sum() == 2
+
+
 def test_shape_method_model_for_swimmer_and_robot():
     """--method shape: Fig. 5's model on the built-in swimmer; degree 3 without symmetry for a robot, whose
     symmetries are not known; --forgetting-factor overrides λ in both."""

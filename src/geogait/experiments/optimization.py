@@ -1,7 +1,8 @@
 r"""Experiment 3 (paper Fig. 5): in-situ gait optimisation of the 3-, 5- and 9-link swimmers.
 
 For each swimmer, ``n_trials`` seeded in-situ optimisations (:class:`~geogait.optimize.InSituOptimizer`,
-budgets 40 / 60 / 60 cycles as in the paper) and ``baseline_trials`` runs of the prior-work batch
+budgets 40 / 60 / 60 cycles as in the paper; the paper's loop: steps from the model alone, with neither the
+measured climb nor the revert to the best gait measured) and ``baseline_trials`` runs of the prior-work batch
 method (30 perturbed cycles per iteration, batch refit, same step rule) with a budget of
 ``baseline_iterations`` iterations. Every run logs, per cycle, the *true* displacement per cycle of
 the nominal gait being executed (oracle with the true connection), its net rotation and the online Γ.
@@ -153,6 +154,14 @@ def shape_method_model(n_links: int, *, robot: bool = False, forgetting_factor: 
     return model if forgetting_factor is None else model.set_params(forgetting_factor=forgetting_factor)
 
 
+def paper_optimizer(method: str, model: str, n_links: int, gamma_threshold: float) -> InSituOptimizer:
+    """The paper's optimiser in the paper's setting: the simulated swimmer explores (eq. 8) and the optimiser
+    does not command it; steps come from the model alone — neither the measured climb nor the revert to the best
+    gait measured, both the library's additions. ``method="batch"``: the prior work's batch model."""
+    return InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
+                           gamma_threshold=gamma_threshold, exploration=None, climb=False, revert_tolerance=None)
+
+
 def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, method: str, sensor_noise: float,
                         perturbation: float, gamma_threshold: float, ceiling: float,
                         model: str = "auto") -> pd.DataFrame:
@@ -194,11 +203,7 @@ def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, me
     for trial, seed in zip(trial_indices, seeds, strict=True):
         stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(perturbation),
                                sensor_noise=sensor_noise, seed=seed)
-        # the paper's optimiser in the paper's setting: the simulated swimmer explores (eq. 8), the
-        # optimiser does not command it, and steps come from the model alone (no measured climb)
-        optimizer = InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
-                                    gamma_threshold=gamma_threshold, exploration=None, climb=False)
-        log = optimizer.run(stream, n_cycles, ceiling=ceiling).log
+        log = paper_optimizer(method, model, n_links, gamma_threshold).run(stream, n_cycles, ceiling=ceiling).log
         params = [c for c in log.columns if c.startswith("param_")]
         log = log[["cycle", "gamma", "step", "true_objective", "true_heading", "improvement", "ceiling_fraction",
                    *params]]
