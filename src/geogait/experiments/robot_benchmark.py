@@ -578,8 +578,8 @@ RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
 
 def _variant_options(robot, variant: str) -> dict | None:
     """InSituOptimizer options of a geogait variant; None when the robot cannot run it (no chain geometry)."""
-    if variant == "batch":  # the prior work (Bittner et al. 2018) as published: a batch model, no measured climb
-        return {"model": BatchGaitModel(), "gate": "cycles", "climb": False}
+    if variant == "batch":  # the prior work (Bittner et al. 2018) as published: a batch model, steps from it alone
+        return {"model": BatchGaitModel(), "gate": "cycles", "climb": False, "revert_tolerance": None}
     if variant in ("resistance", "hybrid"):
         try:
             geometry = robot.chain_geometry()
