@@ -395,7 +395,8 @@ def test_long_driver_texts_are_cut(fault):
 
 
 @pytest.mark.parametrize(("config", "fragment"), [({"fault": "pose_jump", "cycle": 2}, "the pose jumps by 1000"),
-                                                  ({"fault": "phase_stuck", "cycle": 1}, "commanded phase covers")])
+                                                  ({"fault": "phase_stuck", "cycle": 1}, "commanded phase covers"),
+                                                  ({"fault": "time_scale", "cycle": 1}, "span 1000 s")])
 def test_an_implausible_cycle_is_quarantined_and_logged(config, fragment):
     with pytest.warns(match="quarantined"), fault_robot(**config) as robot:
         cycles = [robot.next_cycle() for _ in range(4)]

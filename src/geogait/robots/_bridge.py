@@ -294,8 +294,9 @@ class ProcessRobot:
                 raise
             self.cycles_run += 1
             reason = self._implausible(trajectory) if self.check_cycles else None
-            self._last_pose, self._last_time = trajectory.pose[-1], float(trajectory.time[-1])
-            if reason is None:
+            self._last_pose = trajectory.pose[-1]
+            if reason is None:  # (a quarantined cycle's clock is not trusted: time stamps in another unit)
+                self._last_time = float(trajectory.time[-1])
                 trajectory.cycle[:] = self.cycle
                 self.cycle += 1
                 self._excitation = None
