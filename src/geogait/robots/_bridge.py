@@ -66,7 +66,7 @@ What geogait checks (a driver is trusted with nothing):
 * every line is strict UTF-8 JSON of at most :data:`MAX_LINE_BYTES` bytes, with no key given twice in one
   object; numbers are JSON numbers (not strings or booleans), ``version`` and ``n_joints`` integers;
   ``cycle_period`` lies in [1e-3, 86 400] s; ``time`` increases strictly through the whole run (one clock
-  from the hello on, not one per cycle); error messages and stderr lines are cut to :data:`MAX_TEXT`
+  from the hello on, not one per cycle; a quarantined cycle's stamps are not counted); error messages and stderr lines are cut to :data:`MAX_TEXT`
   characters;
 * every cycle against the hello and the gait it was sent: its samples span about one
   ``cycle_period`` (within a factor 2), the commanded phase sweeps the cycle (no gap over a
