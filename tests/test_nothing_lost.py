@@ -358,7 +358,8 @@ def fault_robot(**config):
     ({"fault": "deep_json", "cycle": 1}, "is not JSON (nested too deeply)"),
     ({"fault": "repeated_key", "cycle": 1}, "key 'time' appears more than once in one JSON object"),
     ({"fault": "clock_per_cycle", "cycle": 1, "cycles": 9},
-     "cycle 1: 'time' went back from 0.975 s (the previous cycle's last sample) to 0 s"),
+     "3 implausible cycles in a row; the last: its first time stamp (0.0 s) is not after the last accepted cycle's "
+     "last (0.975 s)"),
     ({"fault": "phase_stuck", "cycle": 1, "cycles": 9}, "3 implausible cycles in a row; the last: the commanded phase"),
     ({"fault": "time_scale", "cycle": 0, "cycles": 9}, "span 1000 s, but the hello's cycle_period is 1 s"),
     ({"fault": "frozen_joints", "cycle": 0, "cycles": 9}, "joint(s) [0, 1] never moved (less than 1%"),
@@ -373,6 +374,20 @@ def test_a_driver_is_trusted_with_nothing(config, fragment):
     message = str(error.value)
     assert fragment in message and "_fault_driver.py" in message  # the whole command, not argv[0]
     assert len(message) < 1000 and time.perf_counter() - started < 15  # no full timeout, no megabyte "line"
+
+
+def test_a_repeated_key_is_found_at_any_depth_and_in_one_pass():
+    from geogait.robots._bridge import _RepeatedKey, _unique_keys
+
+    hello = '{"type": "hello", "gait": {"order": 1, "params": [0, 1], "order": 2}}'
+    with pytest.raises(_RepeatedKey) as repeated:
+        json.loads(hello, object_pairs_hook=_unique_keys)
+    assert repeated.value.key == "order"
+    many = "{" + ", ".join(f'"k{i}": {i}' for i in range(100_000)) + ', "k0": 0}'  # (a search per key: minutes)
+    with pytest.raises(_RepeatedKey, match="k0"):
+        json.loads(many, object_pairs_hook=_unique_keys)
+    assert json.loads('{"a": {"a": 1}, "b": [{"a": 2}]}', object_pairs_hook=_unique_keys) == {"a": {"a": 1},
+                                                                                             "b": [{"a": 2}]}
 
 
 def test_after_a_cycle_broke_off_the_robot_refuses_to_go_on():
@@ -396,7 +411,9 @@ def test_long_driver_texts_are_cut(fault):
 
 @pytest.mark.parametrize(("config", "fragment"), [({"fault": "pose_jump", "cycle": 2}, "the pose jumps by 1000"),
                                                   ({"fault": "phase_stuck", "cycle": 1}, "commanded phase covers"),
-                                                  ({"fault": "time_scale", "cycle": 1}, "span 1000 s")])
+                                                  ({"fault": "time_scale", "cycle": 1}, "span 1000 s"),
+                                                  ({"fault": "time_scale", "cycle": 1, "magnitude": 0.001},
+                                                   "its first time stamp (0.001 s) is not after")])
 def test_an_implausible_cycle_is_quarantined_and_logged(config, fragment):
     with pytest.warns(match="quarantined"), fault_robot(**config) as robot:
         cycles = [robot.next_cycle() for _ in range(4)]

@@ -189,6 +189,8 @@ def test_geogait_options_replace_the_optimisers_own_and_leave_black_box_methods_
                                       checkpoints=[6], progress=False, geogait_options=given)
             for given in (options, None)]
     assert [{k: p[k] for k in options} for p in seen[:2]] == [options, options]
+    # the batch variant is the prior work's loop: steps from its model alone, no revert to the best gait measured
+    assert (seen[1]["climb"], seen[1]["revert_tolerance"]) == (False, None) and seen[0]["revert_tolerance"] == 2.0
     assert [p["min_trust_radius"] for p in seen[2:]] == [InSituOptimizer().min_trust_radius] * 2
     assert runs[0]["config"]["geogait_options"] == options and runs[1]["config"]["geogait_options"] is None
     random = [r["records"].query("method == 'random'")["objective"].to_numpy() for r in runs]

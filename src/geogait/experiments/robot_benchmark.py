@@ -578,7 +578,7 @@ RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
 
 def _variant_options(robot, variant: str) -> dict | None:
     """InSituOptimizer options of a geogait variant; None when the robot cannot run it (no chain geometry)."""
-    if variant == "batch":  # the prior work (Bittner et al. 2018) as published: a batch model, steps from it alone
+    if variant == "batch":  # the prior work's loop (Bittner et al. 2018): a batch model, steps from it alone
         return {"model": BatchGaitModel(), "gate": "cycles", "climb": False, "revert_tolerance": None}
     if variant in ("resistance", "hybrid"):
         try:
