@@ -579,7 +579,8 @@ def _numeric_columns(frame: pd.DataFrame, columns: ColumnMapping) -> dict[str, n
 def _as_float(series: pd.Series, name: str, is_time: bool) -> np.ndarray:
     types = pd.api.types
     if is_time and _is_clock(series):
-        delta = series - series.dropna().iloc[0] if series.notna().any() else series - series.iloc[0]
+        stamped = series.dropna()  # (a missing first stamp must not void the others)
+        delta = series - (stamped.iloc[0] if len(stamped) else series.iloc[0])
         return delta.dt.total_seconds().to_numpy(float)
     if pd.api.types.is_bool_dtype(series):
         raise fail(name, _READ, "a numeric column", "a column of booleans")

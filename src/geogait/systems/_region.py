@@ -132,7 +132,7 @@ class RegionSystem:
             amplitude = check_float(amplitude, "amplitude", f"{self.name}.seed_gait", low=0, low_open=True)
             coefficients = gait.coefficients.copy()
             largest = float(np.max(gait.joint_limit() - np.abs(coefficients[:, 0])))
-            if not amplitude > 0 or largest == 0:
+            if largest == 0:  # (a constant seed: nothing to scale)
                 raise fail("amplitude", f"{self.name}.seed_gait", "a positive amplitude of an oscillating seed",
                            amplitude)
             coefficients[:, 1:] *= amplitude / largest
@@ -184,12 +184,12 @@ class LinearRegion:
         owner = "LinearRegion"
         normals = check_array(normals, "normals", owner, ndim=2, limit=MAX_MAGNITUDE)
         bounds = check_array(bounds, "bounds", owner, ndim=1, limit=MAX_MAGNITUDE)
-        if normals.ndim != 2 or normals.shape[0] < 1 or bounds.shape != (normals.shape[0],):
+        if normals.shape[0] < 1 or bounds.shape != (normals.shape[0],):
             raise fail("normals", owner, "an (m, d) array with m >= 1 and bounds of shape (m,)",
                        f"shapes {normals.shape} and {bounds.shape}")
         lengths = np.linalg.norm(normals, axis=1)
-        if not (np.all(np.isfinite(normals)) and np.all(np.isfinite(bounds)) and np.all(lengths > 0)):
-            raise fail("normals", owner, "finite rows, none zero, and finite bounds", normals.tolist())
+        if not np.all(lengths > 0):  # (finite: check_array)
+            raise fail("normals", owner, "rows none of which is zero", normals.tolist())
         self.normals, self.bounds, self._lengths = normals, bounds, lengths
 
     @classmethod
