@@ -62,10 +62,10 @@ def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
     for bad in ([[-1.5, 1.5]], [[0.5, 1.5], [-1, 1]], [[-1, "1"], [-1, 1]]):
         wrong = dict(hello, joint_ranges=bad)
         with pytest.raises(ValueError, match="'joint_ranges'"):
-            ProcessRobot(_driver(tmp_path, f"print(json.dumps({wrong!r}), flush=True)\ntime.sleep(5)\n"))
+            ProcessRobot(_driver(tmp_path, f"print(json.dumps({wrong!r}), flush=True)\nsys.stdin.readline()\n"))
     with pytest.raises(ValueError, match="'excitation'.*version 2"):
         ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, version=1, excitation=True)!r}), "
-                                       "flush=True)\ntime.sleep(5)\n"))
+                                       "flush=True)\nsys.stdin.readline()\n"))
 
 
 def test_hello_declares_mirror_symmetry_and_the_optimiser_searches_that_family(tmp_path):
@@ -84,7 +84,7 @@ def test_hello_declares_mirror_symmetry_and_the_optimiser_searches_that_family(t
         assert not isinstance(InSituOptimizer()._family(robot, robot.gait), MirrorGaitFamily)
     with pytest.raises(ValueError, match="'mirror_symmetric' must be true or false"):
         ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric='yes')!r}), "
-                                       "flush=True)\ntime.sleep(5)\n"))
+                                       "flush=True)\nsys.stdin.readline()\n"))
 
 
 def test_hello_declares_a_chain_for_the_resistance_model(tmp_path):
@@ -125,7 +125,7 @@ def test_hello_declares_a_chain_for_the_resistance_model(tmp_path):
                 dict(mapped, body_frame=4)):
         with pytest.raises(ValueError, match="'chain' must be"):
             ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, chain=bad)!r}), flush=True)\n"
-                                           "time.sleep(5)\n"))
+                                           "sys.stdin.readline()\n"))
 
 
 def _swimmer_samples(n_links, n=400):

@@ -438,8 +438,8 @@ class InSituOptimizer(Estimator):
                                   checkpoint_tag=checkpoint_tag)
         period = check_float(robot.cycle_period, "robot.cycle_period", owner, low=0, low_open=True)
         if self.order < robot.gait.highest_harmonic():
-            raise fail("order", owner, f"at least the order of the robot's seed gait ({robot.gait.order}), whose "
-                       "higher harmonics would be dropped", self.order)
+            raise fail("order", owner, f"at least the highest harmonic of the robot's seed gait "
+                       f"({robot.gait.highest_harmonic()}), which would be dropped", self.order)
         gait = robot.gait.with_order(self.order)
         r_max = self._joint_limit(robot, owner)
         if gait.joint_limit().max() > r_max + 1e-12:
