@@ -596,7 +596,7 @@ def test_predict_warns_when_the_log_is_in_another_time_unit(fitted, frame):
     result = CliRunner().invoke(app, [*base, "--out", str(fitted / "ms_p.csv")])
     assert result.exit_code == 0 and "warning: The log's phase advances at 0.006283 rad per time unit, 0.001 times" \
         in result.stderr, result.stderr
-    result = CliRunner().invoke(app, [*base, "--time-unit", "ms", "--out", str(fitted / "ms_p.csv")])
+    result = CliRunner().invoke(app, [*base, "--time-unit", "ms", "--out", str(fitted / "ms_p.csv"), "--overwrite"])
     assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
     assert strict_json((fitted / "ms_p.json").read_text())["results"]["gamma"] > 0.5  # converted: a good fit
 
@@ -682,6 +682,10 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     (["fit", "no-such-log.csv"], ["LOG argument", "'no-such-log.csv' (does not exist)"]),
     (["fit", "no-such-log.csv", "--smoothing-window", "2"], ["--smoothing-window", "odd number of samples >= 3"]),
     (["optimize", "--robot-timeout", "5"], ["--robot-timeout", "built-in swimmer has none"]),
+    (["optimize", "--robot", "python -m geogait.robots.driver", "--links", "5", "--period", "2"],
+     ["--links, --period set up the built-in swimmer"]),
+    (["optimize", "--links", "2"], ["--links", "greater than or equal to 3"]),
+    (["optimize", "--max-joint-angle", "3.5"], ["--max-joint-angle", "(0, π]"]),
     (["optimize", "--robot", "python -m geogait.robots.driver", "--robot-timeout", "-1"], ["--robot-timeout", "> 0"]),
     (["track", "--quick", "--step", "0.05"], ["'--step' option", "robot"]),
 ])

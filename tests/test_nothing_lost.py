@@ -6,6 +6,7 @@ CLI tests assert the printed message and the exit code (one ``error: …`` line,
 
 import json
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -113,6 +114,11 @@ def test_resume_refuses_fewer_cycles_than_already_run(finished, tmp_path):
     result = invoke("optimize", "--resume", folder, "--cycles", "3")
     assert result.exit_code == 0, result.output
     assert len(pd.read_csv(folder / "cycles.csv")) == 3
+    # the new total is the run's: a later --resume without --cycles continues to it, not to the first total
+    assert json.loads((folder / "run.json").read_text())["cycles"] == 3
+    result = invoke("optimize", "--resume", folder)
+    assert result.exit_code == 0, result.output
+    assert len(pd.read_csv(folder / "cycles.csv")) == 3
 
 
 def test_resume_refuses_a_checkpoint_of_another_run(finished, tmp_path):
@@ -127,11 +133,57 @@ def test_resume_refuses_a_checkpoint_of_another_run(finished, tmp_path):
     one_error_line(invoke("optimize", "--resume", other), "was changed after the run started")
 
 
-def test_a_run_that_died_before_its_first_checkpoint_is_not_resumed_from_an_older_one(finished, tmp_path):
+def test_a_run_refused_at_its_start_leaves_the_run_it_would_replace_whole(finished, tmp_path):
+    """--overwrite replaces the earlier run only once the new one is under way: a run refused by a check that can
+    only be made at its start (a driver that cannot start, a joint limit the seed gait breaks) keeps it."""
     folder = copy_of(finished, tmp_path)
-    # run B takes the folder (--overwrite) and dies at once: its driver cannot even start
+    before = {path.name: path.read_bytes() for path in folder.iterdir() if path.is_file()}
     one_error_line(invoke("optimize", "--robot", "false", "--overwrite", "--out", folder), "robot driver")
-    assert not (folder / "checkpoint.npz").exists()  # A's checkpoint is not left to be continued as B
+    one_error_line(invoke("optimize", "--max-joint-angle", "0.5", "--overwrite", "--out", folder),
+                   "'max_joint_angle' parameter", "largest joint angle of the robot's seed gait (1 rad)")
+    one_error_line(invoke("optimize", "--max-joint-angle", "3.5", "--overwrite", "--out", folder),
+                   "--max-joint-angle", "(0, π]")
+    assert {path.name: path.read_bytes() for path in folder.iterdir() if path.is_file()} == before
+
+
+def test_fit_predict_and_the_figures_keep_an_earlier_runs_files_unless_told_to_replace_them(tmp_path):
+    """Each is refused before any work, naming the file and --overwrite, and leaves the earlier files as they were."""
+    run = simulate(PurcellSwimmer(3), GAIT, 12, seed=0, samples_per_cycle=100)
+    pd.DataFrame({"time": run.time, "shape_0": run.shape[:, 0], "shape_1": run.shape[:, 1], "x": run.pose[:, 0],
+                  "y": run.pose[:, 1], "heading": run.pose[:, 2]}).to_csv(tmp_path / "log.csv", index=False)
+    fit = ["fit", str(tmp_path / "log.csv"), "--shape", "shape_0,shape_1", "--pose", "x,y,heading",
+           "--out", str(tmp_path / "fit")]
+    predict = ["predict", str(tmp_path / "fit" / "model.npz"), str(tmp_path / "log.csv"), "--phaser",
+               str(tmp_path / "fit" / "phaser.npz"), "--shape", "shape_0,shape_1", "--out", str(tmp_path / "p.csv")]
+    for command in (fit, predict):
+        assert invoke(*command).exit_code == 0
+    (tmp_path / "figures").mkdir()
+    for name in ("accuracy", "environments"):
+        (tmp_path / "figures" / f"{name}.csv").write_text("a full run's results")
+    write_text(tmp_path / "optimization.json", "{}")
+    write_text(tmp_path / "tracking.png", "")
+    saved = {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()}
+    figures = str(tmp_path / "figures")
+    for command, name in ((fit, "model.npz"), (predict, "p.csv"),
+                          (["figure", "accuracy", "--quick", "--out", figures], "accuracy.csv"),
+                          (["figure", "environments", "--quick", "--out", figures], "environments.csv"),
+                          (["figure", "optimization", "--quick", "--out", str(tmp_path)], "optimization.json"),
+                          (["figure", "tracking", "--quick", "--out", str(tmp_path)], "tracking.png")):
+        one_error_line(invoke(*command), f"{name} exists", "give --overwrite to replace it")
+    assert {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()} == saved
+    assert invoke(*predict, "--overwrite").exit_code == 0
+
+
+def test_a_run_that_died_before_its_first_checkpoint_is_not_resumed_from_an_older_one(finished, tmp_path):
+    """Once a run is under way its run.json replaces the earlier run's and the earlier checkpoint is gone: killed
+    before its own first checkpoint, it is not resumed as the earlier run."""
+    folder = copy_of(finished, tmp_path)
+    driver = shlex.join([sys.executable, str(Path(__file__).with_name("_fault_driver.py")),
+                         json.dumps({"fault": "huge_error", "cycle": 2, "magnitude": 10})])  # fails in its 3rd cycle
+    one_error_line(invoke("optimize", "--robot", driver, "--checkpoint-every", "5", "--overwrite", "--out", folder),
+                   "EEEEEEEEEE")
+    assert json.loads((folder / "run.json").read_text())["robot"] == driver
+    assert not (folder / "checkpoint.npz").exists() and not (folder / "summary.json").exists()
     one_error_line(invoke("optimize", "--resume", folder), "cannot be resumed")
 
 
@@ -377,16 +429,16 @@ def test_a_driver_is_trusted_with_nothing(config, fragment):
 
 
 def test_a_repeated_key_is_found_at_any_depth_and_in_one_pass():
-    from geogait.robots._bridge import _RepeatedKey, _unique_keys
+    from geogait._files import RepeatedKey, unique_keys
 
     hello = '{"type": "hello", "gait": {"order": 1, "params": [0, 1], "order": 2}}'
-    with pytest.raises(_RepeatedKey) as repeated:
-        json.loads(hello, object_pairs_hook=_unique_keys)
+    with pytest.raises(RepeatedKey) as repeated:
+        json.loads(hello, object_pairs_hook=unique_keys)
     assert repeated.value.key == "order"
     many = "{" + ", ".join(f'"k{i}": {i}' for i in range(100_000)) + ', "k0": 0}'  # (a search per key: minutes)
-    with pytest.raises(_RepeatedKey, match="k0"):
-        json.loads(many, object_pairs_hook=_unique_keys)
-    assert json.loads('{"a": {"a": 1}, "b": [{"a": 2}]}', object_pairs_hook=_unique_keys) == {"a": {"a": 1},
+    with pytest.raises(RepeatedKey, match="k0"):
+        json.loads(many, object_pairs_hook=unique_keys)
+    assert json.loads('{"a": {"a": 1}, "b": [{"a": 2}]}', object_pairs_hook=unique_keys) == {"a": {"a": 1},
                                                                                              "b": [{"a": 2}]}
 
 

@@ -33,9 +33,9 @@ import numpy as np
 
 from ._validation import GeogaitError, fail
 
-__all__ = ["OutputLock", "atomic_savez", "atomic_write", "check_outputs", "check_writable", "default_summary_path",
-           "describe_path_kind", "dumps_json", "json_ready", "output_set", "read_state", "write_json", "write_state",
-           "write_text"]
+__all__ = ["OutputLock", "RepeatedKey", "atomic_savez", "atomic_write", "check_outputs", "check_writable",
+           "default_summary_path", "describe_path_kind", "dumps_json", "json_ready", "output_set", "read_state",
+           "unique_keys", "write_json", "write_state", "write_text"]
 
 _UMASK_LOCK = threading.Lock()
 
@@ -284,6 +284,27 @@ def json_ready(value):
         if reasons:
             out[f"{key}_null_reason"] = "; ".join(reasons)
     return out
+
+
+class RepeatedKey(ValueError):
+    """A JSON object gave ``key`` twice (raised by :func:`unique_keys`)."""
+
+    def __init__(self, key):
+        super().__init__(key)
+        self.key = key
+
+
+def unique_keys(pairs: list) -> dict:
+    """``json.loads``' ``object_pairs_hook``: a key given twice in one object raises :class:`RepeatedKey` (JSON
+    leaves it open; Python would keep the last value silently)."""
+    record = dict(pairs)
+    if len(record) != len(pairs):
+        seen = set()
+        for key, _ in pairs:  # (one pass: a line may hold many keys)
+            if key in seen:
+                raise RepeatedKey(key)
+            seen.add(key)
+    return record
 
 
 def dumps_json(value, **options) -> str:

@@ -137,6 +137,8 @@ GOOD = {"time": 1.0, "phase": 0.5, "shape": [1.0, 0.0], "shape_velocity": [0.0, 
 @pytest.mark.parametrize("bad, message", [
     ("not json", r"'record' parameter of input line 21 must be a JSON object. Got 'invalid JSON"),
     ('[1, 2]', r"'record' parameter of input line 21 must be a JSON object"),
+    ('{"time": 1.0, "phase": 0.5, "shape": [1, 0], "body_velocity": [0, 0, 0], "phase": 0.6}',
+     r"'record' parameter of input line 21 must be a JSON object giving each key once. Got \"key 'phase' more than once"),
     ({"extra": 1}, r"unknown key\(s\) \['extra'\]"),
     ({"shape": [1.0, 2.0, 3.0]}, r"'shape' parameter of input line 21 must be a list of 2 numbers"),
     ({"shape": [1.0, "x"]}, r"'shape' parameter of input line 21 must be a list of 2 numbers"),

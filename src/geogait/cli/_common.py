@@ -8,6 +8,7 @@ import platform
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
 import typer
@@ -56,14 +57,15 @@ def configure(base, **changes):
         raise
 
 
-def claim_output(path: Path, *, overwrite: bool, run_files=()) -> OutputLock:
+def claim_output(path: Path, *, overwrite: bool) -> OutputLock:
     """Create the output folder ``path``, lock it for this run and check that it may be written.
 
-    A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``; with
-    ``overwrite`` the files ``run_files`` of an earlier run are removed now, so that no file of the
-    earlier run is ever mistaken for one of this run. Returns the held :class:`~geogait._files.OutputLock`
-    (use it as a context manager); raises a :class:`~geogait.GeogaitError` when the folder is another
-    run's (locked), not empty, a file, or cannot be created.
+    A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``. Nothing in it
+    is removed here: a command replaces an earlier run's files only once its own run is under way (every
+    option checked, the robot started), so a run refused at its start leaves the earlier one whole. Returns
+    the held :class:`~geogait._files.OutputLock` (use it as a context manager); raises a
+    :class:`~geogait.GeogaitError` when the folder is another run's (locked), not empty, a file, or cannot be
+    created.
     """
     folder = output_folder(path)
     lock = OutputLock(folder)
@@ -73,13 +75,28 @@ def claim_output(path: Path, *, overwrite: bool, run_files=()) -> OutputLock:
             shown = ", ".join(existing[:4]) + (", …" if len(existing) > 4 else "")
             raise GeogaitError(f"The output folder {folder} is not empty ({shown}); give --overwrite to replace "
                                "the run it holds, or choose another --out.")
-        if overwrite:
-            for name in run_files:
-                (folder / name).unlink(missing_ok=True)
     except BaseException:
         lock.release()
         raise
     return lock
+
+
+#: The --overwrite option of commands that write named files (fit, predict, the figures).
+Overwrite = Annotated[bool, typer.Option(help="Replace the files an earlier run wrote there (refused without it).")]
+
+
+def refuse_existing(paths, *, overwrite: bool) -> None:
+    """Refuse, before any work, to replace the files ``paths`` of an earlier run unless ``overwrite``.
+
+    Raises a :class:`~geogait.GeogaitError` naming the first file that exists.
+    """
+    if overwrite:
+        return
+    existing = [Path(path) for path in paths if Path(path).exists()]
+    if existing:
+        more = f" (and {len(existing) - 1} more of its files)" if len(existing) > 1 else ""
+        raise GeogaitError(f"{existing[0]} exists{more}, written by an earlier run; give --overwrite to replace "
+                           "it, or choose another --out.")
 
 
 def explain_nulls(value, reason: str = "not available for this run"):

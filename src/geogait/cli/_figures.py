@@ -17,7 +17,7 @@ from rich.table import Table
 from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 from ._app import figure_app
-from ._common import comma_list, configure, console, listed, output_folder, write_manifest
+from ._common import Overwrite, comma_list, configure, console, listed, output_folder, refuse_existing, write_manifest
 
 _A, _E = AccuracyConfig(), EnvironmentConfig()
 _QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
@@ -38,6 +38,13 @@ Perturbation = Annotated[float | None, typer.Option(
 ChunkSize = Annotated[int | None, typer.Option(
     help=f"Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
          f"[default: {_A.chunk_size}].")]
+
+
+def _refuse_earlier_run(out: Path, name: str, from_csv, overwrite: bool) -> None:
+    """A fresh run replaces ``<name>.csv/.png/.json`` only with --overwrite (a redraw writes its PNG and keeps the
+    run's CSV and manifest)."""
+    if from_csv is None:
+        refuse_existing([Path(out) / f"{name}{suffix}" for suffix in (".csv", ".json", ".png")], overwrite=overwrite)
 
 
 def _run_or_redraw(result_class, from_csv, run, extra: dict):
@@ -82,6 +89,7 @@ def accuracy(
     quick: Quick = False,
     out: Out = Path("out/figures"),
     from_csv: FromCsv = None,
+    overwrite: Overwrite = False,
 ) -> None:
     """Fig. 2: held-out Γ of the adaptive and the batch model after n training cycles.
 
@@ -89,12 +97,13 @@ def accuracy(
     of RMS. --quick: 16 trials × 10 cycles.
     """
     started = time.perf_counter()
-    folder = output_folder(out)
     config = None if from_csv is not None else configure(
         _QA if quick else _A, n_trials=("--trials", trials), n_links=("--links", links),
         n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
+    _refuse_earlier_run(out, "accuracy", from_csv, overwrite)
+    folder = output_folder(out)
     result, extra = _run_or_redraw(AccuracyResult, from_csv,
                                    lambda: run_accuracy(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})
@@ -137,6 +146,7 @@ def environments(
     quick: Quick = False,
     out: Out = Path("out/figures"),
     from_csv: FromCsv = None,
+    overwrite: Overwrite = False,
 ) -> None:
     """Fig. 3: a-priori prediction error through unannounced drag-ratio changes.
 
@@ -144,7 +154,6 @@ def environments(
     fit on environment 1 only, no sensor noise. --quick: 8 trials, 15 cycles per environment.
     """
     started = time.perf_counter()
-    folder = output_folder(out)
     config = None if from_csv is not None else configure(
         _QE if quick else _E, n_trials=("--trials", trials), n_links=("--links", links),
         cycles_per_environment=("--cycles-per-environment", cycles_per_environment),
@@ -153,6 +162,8 @@ def environments(
         sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
+    _refuse_earlier_run(out, "environments", from_csv, overwrite)
+    folder = output_folder(out)
     result, extra = _run_or_redraw(EnvironmentResult, from_csv,
                                    lambda: run_environments(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})

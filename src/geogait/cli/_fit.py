@@ -21,7 +21,7 @@ from ..learn import LogFit, fit_log, predict_log
 from ..models import AdaptiveGaitModel
 from ..phase import Phaser
 from ._app import app
-from ._common import comma_list, output_folder, versions
+from ._common import Overwrite, comma_list, output_folder, refuse_existing, versions
 
 Columns = Annotated[str | None, typer.Option(help="Comma-separated column names.")]
 Mapping = Annotated[Path | None, typer.Option(help="Column mapping file (.json or .toml); options override it.")]
@@ -97,6 +97,7 @@ def fit(
         help="Fraction of each segment's cycles held out (the last).")] = DEFAULT_TEST_FRACTION,
     refit: Annotated[bool, typer.Option(
         help="Save a model refit on all data after scoring (else the scored training-cycles model).")] = True,
+    overwrite: Overwrite = False,
 ) -> None:
     """Fit a local gait model to a log; write model.npz, phaser.npz, config.json, report.json and PNGs.
 
@@ -111,14 +112,17 @@ def fit(
              "shape_velocity": _names(shape_velocity, "--shape-velocity")}
     _check_log(log)  # (before the columns are judged against what the log must hold)
     columns = resolve_mapping(mapping, time=time_column, phase=phase, degrees=degrees, **names)
-    output_folder(out)
     # (the folder's files are replaced as one set: none of them may be an input, e.g. its own mapping.json)
     check_outputs({"--out": out}, [log, mapping], "fit")
     for name in LogFit.OUTPUT_FILES:
         check_outputs({"--out": Path(out) / name}, [log, mapping], "fit")
+    refuse_existing([Path(out) / name for name in LogFit.OUTPUT_FILES], overwrite=overwrite)
+    if Path(out).exists() and not Path(out).is_dir():
+        output_folder(out)  # (its message for a file given as the folder)
     data = read_log(log, columns, drop_nan=drop_nan, **log_options)
     result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
                      test_fraction=test_fraction, refit=refit)
+    output_folder(out)  # (created only once there is a model to write into it)
     options = {"log": str(log), "smoothing_window": smoothing_window, "drop_nan": drop_nan,
                "time_unit": time_unit, "outlier_limit": outlier_limit,
                "forgetting_factor": forgetting_factor, "windows": windows, "gait_order": gait_order,
@@ -161,6 +165,7 @@ def predict(
     drop_nan: DropNan = False,
     time_unit: TimeUnit = None,
     outlier_limit: OutlierLimit = DEFAULT_OUTLIER_LIMIT,
+    overwrite: Overwrite = False,
 ) -> None:
     """Predict the body velocity of every sample of a log; write a CSV and Γ (if ξ was measured)."""
     started = time.perf_counter()
@@ -168,6 +173,7 @@ def predict(
     summary_path = default_summary_path(out) if summary is None else summary
     inputs = (model, log, phaser, mapping)
     check_outputs({"--out": out, "--summary": summary_path}, inputs, "predict")
+    refuse_existing([out, summary_path], overwrite=overwrite)
     if out.suffix.lower() != ".csv":
         raise GeogaitError(f"--out is the predictions CSV file: give a name ending in .csv. Got {str(out)!r} "
                            "instead (the Γ summary goes to --summary).")

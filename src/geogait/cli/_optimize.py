@@ -13,7 +13,7 @@ import numpy as np
 import typer
 
 from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
-from .._files import OutputLock, describe_path_kind, dumps_json, output_set, write_text
+from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
     OptimizationConfig,
@@ -39,7 +39,19 @@ from ..simulate import SwimmerStream
 from ..simulate._stream import MAX_SENSOR_NOISE
 from ..systems import PurcellSwimmer
 from ._app import app, figure_app
-from ._common import claim_output, comma_list, configure, console, listed, output_folder, progress_bar, write_manifest
+from ._common import (
+    Overwrite,
+    claim_output,
+    comma_list,
+    configure,
+    console,
+    explain_nulls,
+    listed,
+    output_folder,
+    progress_bar,
+    refuse_existing,
+    write_manifest,
+)
 
 _FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 _METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
@@ -56,12 +68,14 @@ _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 
 @app.command()
 def optimize(
-    links: Annotated[int, typer.Option(min=2, max=200, help="Number of links N of the built-in Purcell swimmer.")] = 3,
+    links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
+                                                            "(two links, one joint, cannot swim).")] = 3,
     cycles: Annotated[int | None, typer.Option(
         help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
              "With --resume: the new total.",
     )] = None,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed of perturbations and sensor noise.")] = 0,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed: the optimiser's exploration and climb, and the "
+                                                  "built-in swimmer's sensor noise.")] = 0,
     noise: Annotated[float, typer.Option(min=0, help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
     perturbation: Annotated[float, typer.Option(min=0, help="Std (rad) of the shape perturbation δ.")] = 0.15,
     period: Annotated[float, typer.Option(help="Seconds per cycle of the built-in swimmer.")] = 1.0,
@@ -121,7 +135,8 @@ def optimize(
         help="Continue the run whose folder this is, with its own settings (run.json); only --cycles (the new "
              "total) and --robot-timeout may be given with it.")] = None,
     overwrite: Annotated[bool, typer.Option(
-        help="Replace the run in a non-empty --out folder (its run files are removed when this run starts).")] = False,
+        help="Replace the run in a non-empty --out folder (its files are removed once this run is under way: a run "
+             "refused at its start leaves them).")] = False,
     out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
         "out/optimize"),
     ctx: typer.Context = None,
@@ -133,12 +148,17 @@ def optimize(
         folder, settings = Path(resume), _read_settings(Path(resume))
         if cycles is not None:
             settings["cycles"] = cycles
-        if ctx is not None and ctx.get_parameter_source("robot_timeout").name == "COMMANDLINE":
+        if _given(ctx, "robot_timeout"):
             settings["robot_timeout"] = robot_timeout
     else:
-        if robot is None and ctx is not None and ctx.get_parameter_source("robot_timeout").name == "COMMANDLINE":
+        if robot is None and _given(ctx, "robot_timeout"):
             raise GeogaitError("--robot-timeout is the wait for a --robot driver's lines; the built-in swimmer has "
                                "none (drop it, or give --robot).")
+        swimmer_options = [f"--{name}" for name in _SWIMMER_ONLY if _given(ctx, name)]
+        if robot is not None and swimmer_options:
+            raise GeogaitError(f"{', '.join(swimmer_options)} set{'s' if len(swimmer_options) == 1 else ''} up the "
+                               "built-in swimmer; a --robot driver runs its own robot (drop "
+                               f"{'it' if len(swimmer_options) == 1 else 'them'}, or leave out --robot).")
         settings = dict(links=links, cycles=cycles, seed=seed, noise=noise, perturbation=perturbation,
                         period=period, gamma_threshold=gamma_threshold, forgetting_factor=forgetting_factor,
                         order=order, objective=objective, direction_frame=direction_frame,
@@ -153,10 +173,10 @@ def optimize(
     system, target = _target(settings)
     run_id = _run_id(settings)
     # the folder is locked for this run (a run still writing it is neither resumed nor overwritten)
-    with (OutputLock(folder) if resume is not None else
-          claim_output(folder, overwrite=overwrite, run_files=RUN_FILES)):
+    with OutputLock(folder) if resume is not None else claim_output(folder, overwrite=overwrite):
         if resume is not None:
             _check_resume(folder, settings, run_id)
+            _write_settings(folder, settings, run_id)  # (a new --cycles is the total a later resume continues to)
         summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
     console.print(dumps_json(summary, indent=1))
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
@@ -170,8 +190,6 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
                                      max_joint_angle=settings["max_joint_angle"] or MAX_JOINT_ANGLE)
     with target() as robot_driver:
-        if not resumed:
-            _write_settings(folder, settings, run_id)
         result = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
         quarantined = list(getattr(robot_driver, "quarantined", []))
         declared = _declared(robot_driver, result)
@@ -184,6 +202,7 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
         summary["robot"] = declared
         for name in _SWIMMER_ONLY:  # the built-in swimmer's options say nothing about a robot's run
             config.pop(name, None)
+    summary = explain_nulls(json_ready(summary))
     with output_set(folder, last=("summary.json",)) as staged:
         write_text(staged / "cycles.csv", result.log.to_csv(index=False))
         _figures(staged, system, result, ceiling)
@@ -192,8 +211,14 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
     return summary
 
 
-#: Options of the built-in swimmer, left out of a --robot run's summary.
-_SWIMMER_ONLY = ("links", "seed", "noise", "perturbation", "period")
+#: Options of the built-in swimmer: refused with --robot, and left out of a --robot run's summary.
+_SWIMMER_ONLY = ("links", "noise", "perturbation", "period")
+
+
+def _given(ctx, name: str) -> bool:
+    """Whether the option ``name`` was given on the command line."""
+    source = None if ctx is None else ctx.get_parameter_source(name)
+    return source is not None and source.name == "COMMANDLINE"
 
 
 def _declared(robot, result) -> dict:
@@ -314,6 +339,11 @@ def _optimizer(settings) -> InSituOptimizer:
         if rule not in CLIMB_RULES:
             raise GeogaitError(f"--climb-rule must be one of {', '.join(CLIMB_RULES)}; got {rule!r}.")
         steps["climb_rule"] = rule
+    limit = settings["max_joint_angle"]
+    if settings["robot"] is None and limit is not None and not 0 < limit <= np.pi:
+        raise typer.BadParameter(f"expected a joint limit in (0, π] rad for the built-in swimmer (its links would "
+                                 f"pass through each other beyond π), got {settings['max_joint_angle']}",
+                                 param_hint="--max-joint-angle")
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,
@@ -350,14 +380,21 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
     if cycles is None:
         cycles = 100 if settings["robot"] is not None else default_budget(settings["links"])
     name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
+    started = [resumed]
     with progress_bar() as progress:
         task = progress.add_task(f"{name} {settings['method']}", total=cycles, status="")
 
         def show(row):
+            if not started[0]:  # the run is under way: only now does it replace an earlier one (--overwrite)
+                for file in RUN_FILES:
+                    (folder / file).unlink(missing_ok=True)
+                _write_settings(folder, settings, run_id)
+                started[0] = True
             gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in or settle cycle
             value = row.get("true_objective", row["measured_objective"])
             share = f"  {100 * row['ceiling_fraction']:.0f}% of ceiling" if "ceiling_fraction" in row else ""
-            status = f"Γ {gamma}  {value:.4f}/cycle{share}  steps {row['iteration']}"
+            trial = "  (a trial)" if row.get("candidate", False) else ""
+            status = f"Γ {gamma}  this cycle {value:.4f}{share}{trial}  gait no. {row['iteration']}"
             progress.update(task, completed=row["cycle"] + 1, status=status)
 
         checkpoint = folder / CHECKPOINT_FILE
@@ -465,9 +502,12 @@ def figure_optimization(
     quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
     from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-optimization"),
+    overwrite: Overwrite = False,
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
     started = time.perf_counter()
+    if from_csv is None:
+        refuse_existing([out / f"optimization{suffix}" for suffix in (".csv", ".json", ".png")], overwrite=overwrite)
     folder = output_folder(out)
     if from_csv is not None:
         result = OptimizationResult.from_csv(from_csv)

@@ -9,6 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from .._files import output_set
 from .._validation import GeogaitError
 from ..gaits import Perturbation, seed_gait
 from ..plotting import plot_path, plot_shape_space, plt, save_figure
@@ -52,14 +53,14 @@ def simulate(
     if cycles * samples_per_cycle > MAX_SAMPLES:
         raise GeogaitError(f"--cycles × --samples-per-cycle must be at most {MAX_SAMPLES:,} samples. Got "
                            f"{cycles} × {samples_per_cycle} = {cycles * samples_per_cycle:,} instead.")
-    with claim_output(out, overwrite=overwrite, run_files=RUN_FILES) as lock:  # checked and locked before any work
+    system = PurcellSwimmer(links, drag_ratio=ratios[0], body_frame=body_frame)  # checked before the folder is
+    gait = seed_gait(system.n_joints, amplitude)
+    schedule = DragRatioSchedule(system, ratios, cycles_per_environment) if len(ratios) > 1 else None
+    stream = SwimmerStream(system, gait, samples_per_cycle=samples_per_cycle,
+                           perturbation=Perturbation.from_std(perturbation), sensor_noise=noise,
+                           shape_noise=shape_noise, environment=schedule, seed=seed)
+    with claim_output(out, overwrite=overwrite) as lock:  # locked before any work; an earlier set kept until the end
         folder = lock.folder
-        system = PurcellSwimmer(links, drag_ratio=ratios[0], body_frame=body_frame)
-        gait = seed_gait(system.n_joints, amplitude)
-        schedule = DragRatioSchedule(system, ratios, cycles_per_environment) if len(ratios) > 1 else None
-        stream = SwimmerStream(system, gait, samples_per_cycle=samples_per_cycle,
-                               perturbation=Perturbation.from_std(perturbation), sensor_noise=noise,
-                               shape_noise=shape_noise, environment=schedule, seed=seed)
         parts = []
         with progress_bar() as progress:
             task = progress.add_task("simulating", total=cycles, status="")
@@ -67,16 +68,18 @@ def simulate(
                 parts.append(stream.next_cycle())
                 progress.update(task, advance=1, status=f"k = {stream.current_system().drag_ratio:g}")
         run = Trajectory.concatenate(parts)
-        run.to_parquet(folder / "trajectory.parquet")
-        run.to_csv(folder / "trajectory.csv")
-        fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
-        plot_path(axes[0], run.pose)
-        plot_shape_space(axes[1], run.shape, {"nominal gait": gait})
-        save_figure(fig, folder / "trajectory.png")
         config = dict(links=links, cycles=cycles, drag_ratios=ratios, cycles_per_environment=cycles_per_environment,
                       samples_per_cycle=samples_per_cycle, amplitude=amplitude, perturbation=perturbation,
                       noise=noise, shape_noise=shape_noise, body_frame=body_frame, seed=seed)
         net = run.pose[-1] - run.pose[0]
-        write_manifest(folder / "manifest.json", command="simulate", config=config, started=started,
-                       results={"samples": run.n_samples, "net_translation": float((net[:2] ** 2).sum() ** 0.5)})
+        with output_set(folder, last=("manifest.json",), members=RUN_FILES) as staged:  # replaced as one set
+            run.to_parquet(staged / "trajectory.parquet")
+            run.to_csv(staged / "trajectory.csv")
+            fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+            plot_path(axes[0], run.pose)
+            plot_shape_space(axes[1], run.shape, {"nominal gait": gait})
+            save_figure(fig, staged / "trajectory.png")
+            write_manifest(staged / "manifest.json", command="simulate", config=config, started=started,
+                           results={"samples": run.n_samples,
+                                    "net_translation": float((net[:2] ** 2).sum() ** 0.5)})
         console.print(f"wrote {run.n_samples} samples to {folder}/ (trajectory.parquet, .csv, .png)")

@@ -28,7 +28,17 @@ from ..experiments.tracking import (
 )
 from ..plotting import plt, save_figure
 from ._app import app, figure_app
-from ._common import claim_output, configure, console, explain_nulls, output_folder, progress_bar, write_manifest
+from ._common import (
+    Overwrite,
+    claim_output,
+    configure,
+    console,
+    explain_nulls,
+    output_folder,
+    progress_bar,
+    refuse_existing,
+    write_manifest,
+)
 
 #: Every file ``geogait track`` writes (replaced together, as one set); ``trials.csv`` with ``--trials`` > 1,
 #: ``family.png`` with one trial.
@@ -251,6 +261,7 @@ def figure_tracking(
     quick: Annotated[bool, typer.Option(help="3-link, 2 trials, 2 paths, 16 cycles: seconds.")] = False,
     from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
     out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-tracking"),
+    overwrite: Overwrite = False,
 ) -> None:
     """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4.
 
@@ -269,6 +280,9 @@ def figure_tracking(
                            "change with '--drag-path' instead of '--path'.")
     path_file = file or drag_file
     references = None if path_file is None else {CUSTOM_PATH: ReferencePath.from_csv(path_file)}
+    if from_csv is None:
+        refuse_existing([out / name for name in ("tracking.csv", "tracking-trials.csv", "tracking.json",
+                                                 "tracking.png", "steering-family.png")], overwrite=overwrite)
     folder = output_folder(out)
     if from_csv is not None:
         result = TrackingResult.from_csv(from_csv)

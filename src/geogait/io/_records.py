@@ -13,7 +13,7 @@ from typing import TextIO
 
 import numpy as np
 
-from .._files import dumps_json
+from .._files import RepeatedKey, dumps_json, unique_keys
 from .._validation import fail
 from ..simulate import BODY_VELOCITY_COLUMNS
 
@@ -184,7 +184,10 @@ class JsonLinesReader:
             Its line number in the input (1-based), for error messages.
         """
         try:
-            record = json.loads(text)
+            record = json.loads(text, object_pairs_hook=unique_keys)
+        except RepeatedKey as repeated:
+            raise fail("record", f"input line {line}", "a JSON object giving each key once",
+                       f"key {repeated.key!r} more than once") from None
         except json.JSONDecodeError as error:
             raise fail("record", f"input line {line}", "a JSON object",
                        f"invalid JSON ({error.msg} at column {error.colno})") from None

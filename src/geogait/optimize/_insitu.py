@@ -442,14 +442,18 @@ class InSituOptimizer(Estimator):
                        f"({robot.gait.highest_harmonic()}), which would be dropped", self.order)
         gait = robot.gait.with_order(self.order)
         r_max = self._joint_limit(robot, owner)
-        if gait.joint_limit().max() > r_max + 1e-12:
-            raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
-                       f"a gait reaching {gait.joint_limit().max():.4g} rad")
+        reach = gait.joint_limit().max()
+        if reach > r_max + 1e-12:
+            if self.max_joint_angle == "auto":  # (the limit the robot declares)
+                raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
+                           f"a gait reaching {reach:.4g} rad")
+            raise fail("max_joint_angle", owner, f"at least the largest joint angle of the robot's seed gait "
+                       f"({reach:.4g} rad), where the run starts", r_max)
         if self.max_joint_velocity is not None:
             speed = peak_phase_speed(gait) * 2 * np.pi / period
             if speed > self.max_joint_velocity * (1 + 1e-9):
-                raise fail("robot", owner, f"a seed gait within max_joint_velocity = {self.max_joint_velocity:.4g}",
-                           f"a gait reaching {speed:.4g} rad/s")
+                raise fail("max_joint_velocity", owner, f"at least the peak joint speed of the robot's seed gait "
+                           f"({speed:.4g} rad/s), where the run starts", self.max_joint_velocity)
         period_range = self._period_range(robot, period, owner)
         excites = self._excites(robot, owner)
         family = self._family(robot, gait)

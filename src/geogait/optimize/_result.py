@@ -124,6 +124,7 @@ class InSituResult:
             "shape_scale": _finite(self.shape_scale),
             "gait_family": self.family,
             "forward_direction": None if self.direction is None else [float(v) for v in self.direction],
+            **({} if self.direction is not None else {"forward_direction_null_reason": "the objective is not forward"}),
             "final_gait_params": self.final_gait.params.tolist(),
         }
         if self.model_class is not None:
@@ -137,6 +138,8 @@ class InSituResult:
         def final_truth(column):
             return _finite(final_gait_rows[column].iloc[-1]) if len(final_gait_rows) else None
 
+        not_run = "the final gait was chosen at the last decision and has not run yet"
+
         if "true_objective" in log:
             summary.update({
                 "seed_displacement_per_cycle": _finite(log["true_objective"].iloc[0]),
@@ -144,6 +147,8 @@ class InSituResult:
                 "final_improvement": final_truth("improvement"),
                 "max_abs_rotation_of_commanded_gaits": _finite(np.abs(log["true_heading"]).max()),
             })
+            if not len(final_gait_rows):
+                summary.update(final_displacement_per_cycle_null_reason=not_run, final_improvement_null_reason=not_run)
         if ceiling is not None:
             first_90 = log.index[(log["ceiling_fraction"] >= 0.9) & kept]
             summary.update({
@@ -151,6 +156,10 @@ class InSituResult:
                 "final_ceiling_fraction": final_truth("ceiling_fraction"),
                 "first_cycle_at_90_percent_of_ceiling": int(log["cycle"][first_90[0]]) if len(first_90) else None,
             })
+            if not len(final_gait_rows):
+                summary["final_ceiling_fraction_null_reason"] = not_run
+            if not len(first_90):
+                summary["first_cycle_at_90_percent_of_ceiling_null_reason"] = "no gait kept reached 90 % of the ceiling"
         return summary
 
 

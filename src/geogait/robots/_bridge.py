@@ -93,6 +93,7 @@ import warnings
 
 import numpy as np
 
+from .._files import RepeatedKey, unique_keys
 from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
@@ -101,23 +102,6 @@ from ..systems import BODY_FRAMES, LinearRegion
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
 
-
-class _RepeatedKey(ValueError):
-    def __init__(self, key):
-        super().__init__(key)
-        self.key = key
-
-
-def _unique_keys(pairs: list) -> dict:
-    """``json.loads``' object hook: a key given twice is an error (JSON leaves it open; Python keeps the last)."""
-    message = dict(pairs)
-    if len(message) != len(pairs):
-        seen = set()
-        for key, _ in pairs:  # (one pass: a line may hold many keys)
-            if key in seen:
-                raise _RepeatedKey(key)
-            seen.add(key)
-    return message
 
 PROTOCOL = "geogait-robot"
 PROTOCOL_VERSION = 2
@@ -487,8 +471,8 @@ class ProcessRobot:
             self._process.kill()
             raise self._failure(f"line {self.line_number} {line}")
         try:
-            message = json.loads(line, object_pairs_hook=_unique_keys)
-        except _RepeatedKey as repeated:
+            message = json.loads(line, object_pairs_hook=unique_keys)
+        except RepeatedKey as repeated:
             raise self._failure(f"line {self.line_number}: key {_cut(repr(repeated.key), 40)} appears more than "
                                 "once in one JSON object (which one was meant?)") from None
         except (json.JSONDecodeError, RecursionError) as error:
