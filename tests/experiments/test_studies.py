@@ -120,6 +120,21 @@ def test_swimmer_v5_family_study_scores_each_start_by_its_episode_return(tmp_pat
     assert returns[0] == pytest.approx(lifted["episode_return"], abs=1e-6)
     assert returns[2] == pytest.approx(returns[0], abs=1e-6) and returns[3] == pytest.approx(returns[1], abs=1e-6)
     assert abs(returns[1] - returns[0]) > 1  # a quarter cycle later: another start, another episode
+    # the return itself searched, the start phase a coordinate: the gait stored (begun at its best phase) returns
+    # what the search measured, from phase 0 of its stored series
+    from geogait.experiments.robot_benchmark import swimmer_v5_return
+    from geogait.gaits import FourierGait
+
+    searched = tmp_path / "return.json"
+    subprocess.run([sys.executable, str(STUDIES / "swimmer_v5_family.py"), "--orders", "3", "--warm-start", str(out),
+                    "--objective", "return", "--starts", "2", "--max-evaluations", "3", "--out", str(searched)],
+                   capture_output=True, text=True, check=True, timeout=300)
+    found = json.loads(searched.read_text())["runs"]
+    assert [run["objective"] for run in found] == ["return", "return"]
+    best = max(found, key=lambda run: run["episode_return"])
+    assert best["episode_return"] >= earlier["episode_return"] - 1e-6  # its first point is the earlier best gait
+    stored = FourierGait.from_params(best["params"], n_joints=2)
+    assert swimmer_v5_return(stored, best["period"]) == pytest.approx(best["episode_return"], rel=1e-6)
     # the joints on inverse dynamics: the seed's return is its own (the PD law realises a smaller gait: 241.8)
     subprocess.run([sys.executable, str(STUDIES / "swimmer_v5_family.py"), "--orders", "1", "--starts", "1",
                     "--max-evaluations", "1", "--control", "computed_torque", "--out", str(out)],
