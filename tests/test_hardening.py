@@ -685,7 +685,7 @@ def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_pat
     (["optimize", "--robot", "python -m geogait.robots.driver", "--links", "5", "--period", "2"],
      ["--links, --period set up the built-in swimmer"]),
     (["optimize", "--links", "2"], ["--links", "greater than or equal to 3"]),
-    (["optimize", "--max-joint-angle", "3.5"], ["--max-joint-angle", "(0, π]"]),
+    (["optimize", "--max-joint-angle", "3.5"], ["--max-joint-angle", "[1, π]"]),
     (["optimize", "--robot", "python -m geogait.robots.driver", "--robot-timeout", "-1"], ["--robot-timeout", "> 0"]),
     (["track", "--quick", "--step", "0.05"], ["'--step' option", "robot"]),
 ])

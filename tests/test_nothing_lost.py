@@ -140,9 +140,9 @@ def test_a_run_refused_at_its_start_leaves_the_run_it_would_replace_whole(finish
     before = {path.name: path.read_bytes() for path in folder.iterdir() if path.is_file()}
     one_error_line(invoke("optimize", "--robot", "false", "--overwrite", "--out", folder), "robot driver")
     one_error_line(invoke("optimize", "--max-joint-angle", "0.5", "--overwrite", "--out", folder),
-                   "'max_joint_angle' parameter", "largest joint angle of the robot's seed gait (1 rad)")
+                   "--max-joint-angle", "[1, π]", "seed gait's largest joint angle")
     one_error_line(invoke("optimize", "--max-joint-angle", "3.5", "--overwrite", "--out", folder),
-                   "--max-joint-angle", "(0, π]")
+                   "--max-joint-angle", "[1, π]")
     assert {path.name: path.read_bytes() for path in folder.iterdir() if path.is_file()} == before
 
 
@@ -174,17 +174,38 @@ def test_fit_predict_and_the_figures_keep_an_earlier_runs_files_unless_told_to_r
     assert invoke(*predict, "--overwrite").exit_code == 0
 
 
-def test_a_run_that_died_before_its_first_checkpoint_is_not_resumed_from_an_older_one(finished, tmp_path):
-    """Once a run is under way its run.json replaces the earlier run's and the earlier checkpoint is gone: killed
-    before its own first checkpoint, it is not resumed as the earlier run."""
+def test_a_figure_redraws_its_own_run_freely_and_another_runs_only_with_overwrite(tmp_path):
+    """A redraw of the folder's own CSV adds its figure and a manifest beside the run's; a redraw of another run's
+    CSV would leave the folder holding two runs' files: refused, and with --overwrite the earlier run's data go."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    for folder, seed in ((a, "0"), (b, "5")):
+        assert invoke("figure", "accuracy", "--quick", "--trials", "2", "--cycles", "5", "--seed", seed,
+                      "--out", folder).exit_code == 0
+    data = (a / "accuracy.csv").read_bytes()
+    assert invoke("figure", "accuracy", "--from-csv", a / "accuracy.csv", "--out", a).exit_code == 0
+    assert (a / "accuracy.csv").read_bytes() == data and (a / "accuracy.redraw.json").exists()
+    one_error_line(invoke("figure", "accuracy", "--from-csv", b / "accuracy.csv", "--out", a),
+                   "accuracy.csv exists", "--overwrite")
+    assert invoke("figure", "accuracy", "--from-csv", b / "accuracy.csv", "--out", a, "--overwrite").exit_code == 0
+    assert sorted(path.name for path in a.iterdir()) == ["accuracy.json", "accuracy.png"]
+    assert json.loads((a / "accuracy.json").read_text())["config"]["from_csv"] == str(b / "accuracy.csv")
+
+
+def test_a_run_that_replaced_another_and_died_is_resumed_as_itself(finished, tmp_path):
+    """Once a run is under way its run.json replaces the earlier run's, the earlier summary and checkpoint are gone,
+    and its own checkpoint follows its first cycle (whatever --checkpoint-every): killed later, it is resumed as
+    itself, never as the run it replaced."""
     folder = copy_of(finished, tmp_path)
     driver = shlex.join([sys.executable, str(Path(__file__).with_name("_fault_driver.py")),
                          json.dumps({"fault": "huge_error", "cycle": 2, "magnitude": 10})])  # fails in its 3rd cycle
     one_error_line(invoke("optimize", "--robot", driver, "--checkpoint-every", "5", "--overwrite", "--out", folder),
                    "EEEEEEEEEE")
-    assert json.loads((folder / "run.json").read_text())["robot"] == driver
-    assert not (folder / "checkpoint.npz").exists() and not (folder / "summary.json").exists()
-    one_error_line(invoke("optimize", "--resume", folder), "cannot be resumed")
+    run = json.loads((folder / "run.json").read_text())
+    assert run["robot"] == driver and not (folder / "summary.json").exists()
+    from geogait.optimize import read_checkpoint_metadata
+
+    metadata = read_checkpoint_metadata(folder / "checkpoint.npz")
+    assert metadata["tag"]["run_id"] == run["run_id"] and metadata["state"]["cycle"] == 1
 
 
 @pytest.mark.parametrize(("content", "fragment"), [("{}", "'links' must be an integer, got missing"),

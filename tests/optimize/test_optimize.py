@@ -160,6 +160,17 @@ def test_a_higher_order_family_starts_from_the_embedded_seed():
     np.testing.assert_allclose(result.initial_gait.shape(phase), seed_gait(2).shape(phase))
 
 
+def test_limits_below_the_seed_gait_are_refused_naming_the_limit():
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)
+    with pytest.raises(GeogaitError, match=r"'max_joint_angle' parameter .* at least the largest joint angle of the "
+                                           r"robot's seed gait \(1 rad\).* Got 0.5"):
+        InSituOptimizer(max_joint_angle=0.5).run(stream, 2)
+    with pytest.raises(GeogaitError, match=r"'max_joint_velocity' parameter .* at least the peak joint speed of the "
+                                           r"robot's seed gait \(6.283 rad/s\).* Got 3"):
+        InSituOptimizer(max_joint_velocity=3.0).run(stream, 2)
+    assert stream.gait == seed_gait(2)
+
+
 def test_a_seed_of_higher_order_than_the_family_is_refused_and_the_robot_left_as_it_was():
     """Cutting the seed's second harmonics (stored at order 3) would optimise another gait than the robot's; and a
     run refused by any check (here: a seed that does not move, which has no shape scale) commands nothing."""

@@ -94,9 +94,27 @@ def refuse_existing(paths, *, overwrite: bool) -> None:
         return
     existing = [Path(path) for path in paths if Path(path).exists()]
     if existing:
-        more = f" (and {len(existing) - 1} more of its files)" if len(existing) > 1 else ""
-        raise GeogaitError(f"{existing[0]} exists{more}, written by an earlier run; give --overwrite to replace "
-                           "it, or choose another --out.")
+        more = f" (and {len(existing) - 1} more of the files this run writes)" if len(existing) > 1 else ""
+        raise GeogaitError(f"{existing[0]} exists{more}; give --overwrite to replace it, or choose another --out.")
+
+
+def claim_figure(out: Path, name: str, from_csv, *, overwrite: bool, extra=()) -> list[Path]:
+    """Check a ``figure`` command's files in ``out`` before any work: ``<name>.csv``, ``<name>.json``,
+    ``<name>.redraw.json``, ``<name>.png`` and ``extra``.
+
+    A redraw of the folder's own run (``from_csv`` is ``out/<name>.csv``) may always write its figures (its
+    manifest goes beside the run's, see :func:`write_manifest`). Anything else — a fresh run, or a redraw of
+    another run's CSV — is refused where any of these files exists, unless ``overwrite``. Returns the earlier
+    files to remove before the manifest is written, so the folder never holds the files of two runs: a stale
+    redraw manifest, and for a redraw of another run also the earlier run's CSV and manifest.
+    """
+    out = Path(out)
+    data, manifest, redraw = (out / f"{name}{suffix}" for suffix in (".csv", ".json", ".redraw.json"))
+    if from_csv is not None and Path(from_csv).resolve() == data.resolve():
+        return []
+    refuse_existing([data, manifest, redraw, out / f"{name}.png", *(out / e for e in extra)], overwrite=overwrite)
+    stale = [redraw] if from_csv is None else [data, manifest, redraw]
+    return [path for path in stale if path.exists()]
 
 
 def explain_nulls(value, reason: str = "not available for this run"):

@@ -17,7 +17,7 @@ from rich.table import Table
 from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 from ._app import figure_app
-from ._common import Overwrite, comma_list, configure, console, listed, output_folder, refuse_existing, write_manifest
+from ._common import Overwrite, claim_figure, comma_list, configure, console, listed, output_folder, write_manifest
 
 _A, _E = AccuracyConfig(), EnvironmentConfig()
 _QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
@@ -40,13 +40,6 @@ ChunkSize = Annotated[int | None, typer.Option(
          f"[default: {_A.chunk_size}].")]
 
 
-def _refuse_earlier_run(out: Path, name: str, from_csv, overwrite: bool) -> None:
-    """A fresh run replaces ``<name>.csv/.png/.json`` only with --overwrite (a redraw writes its PNG and keeps the
-    run's CSV and manifest)."""
-    if from_csv is None:
-        refuse_existing([Path(out) / f"{name}{suffix}" for suffix in (".csv", ".json", ".png")], overwrite=overwrite)
-
-
 def _run_or_redraw(result_class, from_csv, run, extra: dict):
     """The results read back from ``--from-csv``, or a fresh run; and the manifest's extra config."""
     if from_csv is not None:
@@ -54,8 +47,10 @@ def _run_or_redraw(result_class, from_csv, run, extra: dict):
     return run(), extra
 
 
-def _write(result, folder: Path, name: str, command: str, started: float, extra: dict) -> tuple[dict, list[str]]:
-    """Write PNG, CSV (for fresh runs) and the JSON manifest; return the summary and the file names.
+def _write(result, folder: Path, name: str, command: str, started: float, extra: dict,
+           stale: list[Path]) -> tuple[dict, list[str]]:
+    """Write PNG, CSV (for fresh runs) and the JSON manifest, removing the ``stale`` files of an earlier run
+    (:func:`claim_figure`) before the manifest; return the summary and the file names.
 
     A redraw (``--from-csv``) writes no CSV and keeps the run's manifest (see :func:`write_manifest`).
     """
@@ -67,6 +62,8 @@ def _write(result, folder: Path, name: str, command: str, started: float, extra:
         written.append(f"{name}.csv")
     config = (result.config_dict() or {}) | extra
     results = {"summary": summary, "sweep_wall_time_s": result.wall_time_s, "n_workers": result.n_workers}
+    for path in stale:
+        path.unlink(missing_ok=True)
     manifest = write_manifest(folder / f"{name}.json", command=command, config=config, results=results,
                               started=started)
     return summary, [*written, manifest.name]
@@ -102,12 +99,12 @@ def accuracy(
         n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
-    _refuse_earlier_run(out, "accuracy", from_csv, overwrite)
+    stale = claim_figure(out, "accuracy", from_csv, overwrite=overwrite)
     folder = output_folder(out)
     result, extra = _run_or_redraw(AccuracyResult, from_csv,
                                    lambda: run_accuracy(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})
-    summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra)
+    summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra, stale)
     console.print(_accuracy_table(summary))
     console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
 
@@ -162,12 +159,12 @@ def environments(
         sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
-    _refuse_earlier_run(out, "environments", from_csv, overwrite)
+    stale = claim_figure(out, "environments", from_csv, overwrite=overwrite)
     folder = output_folder(out)
     result, extra = _run_or_redraw(EnvironmentResult, from_csv,
                                    lambda: run_environments(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})
-    summary, written = _write(result, folder, "environments", "figure environments", started, extra)
+    summary, written = _write(result, folder, "environments", "figure environments", started, extra, stale)
     console.print(_environment_table(summary))
     console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
 

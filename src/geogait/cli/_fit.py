@@ -173,10 +173,10 @@ def predict(
     summary_path = default_summary_path(out) if summary is None else summary
     inputs = (model, log, phaser, mapping)
     check_outputs({"--out": out, "--summary": summary_path}, inputs, "predict")
-    refuse_existing([out, summary_path], overwrite=overwrite)
     if out.suffix.lower() != ".csv":
         raise GeogaitError(f"--out is the predictions CSV file: give a name ending in .csv. Got {str(out)!r} "
                            "instead (the Γ summary goes to --summary).")
+    refuse_existing([out, summary_path], overwrite=overwrite)
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
     fitted = AdaptiveGaitModel.load(model)
     estimator = None if phaser is None else Phaser.load(phaser)

@@ -41,6 +41,7 @@ from ..systems import PurcellSwimmer
 from ._app import app, figure_app
 from ._common import (
     Overwrite,
+    claim_figure,
     claim_output,
     comma_list,
     configure,
@@ -49,7 +50,6 @@ from ._common import (
     listed,
     output_folder,
     progress_bar,
-    refuse_existing,
     write_manifest,
 )
 
@@ -176,7 +176,6 @@ def optimize(
     with OutputLock(folder) if resume is not None else claim_output(folder, overwrite=overwrite):
         if resume is not None:
             _check_resume(folder, settings, run_id)
-            _write_settings(folder, settings, run_id)  # (a new --cycles is the total a later resume continues to)
         summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
     console.print(dumps_json(summary, indent=1))
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
@@ -202,6 +201,9 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
         summary["robot"] = declared
         for name in _SWIMMER_ONLY:  # the built-in swimmer's options say nothing about a robot's run
             config.pop(name, None)
+    if summary["forward_direction"] is None:
+        summary["forward_direction_null_reason"] = ("the objective is not forward" if settings["objective"] != "forward"
+                                                    else "the run ended before its seed cycles set it")
     summary = explain_nulls(json_ready(summary))
     with output_set(folder, last=("summary.json",)) as staged:
         write_text(staged / "cycles.csv", result.log.to_csv(index=False))
@@ -340,10 +342,12 @@ def _optimizer(settings) -> InSituOptimizer:
             raise GeogaitError(f"--climb-rule must be one of {', '.join(CLIMB_RULES)}; got {rule!r}.")
         steps["climb_rule"] = rule
     limit = settings["max_joint_angle"]
-    if settings["robot"] is None and limit is not None and not 0 < limit <= np.pi:
-        raise typer.BadParameter(f"expected a joint limit in (0, π] rad for the built-in swimmer (its links would "
-                                 f"pass through each other beyond π), got {settings['max_joint_angle']}",
-                                 param_hint="--max-joint-angle")
+    if settings["robot"] is None and limit is not None:
+        seed_reach = float(seed_gait(settings["links"] - 1).joint_limit().max())
+        if not seed_reach <= limit <= np.pi:
+            raise typer.BadParameter(f"expected a joint limit in [{seed_reach:.4g}, π] rad for the built-in swimmer "
+                                     "(at least its seed gait's largest joint angle; its links would pass through "
+                                     f"each other beyond π), got {limit}", param_hint="--max-joint-angle")
     joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,
@@ -380,15 +384,16 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
     if cycles is None:
         cycles = 100 if settings["robot"] is not None else default_budget(settings["links"])
     name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
-    started = [resumed]
+    started = [False]
     with progress_bar() as progress:
         task = progress.add_task(f"{name} {settings['method']}", total=cycles, status="")
 
         def show(row):
-            if not started[0]:  # the run is under way: only now does it replace an earlier one (--overwrite)
-                for file in RUN_FILES:
-                    (folder / file).unlink(missing_ok=True)
-                _write_settings(folder, settings, run_id)
+            if not started[0]:  # under way (its checkpoint follows at once): only now is an earlier run replaced
+                if not resumed:  # (summary.json first: no earlier summary is left beside a part of this run)
+                    for file in ("summary.json", *RUN_FILES):
+                        (folder / file).unlink(missing_ok=True)
+                _write_settings(folder, settings, run_id)  # (a resume's new --cycles: the total it continues to)
                 started[0] = True
             gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in or settle cycle
             value = row.get("true_objective", row["measured_objective"])
@@ -506,8 +511,7 @@ def figure_optimization(
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
     started = time.perf_counter()
-    if from_csv is None:
-        refuse_existing([out / f"optimization{suffix}" for suffix in (".csv", ".json", ".png")], overwrite=overwrite)
+    stale = claim_figure(out, "optimization", from_csv, overwrite=overwrite)
     folder = output_folder(out)
     if from_csv is not None:
         result = OptimizationResult.from_csv(from_csv)
@@ -525,6 +529,8 @@ def figure_optimization(
         result.to_csv(folder / "optimization.csv")
     result.plot(folder / "optimization.png")
     summary = result.summary()
+    for path in stale:
+        path.unlink(missing_ok=True)
     manifest = write_manifest(folder / "optimization.json", command="figure optimization",
                               config=result.config_dict() or {"from_csv": str(from_csv)},
                               results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,

@@ -30,13 +30,13 @@ from ..plotting import plt, save_figure
 from ._app import app, figure_app
 from ._common import (
     Overwrite,
+    claim_figure,
     claim_output,
     configure,
     console,
     explain_nulls,
     output_folder,
     progress_bar,
-    refuse_existing,
     write_manifest,
 )
 
@@ -280,9 +280,8 @@ def figure_tracking(
                            "change with '--drag-path' instead of '--path'.")
     path_file = file or drag_file
     references = None if path_file is None else {CUSTOM_PATH: ReferencePath.from_csv(path_file)}
-    if from_csv is None:
-        refuse_existing([out / name for name in ("tracking.csv", "tracking-trials.csv", "tracking.json",
-                                                 "tracking.png", "steering-family.png")], overwrite=overwrite)
+    stale = claim_figure(out, "tracking", from_csv, overwrite=overwrite,
+                         extra=("tracking-trials.csv", "steering-family.png"))
     folder = output_folder(out)
     if from_csv is not None:
         result = TrackingResult.from_csv(from_csv)
@@ -308,6 +307,8 @@ def figure_tracking(
     change = result.config.change_cycle if result.config is not None else drag_change_cycle(result.frame)
     write_text(folder / "tracking-trials.csv", trial_stats(result.frame, change).to_csv(index=False))
     summary = result.summary()
+    for path in stale:
+        path.unlink(missing_ok=True)
     write_manifest(folder / "tracking.json", command="figure tracking",
                    config=result.config_dict() or {"from_csv": str(from_csv)},
                    results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,

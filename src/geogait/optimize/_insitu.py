@@ -411,7 +411,7 @@ class InSituOptimizer(Estimator):
             Keep every sample (``result.trajectory``).
         checkpoint : path-like, optional
             ``.npz`` file rewritten atomically every ``checkpoint_every`` cycles (and after the
-            last) with everything needed by :meth:`resume`: hyper-parameters, model, gait, trust
+            first and the last) with everything needed by :meth:`resume`: hyper-parameters, model, gait, trust
             radius, log, and the robot's own state when it offers ``robot_state()``.
         checkpoint_every : int
         checkpoint_tag : dict, optional

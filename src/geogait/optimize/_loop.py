@@ -65,7 +65,8 @@ class CycleLoop:
             state.cycle += 1
             if callback is not None:
                 callback(row)
-            due = state.cycle % self.checkpoint_every == 0 or state.cycle == state.n_cycles
+            # (and after a run's first cycle: a run that replaces another holds a checkpoint of its own at once)
+            due = state.cycle % self.checkpoint_every == 0 or state.cycle in (1, state.n_cycles)
             if self.checkpoint is not None and due:
                 self._save()
         # a climb candidate not yet judged is not a result: the base it was drawn from is

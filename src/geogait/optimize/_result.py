@@ -124,7 +124,6 @@ class InSituResult:
             "shape_scale": _finite(self.shape_scale),
             "gait_family": self.family,
             "forward_direction": None if self.direction is None else [float(v) for v in self.direction],
-            **({} if self.direction is not None else {"forward_direction_null_reason": "the objective is not forward"}),
             "final_gait_params": self.final_gait.params.tolist(),
         }
         if self.model_class is not None:
