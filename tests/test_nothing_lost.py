@@ -144,6 +144,9 @@ def test_a_run_refused_at_its_start_leaves_the_run_it_would_replace_whole(finish
     one_error_line(invoke("optimize", "--max-joint-angle", "3.5", "--overwrite", "--out", folder),
                    "--max-joint-angle", "[1, π]")
     assert {path.name: path.read_bytes() for path in folder.iterdir() if path.is_file()} == before
+    fresh = tmp_path / "fresh"  # a folder the refused run created is not left behind
+    one_error_line(invoke("optimize", "--robot", "false", "--out", fresh), "robot driver")
+    assert not fresh.exists()
 
 
 def test_fit_predict_and_the_figures_keep_an_earlier_runs_files_unless_told_to_replace_them(tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import platform
@@ -17,7 +18,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 import geogait
 
-from .._files import OutputLock, folder_entries, write_json
+from .._files import LOCK_FILE, OutputLock, folder_entries, write_json
 from .._validation import GeogaitError
 
 console = Console(stderr=True)
@@ -57,16 +58,19 @@ def configure(base, **changes):
         raise
 
 
-def claim_output(path: Path, *, overwrite: bool) -> OutputLock:
-    """Create the output folder ``path``, lock it for this run and check that it may be written.
+@contextlib.contextmanager
+def claim_output(path: Path, *, overwrite: bool):
+    """Create the output folder ``path``, lock it for this run and check that it may be written (a context
+    manager giving the held :class:`~geogait._files.OutputLock`).
 
     A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``. Nothing in it
     is removed here: a command replaces an earlier run's files only once its own run is under way (every
-    option checked, the robot started), so a run refused at its start leaves the earlier one whole. Returns
-    the held :class:`~geogait._files.OutputLock` (use it as a context manager); raises a
+    option checked, the robot started), so a run refused at its start leaves the earlier one whole; a folder
+    this call created is removed again when the run fails before writing anything into it. Raises a
     :class:`~geogait.GeogaitError` when the folder is another run's (locked), not empty, a file, or cannot be
     created.
     """
+    created = not Path(path).exists()
     folder = output_folder(path)
     lock = OutputLock(folder)
     try:
@@ -75,10 +79,15 @@ def claim_output(path: Path, *, overwrite: bool) -> OutputLock:
             shown = ", ".join(existing[:4]) + (", …" if len(existing) > 4 else "")
             raise GeogaitError(f"The output folder {folder} is not empty ({shown}); give --overwrite to replace "
                                "the run it holds, or choose another --out.")
+        yield lock
     except BaseException:
-        lock.release()
+        if created and not folder_entries(folder):  # (nothing of this run in it: leave no trace)
+            with contextlib.suppress(OSError):
+                (folder / LOCK_FILE).unlink()
+                folder.rmdir()
         raise
-    return lock
+    finally:
+        lock.release()
 
 
 #: The --overwrite option of commands that write named files (fit, predict, the figures).
