@@ -108,6 +108,24 @@ def test_resume_refuses_options_it_would_ignore(finished, options, names):
     one_error_line(invoke("optimize", "--resume", finished, *options), "--resume continues a run", names)
 
 
+def test_a_lock_taken_on_a_removed_lock_file_is_taken_again_on_the_new_one(tmp_path):
+    """A failed run removes the lock file of a folder it created (OutputLock.remove); a run that had opened that
+    file before must not hold a lock nobody else can see: it locks the file now there, or is refused."""
+    from geogait._files import LOCK_FILE, _same_inode
+
+    first = OutputLock(tmp_path)
+    opened_before = os.open(tmp_path / LOCK_FILE, os.O_RDWR)  # another run, between its open and its flock
+    first.remove()
+    assert not (tmp_path / LOCK_FILE).exists() and not _same_inode(opened_before, tmp_path / LOCK_FILE)
+    os.close(opened_before)
+    with OutputLock(tmp_path):
+        assert (tmp_path / LOCK_FILE).exists()
+        with pytest.raises(GeogaitError, match="being written by another geogait run"):
+            OutputLock(tmp_path)
+    with OutputLock(tmp_path):  # released: free again
+        pass
+
+
 def test_resume_refuses_fewer_cycles_than_already_run(finished, tmp_path):
     folder = copy_of(finished, tmp_path)
     one_error_line(invoke("optimize", "--resume", folder, "--cycles", "1"), "fewer than the 2 cycles already run")
@@ -144,9 +162,9 @@ def test_a_run_refused_at_its_start_leaves_the_run_it_would_replace_whole(finish
     one_error_line(invoke("optimize", "--max-joint-angle", "3.5", "--overwrite", "--out", folder),
                    "--max-joint-angle", "[1, π]")
     assert {path.name: path.read_bytes() for path in folder.iterdir() if path.is_file()} == before
-    fresh = tmp_path / "fresh"  # a folder the refused run created is not left behind
+    fresh = tmp_path / "fresh" / "run"  # folders the refused run created are not left behind
     one_error_line(invoke("optimize", "--robot", "false", "--out", fresh), "robot driver")
-    assert not fresh.exists()
+    assert not (tmp_path / "fresh").exists()
 
 
 def test_fit_predict_and_the_figures_keep_an_earlier_runs_files_unless_told_to_replace_them(tmp_path):

@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import math
@@ -475,11 +476,22 @@ LOCK_FILE = ".geogait.lock"
 _STAGING = re.compile(r"^\.geogait-staging\.(\d+)\.[^.]+$")
 
 
+def _same_inode(handle: int, path: Path) -> bool:
+    """Whether the open file ``handle`` is the file at ``path`` (not one removed or replaced since)."""
+    try:
+        on_disk = os.stat(path)
+    except FileNotFoundError:
+        return False
+    held = os.fstat(handle)
+    return (held.st_dev, held.st_ino) == (on_disk.st_dev, on_disk.st_ino)
+
+
 class OutputLock:
     """An exclusive lock on an output folder while one run writes it (``fcntl.flock`` on ``.geogait.lock``).
 
     The lock is held on an open file, so the system releases it when the process ends in any way (even
-    ``kill -9``); the lock file itself stays (removing it would race with a run taking it). The
+    ``kill -9``). A lock taken on a file that was removed meanwhile (a failed run cleaning up a folder it
+    created, :meth:`remove`) is not a lock on the folder: it is taken again on the file now there. The
     holder's process id is written into the file for the message another run gets.
 
     Parameters
@@ -497,25 +509,41 @@ class OutputLock:
         import fcntl
 
         self.folder = Path(folder)
-        path = self.folder / LOCK_FILE
-        try:
-            self._handle = os.open(path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
-        except OSError as error:
-            raise GeogaitError(f"Cannot lock the output folder {self.folder}: {error.strerror}.") from None
-        try:
-            fcntl.flock(self._handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        self._path = path = self.folder / LOCK_FILE
+        self._handle = None
+        for _ in range(100):  # (each retry follows a lock file removed under us: a race, not a loop)
             try:
-                holder = os.pread(self._handle, 64, 0).decode("ascii", "replace").strip()
+                handle = os.open(path, os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+            except OSError as error:
+                raise GeogaitError(f"Cannot lock the output folder {self.folder}: {error.strerror}.") from None
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
-                holder = ""
-            os.close(self._handle)
-            self._handle = None
-            who = f" (process {holder})" if holder.isdigit() else ""
-            raise GeogaitError(f"The output folder {self.folder} is being written by another geogait run{who}; "
-                               "wait for it to finish or choose another --out.") from None
-        os.ftruncate(self._handle, 0)
-        os.pwrite(self._handle, f"{os.getpid()}\n".encode(), 0)
+                try:
+                    holder = os.pread(handle, 64, 0).decode("ascii", "replace").strip()
+                except OSError:
+                    holder = ""
+                os.close(handle)
+                who = f" (process {holder})" if holder.isdigit() else ""
+                raise GeogaitError(f"The output folder {self.folder} is being written by another geogait "
+                                   f"run{who}; wait for it to finish or choose another --out.") from None
+            if _same_inode(handle, path):
+                break
+            os.close(handle)
+        else:
+            raise GeogaitError(f"Cannot lock the output folder {self.folder}: its lock file keeps being removed.")
+        self._handle = handle
+        os.ftruncate(handle, 0)
+        os.pwrite(handle, f"{os.getpid()}\n".encode(), 0)
+
+    def remove(self) -> None:
+        """Remove the lock file, still holding the lock (a run that leaves no trace of itself), then release it.
+
+        Another run waiting on the removed file takes the lock again on a new one (see above)."""
+        if self._handle is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(self._path)
+        self.release()
 
     def release(self) -> None:
         """Give the lock back (also done by the system when the process ends)."""

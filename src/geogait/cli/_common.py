@@ -18,7 +18,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 import geogait
 
-from .._files import LOCK_FILE, OutputLock, folder_entries, write_json
+from .._files import OutputLock, folder_entries, write_json
 from .._validation import GeogaitError
 
 console = Console(stderr=True)
@@ -66,11 +66,12 @@ def claim_output(path: Path, *, overwrite: bool):
     A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``. Nothing in it
     is removed here: a command replaces an earlier run's files only once its own run is under way (every
     option checked, the robot started), so a run refused at its start leaves the earlier one whole; a folder
-    this call created is removed again when the run fails before writing anything into it. Raises a
+    this call created (and each parent it created) is removed again when the run fails before writing
+    anything into it. Raises a
     :class:`~geogait.GeogaitError` when the folder is another run's (locked), not empty, a file, or cannot be
     created.
     """
-    created = not Path(path).exists()
+    created = [level for level in (Path(path), *Path(path).parents) if not level.exists()]  # (innermost first)
     folder = output_folder(path)
     lock = OutputLock(folder)
     try:
@@ -82,9 +83,10 @@ def claim_output(path: Path, *, overwrite: bool):
         yield lock
     except BaseException:
         if created and not folder_entries(folder):  # (nothing of this run in it: leave no trace)
-            with contextlib.suppress(OSError):
-                (folder / LOCK_FILE).unlink()
-                folder.rmdir()
+            lock.remove()
+            with contextlib.suppress(OSError):  # (a level holding anything else stays)
+                for level in created:
+                    level.rmdir()
         raise
     finally:
         lock.release()
@@ -107,23 +109,24 @@ def refuse_existing(paths, *, overwrite: bool) -> None:
         raise GeogaitError(f"{existing[0]} exists{more}; give --overwrite to replace it, or choose another --out.")
 
 
-def claim_figure(out: Path, name: str, from_csv, *, overwrite: bool, extra=()) -> list[Path]:
+def claim_figure(out: Path, name: str, from_csv, command: str, *, overwrite: bool, extra=()) -> tuple[tuple, str]:
     """Check a ``figure`` command's files in ``out`` before any work: ``<name>.csv``, ``<name>.json``,
-    ``<name>.redraw.json``, ``<name>.png`` and ``extra``.
+    ``<name>.redraw.json``, ``<name>.png`` and ``extra``; returns ``(members, manifest)`` for the
+    :class:`~geogait._files.output_set` that writes them and the name its manifest takes.
 
-    A redraw of the folder's own run (``from_csv`` is ``out/<name>.csv``) may always write its figures (its
-    manifest goes beside the run's, see :func:`write_manifest`). Anything else — a fresh run, or a redraw of
-    another run's CSV — is refused where any of these files exists, unless ``overwrite``. Returns the earlier
-    files to remove before the manifest is written, so the folder never holds the files of two runs: a stale
-    redraw manifest, and for a redraw of another run also the earlier run's CSV and manifest.
+    A redraw of the folder's own run (``from_csv`` is ``out/<name>.csv``) may always write its figures: it
+    replaces no file of the run (``members`` empty) and its manifest goes beside the run's
+    (``<name>.redraw.json``). Anything else — a fresh run, or a redraw of another run's CSV — is refused where
+    any of these files exists, unless ``overwrite``; its set then replaces them all, so the folder never holds
+    the files of two runs.
     """
     out = Path(out)
-    data, manifest, redraw = (out / f"{name}{suffix}" for suffix in (".csv", ".json", ".redraw.json"))
-    if from_csv is not None and Path(from_csv).resolve() == data.resolve():
-        return []
-    refuse_existing([data, manifest, redraw, out / f"{name}.png", *(out / e for e in extra)], overwrite=overwrite)
-    stale = [redraw] if from_csv is None else [data, manifest, redraw]
-    return [path for path in stale if path.exists()]
+    files = (f"{name}.csv", f"{name}.json", f"{name}.redraw.json", f"{name}.png", *extra)
+    if from_csv is not None and Path(from_csv).resolve() == (out / f"{name}.csv").resolve():
+        fresh = _is_fresh_run_manifest(out / f"{name}.json", command)
+        return (), f"{name}.redraw.json" if fresh else f"{name}.json"
+    refuse_existing([out / file for file in files], overwrite=overwrite)
+    return files, f"{name}.json"
 
 
 def explain_nulls(value, reason: str = "not available for this run"):

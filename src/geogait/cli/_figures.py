@@ -14,6 +14,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
+from .._files import output_set
 from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 from ._app import figure_app
@@ -48,25 +49,21 @@ def _run_or_redraw(result_class, from_csv, run, extra: dict):
 
 
 def _write(result, folder: Path, name: str, command: str, started: float, extra: dict,
-           stale: list[Path]) -> tuple[dict, list[str]]:
-    """Write PNG, CSV (for fresh runs) and the JSON manifest, removing the ``stale`` files of an earlier run
-    (:func:`claim_figure`) before the manifest; return the summary and the file names.
-
-    A redraw (``--from-csv``) writes no CSV and keeps the run's manifest (see :func:`write_manifest`).
+           claimed: tuple) -> tuple[dict, list[str]]:
+    """Write PNG, CSV (for fresh runs) and the JSON manifest as one set (``claimed``: :func:`claim_figure`'s
+    members and manifest name); return the summary and the file names. A redraw (``--from-csv``) writes no CSV.
     """
+    members, manifest = claimed
     summary = result.summary()
-    result.plot(folder / f"{name}.png")
-    written = [f"{name}.png"]
-    if result.config is not None:
-        result.to_csv(folder / f"{name}.csv")
-        written.append(f"{name}.csv")
+    written = [f"{name}.png", *([f"{name}.csv"] if result.config is not None else []), manifest]
     config = (result.config_dict() or {}) | extra
     results = {"summary": summary, "sweep_wall_time_s": result.wall_time_s, "n_workers": result.n_workers}
-    for path in stale:
-        path.unlink(missing_ok=True)
-    manifest = write_manifest(folder / f"{name}.json", command=command, config=config, results=results,
-                              started=started)
-    return summary, [*written, manifest.name]
+    with output_set(folder, last=(manifest,), members=members) as staged:
+        result.plot(staged / f"{name}.png")
+        if result.config is not None:
+            result.to_csv(staged / f"{name}.csv")
+        write_manifest(staged / manifest, command=command, config=config, results=results, started=started)
+    return summary, written
 
 
 @figure_app.command("accuracy")
@@ -99,12 +96,12 @@ def accuracy(
         n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
-    stale = claim_figure(out, "accuracy", from_csv, overwrite=overwrite)
+    claimed = claim_figure(out, "accuracy", from_csv, "figure accuracy", overwrite=overwrite)
     folder = output_folder(out)
     result, extra = _run_or_redraw(AccuracyResult, from_csv,
                                    lambda: run_accuracy(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})
-    summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra, stale)
+    summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra, claimed)
     console.print(_accuracy_table(summary))
     console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
 
@@ -159,12 +156,12 @@ def environments(
         sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
-    stale = claim_figure(out, "environments", from_csv, overwrite=overwrite)
+    claimed = claim_figure(out, "environments", from_csv, "figure environments", overwrite=overwrite)
     folder = output_folder(out)
     result, extra = _run_or_redraw(EnvironmentResult, from_csv,
                                    lambda: run_environments(config, jobs=jobs, scheduler=scheduler),
                                    {"jobs": jobs, "scheduler": scheduler, "quick": quick})
-    summary, written = _write(result, folder, "environments", "figure environments", started, extra, stale)
+    summary, written = _write(result, folder, "environments", "figure environments", started, extra, claimed)
     console.print(_environment_table(summary))
     console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
 

@@ -344,7 +344,7 @@ def _optimizer(settings) -> InSituOptimizer:
     limit = settings["max_joint_angle"]
     if settings["robot"] is None and limit is not None:
         seed_reach = float(seed_gait(settings["links"] - 1).joint_limit().max())
-        if not seed_reach <= limit <= np.pi:
+        if not seed_reach - 1e-9 <= limit <= np.pi:  # (the seed's largest angle is 1 up to rounding)
             raise typer.BadParameter(f"expected a joint limit in [{seed_reach:.4g}, π] rad for the built-in swimmer "
                                      "(at least its seed gait's largest joint angle; its links would pass through "
                                      f"each other beyond π), got {limit}", param_hint="--max-joint-angle")
@@ -390,9 +390,10 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
 
         def show(row):
             if not started[0]:  # under way (its checkpoint follows at once): only now is an earlier run replaced
-                if not resumed:  # (summary.json first: no earlier summary is left beside a part of this run)
-                    for file in ("summary.json", *RUN_FILES):
-                        (folder / file).unlink(missing_ok=True)
+                # (summary.json first: no earlier summary is left beside a part of this run; a resume rewrites
+                # the outputs of the run it continues at its end)
+                for file in ("summary.json", *(() if resumed else RUN_FILES)):
+                    (folder / file).unlink(missing_ok=True)
                 _write_settings(folder, settings, run_id)  # (a resume's new --cycles: the total it continues to)
                 started[0] = True
             gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in or settle cycle
@@ -511,8 +512,7 @@ def figure_optimization(
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
     started = time.perf_counter()
-    stale = claim_figure(out, "optimization", from_csv, overwrite=overwrite)
-    folder = output_folder(out)
+    members, manifest = claim_figure(out, "optimization", from_csv, "figure optimization", overwrite=overwrite)
     if from_csv is not None:
         result = OptimizationResult.from_csv(from_csv)
     else:
@@ -525,17 +525,19 @@ def figure_optimization(
                            baseline_iterations=("--baseline-iterations", baseline_iterations),
                            sensor_noise=("--noise", noise), seed=("--seed", seed), links=("--links", swimmers),
                            budgets=("--cycles", budgets))
+        folder = output_folder(out)  # (before the run: a file in its place is refused now)
         result = run_optimization(config, jobs=jobs, scheduler=scheduler)
-        result.to_csv(folder / "optimization.csv")
-    result.plot(folder / "optimization.png")
+    folder = output_folder(out)
     summary = result.summary()
-    for path in stale:
-        path.unlink(missing_ok=True)
-    manifest = write_manifest(folder / "optimization.json", command="figure optimization",
-                              config=result.config_dict() or {"from_csv": str(from_csv)},
-                              results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
-                                       **summary}, started=started)
+    with output_set(folder, last=(manifest,), members=members) as staged:  # one set: no two runs' files mixed
+        if from_csv is None:
+            result.to_csv(staged / "optimization.csv")
+        result.plot(staged / "optimization.png")
+        write_manifest(staged / manifest, command="figure optimization",
+                       config=result.config_dict() or {"from_csv": str(from_csv)},
+                       results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers, **summary},
+                       started=started)
     console.print(dumps_json(summary, indent=1, default=str))
-    written = ["optimization.png", *([] if from_csv is not None else ["optimization.csv"]), manifest.name]
+    written = ["optimization.png", *([] if from_csv is not None else ["optimization.csv"]), manifest]
     console.print(f"wrote {folder}/ ({', '.join(written)})")
 

@@ -280,9 +280,8 @@ def figure_tracking(
                            "change with '--drag-path' instead of '--path'.")
     path_file = file or drag_file
     references = None if path_file is None else {CUSTOM_PATH: ReferencePath.from_csv(path_file)}
-    stale = claim_figure(out, "tracking", from_csv, overwrite=overwrite,
-                         extra=("tracking-trials.csv", "steering-family.png"))
-    folder = output_folder(out)
+    members, manifest = claim_figure(out, "tracking", from_csv, "figure tracking", overwrite=overwrite,
+                                     extra=("tracking-trials.csv", "steering-family.png"))
     if from_csv is not None:
         result = TrackingResult.from_csv(from_csv)
     else:
@@ -296,23 +295,26 @@ def figure_tracking(
             change_forgetting=("--change-forgetting", change_forgetting), warmup_turns=("--warmup-turns", warmup_turns),
             paths=("--path", () if drag_only else paths), drag_paths=("--drag-path", drag_paths),
             path_file=("--path", path_file), change_cycle=("--cycles", None if cycles is None else cycles // 2))
+        output_folder(out)  # (before the run: a file in its place is refused now)
         result = run_tracking(config, jobs=jobs, scheduler=scheduler)
-        result.to_csv(folder / "tracking.csv")
-    result.plot(folder / "tracking.png", references)
-    families = sorted(result.frame["links"].unique())
-    fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.5), squeeze=False)
-    for ax, n_links in zip(axes[0], families, strict=True):
-        plot_steering_family(ax, steering_families(int(n_links)), int(n_links))
-    save_figure(fig, folder / "steering-family.png")
-    change = result.config.change_cycle if result.config is not None else drag_change_cycle(result.frame)
-    write_text(folder / "tracking-trials.csv", trial_stats(result.frame, change).to_csv(index=False))
+    folder = output_folder(out)
     summary = result.summary()
-    for path in stale:
-        path.unlink(missing_ok=True)
-    write_manifest(folder / "tracking.json", command="figure tracking",
-                   config=result.config_dict() or {"from_csv": str(from_csv)},
-                   results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
-                                  **summary}), started=started)
+    change = result.config.change_cycle if result.config is not None else drag_change_cycle(result.frame)
+    with output_set(folder, last=(manifest,), members=members) as staged:  # one set: no two runs' files mixed
+        if from_csv is None:
+            result.to_csv(staged / "tracking.csv")
+        result.plot(staged / "tracking.png", references)
+        families = sorted(result.frame["links"].unique())
+        fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.5), squeeze=False)
+        for ax, n_links in zip(axes[0], families, strict=True):
+            plot_steering_family(ax, steering_families(int(n_links)), int(n_links))
+        save_figure(fig, staged / "steering-family.png")
+        write_text(staged / "tracking-trials.csv", trial_stats(result.frame, change).to_csv(index=False))
+        write_manifest(staged / manifest, command="figure tracking",
+                       config=result.config_dict() or {"from_csv": str(from_csv)},
+                       results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
+                                      **summary}), started=started)
     console.print(dumps_json(_json(summary), indent=1))
-    console.print(f"wrote {folder}/ (tracking.png, steering-family.png, tracking.csv, tracking-trials.csv, "
-                  "tracking.json)")
+    written = ["tracking.png", "steering-family.png", *([] if from_csv is not None else ["tracking.csv"]),
+               "tracking-trials.csv", manifest]
+    console.print(f"wrote {folder}/ ({', '.join(written)})")
