@@ -218,8 +218,45 @@ def test_online_differentiator_is_a_causal_savitzky_golay_filter():
         differentiator.push(0.1 * n, value)
     expected = savgol_coeffs(7, 2, deriv=1, delta=0.1, pos=6, use="dot") @ values[-7:]
     np.testing.assert_allclose(differentiator.derivative(), expected, rtol=1e-10, atol=1e-12)
+    smoothed = savgol_coeffs(7, 2, deriv=0, pos=6, use="dot") @ values[-7:]
+    np.testing.assert_allclose(differentiator.value(), smoothed, rtol=1e-10, atol=1e-12)
+    differentiator.reset()
+    assert differentiator.value() is None
+    differentiator.push(0.0, values[0])
+    np.testing.assert_array_equal(differentiator.value(), values[0])  # one sample: itself
     with pytest.raises(ValueError, match="'window' parameter of OnlineDifferentiator"):
         OnlineDifferentiator(window=1)
+
+
+def test_a_differentiated_stream_learns_body_velocity_smoothed_by_the_same_fit(run):
+    """ṙ differentiated causally carries the fit's low-pass; ξ learned beside it carries the same (the fit's value,
+    as read_log does with its centred filter): the streamed model equals a batch fit on ṙ and ξ filtered by SciPy's
+    one-sided Savitzky–Golay coefficients (window 5, order 2; fewer samples at the start), and a stream given ṙ
+    learns ξ as given."""
+    n = 600
+    learner = StreamLearner(AdaptiveGaitModel(gait=GAIT))
+    outputs = [learner.step(sample) for sample in JsonLinesReader(io.StringIO(lines(run, 0, n, rate=False)), 2)]
+    assert not outputs[0].learned and all(output.learned for output in outputs[1:])
+    rate, body = np.empty((n, 2)), np.empty((n, 3))
+    for k in range(1, n):
+        first = max(0, k - 4)
+        size, step = k - first + 1, run.time[1] - run.time[0]
+        order = min(2, size - 1)
+        rate[k] = savgol_coeffs(size, order, deriv=1, delta=step, pos=size - 1, use="dot") @ run.shape[first:k + 1] \
+            if size > 2 else (run.shape[k] - run.shape[k - 1]) / step
+        body[k] = savgol_coeffs(size, order, pos=size - 1, use="dot") @ run.body_velocity[first:k + 1] \
+            if size > 2 else run.body_velocity[k]
+    expected = AdaptiveGaitModel(gait=GAIT).fit(run.phase[1:n], run.shape[1:n], rate[1:], body[1:])
+    for a, b in ((learner.model.window_weights_, expected.window_weights_),
+                 (learner.model.covariance_, expected.covariance_)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-8 * np.abs(b).max())
+    given = StreamLearner(AdaptiveGaitModel(gait=GAIT))
+    for sample in JsonLinesReader(io.StringIO(lines(run, 0, 50)), 2):
+        given.step(sample)
+    reference = AdaptiveGaitModel(gait=GAIT).fit(run.phase[:50], run.shape[:50], run.shape_velocity[:50],
+                                                 run.body_velocity[:50])
+    np.testing.assert_allclose(given.model.window_weights_, reference.window_weights_, rtol=0,
+                               atol=1e-12 * np.abs(reference.window_weights_).max())
 
 
 @pytest.fixture(scope="module")

@@ -79,7 +79,8 @@ class OnlineDifferentiator:
     """Causal derivative at the newest sample: a one-sided Savitzky–Golay filter on time stamps.
 
     A polynomial of order ``min(polyorder, k - 1)`` is fitted by least squares to the newest
-    ``k ≤ window`` samples against their times, and its slope at the newest time is returned.
+    ``k ≤ window`` samples against their times; :meth:`derivative` is its slope at the newest time and
+    :meth:`value` its value there (the same low-pass without the derivative).
 
     Parameters
     ----------
@@ -126,16 +127,25 @@ class OnlineDifferentiator:
             return None
         offsets = np.asarray(self._times) - self._times[-1]
         scale = -offsets[0]
-        return self._weights(offsets / scale) @ np.asarray(self._values) / scale
+        return self._weights(offsets / scale)[1] @ np.asarray(self._values) / scale
+
+    def value(self) -> np.ndarray | None:
+        """The fitted polynomial at the newest sample (the newest sample itself while only one is buffered), or
+        None with none buffered."""
+        if len(self._times) < 2:
+            return self._values[-1].copy() if self._values else None
+        offsets = np.asarray(self._times) - self._times[-1]
+        return self._weights(offsets / -offsets[0])[0] @ np.asarray(self._values)
 
     def _weights(self, offsets: np.ndarray) -> np.ndarray:
-        """Row of the least-squares pseudo-inverse giving the slope; reused while the steps repeat."""
+        """Least-squares pseudo-inverse of the polynomial fit (row 0: value, row 1: slope at the newest sample);
+        reused while the steps repeat."""
         if self._cache is not None:
             cached_offsets, cached_weights = self._cache
             if cached_offsets.shape == offsets.shape and np.allclose(cached_offsets, offsets, rtol=0, atol=1e-9):
                 return cached_weights
         order = min(self.polyorder, offsets.size - 1)
-        weights = np.linalg.pinv(np.vander(offsets, order + 1, increasing=True))[1]
+        weights = np.linalg.pinv(np.vander(offsets, order + 1, increasing=True))
         self._cache = (offsets, weights)
         return weights
 
@@ -267,7 +277,7 @@ class StreamLearner:
         if phase is None or rate is None:
             return StreamOutput(index, sample.time, phase, None, self.gamma, False)
         self._check_phase_rate(sample.time, phase)
-        self.model.partial_fit(phase, sample.shape, rate, sample.body_velocity)
+        self.model.partial_fit(phase, sample.shape, rate, self._body_velocity(sample))
         self._gamma = float(self.model.online_gamma_[-1])  # = model.gamma_, without recomputing it
         prediction = self.model.prior_prediction_[0]
         x, y, theta = prediction.tolist()
@@ -425,14 +435,22 @@ class StreamLearner:
         return float(sample.phase) % _TWO_PI  # float % is np.mod (both take the sign of the divisor)
 
     def _rate(self, sample: StreamSample) -> np.ndarray | None:
-        if sample.time is not None:
-            self.differentiator.push(sample.time, sample.shape)
+        if sample.time is not None:  # (ξ beside the shape: the same fit smooths it, see _body_velocity)
+            self.differentiator.push(sample.time, np.concatenate([sample.shape, sample.body_velocity]))
         if sample.shape_velocity is not None:
             return sample.shape_velocity
         if sample.time is None:
             raise fail("time", f"input line {sample.line}", "given when 'shape_velocity' is not (ṙ is then "
                        "differentiated from the time stamps)", None)
-        return self.differentiator.derivative()
+        derivative = self.differentiator.derivative()
+        return None if derivative is None else derivative[:self.n_joints]
+
+    def _body_velocity(self, sample: StreamSample) -> np.ndarray:
+        """ξ as learned: beside a differentiated ṙ, smoothed by the same causal fit (its value, not its slope),
+        so that ξ = −A ṙ holds between the filtered signals as in :func:`~geogait.io.read_log`; else as given."""
+        if sample.shape_velocity is not None:
+            return sample.body_velocity
+        return self.differentiator.value()[self.n_joints:]
 
 
 def _n_joints(model: AdaptiveGaitModel) -> int:
