@@ -106,6 +106,7 @@ class OnlineDifferentiator:
         """Forget the buffered samples; returns ``self``."""
         self._times: deque[float] = deque(maxlen=self.window)
         self._values: deque[np.ndarray] = deque(maxlen=self.window)
+        self._fitted: tuple[np.ndarray, np.ndarray] | None = None
         return self
 
     def push(self, time: float, value) -> None:
@@ -120,22 +121,27 @@ class OnlineDifferentiator:
         """
         self._times.append(float(time))
         self._values.append(np.asarray(value, dtype=float))
+        self._fitted = None
 
     def derivative(self) -> np.ndarray | None:
         """Slope at the newest sample, or None with fewer than 2 samples buffered."""
-        if len(self._times) < 2:
-            return None
-        offsets = np.asarray(self._times) - self._times[-1]
-        scale = -offsets[0]
-        return self._weights(offsets / scale)[1] @ np.asarray(self._values) / scale
+        return None if len(self._times) < 2 else self._fit()[1]
 
     def value(self) -> np.ndarray | None:
         """The fitted polynomial at the newest sample (the newest sample itself while only one is buffered), or
         None with none buffered."""
         if len(self._times) < 2:
             return self._values[-1].copy() if self._values else None
-        offsets = np.asarray(self._times) - self._times[-1]
-        return self._weights(offsets / -offsets[0])[0] @ np.asarray(self._values)
+        return self._fit()[0]
+
+    def _fit(self) -> tuple[np.ndarray, np.ndarray]:
+        """(value, slope) at the newest sample, computed once per pushed sample."""
+        if self._fitted is None:
+            offsets = np.asarray(self._times) - self._times[-1]
+            scale = -offsets[0]
+            value, slope = self._weights(offsets / scale)[:2] @ np.asarray(self._values)
+            self._fitted = (value, slope / scale)
+        return self._fitted
 
     def _weights(self, offsets: np.ndarray) -> np.ndarray:
         """Least-squares pseudo-inverse of the polynomial fit (row 0: value, row 1: slope at the newest sample);
