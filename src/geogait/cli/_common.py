@@ -201,19 +201,14 @@ def _is_fresh_run_manifest(path: Path, command: str) -> bool:
 
 
 def write_manifest(path: Path, *, command: str, config: dict, results: dict, started: float) -> Path:
-    """JSON record of a run: config, seed, versions, wall time and headline numbers (strict JSON).
-
-    A redraw (``config`` has ``from_csv``) never replaces the manifest of the run that produced
-    the data: when ``path`` holds one, the redraw's record goes to ``<stem>.redraw.json``.
+    """JSON record of a run: config, seed, versions, wall time and headline numbers (strict JSON). (Where a
+    redraw's record goes, beside the run's, is :func:`claim_figure`'s.)
 
     Returns
     -------
     Path
         Where the manifest was written.
     """
-    path = Path(path)
-    if "from_csv" in config and _is_fresh_run_manifest(path, command):
-        path = path.with_name(f"{path.stem}.redraw.json")
     manifest = {"command": command, **versions(), "config": config,
                 "wall_time_s": round(time.perf_counter() - started, 3), "results": results}
     return write_json(path, manifest)

@@ -59,7 +59,7 @@ RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
 #: Every file a run writes into its folder (removed at the start of a run with --overwrite).
-RUN_FILES = (RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "summary.json", "gait.png", "progress.png", "path.png")
+RUN_FILES = ("summary.json", RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "gait.png", "progress.png", "path.png")
 #: Settings that do not change what a run computes: left out of its identity (--cycles may extend a run).
 _NOT_IDENTITY = ("cycles", "robot_timeout", "run_id")
 #: Options a resume may be given (every other option is the run's own, read from run.json).
@@ -348,7 +348,7 @@ def _optimizer(settings) -> InSituOptimizer:
             raise typer.BadParameter(f"expected a joint limit in [{seed_reach:.4g}, π] rad for the built-in swimmer "
                                      "(at least its seed gait's largest joint angle; its links would pass through "
                                      f"each other beyond π), got {limit}", param_hint="--max-joint-angle")
-    joint_limit = "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"]
+    joint_limit = "auto" if limit is None else limit
     return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
                            objective=settings["objective"], max_joint_angle=joint_limit,
                            direction_frame=settings.get("direction_frame", "world"),
@@ -392,7 +392,7 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             if not started[0]:  # under way (its checkpoint follows at once): only now is an earlier run replaced
                 # (summary.json first: no earlier summary is left beside a part of this run; a resume rewrites
                 # the outputs of the run it continues at its end)
-                for file in ("summary.json", *(() if resumed else RUN_FILES)):
+                for file in RUN_FILES[:1] if resumed else RUN_FILES:
                     (folder / file).unlink(missing_ok=True)
                 _write_settings(folder, settings, run_id)  # (a resume's new --cycles: the total it continues to)
                 started[0] = True

@@ -666,15 +666,15 @@ def _build(data, columns: ColumnMapping, options: _Options, stamps, segment, row
         body = np.stack([data[c] for c in columns.body_velocity], axis=1)
         body[:, 2] *= scale
         if estimated_rate:  # the low-pass that ṙ's estimate carries, applied to ξ too (module docstring)
-            body = np.concatenate([_savgol(stamps[a:b], body[a:b], options, 0) for a, b in bounds])
+            body = _filtered(stamps, body, bounds, options, 0)
     else:
         body = np.concatenate([_pose_velocity(stamps[a:b], pose[a:b], options) for a, b in bounds])
     if columns.shape_velocity is not None:
         rate = np.stack([data[c] for c in columns.shape_velocity], axis=1) * scale
         if from_poses and options.smooth_poses:  # the low-pass ξ carries from the smoothed poses, applied to ṙ
-            rate = np.concatenate([_savgol(stamps[a:b], rate[a:b], options, 0) for a, b in bounds])
+            rate = _filtered(stamps, rate, bounds, options, 0)
     else:
-        rate = np.concatenate([_savgol(stamps[a:b], shape[a:b], options, 1) for a, b in bounds])
+        rate = _filtered(stamps, shape, bounds, options, 1)
     phase = None if columns.phase is None else np.mod(data[columns.phase], 2 * np.pi)
     return Log(time=stamps, shape=shape, shape_velocity=rate, body_velocity=body, segment=segment,
                row=rows, pose=pose, phase=phase)
@@ -720,6 +720,11 @@ def _unwrap_heading(pose: np.ndarray, rows: np.ndarray, name: str) -> np.ndarray
 def _pose_velocity(stamps: np.ndarray, pose: np.ndarray, options: _Options) -> np.ndarray:
     smoothed = _savgol(stamps, pose, options, 0) if options.smooth_poses else pose
     return se2.body_velocity_from_poses(stamps, smoothed, scheme=options.scheme)
+
+
+def _filtered(stamps: np.ndarray, values: np.ndarray, bounds: list, options: _Options, deriv: int) -> np.ndarray:
+    """``values`` through the Savitzky–Golay filter (``deriv``), each segment on its own."""
+    return np.concatenate([_savgol(stamps[a:b], values[a:b], options, deriv) for a, b in bounds])
 
 
 def _savgol(stamps: np.ndarray, values: np.ndarray, options: _Options, deriv: int) -> np.ndarray:
