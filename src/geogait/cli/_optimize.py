@@ -12,7 +12,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
+from .._defaults import MAX_JOINT_ANGLE, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
 from .._validation import GeogaitError, check_float, check_int
 from ..experiments.optimization import (
@@ -23,8 +23,22 @@ from ..experiments.optimization import (
     shape_method_model,
 )
 from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
-from ..optimize import CLIMB_RULES, OBJECTIVES, InSituOptimizer, cached_ceiling, read_checkpoint_metadata
+from ..models import AdaptiveGaitModel, ResistanceModel
+from ..optimize import (
+    CLIMB_RULES,
+    OBJECTIVES,
+    Climb,
+    Exploration,
+    Gate,
+    InSituOptimizer,
+    ModelClassTest,
+    cached_ceiling,
+    default,
+    for_robot,
+    prior_work,
+    read_checkpoint_metadata,
+    structured,
+)
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,
@@ -189,7 +203,7 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
                                      max_joint_angle=settings["max_joint_angle"] or MAX_JOINT_ANGLE)
     with target() as robot_driver:
-        result = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
+        result, optimizer = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
         quarantined = list(getattr(robot_driver, "quarantined", []))
         declared = _declared(robot_driver, result)
     summary = result.summary(ceiling)
@@ -279,7 +293,7 @@ def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
                            f"already run; give a total of at least {done}.")
 
 
-def _optimizer(settings) -> InSituOptimizer:
+def _optimizer(settings, robot=None) -> InSituOptimizer:
     if settings["method"] not in _METHODS:
         raise typer.BadParameter(f"expected one of {', '.join(_METHODS)}, got {settings['method']!r}",
                                  param_hint="--method")
@@ -317,30 +331,6 @@ def _optimizer(settings) -> InSituOptimizer:
     if not (np.isfinite(settings["perturbation"]) and 0 <= settings["perturbation"] <= 2 * np.pi):
         raise typer.BadParameter(f"expected a std in [0, 2π] rad, got {settings['perturbation']}",
                                  param_hint="--perturbation")
-    if settings["method"] == "adaptive" and forgetting is None and settings["robot"] is None:
-        forgetting = window_forgetting_factor(settings["links"] - 1)  # a robot's d is known once it is connected (_run)
-    model = {"auto": lambda: None,
-             "batch": lambda: BatchGaitModel(),
-             "shape": lambda: shape_method_model(settings["links"], robot=settings["robot"] is not None,
-                                                 forgetting_factor=forgetting),
-             "adaptive": lambda: None if forgetting is None else AdaptiveGaitModel(forgetting_factor=forgetting),
-             # a --robot's chain is known once it is connected (_run)
-             "resistance": lambda: None if settings["robot"] is not None
-             else ResistanceModel.from_swimmer(PurcellSwimmer(settings["links"])),
-             }[settings["method"]]()
-    steps = dict(STRUCTURED_MODEL_STEPS) if settings["method"] == "resistance" else {"step_rule": "linear"}
-    if settings.get("step_rule") is not None:
-        steps["step_rule"] = settings["step_rule"]
-    climb = settings.get("climb")  # (absent from the run.json of a run that predates --climb)
-    if climb is not None:
-        if climb not in _CLIMB:
-            raise GeogaitError(f"--climb must be one of {', '.join(_CLIMB)}; got {climb!r}.")
-        steps["climb"] = _CLIMB[climb]
-    rule = settings.get("climb_rule")  # (absent from the run.json of a run that predates --climb-rule)
-    if rule is not None:
-        if rule not in CLIMB_RULES:
-            raise GeogaitError(f"--climb-rule must be one of {', '.join(CLIMB_RULES)}; got {rule!r}.")
-        steps["climb_rule"] = rule
     limit = settings["max_joint_angle"]
     if settings["robot"] is None and limit is not None:
         seed_reach = float(seed_gait(settings["links"] - 1).joint_limit().max())
@@ -348,19 +338,65 @@ def _optimizer(settings) -> InSituOptimizer:
             raise typer.BadParameter(f"expected a joint limit in [{seed_reach:.4g}, π] rad for the built-in swimmer "
                                      "(at least its seed gait's largest joint angle; its links would pass through "
                                      f"each other beyond π), got {limit}", param_hint="--max-joint-angle")
-    joint_limit = "auto" if limit is None else limit
-    return InSituOptimizer(model=model, gamma_threshold=settings["gamma_threshold"], order=settings["order"],
-                           objective=settings["objective"], max_joint_angle=joint_limit,
-                           direction_frame=settings.get("direction_frame", "world"),
-                           max_joint_velocity=settings["max_joint_velocity"],
-                           settle_cycles=settings["settle_cycles"], family=settings.get("family", "auto"),
-                           **steps,
-                           max_tracking_error=None if tracking == "off" else tracking,
-                           # the built-in swimmer: --perturbation sizes the exploration geogait commands
-                           exploration="auto" if settings["robot"] is not None else settings["perturbation"],
-                           # (absent from the run.json of a run that predates the test)
-                           model_class_cycles=settings.get("model_class_cycles", 0),
-                           random_state=settings.get("seed") or 0).validate()
+    for name, choices in (("climb", _CLIMB), ("climb_rule", CLIMB_RULES)):
+        value = settings.get(name)  # (absent from the run.json of a run that predates the option)
+        if value is not None and value not in choices:
+            raise GeogaitError(f"--{name.replace('_', '-')} must be one of {', '.join(choices)}; got {value!r}.")
+    return _composed(settings, robot).validate()
+
+
+def _preset(settings, robot) -> InSituOptimizer:
+    """The preset ``--method`` names, with its model for this swimmer or robot (``robot``: None until a driver is
+    connected, when its joints and chain are known)."""
+    method, links, forgetting = settings["method"], settings["links"], settings["forgetting_factor"]
+    n_joints = robot.n_joints if robot is not None else links - 1
+    if method == "batch":
+        return prior_work()
+    if method == "resistance":
+        if robot is not None:
+            return structured(ResistanceModel(**robot.chain_geometry()))
+        swimmer = None if settings["robot"] is not None else ResistanceModel.from_swimmer(PurcellSwimmer(links))
+        return structured(swimmer)
+    if method == "shape":
+        return default(model=shape_method_model(links, robot=settings["robot"] is not None,
+                                                forgetting_factor=forgetting))
+    if method == "adaptive" and (forgetting is not None or settings["robot"] is None or robot is not None):
+        return default(model=AdaptiveGaitModel(forgetting_factor=forgetting if forgetting is not None
+                                               else window_forgetting_factor(n_joints)))
+    if method == "auto" and robot is not None:
+        return for_robot(robot)
+    return default()
+
+
+def _composed(settings, robot=None) -> InSituOptimizer:
+    """The optimiser a run's settings make: the preset ``--method`` names, then each option on its part."""
+    optimizer = _preset(settings, robot)
+    tracking = settings["max_tracking_error"]
+    params = {"gate__gamma_threshold": settings["gamma_threshold"], "order": settings["order"],
+              "objective__kind": settings["objective"],
+              "objective__frame": settings.get("direction_frame", "world"),
+              "limits__max_joint_angle": "auto" if settings["max_joint_angle"] is None else settings["max_joint_angle"],
+              "limits__max_joint_velocity": settings["max_joint_velocity"],
+              "safety__settle_cycles": settings["settle_cycles"],
+              "safety__max_tracking_error": None if tracking == "off" else
+              tracking if tracking == "auto" else float(tracking),
+              "family": settings.get("family", "auto"), "random_state": settings.get("seed") or 0,
+              # the built-in swimmer: --perturbation sizes the exploration geogait commands
+              "exploration": "auto" if settings["robot"] is not None else Exploration(std=settings["perturbation"])}
+    if settings.get("step_rule") is not None:
+        params["step__rule"] = settings["step_rule"]
+    climb = settings.get("climb")
+    if climb == "off":
+        params["climb"] = False
+    elif climb is not None:
+        params["climb"] = optimizer.climb if isinstance(optimizer.climb, Climb) else Climb()
+        params["climb__start"] = _CLIMB[climb]
+    if settings.get("climb_rule") is not None:
+        params.setdefault("climb", optimizer.climb if isinstance(optimizer.climb, Climb) else Climb())
+        params["climb__rule"] = settings["climb_rule"]
+    if settings.get("model_class_cycles", 0):
+        params["checks"] = [*optimizer.checks, ModelClassTest(cycles=settings["model_class_cycles"])]
+    return optimizer.set_params(**params)
 
 
 def _ceiling_kind(settings) -> str:
@@ -404,23 +440,21 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             progress.update(task, completed=row["cycle"] + 1, status=status)
 
         checkpoint = folder / CHECKPOINT_FILE
-        if settings["method"] == "adaptive" and optimizer.model is None:  # the window model, λ = 1 − 0.1 / d
-            optimizer.set_params(model=AdaptiveGaitModel(forgetting_factor=window_forgetting_factor(robot.n_joints)))
-        if settings["method"] == "resistance" and optimizer.model is None:  # the chain the driver declares
-            optimizer.set_params(model=ResistanceModel(**robot.chain_geometry()))
+        if settings["robot"] is not None:  # a driver's joints, chain and medium are known once it is connected
+            optimizer = _optimizer(settings, robot)
         if resumed:
-            return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
+            return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles), optimizer
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
                              record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
-                             checkpoint_tag={"run_id": run_id})
+                             checkpoint_tag={"run_id": run_id}), optimizer
 
 
 def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
     write_text(folder / RUN_FILE, dumps_json({**settings, "run_id": run_id}, indent=1) + "\n")
 
 
-#: --climb's values, as InSituOptimizer's climb parameter spells them.
-_CLIMB = {"on": True, "off": False, "contradicted": "contradicted", "first": "first"}
+#: --climb's values, as the Climb part's start spells them ("off": no climb).
+_CLIMB = {"on": "stalled", "off": None, "contradicted": "contradicted", "first": "first"}
 
 #: The settings a run.json must hold, with the JSON types each may take (None: null allowed).
 _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise": (int, float),
@@ -498,7 +532,7 @@ def figure_optimization(
     baseline_trials: Annotated[int | None, typer.Option(
         min=0, help=f"Batch-method trials per swimmer [default: {_FIG5.baseline_trials}].")] = None,
     baseline_iterations: Annotated[int | None, typer.Option(
-        min=1, help=f"Batch iterations of {InSituOptimizer().cycles_per_iteration} cycles "
+        min=1, help=f"Batch iterations of {Gate().cycles} cycles "
              f"[default: {_FIG5.baseline_iterations}].")] = None,
     noise: Annotated[float | None, typer.Option(
         min=0, help=f"Sensor noise on ξ, fraction of RMS [default: {_FIG5.sensor_noise}].")] = None,

@@ -61,7 +61,7 @@ from .._validation import GeogaitError, check_callback, check_choice, check_floa
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
-from ..robots import check_robot
+from ..robots import check_robot_members
 from ..simulate import Trajectory, TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
@@ -354,7 +354,7 @@ class PathTracker(Estimator):
         self.validate()
         owner = "PathTracker.run"
         check_callback(callback, record, owner)
-        check_robot(robot, owner)
+        check_robot_members(robot, owner)
         if not isinstance(path, ReferencePath):
             raise fail("path", owner, "a ReferencePath", type(path).__name__)
         n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)

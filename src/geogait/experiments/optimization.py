@@ -36,8 +36,8 @@ from .._defaults import window_forgetting_factor
 from .._docs import fill_doc
 from .._validation import check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
-from ..models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
-from ..optimize import InSituOptimizer, cached_ceiling, symmetric_chain_model
+from ..models import AdaptiveGaitModel, ShapeSpaceModel
+from ..optimize import Gate, InSituOptimizer, cached_ceiling, paper_loop, prior_work, symmetric_chain_model
 from ..plotting import plot_height_function, plot_shape_space, plt, save_figure
 from ..simulate import SwimmerStream, cycle_displacement
 from ._common import (
@@ -64,7 +64,7 @@ def default_budget(n_links: int) -> int:
 
 
 _LINKS = (3, 5, 9)
-_BATCH_CYCLES = InSituOptimizer().cycles_per_iteration  # cycles per batch-method iteration (Bittner 2018)
+_BATCH_CYCLES = Gate().cycles  # cycles per batch-method iteration (Bittner 2018)
 
 
 @dataclass(frozen=True)
@@ -155,11 +155,12 @@ def shape_method_model(n_links: int, *, robot: bool = False, forgetting_factor: 
 
 
 def paper_optimizer(method: str, model: str, n_links: int, gamma_threshold: float) -> InSituOptimizer:
-    """The paper's optimiser in the paper's setting: the simulated swimmer explores (eq. 8) and the optimiser
-    does not command it; steps come from the model alone — neither the measured climb nor the revert to the best
-    gait measured, both the library's additions. ``method="batch"``: the prior work's batch model."""
-    return InSituOptimizer(model=BatchGaitModel() if method == "batch" else in_situ_model(model, n_links),
-                           gamma_threshold=gamma_threshold, exploration=None, climb=False, revert_tolerance=None)
+    """The paper's optimiser in the paper's setting (:func:`~geogait.optimize.paper_loop`): the simulated swimmer
+    explores (eq. 8) and the optimiser does not command it; steps come from the model alone. ``method="batch"``:
+    the prior work (:func:`~geogait.optimize.prior_work`) in the same setting."""
+    if method == "batch":
+        return prior_work(exploration=None)
+    return paper_loop(model=in_situ_model(model, n_links), gate__gamma_threshold=gamma_threshold)
 
 
 def optimization_trials(trial_indices, seeds, *, n_links: int, n_cycles: int, method: str, sensor_noise: float,

@@ -10,9 +10,8 @@ robot run** — settling cycles included. Methods:
   perturbation (eq. 8), which is how geogait learns;
 * ``geogait-resistance`` — the same with :class:`~geogait.models.ResistanceModel` on the chain geometry the
   robot gives (``chain_geometry()``: the built-in and MuJoCo chains), SQP steps over a trust radius up to 0.5
-  and the measured climb only when contradicted (:data:`RESISTANCE_OPTIONS`); ``geogait-hybrid`` the same with a
-  degree-2 polynomial
-  residual fitted with the drags (mirror-symmetric where the robot's frame is on the chain's axis); cases whose
+  and the measured climb only when contradicted (:func:`~geogait.optimize.structured`); ``geogait-hybrid`` the
+  same with a degree-2 polynomial residual fitted with the drags (mirror-symmetric where the robot's frame is on the chain's axis); cases whose
   robot gives no chain geometry skip both;
 * ``geogait-batch`` — the prior-work batch method (Bittner et al. 2018): a
   :class:`~geogait.models.BatchGaitModel` refit every 30 perturbed cycles;
@@ -74,12 +73,24 @@ import numpy as np
 import pandas as pd
 
 from .. import __version__
-from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS
+from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE
 from .._files import write_text
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
-from ..models import BatchGaitModel, ResistanceModel
-from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle, robot_feasibility
+from ..models import ResistanceModel
+from ..optimize import (
+    Climb,
+    InSituOptimizer,
+    Objective,
+    PeriodSearch,
+    cached_ceiling,
+    default,
+    for_robot,
+    measure_cycle,
+    prior_work,
+    robot_feasibility,
+    structured,
+)
 from ..optimize._search import onto_joint_limit
 from ..plotting import plt, save_figure
 from ..simulate import SwimmerStream, end_pose
@@ -572,14 +583,10 @@ _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
 #: prior work's batch model) and each black-box method free and held to the rotation limit.
 METHODS = ("geogait", "geogait-resistance", "geogait-hybrid", "geogait-batch",
            *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
-#: What geogait-resistance changes besides the model (``geogait.optimize.STRUCTURED_MODEL_STEPS``).
-RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
-
-
-def _variant_options(robot, variant: str) -> dict | None:
-    """InSituOptimizer options of a geogait variant; None when the robot cannot run it (no chain geometry)."""
+def _variant_optimizer(robot, variant: str) -> InSituOptimizer | None:
+    """The preset of a geogait variant for ``robot``; None when the robot cannot run it (no chain geometry)."""
     if variant == "batch":  # the prior work's loop (Bittner et al. 2018): a batch model, steps from it alone
-        return {"model": BatchGaitModel(), "gate": "cycles", "climb": False, "revert_tolerance": None}
+        return prior_work()
     if variant in ("resistance", "hybrid"):
         try:
             geometry = robot.chain_geometry()
@@ -590,43 +597,46 @@ def _variant_options(robot, variant: str) -> dict | None:
             x, y, angle = geometry["frame_offset"] or (0.0, 0.0, 0.0)
             on_axis = abs(y) < 1e-9 and min(abs(np.sin(angle)), 1.0) < 1e-9
             residual = {"residual_degree": 2, "residual_symmetry": "mirror" if on_axis else None}
-        return {"model": ResistanceModel(**geometry, **residual), **RESISTANCE_OPTIONS}
-    return {}
+        return structured(ResistanceModel(**geometry, **residual))
+    return for_robot(robot)
 
 
-def case_optimizer(case: BenchmarkCase, **options) -> InSituOptimizer:
-    """The in-situ optimiser the benchmark runs on ``case``: its objective (``"forward"`` in the body frame),
-    joint limit, settling cycles, gait family, period range and rotation limit (``rotation_tolerance``: what
-    the held black-box methods are held to), with ``options`` (further
-    :class:`~geogait.optimize.InSituOptimizer` parameters) on top.
+def case_optimizer(case: BenchmarkCase, optimizer: InSituOptimizer | None = None, **params) -> InSituOptimizer:
+    """The in-situ optimiser the benchmark runs on ``case``: ``optimizer`` (default: the library's defaults, every
+    part spelled out) with the case's objective (``"forward"`` in the body frame), joint limit, settling cycles,
+    gait family, period range and rotation limit (what the held black-box methods are held to), then ``params``.
 
     Parameters
     ----------
     case : BenchmarkCase
-    **options
-        Parameters of :class:`~geogait.optimize.InSituOptimizer`.
+    optimizer : InSituOptimizer, optional
+        A preset (:func:`~geogait.optimize.default` by default); its parts are changed in place.
+    **params
+        Further parameters, as :meth:`~geogait.optimize.InSituOptimizer.set_params` takes them.
 
     Returns
     -------
     InSituOptimizer
     """
-    settings = dict(max_joint_angle=case.max_joint_angle, settle_cycles=case.settle_cycles,
-                    family="free" if case.family == "free" else "auto", rotation_tolerance=case.rotation_limit)
+    optimizer = default() if optimizer is None else optimizer
+    settings = {"limits__max_joint_angle": case.max_joint_angle, "safety__settle_cycles": case.settle_cycles,
+                "family": "free" if case.family == "free" else "auto", "step__rotation_tolerance": case.rotation_limit}
+    if isinstance(optimizer.climb, Climb):
+        settings["climb__rotation_tolerance"] = case.rotation_limit
     if case.objective == "forward":
-        settings.update(objective="forward", direction=case.direction, direction_frame="body")
+        settings["objective"] = Objective(kind="forward", direction=case.direction, frame="body")
     if case.period_range is not None:
-        settings.update(optimize_period=True, period_range=case.period_range)
-    return InSituOptimizer(**{**settings, **options})
+        settings["period"] = PeriodSearch(period_range=case.period_range)
+    return optimizer.set_params(**settings).set_params(**params)
 
 
 def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: str, random_state: int,
              geogait_options: dict | None = None) -> _Trace:
-    options = _variant_options(robot.robot, variant)
-    if options is None:
+    preset = _variant_optimizer(robot.robot, variant)
+    if preset is None:
         raise GeogaitError(f"geogait-{variant} needs a robot that gives its chain geometry")
-    options.update(geogait_options or {})
-    options["random_state"] = random_state  # its exploration and climb: the seed's own random numbers
-    optimizer = case_optimizer(case, **options)
+    # its exploration and climb: the seed's own random numbers
+    optimizer = case_optimizer(case, preset, **(geogait_options or {}), random_state=random_state)
     seed, period = robot.gait, robot.cycle_period
     result = optimizer.run(robot, budget)
     log = result.log
@@ -736,7 +746,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
     if geogait_options is not None:
         if not isinstance(geogait_options, dict):
             raise fail("geogait_options", _OWNER, "a dict of InSituOptimizer parameters", geogait_options)
-        InSituOptimizer().set_params(**geogait_options).validate()  # a bad name or value, before any run
+        default().set_params(**geogait_options).validate()  # a bad name or value, before any run
     if checkpoints is None:
         checkpoints = sorted({*range(10, budget + 1, 10), *(c for c in (30, 60) if c <= budget), budget})
     checkpoints = [check_int(c, "checkpoints", _OWNER, minimum=0) for c in checkpoints]
@@ -753,7 +763,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
         probe = case.make_robot(None, explore=False, noise=False)
         for method in ("geogait-resistance", "geogait-hybrid"):
-            if method in case_methods and _variant_options(probe, "resistance") is None:
+            if method in case_methods and _variant_optimizer(probe, "resistance") is None:
                 log(f"skipped method {method} on {name}: its robot gives no chain geometry")
                 case_methods.remove(method)
         seed_gait_ = probe.gait

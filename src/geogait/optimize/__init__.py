@@ -1,14 +1,15 @@
-"""Gait optimisation: the in-situ optimiser (paper Fig. 4), the model-based ceiling, the
-prior-work batch baseline and the trust-region step rules."""
+"""Gait optimisation: the in-situ optimiser (paper Fig. 4) composed from parts, its presets, the model-based
+ceiling and the trust-region step rules."""
 
-from .._defaults import STRUCTURED_MODEL_STEPS
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
+from ._checks import ModelClassTest, StructureCheck
 from ._climb import BAYES_DESIGN_CYCLES, CLIMB_RULES, climb_rule_for
-from ._exploration import Exploration
-from ._insitu import InSituOptimizer, symmetric_chain_model
+from ._exploration import ExcitationSignal, Exploration
+from ._insitu import Composition, InSituOptimizer, symmetric_chain_model
 from ._measure import CycleMeasurement, measure_cycle
 from ._objective import (
     OBJECTIVES,
+    Objective,
     default_objective,
     feasibility_constraint,
     joint_limit_constraints,
@@ -17,6 +18,9 @@ from ._objective import (
     rms_speed,
     robot_feasibility,
 )
+from ._part import Part
+from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
+from ._presets import default, for_robot, paper_loop, prior_work, structured
 from ._result import InSituResult
 from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
@@ -26,28 +30,44 @@ __all__ = [
     "CLIMB_RULES",
     "OBJECTIVES",
     "STEP_RULES",
-    "STRUCTURED_MODEL_STEPS",
     "Ceiling",
+    "Climb",
+    "Composition",
     "CycleMeasurement",
+    "ExcitationSignal",
     "Exploration",
+    "Gate",
     "InSituOptimizer",
     "InSituResult",
+    "Limits",
+    "ModelClassTest",
+    "ModelStep",
+    "Objective",
+    "Part",
+    "PeriodSearch",
+    "Safety",
     "Step",
     "StepProblem",
+    "StructureCheck",
     "cached_ceiling",
     "climb_rule_for",
+    "default",
     "default_objective",
     "feasibility_constraint",
+    "for_robot",
     "joint_limit_constraints",
     "linear_step",
     "measure_cycle",
     "objective",
-    "robot_feasibility",
     "optimize_ceiling",
-    "read_checkpoint_metadata",
+    "paper_loop",
     "path_length",
+    "prior_work",
+    "read_checkpoint_metadata",
     "rms_speed",
+    "robot_feasibility",
     "sqp_step",
+    "structured",
     "symmetric_chain_model",
     "take_step",
 ]

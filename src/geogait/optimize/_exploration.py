@@ -16,15 +16,39 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._estimator import Real
 from ..gaits import Perturbation
+from ._part import Part
 
-__all__ = ["Exploration", "GRID"]
+__all__ = ["ExcitationSignal", "Exploration", "GRID"]
 
 #: Phases per cycle on which the excitation is sent (δ and δ̇ at 2πk / GRID).
 GRID = 128
 
 
-class Exploration:
+class Exploration(Part):
+    """The optimiser's own exploration, a part of :class:`~geogait.optimize.InSituOptimizer`.
+
+    Parameters
+    ----------
+    std : float
+        Stationary standard deviation of δ, in units of the robot's ``shape_scale``.
+    frequency : float
+        Oscillations per cycle.
+    """
+
+    _parameter_constraints = {"std": Real(low=0), "frequency": Real(low=0, low_open=True)}
+
+    def __init__(self, *, std: float = 0.15, frequency: float = 2.0):
+        self.std = std
+        self.frequency = frequency
+
+    def signal(self, scale: float, n_joints: int, rng: np.random.Generator, initial_state=None) -> ExcitationSignal:
+        """The excitation of a run: δ std ``std × scale`` shape units."""
+        return ExcitationSignal(self.std * scale, n_joints, rng, self.frequency, initial_state)
+
+
+class ExcitationSignal:
     """The optimiser's excitation generator (module docstring).
 
     Parameters
@@ -42,7 +66,7 @@ class Exploration:
 
     def __init__(self, std: float, n_joints: int, rng: np.random.Generator, frequency: float = 2.0,
                  initial_state=None):
-        self.std, self.n_joints, self.rng = float(std), int(n_joints), rng
+        self.std, self.n_joints, self.rng, self.frequency = float(std), int(n_joints), rng, float(frequency)
         self.perturbation = Perturbation.from_std(self.std, frequency=frequency)
         self.stream = self.perturbation.stream(1.0 / GRID, self.n_joints, rng, initial_state=initial_state)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -16,17 +17,16 @@ from ..simulate import Trajectory, TrueMotion
 from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb, climb_rule_for
 from ._measure import measure_cycle, peak_phase_speed
-from ._models import gate_kind, run_model
-from ._objective import joint_limit_constraints, objective
+from ._models import run_model
+from ._objective import joint_limit_constraints
+from ._parts import Climb
 from ._result import InSituResult
 from ._search import QuadraticSearch, onto_joint_limit
 from ._state import (
     CHECKPOINT_FORMAT,
     CHECKPOINT_VERSION,
     REJECTION_FLOOR,
-    RESIDUAL_SHARE_LIMIT,
     TRACKING_FLOOR,
-    broken_promise,
     family_kind,
     params_to_json,
 )
@@ -36,17 +36,19 @@ from ._steps import StepProblem, take_step
 class CycleLoop:
     """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
 
-    def __init__(self, optimizer, robot, state, checkpoint, checkpoint_every, tag=None):
-        self.optimizer, self.robot, self.state, self.tag = optimizer, robot, state, tag
+    def __init__(self, optimizer, parts, robot, state, checkpoint, checkpoint_every, tag=None):
+        self.optimizer, self.parts, self.robot, self.state, self.tag = optimizer, parts, robot, state, tag
         self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
-        self.gate = gate_kind(optimizer.gate, optimizer.model)
-        self.truth = _Oracle(robot, optimizer.objective, self._evaluate)
+        self.gate = parts.gate_kind
+        if state.structure_switched:  # (a resumed run that had switched)
+            self._switch_structure()
+        self.truth = _Oracle(robot, parts.objective.kind, self._evaluate)
         if not state.gaits:
             state.gaits = [state.gait]
             state.robot_gait = state.gait
             state.seed_value = self.truth(state.gait, state)[1]
-            if optimizer.direction is not None:
-                direction = np.asarray(optimizer.direction, dtype=float)
+            if parts.objective.direction is not None:
+                direction = np.asarray(parts.objective.direction, dtype=float)
                 state.direction, state.direction_fixed = direction / np.hypot(*direction), True
 
     def run(self, callback, record) -> InSituResult:
@@ -83,7 +85,7 @@ class CycleLoop:
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:
-        optimizer, state = self.optimizer, self.state
+        parts, state = self.parts, self.state
         ran, ran_period = state.robot_gait, state.robot_period
         measured = measure_cycle(chunk, ran, ran_period, "InSituOptimizer.run")
         if state.check is not None and not state.check.done:
@@ -119,11 +121,10 @@ class CycleLoop:
                     state.measured.setdefault(key, []).append(value * state.rate(state.period))
                     state.rotations.setdefault(key, []).append(float(measured.net[2]))
                 seed = state.climb.base is None and state.gait == state.gaits[0]
-                if seed and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration:
+                if seed and state.cycles_in_iteration >= parts.gate.min_cycles:
                     self._check_structure()  # (before the gate: a wrong structure need not wait for Γ)
-                    optimizer = self.optimizer
-                if not state.climb.active and state.cycles_in_iteration >= optimizer.min_cycles_per_iteration \
-                        and self._unexcited() and optimizer.climb:  # (Γ cannot rise without exploration)
+                if not state.climb.active and state.cycles_in_iteration >= parts.gate.min_cycles \
+                        and self._unexcited() and self.parts.climb is not None:  # (Γ cannot rise without exploration)
                     self._start_climb()
                 if self._gate_open():
                     self._fix_direction()
@@ -155,7 +156,7 @@ class CycleLoop:
         verdict = check.record(period, measured.net, shape_amplitude(chunk.shape))
         if verdict is not None and verdict.principally_kinematic is False:
             warnings.warn(f"InSituOptimizer: {verdict.reason}. The model's gate stays shut: "
-                          + ("steps come from the measured climb only." if self.optimizer.climb
+                          + ("steps come from the measured climb only." if self.parts.climb is not None
                              else "no step is taken (climb=False)."), GeogaitWarning, stacklevel=5)
         state.world_heading = float(measured.start[2])
         row = self._row(gait, np.nan, False, False, True, np.nan, measured, np.nan, False, period)
@@ -194,7 +195,7 @@ class CycleLoop:
                 f"InSituOptimizer: the robot's cycles carry no exploration (RMS commanded - nominal shape "
                 f"{np.mean(state.iteration_excitation):.2g}, below 1 % of shape_scale {state.scale:.3g}); the model "
                 "cannot learn the gait's neighbourhood, so it takes no step"
-                + (" (the measured climb does)" if self.optimizer.climb else "")
+                + (" (the measured climb does)" if self.parts.climb is not None else "")
                 + ". Give the robot set_excitation (geogait then explores) or a perturbation of its own.",
                 GeogaitWarning, stacklevel=4)
             state.warned_no_excitation = True
@@ -209,22 +210,22 @@ class CycleLoop:
         state = self.state
         if self.gate == "cycles":
             state.fit_iteration()
-        optimizer = self.optimizer
-        climbs_first = optimizer.climb == "first" and state.climb.base is None
+        climb = self.parts.climb
+        climbs_first = climb is not None and climb.start == "first" and state.climb.base is None
         # a first climb searches the period as one of its coordinates from its start: no trial before it
         if state.period_search is not None and not state.climb.active and not climbs_first and self._period_move():
             return "period", np.nan
         kind, prediction_ok = None, np.nan
         if climbs_first:  # nothing known yet: twice the model's step
-            self._start_climb(sigma=2 * optimizer.max_trust_radius * state.scale)
+            self._start_climb(sigma=climb.first_sigma * state.scale)
         elif not state.climb.active and (self._model_excluded() or self._unexcited()):
-            if optimizer.climb:  # (a model outside its class, or one that cannot learn, takes no step)
+            if climb is not None:  # (a model outside its class, or one that cannot learn, takes no step)
                 self._start_climb()
         elif not state.climb.active:
             prediction_ok = float(self._prediction_agrees())
             state.prediction_failures = 0 if prediction_ok else state.prediction_failures + 1
-            levelled = state.stall >= 3 and optimizer.climb != "contradicted"
-            if optimizer.climb and levelled:  # the model has levelled off: climb on from here
+            levelled = state.stall >= 3 and climb is not None and climb.start != "contradicted"
+            if levelled:  # the model has levelled off: climb on from here
                 self._start_climb()
             elif prediction_ok and self._step():
                 kind = "model"
@@ -232,7 +233,7 @@ class CycleLoop:
                 before, promised = state.promised[:2] if kind == "model" else (0.0, 0.0)
                 small = kind is None or abs(promised - before) < 0.01 * abs(before)
                 state.stall = state.stall + 1 if small else 0
-            if kind is None and optimizer.climb and (state.distrust >= 2 or state.prediction_failures >= 2):
+            if kind is None and climb is not None and (state.distrust >= 2 or state.prediction_failures >= 2):
                 self._start_climb()
         if kind is None and state.climb.active and self._climb_move():
             kind = "climb"
@@ -245,19 +246,25 @@ class CycleLoop:
         return kind, prediction_ok
 
     def _check_structure(self) -> None:
-        """On the seed gait (period trials aside), before the climb, at every measured cycle once there are
-        ``min_cycles_per_iteration`` of them (whether or not Γ opens the gate): a structured model whose residual
-        carries more than ``RESIDUAL_SHARE_LIMIT`` of its prediction (``residual_share_``: the physics does not
-        hold) hands the run to the data-driven step settings (the defaults of those still at the structured
-        model's: the climb first by COBYQA, the data-driven trust region), as though the model were data-driven."""
-        state = self.state
-        if not self._residual_share() > RESIDUAL_SHARE_LIMIT:
+        """The run's :class:`~geogait.optimize.StructureCheck`, on the seed gait (period trials aside), before the
+        climb, at every measured cycle once there are the gate's ``min_cycles`` of them (whether or not Γ opens the
+        gate): a structured model whose residual carries more than the check's limit of its prediction
+        (``residual_share_``) hands the run to the check's step and climb, once, and says so."""
+        check, state = self.parts.structure, self.state
+        if check is None or state.structure_switched or not self._residual_share() > check.limit:
             return
-        leaning = self.optimizer._leaning_on_data()
-        if leaning is not None:
-            self.optimizer = leaning
-            state.radius = leaning.trust_radius * state.scale
-            state.climb = new_climb(leaning, state.scale)
+        state.structure_switched = True
+        self._switch_structure()
+        state.radius = self.parts.step.trust_radius * state.scale
+        state.climb = new_climb(self.parts.climb, state.scale)
+        warnings.warn(f"InSituOptimizer: the structured model leaves {self._residual_share():.0%} of its prediction "
+                      f"to its data (over the StructureCheck's limit {check.limit:g}): the run continues with "
+                      f"{self.parts.step!r} and {self.parts.climb!r}.", GeogaitWarning, stacklevel=5)
+
+    def _switch_structure(self) -> None:
+        """The run's parts after its StructureCheck found the structure contradicted."""
+        step, climb = self.parts.structure.fallback(self.parts.step, self.parts.climb)
+        self.parts = replace(self.parts, step=step, climb=climb)
 
     def _residual_share(self) -> float:
         """The model's ``residual_share_`` (NaN for a model without one, or not fitted yet)."""
@@ -275,7 +282,7 @@ class CycleLoop:
                 if state.climb.candidate == (state.gait, state.period):
                     state.climb.candidate = (state.gait, realised)
                 state.period = realised
-                state.model = run_model(self.optimizer.model, state.gait, realised, state.family, state.scale)
+                state.model = run_model(self.parts.model, state.gait, realised, state.family, state.scale)
         state.robot_period = state.period
 
     def _start_climb(self, base: tuple | None = None, sigma: float | None = None) -> None:
@@ -285,8 +292,8 @@ class CycleLoop:
         one of the climb's coordinates."""
         state = self.state
         best = self._best_key() if base is None else base
-        state.climb.start(best, self.optimizer.max_trust_radius * state.scale if sigma is None else sigma)
-        if self.optimizer.climb_rule != "es":
+        state.climb.start(best, self.parts.climb.sigma * state.scale if sigma is None else sigma)
+        if self.parts.climb.rule != "es":
             state.climb.search = self._new_search(best, state.climb.sigma)
         if state.period_search is not None:
             state.period_search.trial_from = None
@@ -299,8 +306,8 @@ class CycleLoop:
         if state.period_search is not None:
             origin = np.append(origin, 0.0)
         settings = dict(origin=origin, radius=radius, period=base[1],
-                        final_radius=self.optimizer.min_trust_radius * state.scale)
-        if climb_rule_for(self.optimizer.climb_rule, origin.size, self.optimizer.settle_cycles) == "bayes":
+                        final_radius=self.parts.climb.min_sigma * state.scale)
+        if climb_rule_for(self.parts.climb.rule, origin.size, self.parts.safety.settle_cycles) == "bayes":
             return BayesianSearch(**settings, seed=int(state.rng.integers(2**31 - 1)))
         return QuadraticSearch(**settings)
 
@@ -315,12 +322,12 @@ class CycleLoop:
         """The climb's turn at a gate decision (:class:`MeasuredClimb`): judge the candidate just measured,
         go back to the base to measure it again after three failures, or command the next candidate;
         returns whether the gait changed."""
-        state, optimizer, climb = self.state, self.optimizer, self.state.climb
+        state, parts, climb = self.state, self.parts, self.state.climb
         key = (state.gait, state.period)
         measured = climb.measured
         if np.isnan(climb.rotation_limit) and climb.base in measured:  # the start base, measured as the climb
             rotation = abs(float(np.mean(climb.rotations[climb.base])))  # measures (clean, when it can)
-            climb.rotation_limit = max(rotation, optimizer.rotation_tolerance)
+            climb.rotation_limit = max(rotation, parts.climb.rotation_tolerance)
         if climb.candidate is not None:
             if climb.candidate == key and climb.base in measured:
                 if climb.search is not None:
@@ -334,7 +341,7 @@ class CycleLoop:
                 if climb.model_trusted_again and not self._model_excluded():
                     climb.active = False
                     state.distrust = state.prediction_failures = state.stall = 0
-                    state.radius = optimizer.trust_radius * state.scale
+                    state.radius = parts.step.trust_radius * state.scale
                     state.measured, state.rotations = {}, {}
                     self._change_gait(*climb.base)
                     state.previous_gait = None  # (the base was accepted: never refused back to a failed candidate)
@@ -383,12 +390,12 @@ class CycleLoop:
     def _runnable(self, gait, period) -> bool:
         """``gait`` at ``period`` keeps the joint angle limit (its largest angle over the cycle, exactly: a gait
         scaled onto the limit runs), the joint speed limit and the feasible region."""
-        optimizer, state = self.optimizer, self.state
+        parts, state = self.parts, self.state
         if gait.joint_limit().max() > state.max_joint_angle * (1 + 1e-9):
             return False
-        if optimizer.max_joint_velocity is not None:
-            speed = optimizer.max_joint_velocity * period / (2 * np.pi)
-            rows, bounds = joint_limit_constraints(gait.n_joints, optimizer.order, None, speed)  # speed rows only
+        if parts.limits.max_joint_velocity is not None:
+            speed = parts.limits.max_joint_velocity * period / (2 * np.pi)
+            rows, bounds = joint_limit_constraints(gait.n_joints, parts.order, None, speed)  # speed rows only
             if np.any(rows @ gait.params > bounds + 1e-12):
                 return False
         return state.feasibility is None or bool(state.feasibility(gait.params)[0].min() >= 0)
@@ -471,8 +478,8 @@ class CycleLoop:
         if not search.turn:
             return False
         shortest = 0.0  # the period at which the gait's fastest joint reaches max_joint_velocity
-        if self.optimizer.max_joint_velocity is not None:
-            shortest = peak_phase_speed(state.gait) * 2 * np.pi / self.optimizer.max_joint_velocity
+        if self.parts.limits.max_joint_velocity is not None:
+            shortest = peak_phase_speed(state.gait) * 2 * np.pi / self.parts.limits.max_joint_velocity
         period = search.propose(state.period, shortest)
         if period is None:
             search.turn = False
@@ -488,10 +495,10 @@ class CycleLoop:
         ``direction_frame``); :meth:`_fix_direction` then fixes it from all of them.
         """
         state = self.state
-        if self.optimizer.objective != "forward" or state.direction_fixed:
+        if self.parts.objective.kind != "forward" or state.direction_fixed:
             return
         net = measured.net[:2]
-        if self.optimizer.direction_frame == "world":
+        if self.parts.objective.frame == "world":
             c, s = np.cos(measured.start[2]), np.sin(measured.start[2])
             net = np.array([c * net[0] - s * net[1], s * net[0] + c * net[1]])
         state.seed_nets.append(net)
@@ -506,7 +513,7 @@ class CycleLoop:
         """Fix "forward" from every measured seed cycle, or refuse when their mean motion cannot be told
         from their spread (|mean| < 2 standard errors along it); re-score the seed's cycles with it."""
         state = self.state
-        if self.optimizer.objective != "forward" or state.direction_fixed:
+        if self.parts.objective.kind != "forward" or state.direction_fixed:
             return
         nets = np.asarray(state.seed_nets)
         mean = nets.mean(axis=0)
@@ -527,19 +534,19 @@ class CycleLoop:
     def _tracking_rejects(self, measured, value: float) -> bool:
         """Reject the current gait (back to the previous one) if the robot could not follow it; a model step
         whose cycle (``value``, the measured objective) also fell short of its promise is a broken promise."""
-        optimizer, state = self.optimizer, self.state
+        parts, state = self.parts, self.state
         search = state.period_search
         trial = search is not None and search.trial_from is not None
-        if (trial or state.climb.active) and optimizer.max_tracking_error == "auto":
+        if (trial or state.climb.active) and parts.safety.max_tracking_error == "auto":
             return False  # (judged by their measured outcome: the automatic limit then follows the gait kept)
-        limit = state.tracking_limit if optimizer.max_tracking_error == "auto" else optimizer.max_tracking_error
+        limit = state.tracking_limit if parts.safety.max_tracking_error == "auto" else parts.safety.max_tracking_error
         if limit is None or state.previous_gait is None or not measured.tracking_error > limit:
             return False
         if state.promised is not None and state.climb.candidate != (state.gait, state.period) and not trial:
-            if broken_promise(*state.promised[:2], value):  # a model step the robot could not run, gain unmeasured
+            if parts.step.breaks(*state.promised[:2], value):  # a model step the robot could not run, gain unmeasured
                 state.distrust += 1
         state.promised = None
-        state.radius = max(min(optimizer.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
+        state.radius = max(min(parts.step.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         previous = (state.previous_gait, state.previous_period)
         if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
             if state.climb.search is not None:
@@ -555,7 +562,7 @@ class CycleLoop:
 
     def _tracking_limit(self) -> float:
         """The tracking limit the model's steps are held to now (NaN: none)."""
-        limit = self.optimizer.max_tracking_error
+        limit = self.parts.safety.max_tracking_error
         return self.state.tracking_limit if limit == "auto" else np.nan if limit is None else float(limit)
 
     def _follow_tracking(self) -> None:
@@ -563,7 +570,7 @@ class CycleLoop:
         each gait kept for its measured outcome (a climb's candidate, a period trial, the base a climb hands back
         to the model), so that the model's steps from it are held to what it does, not to what the seed did."""
         state = self.state
-        if self.optimizer.max_tracking_error == "auto" and state.iteration_tracking:
+        if self.parts.safety.max_tracking_error == "auto" and state.iteration_tracking:
             state.tracking_limit = max(TRACKING_FLOOR * state.scale, 2 * float(np.mean(state.iteration_tracking)))
 
     def _measured_reverts(self) -> bool:
@@ -576,8 +583,8 @@ class CycleLoop:
         whatever the model predicts: the best gait is commanded again (its further cycles refine its
         mean, so a lucky best is corrected) and the trust radius halves.
         """
-        state, optimizer = self.state, self.optimizer
-        if state.iteration == 0 or optimizer.revert_tolerance is None or state.climb.active:
+        state, parts = self.state, self.parts
+        if state.iteration == 0 or parts.safety.revert_tolerance is None or state.climb.active:
             return False  # (the climb judges its own candidates)
         current = (state.gait, state.period)
         counts = {g: len(v) for g, v in state.measured.items() if len(v) >= 2}
@@ -587,11 +594,11 @@ class CycleLoop:
         dof = sum(n - 1 for n in counts.values())
         sigma = np.sqrt(sum(np.var(state.measured[g], ddof=1) * (n - 1) for g, n in counts.items()) / dof)
         best = max((g for g in counts if g != current), key=means.get)
-        margin = optimizer.revert_tolerance * sigma * np.sqrt(1 / counts[current] + 1 / counts[best])
+        margin = parts.safety.revert_tolerance * sigma * np.sqrt(1 / counts[current] + 1 / counts[best])
         if not means[current] < means[best] - margin:
             return False
         state.promised = None
-        state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+        state.radius = max(parts.step.min_trust_radius * state.scale, state.radius / 2)
         search = state.period_search
         if search is not None and search.trial_from is not None:  # the trial lost beyond noise
             search.judge(-np.inf, 0.0)
@@ -603,21 +610,22 @@ class CycleLoop:
         return True
 
     def _gate_open(self) -> bool:
-        state = self.state
+        state, gate = self.state, self.parts.gate
         if state.climb.active:  # measured outcomes need measured cycles, not a model's confidence:
             # one clean cycle (no exploration: the optimiser owns it) or the usual number
-            needed = 1 if state.exploration is not None else self.optimizer.min_cycles_per_iteration
+            needed = 1 if state.exploration is not None else gate.min_cycles
             return state.cycles_in_iteration >= needed
-        if self.optimizer.climb == "first" and state.climb.base is None:  # the climb needs no model yet
-            return state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
+        climb = self.parts.climb
+        if climb is not None and climb.start == "first" and state.climb.base is None:  # the climb needs no model
+            return state.cycles_in_iteration >= gate.min_cycles
         if self.gate == "cycles":
-            return state.cycles_in_iteration >= self.optimizer.cycles_per_iteration
-        return (state.cycles_in_iteration >= self.optimizer.min_cycles_per_iteration
-                and np.isfinite(state.gamma) and state.gamma >= self.optimizer.gamma_threshold)
+            return state.cycles_in_iteration >= gate.cycles
+        return (state.cycles_in_iteration >= gate.min_cycles
+                and np.isfinite(state.gamma) and state.gamma >= gate.gamma_threshold)
 
     def _prediction_agrees(self) -> bool:
         """Model's predicted objective of the current gait vs the mean measured one (module docstring)."""
-        tolerance = self.optimizer.prediction_tolerance
+        tolerance = self.parts.gate.prediction_tolerance
         if tolerance is None:
             return True
         predicted = self._predict(self.state.gait)[1]
@@ -627,17 +635,17 @@ class CycleLoop:
     # -- the model's step ---------------------------------------------------------------------
     def _direction(self) -> np.ndarray | None:
         """Unit direction of ``"forward"`` in the body frame at the start of the latest cycle."""
-        optimizer, state = self.optimizer, self.state
-        if optimizer.objective != "forward":
+        objective, state = self.parts.objective, self.state
+        if objective.kind != "forward":
             return None
         u = state.direction
-        if optimizer.direction_frame == "world":
+        if objective.frame == "world":
             c, s = np.cos(state.world_heading), np.sin(state.world_heading)
             u = np.array([c * u[0] + s * u[1], -s * u[0] + c * u[1]])
         return u
 
     def _evaluate(self, pose, pose_jacobian, gait):
-        return objective(self.optimizer.objective, pose, pose_jacobian, gait, self._direction())
+        return self.parts.objective(pose, pose_jacobian, gait, self._direction())
 
     def _predict(self, gait, jacobian=False):
         model = self.state.model
@@ -648,10 +656,10 @@ class CycleLoop:
         return pose, pose_jacobian, *self._evaluate(pose, pose_jacobian, gait)
 
     def _limits(self):
-        optimizer, state = self.optimizer, self.state
-        speed = None if optimizer.max_joint_velocity is None \
-            else optimizer.max_joint_velocity * state.period / (2 * np.pi)
-        return joint_limit_constraints(state.gait.n_joints, optimizer.order, state.max_joint_angle, speed)
+        parts, state = self.parts, self.state
+        speed = None if parts.limits.max_joint_velocity is None \
+            else parts.limits.max_joint_velocity * state.period / (2 * np.pi)
+        return joint_limit_constraints(state.gait.n_joints, parts.order, state.max_joint_angle, speed)
 
     def _step(self) -> bool:
         """Propose, check and (maybe) take a step; returns whether the gait changed.
@@ -661,52 +669,52 @@ class CycleLoop:
         is (J_ω Δ = 0) instead of chasing it, and is taken only for a predicted gain of at least
         ``min_gain``.
         """
-        optimizer, state = self.optimizer, self.state
+        step_part, state = self.parts.step, self.state
         gait, family = state.gait, state.family
-        problem = StepProblem(state.model.predict_displacement, family, objective=optimizer.objective,
-                              limits=self._limits(), rotation_tolerance=optimizer.rotation_tolerance,
+        problem = StepProblem(state.model.predict_displacement, family, objective=self.parts.objective.kind,
+                              limits=self._limits(), rotation_tolerance=step_part.rotation_tolerance,
                               direction=self._direction(), feasibility=state.feasibility)
         params = family.params_of(gait, tolerance=1e-8)
         value, _, pose, _ = problem.evaluate(params)
-        state.update_radius(value, optimizer.min_trust_radius * state.scale, optimizer.max_trust_radius * state.scale)
+        state.update_radius(value, step_part)
         state.last_prediction = value
-        if optimizer.climb and state.distrust >= 2:  # promised gains unconfirmed at the smallest radius
+        if self.parts.climb is not None and state.distrust >= 2:  # promised gains unconfirmed at the smallest radius
             return False
         restores = False
         target = 0.0
         if problem.rotation:
             resolution = 2 * state.rotation_std()
-            restores = abs(pose[2]) > max(optimizer.rotation_tolerance, resolution)
+            restores = abs(pose[2]) > max(step_part.rotation_tolerance, resolution)
             target = 0.0 if restores else pose[2]
-        step = take_step(optimizer.step_rule, problem, params, state.radius, rotation_target=target,
-                         min_gain=optimizer.min_gain, restore=restores)
+        step = take_step(step_part.rule, problem, params, state.radius, rotation_target=target,
+                         min_gain=step_part.min_gain, restore=restores)
         if step.accepted:
             state.promised = (value, step.predicted_value, step.boundary)
             self._change_gait(step.gait)
             return True
         if restores:  # the model could not find a feasible restoring step: trust it less far
-            state.radius = max(optimizer.min_trust_radius * state.scale, state.radius / 2)
+            state.radius = max(step_part.min_trust_radius * state.scale, state.radius / 2)
         return False
 
     def _change_gait(self, gait, period=None) -> None:
         """Re-centre the model on ``gait`` (a fresh model at a new ``period``) and start a new iteration."""
-        optimizer, state = self.optimizer, self.state
+        parts, state = self.parts, self.state
         period = state.period if period is None else float(period)
         if period != state.period:  # another period: what was learned need not hold (dynamics)
             state.promised = None
-            state.model = run_model(optimizer.model, gait, period, state.family, state.scale)
+            state.model = run_model(parts.model, gait, period, state.family, state.scale)
         elif self.gate == "cycles" or not getattr(state.model, "__sklearn_is_fitted__", lambda: True)():
             # (not fitted yet: a fresh model whose first cycles were all settling or rejected)
-            state.model = run_model(optimizer.model, gait, state.period, state.family, state.scale)
+            state.model = run_model(parts.model, gait, state.period, state.family, state.scale)
         else:
-            state.model.rebase(gait, terms=optimizer.rebase, covariance_inflation=optimizer.covariance_inflation,
-                               constant_variance=optimizer.constant_variance)
+            state.model.rebase(gait, terms=parts.step.rebase, covariance_inflation=parts.step.covariance_inflation,
+                               constant_variance=parts.step.constant_variance)
             state.model.reset_gamma()
         state.previous_gait, state.gait = state.gait, gait
         state.previous_period, state.period = state.period, period
         state.iteration += 1
         state.restart_iteration()
-        state.settle_left = optimizer.settle_cycles
+        state.settle_left = parts.safety.settle_cycles
         state.tracking_follows = False
 
 
@@ -785,7 +793,9 @@ class _Oracle:
         return pose, self.evaluate(pose, np.zeros((3, gait.params.size)), gait)[0]
 
 
-def new_climb(optimizer, scale: float) -> MeasuredClimb:
-    """The measured climb of a run: σ from ``max_trust_radius`` within [min, 4 × max] trust radius (× shape_scale)."""
-    return MeasuredClimb(sigma=optimizer.max_trust_radius * scale, min_sigma=optimizer.min_trust_radius * scale,
-                         max_sigma=4 * optimizer.max_trust_radius * scale)
+def new_climb(climb: Climb | None, scale: float) -> MeasuredClimb:
+    """The measured climb's state for a run: σ within [min_sigma, max_sigma] (× shape_scale); a run without a
+    climb carries an inactive one of the default radii."""
+    climb = Climb() if climb is None else climb
+    return MeasuredClimb(sigma=climb.sigma * scale, min_sigma=climb.min_sigma * scale,
+                         max_sigma=climb.max_sigma * scale)

@@ -32,13 +32,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._estimator import Options
 from .._validation import GeogaitError, check_choice, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ..systems import FeasibleSystem
+from ._part import Part
 
 __all__ = [
-    "OBJECTIVES", "default_objective", "feasibility_constraint", "objective", "path_length", "joint_limit_constraints",
-    "rms_speed", "robot_feasibility",
+    "OBJECTIVES", "Objective", "default_objective", "feasibility_constraint", "objective", "path_length",
+    "joint_limit_constraints", "rms_speed", "robot_feasibility",
 ]
 
 OBJECTIVES = ("progress", "efficiency", "forward", "budget")
@@ -109,6 +111,44 @@ def rms_speed(gait: FourierGait, jacobian: bool = False):
     if not jacobian:
         return speed
     return speed, (0.5 * weighted / max(speed, 1e-15)).ravel()
+
+
+class Objective(Part):
+    """What a gait is judged by (module docstring), a part of :class:`~geogait.optimize.InSituOptimizer`.
+
+    Parameters
+    ----------
+    kind : {"progress", "efficiency", "forward", "budget"}
+        Straight-line progress per cycle, progress per shape-space path length, signed progress along
+        ``direction``, or progress per unit time at a fixed RMS joint speed; all with zero net rotation.
+    direction : array-like of 2 floats, optional
+        Direction of ``"forward"``. Default: the mean motion of the seed gait's measured cycles, fixed at the
+        first gate decision; a seed whose mean motion is within 2 standard errors of zero is refused.
+    frame : {"world", "body"}
+        ``direction`` is fixed in the world (a heading to follow) or in the body frame at the start of a cycle.
+    """
+
+    _parameter_constraints = {"kind": Options(OBJECTIVES), "frame": Options(("world", "body"))}
+
+    def __init__(self, *, kind: str = "progress", direction=None, frame: str = "world"):
+        self.kind = kind
+        self.direction = direction
+        self.frame = frame
+
+    def _check_param_combinations(self) -> None:
+        if self.direction is None:
+            return
+        try:
+            direction = np.asarray(self.direction, dtype=float)
+        except (TypeError, ValueError):
+            direction = None
+        if direction is None or direction.shape != (2,) or not np.all(np.isfinite(direction)) \
+                or np.hypot(*direction) == 0:
+            raise fail("direction", type(self).__name__, "a non-zero finite 2-vector or None", self.direction)
+
+    def __call__(self, pose: np.ndarray, pose_jacobian: np.ndarray, gait: FourierGait, direction=None):
+        """Value and gradient (:func:`objective`); ``direction`` is the unit direction in the pose's frame."""
+        return objective(self.kind, pose, pose_jacobian, gait, direction)
 
 
 def default_objective(order: int) -> str:

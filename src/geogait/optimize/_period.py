@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PeriodSearch"]
+__all__ = ["PeriodLineSearch"]
 
 
 @dataclass
-class PeriodSearch:
+class PeriodLineSearch:
     """State of the measured line search on the cycle period (module docstring).
 
     Parameters
@@ -83,7 +83,7 @@ class PeriodSearch:
                 "trial_from": self.trial_from, "turn": self.turn}
 
     @classmethod
-    def from_json(cls, values: dict) -> PeriodSearch:
+    def from_json(cls, values: dict) -> PeriodLineSearch:
         return cls(low=float(values["low"]), high=float(values["high"]), step=float(values["step"]),
                    direction=int(values["direction"]),
                    trial_from=None if values["trial_from"] is None else float(values["trial_from"]),

@@ -16,9 +16,10 @@ from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGait
 from ..models import has_gait_model_members, model_from_state
 from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb
-from ._exploration import Exploration
+from ._exploration import ExcitationSignal
 from ._model_class import ModelClassCheck
-from ._period import PeriodSearch
+from ._part import describe_params
+from ._period import PeriodLineSearch
 from ._search import QuadraticSearch
 
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
@@ -27,24 +28,6 @@ TRACKING_FLOOR = 0.05  # shape_scale units: the automatic tracking limit never f
 #: shape_scale units: after a gait the robot could not follow, the trust radius halves down to this even below
 #: min_trust_radius (a rejection is a measured fact, not a noisy ratio test); the default min_trust_radius.
 REJECTION_FLOOR = 0.02
-#: A structured model whose residual carries more than this share of its predicted body velocity
-#: (``residual_share_``) does not hold: the run leans on the data. Where the physics holds (the built-in 3-, 5- and
-#: 9-link swimmers and the MuJoCo chain, sensor noise 0.1, 24 seeds each) it was under 0.11 at the first decision;
-#: on Gymnasium's swimmer (quadratic drag, inertia) 0.1–0.33, 0.2 in the median.
-RESIDUAL_SHARE_LIMIT = 0.15
-#: The trust region's ratio test, gain seen over gain promised: under BROKEN_PROMISE the promise is broken (the
-#: radius halves), over KEPT_PROMISE it is kept (a step that reached the boundary grows the radius by RADIUS_GROWTH);
-#: only a promise of at least SIGNIFICANT_GAIN (relative) can count as broken.
-BROKEN_PROMISE, KEPT_PROMISE, RADIUS_GROWTH, SIGNIFICANT_GAIN = 0.25, 0.75, 1.5, 0.01
-
-
-def broken_promise(before: float, promised: float, seen: float) -> bool:
-    """A promise worth checking (a change of at least ``SIGNIFICANT_GAIN``), under ``BROKEN_PROMISE`` of it seen."""
-    if promised == before or abs(promised - before) < SIGNIFICANT_GAIN * abs(before):
-        return False
-    return (seen - before) / (promised - before) < BROKEN_PROMISE
-
-
 def read_checkpoint_metadata(path) -> dict:
     """The JSON metadata of an optimiser checkpoint (written by :meth:`InSituOptimizer.run`): its ``tag``
     (the run identity a caller stored), ``state`` (``cycle``: cycles run, …), ``params`` and
@@ -108,7 +91,7 @@ class RunState:
     robot_period: float = np.nan  # period the robot runs next (s)
     previous_period: float = np.nan
     seed_period: float = np.nan
-    period_search: PeriodSearch | None = None  # optimize_period's line search (None: period fixed)
+    period_search: PeriodLineSearch | None = None  # optimize_period's line search (None: period fixed)
     iteration_tracking: list = field(default_factory=list)  # tracking errors of this iteration's measured cycles
     climb: MeasuredClimb | None = None  # steps from measured outcomes (the climb parameter)
     rng: np.random.Generator | None = None  # the climb's directions
@@ -116,10 +99,11 @@ class RunState:
     prediction_failures: int = 0  # prediction checks failed in a row
     stall: int = 0  # gate decisions in a row whose model step was declined or promised under 1 %
     rotations: dict = field(default_factory=dict)  # (gait, period) -> measured net rotation of each learned cycle
-    exploration: Exploration | None = None  # the optimiser's own excitation (None: the robot's)
+    exploration: ExcitationSignal | None = None  # the optimiser's own excitation (None: the robot's)
     excitation_next: tuple | None = None  # (δ, δ̇) commanded for the next cycle (re-sent on resume)
     iteration_excitation: list = field(default_factory=list)  # excitation RMS of this iteration's cycles
     warned_no_excitation: bool = False
+    structure_switched: bool = False  # the StructureCheck found the structure contradicted: its step and climb run
     check: ModelClassCheck | None = None  # the model-class test (model_class_cycles; None: none)
 
     def rate(self, period: float) -> float:
@@ -165,19 +149,21 @@ class RunState:
             return np.inf
         return float(self.model.rotation_std(self.gait, self.residual_variance))
 
-    def update_radius(self, value_now, low, high):
-        """Ratio test: compare the gain the last step promised with what the new model sees."""
+    def update_radius(self, value_now, step) -> None:
+        """Ratio test (the :class:`~geogait.optimize.ModelStep` ``step``'s constants): compare the gain the last
+        step promised with what the new model sees."""
         if self.promised is None:
             return
+        low, high = step.min_trust_radius * self.scale, step.max_trust_radius * self.scale
         before, promised, boundary = self.promised
         ratio = (value_now - before) / (promised - before) if promised != before else 1.0
         # a promise worth checking broken at the smallest radius: the model misleads
         at_floor = self.radius <= low * (1 + 1e-12)
-        self.distrust = self.distrust + 1 if at_floor and broken_promise(before, promised, value_now) else 0
-        if ratio < BROKEN_PROMISE:  # (a radius a rejection took below low stays there)
+        self.distrust = self.distrust + 1 if at_floor and step.breaks(before, promised, value_now) else 0
+        if ratio < step.broken_promise:  # (a radius a rejection took below low stays there)
             self.radius = max(min(low, self.radius), self.radius / 2)
-        elif ratio > KEPT_PROMISE and boundary:
-            self.radius = min(high, self.radius * RADIUS_GROWTH)
+        elif ratio > step.kept_promise and boundary:
+            self.radius = min(high, self.radius * step.radius_growth)
         self.promised = None
 
     # -- checkpoint ---------------------------------------------------------------------------
@@ -231,8 +217,10 @@ class RunState:
         arrays["iteration_tracking"] = np.asarray(self.iteration_tracking, dtype=float)
         arrays["iteration_excitation"] = np.asarray(self.iteration_excitation, dtype=float)
         metadata["warned_no_excitation"] = bool(self.warned_no_excitation)
+        metadata["structure_switched"] = bool(self.structure_switched)
         if self.exploration is not None:
             metadata["exploration_std"] = self.exploration.std
+            metadata["exploration_frequency"] = self.exploration.frequency
             arrays["exploration/state"] = self.exploration.state
             arrays["exploration/next_shape"], arrays["exploration/next_shape_velocity"] = self.excitation_next
         metadata["direction_fixed"] = bool(self.direction_fixed)
@@ -262,7 +250,7 @@ class RunState:
             value = scalars.get(name, state.period)
             setattr(state, name, np.nan if value is None else value)
         search = scalars.get("period_search")
-        state.period_search = None if search is None else PeriodSearch.from_json(search)
+        state.period_search = None if search is None else PeriodLineSearch.from_json(search)
         for name in cls._COUNTERS:
             setattr(state, name, int(scalars.get(name, 0)))
         # (older checkpoints: the limit followed the seed's cycles only)
@@ -308,11 +296,13 @@ class RunState:
         state.iteration_tracking = [] if tracking is None else tracking.tolist()
         state.iteration_excitation = arrays["iteration_excitation"].tolist() if "iteration_excitation" in arrays else []
         state.warned_no_excitation = bool(scalars.get("warned_no_excitation", False))
+        state.structure_switched = bool(scalars.get("structure_switched", False))
         if scalars.get("model_class") is not None:
             state.check = ModelClassCheck.from_checkpoint(scalars["model_class"], arrays)
         if scalars.get("exploration_std") is not None:
-            state.exploration = Exploration(scalars["exploration_std"], state.gait.n_joints, state.rng,
-                                            initial_state=np.array(arrays["exploration/state"], dtype=float))
+            state.exploration = ExcitationSignal(scalars["exploration_std"], state.gait.n_joints, state.rng,
+                                                 scalars.get("exploration_frequency", 2.0),
+                                                 initial_state=np.array(arrays["exploration/state"], dtype=float))
             state.excitation_next = (np.array(arrays["exploration/next_shape"], dtype=float),
                                      np.array(arrays["exploration/next_shape_velocity"], dtype=float))
         state.iteration_measured = arrays["iteration_measured"].tolist()
@@ -376,23 +366,33 @@ def checkpoint_path(checkpoint, owner):
 
 
 def params_to_json(optimizer) -> dict:
-    """Hyper-parameters as JSON values; the model template as its class name and parameters."""
-    params = optimizer.get_params(deep=False)
-    if params["model"] is not None:
-        model = params["model"]
-        params["model"] = {"class": type(model).__name__,
-                           "params": {k: v for k, v in model.get_params(deep=False).items() if k != "gait"}}
-    if params["direction"] is not None:
-        params["direction"] = [float(v) for v in np.asarray(params["direction"], dtype=float)]
-    return params
+    """Hyper-parameters as JSON values: parts and the model as their class name and parameters."""
+    return {name: describe_params(value) for name, value in optimizer.get_params(deep=False).items()}
 
 
 def params_from_json(params: dict) -> dict:
-    params = dict(params)
-    params.setdefault("climb_rule", "es")  # a checkpoint from before the rule was a choice climbed by the strategy
-    if params.get("model") is not None:
-        name = params["model"]["class"]
-        if name not in models.__all__:
-            raise ValueError(f"unknown model class {name!r}")
-        params["model"] = getattr(models, name)(**params["model"]["params"])
-    return params
+    """The optimiser's parameters from :func:`params_to_json`'s values, or from a checkpoint of the flat
+    parameters that came before the parts (:func:`~geogait.optimize._presets.from_flat_params`)."""
+    if "trust_radius" in params:
+        from ._presets import from_flat_params  # (the presets build optimisers: imported when read)
+
+        return from_flat_params({**params, "model": _built(params.get("model"))})
+    return {name: _built(value) for name, value in params.items()}
+
+
+def _built(value):
+    """A part or model from its JSON description (lists of them too); other values as they are."""
+    if isinstance(value, list):
+        return [_built(v) for v in value]
+    if not (isinstance(value, dict) and set(value) == {"class", "params"}):
+        return value
+    from . import _checks, _exploration, _objective, _parts  # (the part classes, by name)
+
+    classes = {name: getattr(module, name) for module in (_parts, _checks, _objective, _exploration)
+               for name in module.__all__ if isinstance(getattr(module, name), type)}
+    name = value["class"]
+    if name in models.__all__:
+        return getattr(models, name)(**value["params"])
+    if name not in classes:
+        raise ValueError(f"unknown part or model class {name!r}")
+    return classes[name](**{k: _built(v) for k, v in value["params"].items()})

@@ -23,7 +23,8 @@ from ._mujoco import (
     mujoco_swimmer,
     purcell_swimmer_xml,
 )
-from ._protocol import ROBOT_EXTRAS, Robot, check_robot
+from ._protocol import ROBOT_EXTRAS, Robot, check_robot_members
+from ._spec import RobotSpec, read_robot_spec
 from .continuum import (
     CurvatureModes,
     body_pose,
@@ -35,7 +36,8 @@ from .continuum import (
 )
 
 __all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "CurvatureModes", "ElasticaSnake",
-           "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "check_robot", "curvature_profile",
+           "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "RobotSpec", "check_robot_members",
+           "read_robot_spec", "curvature_profile",
            "curvature_rate", "dm_control_swimmer", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model",
            "mujoco_swimmer", "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles",
            "SwimmerStream"]

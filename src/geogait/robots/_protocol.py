@@ -25,7 +25,7 @@ from .._validation import GeogaitError
 from ..gaits import FourierGait
 from ..simulate import Trajectory
 
-__all__ = ["Robot", "check_robot", "ROBOT_EXTRAS"]
+__all__ = ["Robot", "check_robot_members", "ROBOT_EXTRAS"]
 
 #: Optional members, detected by name: a simulator's truth (``current_system() -> System``, the
 #: oracle column of the optimiser's log), bit-identical checkpoints (``robot_state() -> dict`` of
@@ -81,7 +81,7 @@ class Robot(Protocol):
         ...
 
 
-def check_robot(robot, owner: str) -> None:
+def check_robot_members(robot, owner: str) -> None:
     """Raise a clear error naming what ``robot`` lacks of the :class:`Robot` protocol.
 
     Parameters

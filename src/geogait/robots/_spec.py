@@ -1,0 +1,115 @@
+"""What a robot declares, read in one place: :class:`RobotSpec` and :func:`read_robot_spec`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import fail
+from ..systems import PurcellSwimmer
+from ._protocol import check_robot_members
+
+__all__ = ["RobotSpec", "read_robot_spec"]
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """What a robot declares beyond the :class:`~geogait.robots.Robot` protocol (its optional extras).
+
+    Parameters
+    ----------
+    n_joints : int
+        Shape dimension d.
+    cycle_period : float
+        Seconds per cycle.
+    joint_ranges : ndarray of shape (d, 2) or None
+        Declared joint limits (low < 0 < high), shape units.
+    front_back_symmetric, mirror_symmetric : bool
+        The chain reads the same from both ends (the symmetric gait family applies); the body and its medium
+        read the same in a mirror along the body's axis (the half-wave family applies). A simulated
+        :class:`~geogait.systems.PurcellSwimmer` declares them from its links.
+    resistive_chain : dict or None
+        The chain's geometry (``ResistanceModel(**resistive_chain)``) when the robot declares a chain in a
+        resistive medium (``resistive_medium`` and ``chain_geometry()``).
+    period_control : bool
+        The robot offers ``set_cycle_period``.
+    excitation : bool
+        The robot takes the optimiser's exploration (``set_excitation``, unless ``accepts_excitation`` is false).
+    saves_state : bool
+        The robot offers ``robot_state`` and ``restore_robot_state`` (bit-identical resumes).
+    simulated : bool
+        The robot offers ``current_system()`` (a simulator's truth).
+    """
+
+    n_joints: int
+    cycle_period: float
+    joint_ranges: np.ndarray | None = None
+    front_back_symmetric: bool = False
+    mirror_symmetric: bool = False
+    resistive_chain: dict | None = None
+    period_control: bool = False
+    excitation: bool = False
+    saves_state: bool = False
+    simulated: bool = False
+
+
+def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
+    """Read what ``robot`` declares (its optional extras, :data:`~geogait.robots.ROBOT_EXTRAS`), checked.
+
+    Parameters
+    ----------
+    robot : Robot
+    owner : str
+        Who asks (named in error messages).
+
+    Returns
+    -------
+    RobotSpec
+
+    Raises
+    ------
+    GeogaitError
+        The robot lacks a member of the protocol, or declares an extra malformed (e.g. ``joint_ranges`` of the
+        wrong shape).
+    """
+    check_robot_members(robot, owner)
+    system = robot.current_system() if callable(getattr(robot, "current_system", None)) else None
+    swimmer = isinstance(system, PurcellSwimmer)
+    lengths = np.asarray(system.link_lengths) if swimmer else None
+    chain = None
+    if getattr(robot, "resistive_medium", False) and callable(getattr(robot, "chain_geometry", None)):
+        chain = robot.chain_geometry()
+    return RobotSpec(
+        n_joints=int(robot.n_joints), cycle_period=float(robot.cycle_period),
+        joint_ranges=_joint_ranges(robot, owner),
+        front_back_symmetric=_declared(robot, "front_back_symmetric",
+                                       swimmer and bool(np.allclose(lengths, lengths[::-1]))),
+        mirror_symmetric=_declared(robot, "mirror_symmetric", swimmer),
+        resistive_chain=chain,
+        period_control=callable(getattr(robot, "set_cycle_period", None)),
+        excitation=callable(getattr(robot, "set_excitation", None))
+        and bool(getattr(robot, "accepts_excitation", True)),
+        saves_state=callable(getattr(robot, "robot_state", None))
+        and callable(getattr(robot, "restore_robot_state", None)),
+        simulated=system is not None)
+
+
+def _declared(robot, name: str, otherwise: bool) -> bool:
+    declared = getattr(robot, name, None)
+    return bool(otherwise) if declared is None else bool(declared)
+
+
+def _joint_ranges(robot, owner: str) -> np.ndarray | None:
+    ranges = getattr(robot, "joint_ranges", None)
+    if ranges is None:
+        return None
+    try:
+        array = np.asarray(ranges, dtype=float)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.shape != (robot.n_joints, 2) or np.any(np.isnan(array)) \
+            or np.any(array[:, 0] >= 0) or np.any(array[:, 1] <= 0):
+        raise fail("robot.joint_ranges", owner, f"an array of shape ({robot.n_joints}, 2) of (low < 0 < high) "
+                   "joint ranges (rad)", ranges)
+    return array
