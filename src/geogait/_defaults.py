@@ -32,18 +32,13 @@ DEFAULT_TEST_FRACTION = 0.25
 
 
 #: InSituOptimizer settings for :class:`~geogait.models.ResistanceModel`: SQP on its nonlinear prediction over a
-#: trust region of 0.25 to 0.5 (it holds far from the data: the 9-link optimum lies along a curved ridge that only
-#: large SQP steps follow; a radius the ratio test had halved to 0.06 on a noisy cycle left one 9-link run of 8
-#: at 81 % of the ceiling, no step promising 0.5 %), and the measured climb only where measured outcomes contradict
-#: the model, not where it levels off (at its optimum, single noisy cycles would lead an accurate model astray: 9-link
-#: 0.957 of the ceiling at 60 cycles with the climb, 1.000 without). Where the structure is wrong, contradictions
-#: hand the steps to measured outcomes: on Gymnasium's swimmer (quadratic drag) they come as tracking rejections
-#: of the model's steps that also measure short of their promise (its predictions of the gaits it runs agree), which
-#: count as broken promises (+51 % forward speed at 100 cycles, +24 % before they counted; the data-driven
-#: default's +60 %). The climb that repairs a contradicted structured model is the local evolution strategy, not
-#: COBYQA: COBYQA starts with 2n + 1 probes at a large radius, the cycles a local repair near the model's optimum
-#: needs (9 links told link lengths 10 % wrong, hybrid model: 0.939 of the ceiling at 60 cycles against 0.752), while
-#: it is the better rule for a search from the seed with no model to trust (the data-driven default).
+#: trust region of 0.25 to 0.5, because a structured model's prediction holds far from the data and long chains have
+#: optima along curved ridges that only large SQP steps follow. The measured climb starts only where measured
+#: outcomes contradict the model, not where it levels off: at the model's optimum, single noisy cycles would lead an
+#: accurate model astray. Where the structure is wrong (quadratic drag, dry friction), broken promises and tracking
+#: rejections of the model's steps count as contradictions and hand the steps to measured outcomes. That climb is the
+#: local evolution strategy, not COBYQA: COBYQA starts with 2n + 1 probes at a large radius, which spends the cycles a
+#: local repair near the model's optimum needs.
 STRUCTURED_MODEL_STEPS = {"step_rule": "sqp", "trust_radius": 0.25, "min_trust_radius": 0.25, "max_trust_radius": 0.5,
                           "climb": "contradicted", "climb_rule": "es"}
 
