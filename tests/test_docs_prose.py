@@ -115,3 +115,7 @@ def test_main_exits_1_on_a_problem_and_0_without(tmp_path, capsys):
     assert check_prose.main([str(bad)]) == 1
     assert "link to a missing file" in capsys.readouterr().out
     assert check_prose.main([str(good)]) == 0
+
+
+def test_readme_stays_a_short_front_door():
+    assert (ROOT / "README.md").stat().st_size <= 12_000
