@@ -31,7 +31,6 @@ DEFAULT_OUTLIER_LIMIT = 1000.0
 DEFAULT_TEST_FRACTION = 0.25
 
 
-
 def window_forgetting_factor(n_joints: int) -> float:
     """λ = 1 − 0.1 / d of the window model (:class:`~geogait.models.AdaptiveGaitModel`) for d joints."""
     return 1 - 0.1 / n_joints

@@ -5,7 +5,7 @@ Why a compiled kernel. One sample of the 3-link model is a few hundred flops: fi
 windows, build ``[1, δ, δ̇, δ⊗δ̇]`` about each window's nominal point, one rank-one RLS update with
 forgetting and the trace clamp per covering window (:mod:`geogait.models._rls`), the same for the
 phase model, and the online Γ (eq. 6). Written in NumPy that is some 60 calls of about a
-microsecond each, whatever the size of the arrays (≈ 0.18 ms per sample). Restructuring the NumPy
+microsecond each, whatever the size of the arrays. Restructuring the NumPy
 code removes a fraction of the calls, not their fixed cost; a kernel compiled by numba does the
 arithmetic in one call (a few microseconds), so the cost is the arithmetic.
 
@@ -30,10 +30,10 @@ horizon positions (:func:`_nearest_segment`: element-wise arithmetic only, so th
 bits as NumPy). Both fall back to the NumPy code as the one-sample kernel does.
 
 numba is optional (``pip install geogait[fast]``). Without it, or with :data:`ENABLED` set to
-False, every sample goes through the NumPy reference path (10–30× slower one sample at a time);
+False, every sample goes through the NumPy reference path, an order of magnitude slower one sample at a time;
 :func:`fast_path_note` says so in one line. The kernel is compiled on first use and cached on disk
-(``cache=True``): the first process after an install pays the compile (≈ 3–8 s), later ones load it
-(≈ 0.5–1 s with numba's import; :func:`warm_up` does that before a stream's first sample).
+(``cache=True``): the first process after an install pays the compile, later ones load it
+(:func:`warm_up` does that before a stream's first sample).
 """
 
 from __future__ import annotations

@@ -87,10 +87,8 @@ class AdaptiveExploration(Estimator):
         σ_high, δ std (rad) through the warm-up and after an alarm.
     alarm : float > 1
         a: a cycle whose surprise exceeds a × the median of the previous ``window`` cycles raises
-        the alarm (h = 1). In exploratory runs of the 5-link swimmer (line and circle, 3 trials each,
-        60 cycles) the surprise of undisturbed cycles had a median near 1.6 and reached 5.4, and the
-        first cycle after the drag change 2 → 4 scored 10–19; an alarm at 3× fired without a change in
-        3 of the 6 runs.
+        the alarm (h = 1). Set it above the spread of undisturbed cycles' surprise, so that only a
+        change of the environment raises it.
     decay : float in [0, 1)
         γ: h is multiplied by it every cycle without an alarm (0.8: σ is within 11 % of the way
         from σ_low to σ_high after 10 cycles).

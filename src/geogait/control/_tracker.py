@@ -184,10 +184,8 @@ class PathTracker(Estimator):
         asks for before the first one is asked. The frozen controller's model is the one after them.
         Every controller runs the same warm-up (the true one too), so paired trials stay paired.
         Default 0 (the straight gait only). Worth it with a model that can represent the connection over
-        the turning range: with the built-in swimmers' symmetric degree-3 shape-space model, 4 took the
-        adaptive controller on the 5-link figure-eight from 1.49× to 1.06× the true connection's error
-        (12 paired trials); with the unconstrained degree-2 model on MuJoCo's 3-link swimmer it made the
-        circle worse (mean |e| 0.025 → 0.038 in its pose units, 3 seeds of 30 cycles).
+        the turning range, such as the built-in swimmers' symmetric shape-space model; a model that
+        extrapolates poorly from a few turning cycles can be led astray by them.
     max_joint_angle : float
         r_max (rad) of every commanded gait.
     n_windows : int

@@ -30,11 +30,11 @@ figure's quantity.
 
 Why no sensor noise by default
 ------------------------------
-Fig. 3 asks how fast each model re-learns, and changing k from 2 to 3 moves ξ by only ≈ 4 % of
-‖ξ‖. With Fig. 2's realistic 0.3 × RMS noise, the λ = 0.99 model's own estimation error (≈ 0.08)
-is as large as that change, so no model's error even doubles at a switch and every "recovery" is
-immediate, while the λ = 0.7 model (≈ 3 effective samples per window for 1 + 2d + d² weights)
-follows the noise and errs ≈ 10× more than the others throughout. Without noise the switches,
+Fig. 3 asks how fast each model re-learns, and changing k from 2 to 3 moves ξ by only a few per cent
+of ‖ξ‖. With Fig. 2's realistic 0.3 × RMS noise, the λ = 0.99 model's own estimation error is as
+large as that change, so no model's error even doubles at a switch and every "recovery" is
+immediate, while the λ = 0.7 model (a few effective samples per window for 1 + 2d + d² weights)
+follows the noise throughout. Without noise the switches,
 the adaptation and the λ trade-off the paper describes are all visible; ``--noise 0.3`` gives the
 realistic-noise version (both in docs/results/paper-figures.md).
 

@@ -15,10 +15,10 @@ shape space over the height function.
 Model (``model="auto"``): the shape-space connection model (:class:`~geogait.models.ShapeSpaceModel`)
 of degree 4 with a prior that shrinks each higher degree 30× (``degree_shrinkage=30``) and the swimmers'
 mirror and front–back symmetries built into its basis (``symmetry="mirror+reversal"``), forgetting factor
-0.999 up to 5 links and 0.9999 beyond (3448 weights on 9 links need a longer memory) — on every swimmer it
-won against, or tied with, the degree-3 model, the unconstrained shape-space model and the local window
-model (:class:`~geogait.models.AdaptiveGaitModel`) in ``studies/ceiling.py`` (docs/results/paper-figures.md). The
-optimiser searches its default family: the rotation-free symmetric family on these symmetric swimmers.
+0.999 up to 5 links and 0.9999 beyond (3448 weights on 9 links need a longer memory). ``studies/ceiling.py``
+compares it with the degree-3 model, the unconstrained shape-space model and the local window model
+(:class:`~geogait.models.AdaptiveGaitModel`). The optimiser searches its default family: the rotation-free
+symmetric family on these symmetric swimmers.
 
 Why these defaults: sensor noise 0.1 of the signal RMS (with the 0.3 of the accuracy experiment the
 3-link model's Γ saturates near 0.4 and never reaches Γ* = 1/2, so no step would ever be taken);

@@ -11,7 +11,7 @@ families spaced 0.1 rad and heading weight 0.5. By default the adaptive and froz
 the connection over shape space (:func:`tracking_model`), the perturbations δ have std 0.05 rad, and
 the adaptive model forgets its evidence by 100 when a cycle's prediction surprise raises the alarm
 (covariance resetting, ``PathTracker(change_forgetting=100)``); ``model="window"``,
-``perturbation=0.15`` and ``change_forgetting=1`` are the first setting measured.
+``perturbation=0.15`` and ``change_forgetting=1`` give the paper's window model without covariance resetting.
 
 Paths are scaled by the swimmer's own step ℓ (true net translation per cycle of the straight gait at
 drag ratio 2: 0.10 body lengths for the 3-link, 0.20 for the 5-link swimmer), so every swimmer gets
@@ -268,11 +268,9 @@ def tracking_model(name: str, *, symmetric: bool = True):
     ``"shape"``, a :class:`~geogait.models.ShapeSpaceModel` with λ 0.999 per sample (a memory of about 10
     cycles of 100 samples): of degree 3 with the mirror and front–back symmetries of the built-in
     swimmers (``"mirror+reversal"``) when ``symmetric``, else (a robot's symmetries are unknown) of
-    degree 2 without constraints. Degree 3 without symmetry has 4× the weights, and on the MuJoCo
-    swimmers (``examples/mujoco_tracking.py``, δ 0.05) it mispredicted the steering gaits it had not
-    run: on 2 of 6 seeds of the 3-link line the controller held zero turn while drifting off the path
-    (mean |e| 0.31 and 0.43 body lengths), and on the 5-link circle it was worse than the frozen
-    model; degree 2 followed every path."""
+    degree 2 without constraints. Degree 3 without symmetry has 4× the weights and, learning only around
+    the gaits it runs, extrapolates poorly to the steering gaits it has not run; degree 2 extrapolates
+    less wildly."""
     if name not in TRACKING_MODELS:
         raise fail("model", "tracking_model", "one of " + ", ".join(TRACKING_MODELS), name)
     if name == "window":

@@ -44,10 +44,8 @@ Derived quantities, computed independently in every segment:
   ``deriv=1``, ``delta`` = the segment's median step) when no shape-velocity columns are given.
   A measured body velocity is then smoothed by the same filter (no derivative): the estimate of ṙ
   misses what the filter removes (the fast part of a perturbation, for one), and ξ must miss the
-  same part for ξ = −A(r) ṙ to hold between them (on a simulated 3-link log with exact ξ, held-out
-  Γ 0.65 unfiltered, 0.86 filtered, as from its poses; 0.99 with the true ṙ given). Likewise a
-  measured shape velocity is smoothed when ξ comes from smoothed poses (the same log's poses with
-  its exact ṙ: 0.61 unfiltered, 0.98 filtered). Only when both are measured is neither filtered.
+  same part for ξ = −A(r) ṙ to hold between them. Likewise a measured shape velocity is smoothed
+  when ξ comes from smoothed poses. Only when both are measured is neither filtered.
 
 Irregular time stamps:
 

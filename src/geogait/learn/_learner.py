@@ -36,7 +36,7 @@ __all__ = ["OnlineDifferentiator", "StreamLearner", "load_stream_model"]
 _TWO_PI = 2 * np.pi
 #: Accepted samples whose medians and spreads define the stream's plausibility bound.
 PLAUSIBILITY_WINDOW = 1000
-#: Accepted samples before the relative bound applies (before: only ±1e12).
+#: Accepted samples before the relative bound applies (until then only the absolute bound ±1e12).
 PLAUSIBILITY_MIN_SAMPLES = 50
 #: Accepted samples between refreshes of the medians and spreads (each costs ~1 ms).
 PLAUSIBILITY_REFRESH = 250

@@ -27,14 +27,13 @@ when every drag is scaled alike). :class:`ResistanceModel` learns them:
   friction, inertia) the data still shape the prediction, and its prior — a residual of about
   ``residual_prior`` times the data's connection, less per degree — keeps it near zero where the
   structure explains the data, so the drags explain first. How much the residual ends up carrying
-  (``residual_share_``) tells whether the structure holds: under 0.11 on the built-in swimmers and the
-  MuJoCo chain at the optimiser's first decision (10 % sensor noise), 0.1–0.33 there on Gymnasium's swimmer
-  (quadratic drag, inertia). Above 0.15 on the seed gait the in-situ optimiser leans on the data
+  (``residual_share_``) tells whether the structure holds: where it does, the residual fits noise only.
+  Above 0.15 on the seed gait the in-situ optimiser leans on the data
   (:class:`~geogait.optimize.InSituOptimizer`).
 
 Because A follows from a handful of coefficients everywhere in shape space, the model knows the
 objective's gradient far from the gaits it has seen — which a local polynomial fitted to a few
-cycles does not (docs/results/paper-figures.md, "Where the model runs out").
+cycles does not.
 """
 
 from __future__ import annotations

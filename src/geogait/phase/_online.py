@@ -40,29 +40,19 @@ and to 0.4 rad under a drifting rate. :class:`OnlinePhaser` now needs no analyti
 Delay. The estimate is the line's value at the newest sample: no look-ahead and no group delay
 at a constant rate (a line fit is unbiased for a line). While the rate changes, the line lags
 behind by :math:`\lambda^2 \dot\omega / (1 - \lambda)^2 \approx \dot\omega\, \tau^2` rad
-(:math:`\dot\omega` in rad per sample², :math:`\tau` = ``window / 4`` samples): under a rate
-ramping from 0.8 to 1.2 times nominal over 30 cycles of 100 samples that is 0.02 rad, 0.3
-samples, as measured.
+(:math:`\dot\omega` in rad per sample², :math:`\tau` = ``window / 4`` samples).
 
-Accuracy (``python studies/online_phase.py``: 3-link swimmer, perturbation std 0.15 rad, five
-pairs of 30-cycle records, window 200 samples; window/period 1, 1.5, 2, 2.3, 2.5, 3 and a ±20 %
-rate ramp; with and without 10 % shape noise; circular error to the commanded phase after the
-offline estimate's constant offset): online median 0.054–0.081 rad against 0.071–0.084 rad for
-the offline :meth:`Phaser.transform` of the whole record (0.67–1.12 times it: the line averages
-out perturbations that the analytic signal keeps; least gain at window/period 1, where the time
-constant is a quarter cycle), 95th percentile 0.15–0.24 rad (offline 0.21–0.24). The former
-window estimate erred by a median 1.1–1.2 rad at window/period 1.5, 2.3 and 2.5, and 0.41 rad
-under the ramp. docs/robot-data.md has the table.
+Accuracy. The line averages out perturbations that the whole-record analytic signal of
+:meth:`Phaser.transform` keeps, so the online estimate is about as accurate as the offline one
+(``python studies/online_phase.py`` compares them at several windows and under a rate ramp).
 
 Limits. The phase is that of the training limit cycle: a stream whose waveform differs (another
 gait, a saturating actuator) gets a biased phase, as it does offline, where the corrections are
 frozen too. Where the limit cycle passes close to itself (a figure-eight in the channels) the
 nearest point can jump between the two branches; the tracker then smooths the jump over about
 ``window / 4`` samples but does not prevent it. The window trades noise for lag and its
-default suits noisy shapes: on the clean four-channel test oscillator of ``tests/phase/test_phaser.py``
-with its rate ramping up by 50 % over 16 cycles (40 samples per cycle on average), the default
-window of 80 samples lags by 0.028 rad where 20 samples lag by 0.002 rad (median errors 0.029 and
-0.003 rad; offline 0.004). The rate is per sample: the stream must be
+default suits noisy shapes: on clean shapes whose rate changes fast, a shorter window lags less.
+The rate is per sample: the stream must be
 uniformly sampled (a gap is a :meth:`OnlinePhaser.reset`, see
 :class:`~geogait.io.StreamLearner`).
 

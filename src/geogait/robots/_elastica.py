@@ -25,8 +25,8 @@ positions and velocities give the pose (centre of mass, mean tangent angle), the
 and the shape: the discrete curvature profile projected on the modes (least squares), with its
 exact rate.
 
-**Speed.** The defaults (20 elements, a 1 s period, timestep 0.25 ms: 4000 steps per cycle) run a
-cycle in about 0.2 s on one core after numba's one-time compilation. The stable timestep of the
+**Speed.** The defaults are 20 elements, a 1 s period and a timestep of 0.25 ms: 4000 steps per cycle,
+after numba's one-time compilation. The stable timestep of the
 explicit integrator is set by the rod's shear–rotation mode, :math:`\Delta t \lesssim 0.85\, r /
 \sqrt{G/\rho}` (r radius, G shear modulus): the classic example's slender rod (r = 0.011 L) needs
 0.1 ms, so the default radius is 0.03 L (aspect ratio 33), which allows 0.25 ms and also lets the
