@@ -36,7 +36,7 @@ import numpy as np
 from geogait import se2
 from geogait.gaits import Perturbation
 from geogait.models import AdaptiveGaitModel
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import InSituOptimizer, Limits, Objective
 from geogait.robots import elastica_snake
 
 
@@ -74,7 +74,8 @@ def clean_run(gait) -> dict:
 def optimise(n_cycles: int, seed: int) -> dict:
     """One in-situ optimisation run on the snake and its clean re-runs."""
     snake = elastica_snake(seed=seed)
-    optimizer = InSituOptimizer(objective="forward", direction_frame="body", max_joint_angle=snake.max_joint_angle)
+    optimizer = InSituOptimizer(limits=Limits(max_joint_angle=snake.max_joint_angle),
+                                objective=Objective(kind="forward", frame="body"))
     started = time.perf_counter()
     result = optimizer.run(snake, n_cycles)
     seconds = time.perf_counter() - started

@@ -26,7 +26,7 @@ from geogait.models import (
     ShapeSpaceModel,
     load_model,
 )
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import Gate, InSituOptimizer, ModelStep
 from geogait.phase import Phaser
 from geogait.simulate import simulate
 
@@ -45,7 +45,8 @@ ESTIMATORS = {
     "resistance hybrid": (lambda: ResistanceModel.from_swimmer(SWIMMER, residual_degree=2), "gait model"),
     "phase model": (lambda: PhaseModel(n_windows=12, forgetting_factor=0.99), "phase model"),
     "phaser": (lambda: Phaser(order=6), "phaser"),
-    "optimizer": (lambda: InSituOptimizer(model=AdaptiveGaitModel(forgetting_factor=0.95), trust_radius=0.05),
+    "optimizer": (lambda: InSituOptimizer(model=AdaptiveGaitModel(forgetting_factor=0.95),
+                                          step=ModelStep(trust_radius=0.05)),
                   "optimizer"),
     "path tracker": (lambda: PathTracker(model=ShapeSpaceModel(degree=2), exploration=AdaptiveExploration(low=0.03)),
                      "optimizer"),
@@ -279,7 +280,7 @@ def test_the_gait_model_contract_is_checked_in_one_place():
     with pytest.raises(GeogaitError, match="without gamma_"):
         check_gait_model(Partial(), ("partial_fit", "gamma_"), "test")
     with pytest.raises(GeogaitError, match=r"'model' parameter of InSituOptimizer.*without get_params\(\)"):
-        InSituOptimizer(model=Partial(), gate="cycles").validate()
+        InSituOptimizer(model=Partial(), gate=Gate(kind="cycles")).validate()
     with pytest.raises(GeogaitError, match=r"'model' parameter of PathTracker.*None or an unfitted gait model"):
         PathTracker(model=Partial()).validate()
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from geogait import GeogaitError
 from geogait.gaits import FourierGait, seed_gait
 from geogait.models import ResistanceModel
-from geogait.optimize import InSituOptimizer, cached_ceiling
+from geogait.optimize import InSituOptimizer, ModelStep, cached_ceiling
 from geogait.simulate import SwimmerStream, cycle_displacement, simulate
 from geogait.systems import FunctionSystem, PurcellSwimmer
 
@@ -254,8 +254,8 @@ def test_the_optimiser_reaches_the_ceiling_with_the_resistance_model():
     95 %)."""
     swimmer = PurcellSwimmer(5)
     stream = SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=0)
-    optimizer = InSituOptimizer(model=ResistanceModel.from_swimmer(swimmer), step_rule="sqp",
-                                max_trust_radius=0.5, climb=False)
+    optimizer = InSituOptimizer(model=ResistanceModel.from_swimmer(swimmer),
+                                step=ModelStep(rule="sqp", max_trust_radius=0.5), climb=False)
     log = optimizer.run(stream, 24, ceiling=cached_ceiling(swimmer).value).log
     assert log["ceiling_fraction"].iloc[-1] > 0.98
     assert np.abs(log["true_heading"]).max() < 1e-9  # the symmetric family (the swimmer declares it)

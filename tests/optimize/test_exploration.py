@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from geogait.gaits import FourierGait, Perturbation, check_excitation, excitation_at, seed_gait
-from geogait.optimize import Exploration, InSituOptimizer
+from geogait.optimize import Climb, Exploration, InSituOptimizer
 from geogait.optimize._exploration import GRID
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
@@ -45,19 +45,19 @@ def test_excitation_at_interpolates_periodically_and_check_names_fields():
 
 
 def test_the_optimiser_explores_a_robot_that_does_not_and_sizes_it_in_shape_units():
-    result = InSituOptimizer(climb=True).run(_quiet_stream(), 16)  # model steps first: the model explores
+    result = InSituOptimizer(climb=Climb(start="stalled")).run(_quiet_stream(), 16)  # model steps first: the model explores
     log = result.log
     assert log["excitation"].mean() == pytest.approx(0.15, rel=0.35) and result.n_steps >= 3
     big = FourierGait(1.5 * seed_gait(2).coefficients)  # shape_scale "auto": the seed's amplitude, 1.5
-    scaled = InSituOptimizer(climb=True).run(_quiet_stream(big), 8).log
+    scaled = InSituOptimizer(climb=Climb(start="stalled")).run(_quiet_stream(big), 8).log
     assert scaled["excitation"].mean() == pytest.approx(0.225, rel=0.35)
-    half = InSituOptimizer(exploration=0.05, climb=True).run(_quiet_stream(), 8).log
+    half = InSituOptimizer(climb=Climb(start="stalled"), exploration=Exploration(std=0.05)).run(_quiet_stream(), 8).log
     assert half["excitation"].mean() == pytest.approx(0.05, rel=0.35)
 
 
 def test_a_run_without_exploration_says_so_and_takes_no_model_step():
     with pytest.warns(UserWarning, match="carry no exploration"):
-        log = InSituOptimizer(exploration=None, climb=False).run(_quiet_stream(), 12).log
+        log = InSituOptimizer(climb=False, exploration=None).run(_quiet_stream(), 12).log
     assert log["excitation"].max() < 1e-12 and not log["step"].any()
 
 
@@ -77,10 +77,10 @@ def test_exploration_options_are_checked_before_the_robot_moves():
 
     robot = Bare()
     with pytest.raises(ValueError, match="set_excitation"):
-        InSituOptimizer(exploration=0.1).run(robot, 3)
+        InSituOptimizer(exploration=Exploration(std=0.1)).run(robot, 3)
     for bad in (-0.1, "yes", np.nan):
         with pytest.raises(ValueError, match="'exploration'"):
-            InSituOptimizer(exploration=bad).run(robot, 3)
+            InSituOptimizer(exploration=Exploration(std=bad)).run(robot, 3)
     assert robot.stream.cycle == 0
     with pytest.warns(UserWarning, match="carry no exploration"):  # "auto": it cannot be commanded
         assert InSituOptimizer().run(robot, 4).log["excitation"].max() < 1e-12

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from geogait import GeogaitWarning
 from geogait.cli import app
 from geogait.gaits import seed_gait
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import Climb, InSituOptimizer, ModelClassTest, PeriodSearch
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
@@ -21,7 +21,7 @@ N = 3  # cycles per period
 
 def test_the_swimmer_passes_and_is_optimised_after_the_test():
     robot = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=1)
-    result = InSituOptimizer(model_class_cycles=N).run(robot, 24)
+    result = InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(robot, 24)
     log = result.log
     test = log["model_class_check"].to_numpy(dtype=bool)
     assert test[:2 * N + 2].all() and not test[2 * N + 2:].any()
@@ -42,7 +42,7 @@ def test_the_swimmer_passes_and_is_optimised_after_the_test():
 def test_a_coasting_body_fails_and_the_model_takes_no_step():
     with pytest.warns(GeogaitWarning, match="outside the model class.*gate stays shut: steps come from the "
                                             "measured climb only"):
-        result = InSituOptimizer(model_class_cycles=N, climb=True).run(CoastingSwimmer(), 30)
+        result = InSituOptimizer(climb=Climb(start="stalled"), checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(), 30)
     verdict = result.model_class
     assert verdict.principally_kinematic is False
     short, long = verdict.progress  # (this lag makes it move farther per cycle at the short period)
@@ -51,7 +51,7 @@ def test_a_coasting_body_fails_and_the_model_takes_no_step():
     assert log["step"].sum() >= 3 and (log["climb"] == log["step"]).all()  # every step is the climb's
     # without the climb nothing steps; the same robot without the test is stepped by its model
     with pytest.warns(GeogaitWarning, match="no step is taken"):
-        frozen = InSituOptimizer(model_class_cycles=N, climb=False).run(CoastingSwimmer(), 20)
+        frozen = InSituOptimizer(climb=False, checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(), 20)
     assert frozen.n_steps == 0 and frozen.final_gait == frozen.initial_gait
     untested = InSituOptimizer(climb=False).run(CoastingSwimmer(), 20)
     assert untested.n_steps > 0 and untested.model_class is None
@@ -61,7 +61,7 @@ def test_joints_that_cannot_follow_the_faster_cycles_leave_the_test_undecided():
     """LaggingRobot's actuators realise a smaller gait at the short period: another gait, so no verdict and no
     exclusion."""
     robot = LaggingRobot(cycle_period=0.6)
-    result = InSituOptimizer(model_class_cycles=N).run(robot, 14)
+    result = InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(robot, 14)
     verdict = result.model_class
     assert verdict.principally_kinematic is None and "realised gait differs" in verdict.reason
     assert result.log["cycle_period"].iloc[N + 1] == pytest.approx(1.2)
@@ -69,37 +69,37 @@ def test_joints_that_cannot_follow_the_faster_cycles_leave_the_test_undecided():
 
 def test_the_second_period_respects_the_period_range_and_joint_speed():
     robot = LaggingRobot(cycle_period=1.0)
-    result = InSituOptimizer(model_class_cycles=N, optimize_period=True, period_range=(0.25, 1.5)).run(robot, 10)
+    result = InSituOptimizer(period=PeriodSearch(period_range=(0.25, 1.5)), checks=[ModelClassTest(cycles=N)]).run(robot, 10)
     assert result.log["cycle_period"].iloc[N + 1] == 0.5  # twice is beyond the range: half
     with pytest.raises(ValueError, match="'model_class_cycles'.*period range and joint-velocity limit"):
-        InSituOptimizer(model_class_cycles=N, optimize_period=True, period_range=(0.8, 1.5)).run(LaggingRobot(), 3)
+        InSituOptimizer(period=PeriodSearch(period_range=(0.8, 1.5)), checks=[ModelClassTest(cycles=N)]).run(LaggingRobot(), 3)
 
 
 def test_bad_settings_are_named_before_the_robot_moves():
     robot = LaggingRobot()
     for bad in (1, 2, -1, 2.5, "3"):
         with pytest.raises(ValueError, match="'model_class_cycles'"):
-            InSituOptimizer(model_class_cycles=bad).run(robot, 3)
+            InSituOptimizer(checks=[ModelClassTest(cycles=bad)]).run(robot, 3)
 
     class FixedPeriod(LaggingRobot):
         set_cycle_period = None
 
     with pytest.raises(ValueError, match="set_cycle_period.*model_class_cycles"):
-        InSituOptimizer(model_class_cycles=N).run(FixedPeriod(), 3)
+        InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(FixedPeriod(), 3)
     assert robot.periods == [] and robot.pose.tolist() == [0, 0, 0]
 
 
 def test_resume_during_the_test_is_bit_identical(tmp_path):
     path = tmp_path / "run.npz"
     with pytest.warns(GeogaitWarning, match="outside the model class"):
-        whole = InSituOptimizer(model_class_cycles=N).run(CoastingSwimmer(seed=2), 14)
+        whole = InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(seed=2), 14)
 
     def stop(row):
         if row["cycle"] == N + 1:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        InSituOptimizer(model_class_cycles=N).run(CoastingSwimmer(seed=2), 14, checkpoint=path, callback=stop)
+        InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(seed=2), 14, checkpoint=path, callback=stop)
     with pytest.warns(GeogaitWarning, match="outside the model class"):  # the verdict comes after the resume
         resumed = InSituOptimizer.resume(path, CoastingSwimmer(seed=2))
     assert resumed.model_class == whole.model_class

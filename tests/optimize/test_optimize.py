@@ -11,7 +11,14 @@ from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, Perturbation, fourier_basis, seed_gait
 from geogait.models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import (
+    Climb,
+    Gate,
     InSituOptimizer,
+    Limits,
+    ModelClassTest,
+    ModelStep,
+    Objective,
+    Safety,
     cached_ceiling,
     default_objective,
     joint_limit_constraints,
@@ -88,7 +95,7 @@ def test_joint_limit_constraints_imply_the_continuous_limit(rng, order):
 @pytest.fixture(scope="module")
 def noise_free_run():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=0)
-    return InSituOptimizer(climb=True).run(stream, 25, record=True)  # the model steps first: the paper's loop
+    return InSituOptimizer(climb=Climb(start="stalled")).run(stream, 25, record=True)  # the model steps first: the paper's loop
 
 
 def test_optimiser_improves_the_seed_gait_on_a_noise_free_swimmer(noise_free_run):
@@ -128,7 +135,7 @@ def test_result_carries_the_model_the_run_learned(noise_free_run):
 
 def test_free_family_default_model_is_the_window_model_recentred_on_the_last_gait():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=0)
-    result = InSituOptimizer(family="free", climb=True).run(stream, 12)
+    result = InSituOptimizer(climb=Climb(start="stalled"), family="free").run(stream, 12)
     assert isinstance(result.model, AdaptiveGaitModel)
     assert result.model.forgetting_factor == pytest.approx(0.95)  # 1 − 0.1 / d for d = 2
     assert result.n_steps >= 1 and result.model.gait_ == result.final_gait  # re-centred on the last gait
@@ -138,7 +145,7 @@ def test_free_family_default_model_is_the_window_model_recentred_on_the_last_gai
 def test_joint_limits_are_never_violated(r_max):
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),
                            sensor_noise=0.05, seed=3)
-    result = InSituOptimizer(max_joint_angle=r_max, trust_radius=0.15).run(stream, 12)
+    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), limits=Limits(max_joint_angle=r_max)).run(stream, 12)
     assert result.n_steps >= 2
     for gait in result.gaits:
         assert gait.joint_limit().max() <= r_max + 1e-9
@@ -146,7 +153,7 @@ def test_joint_limits_are_never_violated(r_max):
 
 def test_batch_baseline_steps_every_cycles_per_iteration():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=1)
-    result = InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=5, climb=True).run(stream, 20)
+    result = InSituOptimizer(model=BatchGaitModel(), gate=Gate(cycles=5), climb=Climb(start="stalled")).run(stream, 20)
     steps = result.log.loc[result.log["step"], "cycle"].to_numpy()
     assert len(steps) >= 2 and np.all(np.diff(steps) % 5 == 0) and steps[0] == 4
     assert result.log["true_objective"].iloc[-1] > result.log["true_objective"].iloc[0]
@@ -164,10 +171,10 @@ def test_limits_below_the_seed_gait_are_refused_naming_the_limit():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)
     with pytest.raises(GeogaitError, match=r"'max_joint_angle' parameter .* at least the largest joint angle of the "
                                            r"robot's seed gait \(1 rad\).* Got 0.5"):
-        InSituOptimizer(max_joint_angle=0.5).run(stream, 2)
+        InSituOptimizer(limits=Limits(max_joint_angle=0.5)).run(stream, 2)
     with pytest.raises(GeogaitError, match=r"'max_joint_velocity' parameter .* at least the peak joint speed of the "
                                            r"robot's seed gait \(6.283 rad/s\).* Got 3"):
-        InSituOptimizer(max_joint_velocity=3.0).run(stream, 2)
+        InSituOptimizer(limits=Limits(max_joint_velocity=3.0)).run(stream, 2)
     assert stream.gait == seed_gait(2)
 
 
@@ -184,7 +191,7 @@ def test_a_seed_of_higher_order_than_the_family_is_refused_and_the_robot_left_as
     still = FourierGait(np.zeros((2, 3)))
     lifted = SwimmerStream(PurcellSwimmer(3), still, seed=0)
     with pytest.raises(GeogaitError, match="a seed gait that moves its joints"):
-        InSituOptimizer(order=2, family="free").run(lifted, 2)
+        InSituOptimizer(family="free", order=2).run(lifted, 2)
     assert lifted.gait == still and lifted.gait.order == 1
     assert InSituOptimizer(order=3).run(SwimmerStream(PurcellSwimmer(3), seed, seed=0), 2).initial_gait == seed
 
@@ -193,15 +200,21 @@ def test_a_seed_of_higher_order_than_the_family_is_refused_and_the_robot_left_as
     ("params", "match"),
     [
         (dict(gate="newton"), "'gate'"),
+        (dict(gate=Gate(kind="newton")), "'kind'"),
         (dict(model="adaptive"), "'model'"),
-        (dict(direction=[0, 0]), "'direction'"),
-        (dict(max_tracking_error=-1.0), "'max_tracking_error'"),
-        (dict(settle_cycles=-1), "'settle_cycles'"),
-        (dict(gamma_threshold=1.5), "'gamma_threshold'"),
+        (dict(objective=Objective(kind="forward", direction=[0, 0])), "'direction'"),
+        (dict(safety=Safety(max_tracking_error=-1.0)), "'max_tracking_error'"),
+        (dict(safety=Safety(settle_cycles=-1)), "'settle_cycles'"),
+        (dict(gate=Gate(gamma_threshold=1.5)), "'gamma_threshold'"),
         (dict(objective="speedy"), "'objective'"),
         (dict(order=0), "'order'"),
-        (dict(trust_radius=5.0), "'trust_radius'"),
-        (dict(rebase="first"), "'rebase'"),
+        (dict(step=ModelStep(trust_radius=5.0)), "'trust_radius'"),
+        (dict(step=ModelStep(rebase="first")), "'rebase'"),
+        (dict(climb="first"), "'climb'"),
+        (dict(climb=Climb(min_sigma=1.0, max_sigma=0.5)), "'max_sigma'"),
+        (dict(exploration=0.2), "'exploration'"),
+        (dict(checks=[ModelClassTest(), ModelClassTest()]), "'checks'"),
+        (dict(checks=[Gate()]), "'checks'"),
     ],
 )
 def test_bad_optimizer_parameters(params, match):
@@ -213,7 +226,7 @@ def test_bad_optimizer_parameters(params, match):
 def test_seed_outside_joint_limits_is_rejected():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2, amplitude=1.5), seed=0)
     with pytest.raises(ValueError, match="max_joint_angle"):
-        InSituOptimizer(max_joint_angle=1.0).run(stream, 2)
+        InSituOptimizer(limits=Limits(max_joint_angle=1.0)).run(stream, 2)
 
 
 def repeated(gait: FourierGait, times: int) -> FourierGait:
@@ -266,7 +279,7 @@ class _DeclaredRanges:
 def test_joint_limit_auto_comes_from_the_robots_declared_ranges():
     ranges = np.array([[-1.2, 1.5], [-1.3, 1.1]])
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=4)
-    result = InSituOptimizer(family="free", trust_radius=0.15).run(_DeclaredRanges(stream, ranges), 12)
+    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free").run(_DeclaredRanges(stream, ranges), 12)
     assert result.max_joint_angle == pytest.approx(1.1)  # the tightest side of any joint
     assert result.n_steps >= 2 and all(g.joint_limit().max() <= 1.1 + 1e-9 for g in result.gaits)
     assert result.summary()["max_joint_angle"] == pytest.approx(1.1)
@@ -276,7 +289,7 @@ def test_joint_limit_auto_comes_from_the_robots_declared_ranges():
         with pytest.raises(GeogaitError, match="robot.joint_ranges"):
             InSituOptimizer().run(_DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2)), bad), 1)
     with pytest.raises(GeogaitError, match="max_joint_angle"):
-        InSituOptimizer(max_joint_angle="tight").validate()
+        InSituOptimizer(limits=Limits(max_joint_angle="tight")).validate()
 
 
 @pytest.mark.filterwarnings("ignore:.*more than a full turn")
@@ -299,9 +312,10 @@ def test_shape_scale_makes_the_defaults_work_in_any_shape_unit():
         return float(np.mean(runs))
 
     radians = improvement(swimmer, seed_gait(2), 0.15)
-    in_units = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit, max_joint_angle=unit * 2 * np.pi / 3)
-    unscaled = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit, max_joint_angle=unit * 2 * np.pi / 3,
-                           shape_scale=1.0)
+    in_units = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit,
+                           limits=Limits(max_joint_angle=unit * 2 * np.pi / 3))
+    unscaled = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit,
+                           limits=Limits(max_joint_angle=unit * 2 * np.pi / 3, shape_scale=1.0))
     assert radians > 0.3
     assert in_units > 0.8 * radians
     assert unscaled < 0.5 * in_units
@@ -349,12 +363,12 @@ def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhil
     assert guarded.log["reverted"].any()
     assert guarded.summary()["reverted_to_best"] == int(guarded.log["reverted"].sum())
     assert measured.iloc[-1] >= 0.8 * measured.max()  # it ends on (or back near) the best gait measured
-    climbing, _ = run(climb=True)  # the reverts count as broken promises: the climb takes over, and hands over its best
+    climbing, _ = run(climb=Climb(start="stalled"))  # the reverts count as broken promises: the climb takes over, and hands over its best
     log = climbing.log
     final = np.all(np.isclose(log.filter(like="param_").to_numpy(), climbing.final_gait.params), axis=1)
     assert log["reverted"].any() and log["climb"].any()
     assert log.loc[final & ~log["settling"], "measured_objective"].mean() >= 0.8 * measured.max()
-    unguarded, measured_off = run(revert_tolerance=None, climb=False)
+    unguarded, measured_off = run(safety=Safety(revert_tolerance=None), climb=False)
     assert not unguarded.log["reverted"].any()
     assert measured_off.iloc[-1] < 0.6 * measured_off.max()  # without it, the model walks the robot downhill
 
@@ -363,7 +377,7 @@ def test_the_climb_takes_over_from_a_model_that_leads_downhill_and_keeps_the_lim
     """Without the revert, the model's unconfirmed promises hand the steps to the measured climb, which
     keeps the best gait measured (the robot's motion shrinks away from the seed gait)."""
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=6)
-    result = InSituOptimizer(family="free", revert_tolerance=None, max_joint_angle=1.2).run(
+    result = InSituOptimizer(safety=Safety(revert_tolerance=None), limits=Limits(max_joint_angle=1.2), family="free").run(
         _MisleadingPoses(stream, seed_gait(2)), 40)
     log = result.log
     assert log["climb"].sum() >= 3 and not (log["climb"] & log["period_change"]).any()
@@ -373,7 +387,7 @@ def test_the_climb_takes_over_from_a_model_that_leads_downhill_and_keeps_the_lim
     assert result.summary()["final_measured_objective"] >= 0.8 * measured.max()
     assert max(gait.joint_limit().max() for gait in result.gaits) <= 1.2 + 1e-9
     # the same seed repeats the run exactly; another seed draws other directions
-    again = InSituOptimizer(family="free", revert_tolerance=None, max_joint_angle=1.2).run(
+    again = InSituOptimizer(safety=Safety(revert_tolerance=None), limits=Limits(max_joint_angle=1.2), family="free").run(
         _MisleadingPoses(SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=6), seed_gait(2)), 40)
     pd.testing.assert_frame_equal(again.log, log)
 
@@ -382,7 +396,7 @@ def test_forward_direction_is_the_mean_motion_of_the_seeds_cycles():
     """"forward" comes from every measured cycle of the seed, not the first one alone, and a seed whose
     motion cannot be told from noise is refused."""
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=1)
-    result = InSituOptimizer(objective="forward", family="free", min_cycles_per_iteration=4).run(stream, 8)
+    result = InSituOptimizer(gate=Gate(min_cycles=4), objective=Objective(kind="forward"), family="free").run(stream, 8)
     log = result.log
     seed = log[(log["iteration"] == 0) & ~log["settling"]]
     heading = seed["world_heading"].to_numpy()
@@ -396,7 +410,7 @@ def test_forward_direction_is_the_mean_motion_of_the_seeds_cycles():
     still = FourierGait(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]))
     noisy = SwimmerStream(PurcellSwimmer(3), still, sensor_noise=0.1, seed=2)
     with pytest.raises(GeogaitError, match="cannot be told from noise"):
-        InSituOptimizer(objective="forward", family="free", min_cycles_per_iteration=4).run(noisy, 10)
+        InSituOptimizer(gate=Gate(min_cycles=4), objective=Objective(kind="forward"), family="free").run(noisy, 10)
 
 
 def test_ceiling_start_defaults_to_the_seed_gait_and_accepts_a_lower_order():
@@ -419,7 +433,7 @@ def test_the_climb_carries_on_where_the_model_levels_off():
     from geogait.optimize import cached_ceiling
 
     swimmer = PurcellSwimmer(5)
-    result = InSituOptimizer(climb=True).run(SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=1), 60)
+    result = InSituOptimizer(climb=Climb(start="stalled")).run(SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=1), 60)
     log = result.log
     first = log.index[log["climb"]][0]
     ceiling = cached_ceiling(swimmer, family="symmetric").value
@@ -431,29 +445,29 @@ def test_the_climb_carries_on_where_the_model_levels_off():
 
 
 def test_a_contradicted_climb_leaves_a_model_that_levels_off_at_its_optimum():
-    """climb="contradicted": the measured climb starts only when measured outcomes contradict the model. The
-    perfect-information model levels off at the optimum without being contradicted: with climb=True the steps
+    """Climb(start="contradicted"): the measured climb starts only when measured outcomes contradict the model. The
+    perfect-information model levels off at the optimum without being contradicted: with start="stalled" the steps
     pass to the climb (measured: at cycle 20 of 30), with "contradicted" they never do."""
     from geogait.models import PerfectInformationModel
 
     logs = {}
-    for climb in (True, "contradicted"):
+    for start in ("stalled", "contradicted"):
         stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=1)
         model = PerfectInformationModel(system=stream.current_system())
-        logs[climb] = InSituOptimizer(climb=climb, model=model).run(stream, 30).log
-    assert logs[True]["climb"].any() and not logs["contradicted"]["climb"].any()
+        logs[start] = InSituOptimizer(climb=Climb(start=start), model=model).run(stream, 30).log
+    assert logs["stalled"]["climb"].any() and not logs["contradicted"]["climb"].any()
     assert logs["contradicted"]["step"].sum() >= 5  # the model's own steps carried it
 
 
 def test_climb_first_climbs_from_the_first_decision_and_hands_over_to_a_model_that_predicts():
-    """climb="first": the first gate decision commands a climb candidate at twice the largest trust radius
+    """Climb(start="first"): the first gate decision commands a climb candidate at its first_sigma
     from the seed (nothing else moved the gait before it); a model that predicts the measured gains (the
     perfect-information model) then takes the steps back, and the run still beats its seed."""
     from geogait.gaits import SymmetricGaitFamily
     from geogait.models import PerfectInformationModel
 
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=1)
-    optimizer = InSituOptimizer(climb="first", model=PerfectInformationModel(system=stream.current_system()))
+    optimizer = InSituOptimizer(model=PerfectInformationModel(system=stream.current_system()))
     result = optimizer.run(stream, 40)
     log = result.log
     params = log.filter(like="param_").to_numpy()
@@ -463,7 +477,7 @@ def test_climb_first_climbs_from_the_first_decision_and_hands_over_to_a_model_th
     family = SymmetricGaitFamily.from_gait(seed_gait(2))
     first = family.params_of(FourierGait.from_params(params[moved], 2))
     distance = np.linalg.norm(first - family.params_of(seed_gait(2)))
-    assert distance == pytest.approx(2 * optimizer.max_trust_radius)
+    assert distance == pytest.approx(Climb().first_sigma)
     changed = log.index[log["climb"]]
     handed_back = log.index[log["step"] & ~log["climb"]]
     assert len(handed_back) and handed_back[0] > changed[0]  # model steps, after the climb
@@ -471,21 +485,21 @@ def test_climb_first_climbs_from_the_first_decision_and_hands_over_to_a_model_th
 
 
 def test_the_cobyqa_climb_commands_cobyqas_points_within_the_limits_and_hands_over_its_best():
-    """climb_rule="cobyqa" in the free family: from the first gate decision the candidates are COBYQA's own
+    """Climb(rule="cobyqa") in the free family: from the first gate decision the candidates are COBYQA's own
     initial design (the base, then the base ± σ along each family parameter in turn: the method's published
     start), every commanded gait keeps the joint limit, and the result is the best candidate measured,
     well above the seed (the 3-link swimmer, measured with little noise)."""
     from geogait.gaits import FreeGaitFamily
 
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.01, seed=3)
-    optimizer = InSituOptimizer(climb="first", climb_rule="cobyqa", family="free", max_joint_angle=1.5)
+    optimizer = InSituOptimizer(climb=Climb(rule="cobyqa"), limits=Limits(max_joint_angle=1.5), family="free")
     result = optimizer.run(stream, 60)
     log = result.log
     family = FreeGaitFamily(2, 1)
     params = log.filter(like="param_").to_numpy()
     changes = np.flatnonzero(np.any(np.diff(params, axis=0) != 0, axis=1)) + 1
     base = family.params_of(seed_gait(2))
-    sigma = 2 * optimizer.max_trust_radius * result.shape_scale
+    sigma = Climb().first_sigma * result.shape_scale
     offsets = [params[k] - base for k in changes[:4]]  # the base first: measured once more, clean
     expected = [sigma * np.eye(base.size)[i] for i in range(4)]
     first_candidate = 0 if np.allclose(offsets[0], expected[0]) else 1
@@ -501,13 +515,13 @@ def test_the_cobyqa_climb_commands_cobyqas_points_within_the_limits_and_hands_ov
 
 
 def test_the_bayesian_climb_moves_every_parameter_at_once_within_the_limits_and_climbs():
-    """climb_rule="bayes" in the free family: its candidates move several parameters at once (COBYQA's first
+    """Climb(rule="bayes") in the free family: its candidates move several parameters at once (COBYQA's first
     2n + 1 move one), every commanded gait keeps the joint limit, and after 40 cycles the result is well above
     the seed (the 3-link swimmer, measured with little noise)."""
     from geogait.gaits import FreeGaitFamily
 
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.01, seed=3)
-    optimizer = InSituOptimizer(climb="first", climb_rule="bayes", family="free", max_joint_angle=1.5)
+    optimizer = InSituOptimizer(climb=Climb(rule="bayes"), limits=Limits(max_joint_angle=1.5), family="free")
     result = optimizer.run(stream, 40)
     params = result.log.filter(like="param_").to_numpy()
     base = FreeGaitFamily(2, 1).params_of(seed_gait(2))
@@ -572,9 +586,9 @@ def test_the_climb_hands_back_only_on_the_model_predicting_its_own_steps():
 def test_climb_first_is_the_default_and_needs_no_confident_model():
     """By default the climb starts at the first decision, after min_cycles_per_iteration measured cycles of
     the seed, even where the model's Γ never reaches Γ* (here Γ* = 0.999 against 10 % sensor noise)."""
-    assert InSituOptimizer().climb == "first"
+    assert InSituOptimizer().composition().climb == Climb(start="first")
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=2)
-    log = InSituOptimizer(gamma_threshold=0.999).run(stream, 8).log
+    log = InSituOptimizer(gate=Gate(gamma_threshold=0.999)).run(stream, 8).log
     assert (log["gamma"].dropna() < 0.999).all()
     assert log["climb"].iloc[1] and not log["climb"].iloc[0]  # the base, measured again clean, then COBYQA
     assert log["excitation"].iloc[3:].max() < 1e-12 and log["step"].sum() >= 4
@@ -586,11 +600,11 @@ def test_a_cobyqa_point_beyond_the_joint_limit_runs_scaled_back_onto_it():
     from geogait.gaits import FreeGaitFamily
 
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.01, seed=3)
-    optimizer = InSituOptimizer(climb_rule="cobyqa", family="free", max_joint_angle=1.02)
+    optimizer = InSituOptimizer(climb=Climb(rule="cobyqa"), limits=Limits(max_joint_angle=1.02), family="free")
     result = optimizer.run(stream, 10)
     family = FreeGaitFamily(2, 1)
     base = family.params_of(seed_gait(2))
-    sigma = 2 * optimizer.max_trust_radius * result.shape_scale
+    sigma = Climb().first_sigma * result.shape_scale
     probes = [base + sign * sigma * np.eye(base.size)[i] for i in range(base.size) for sign in (1, -1)]
     beyond = 0
     for gait in result.gaits[1:]:

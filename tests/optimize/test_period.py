@@ -7,8 +7,8 @@ import pytest
 from _robots import LaggingRobot, lagging_gain
 
 from geogait.gaits import FourierGait, seed_gait
-from geogait.optimize import InSituOptimizer
-from geogait.optimize._period import PeriodSearch
+from geogait.optimize import Climb, InSituOptimizer, PeriodSearch, Safety
+from geogait.optimize._period import PeriodLineSearch
 from geogait.simulate import SwimmerStream, cycle_displacement
 from geogait.systems import PurcellSwimmer
 
@@ -19,7 +19,7 @@ def _true_speed(gait, period):
 
 
 def test_period_search_steps_shrinks_and_stops():
-    search = PeriodSearch(0.5, 2.0)
+    search = PeriodLineSearch(0.5, 2.0)
     first = search.propose(1.0)
     assert first == pytest.approx(np.exp(-0.2))  # shorter first
     assert not search.judge(1.0, 2.0)  # worse: the other side, half the step
@@ -31,14 +31,14 @@ def test_period_search_steps_shrinks_and_stops():
     assert search.propose(1.0) is None  # below 2 %: the search has ended
     search.gait_changed()
     assert search.step == pytest.approx(search.restart_step)
-    assert PeriodSearch(0.9, 1.1).propose(1.0, shortest=0.995) == pytest.approx(1.1)  # boxed by the speed limit
-    assert PeriodSearch.from_json(search.to_json()) == search
+    assert PeriodLineSearch(0.9, 1.1).propose(1.0, shortest=0.995) == pytest.approx(1.1)  # boxed by the speed limit
+    assert PeriodLineSearch.from_json(search.to_json()) == search
 
 
 def test_optimiser_finds_the_period_a_lagging_robot_runs_fastest_at():
     robot = LaggingRobot(seed=3)
-    # the model steps first (climb=True), so the period moves by its line search, not as a climb coordinate
-    result = InSituOptimizer(optimize_period=True, period_range=(0.25, 2.0), climb=True).run(robot, 60)
+    # the model steps first (Climb(start="stalled")), so the period moves by its line search, not as a climb coordinate
+    result = InSituOptimizer(climb=Climb(start="stalled"), period=PeriodSearch(period_range=(0.25, 2.0))).run(robot, 60)
     periods = np.linspace(0.25, 2.0, 71)
     final = result.final_gait
     speeds = [_true_speed(final, period) for period in periods]
@@ -65,20 +65,21 @@ def test_period_options_are_checked_before_the_robot_moves():
 
     robot = FixedPeriod()
     with pytest.raises(ValueError, match="set_cycle_period"):
-        InSituOptimizer(optimize_period=True).run(robot, 3)
+        InSituOptimizer(period=PeriodSearch()).run(robot, 3)
     for bad in [(1.0,), (2.0, 1.0), (0.0, 1.0), (1.0, np.nan), "fast"]:
         with pytest.raises(ValueError, match="'period_range'"):
-            InSituOptimizer(optimize_period=True, period_range=bad).run(robot, 3)
+            InSituOptimizer(period=PeriodSearch(period_range=bad)).run(robot, 3)
     with pytest.raises(ValueError, match="'period_range'.*robot's period"):
-        InSituOptimizer(optimize_period=True, period_range=(0.1, 0.5)).run(LaggingRobot(), 3)
+        InSituOptimizer(period=PeriodSearch(period_range=(0.1, 0.5))).run(LaggingRobot(), 3)
     assert robot.periods == []
 
 
 def test_resume_with_a_period_search_is_bit_identical(tmp_path):
     path = tmp_path / "run.npz"
 
-    def make():  # model steps first (climb=True): period trials between them
-        return InSituOptimizer(optimize_period=True, period_range=(0.25, 2.0), settle_cycles=1, climb=True)
+    def make():  # model steps first (Climb(start="stalled")): period trials between them
+        return InSituOptimizer(climb=Climb(start="stalled"), safety=Safety(settle_cycles=1),
+                               period=PeriodSearch(period_range=(0.25, 2.0)))
 
     whole = make().run(LaggingRobot(seed=4), 24)
 
@@ -106,19 +107,19 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
     state = RunState(gait=gait, radius=0.1, model=fresh, n_cycles=10, ceiling=None, period=1.0)
     other = FourierGait(0.9 * gait.coefficients)
     robot = SwimmerStream(PurcellSwimmer(3), gait, seed=0)
-    CycleLoop(optimizer, robot, state, checkpoint=None, checkpoint_every=1)._change_gait(other)
+    CycleLoop(optimizer, optimizer.composition(), robot, state, checkpoint=None, checkpoint_every=1)._change_gait(other)
     assert state.model is not fresh and state.gait == other and state.previous_gait == gait
 
 
 def test_a_first_climb_searches_the_period_as_its_coordinate_without_a_trial_before_it():
-    """With climb="first" the period is one of the climb's coordinates from its start: no period trial (a change of
+    """With Climb(start="first") the period is one of the climb's coordinates from its start: no period trial (a change of
     period on the same gait) comes before the climb's first candidate, and its candidates move the period."""
-    settings = dict(optimize_period=True, period_range=(0.25, 2.0))
-    result = InSituOptimizer(**settings, climb="first").run(LaggingRobot(seed=3), 40)
+    settings = dict(period=PeriodSearch(period_range=(0.25, 2.0)))
+    result = InSituOptimizer(**settings, climb=Climb(start="first")).run(LaggingRobot(seed=3), 40)
     log = result.log
     first_climb = int(np.flatnonzero(log["climb"].to_numpy(dtype=bool))[0])
     assert (log["cycle_period"].iloc[:first_climb + 1] == 1.0).all()
     assert not log["period_change"].iloc[:first_climb + 1].any()
     assert log["cycle_period"].nunique() >= 3
-    with_trial = InSituOptimizer(**settings, climb=True).run(LaggingRobot(seed=3), 12)
+    with_trial = InSituOptimizer(**settings, climb=Climb(start="stalled")).run(LaggingRobot(seed=3), 12)
     assert with_trial.log["period_change"].any()  # model steps first: the line search's trials

@@ -11,7 +11,18 @@ from _robots import BareRobot, LaggingRobot
 from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
 from geogait.models import BatchGaitModel, ShapeSpaceModel
-from geogait.optimize import InSituOptimizer, read_checkpoint_metadata
+from geogait.optimize import (
+    Climb,
+    Exploration,
+    Gate,
+    InSituOptimizer,
+    Limits,
+    ModelClassTest,
+    ModelStep,
+    Objective,
+    Safety,
+    read_checkpoint_metadata,
+)
 from geogait.optimize._climb import MeasuredClimb
 from geogait.robots import Robot
 from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
@@ -118,7 +129,7 @@ def test_measured_motion_per_cycle_is_the_true_one_without_perturbations():
 
 
 def test_a_robot_without_truth_is_judged_by_measurement():
-    result = InSituOptimizer(climb=True).run(BareRobot(_stream(seed=1)), 20, ceiling=0.1)
+    result = InSituOptimizer(climb=Climb(start="stalled")).run(BareRobot(_stream(seed=1)), 20, ceiling=0.1)
     log = result.log
     assert "true_objective" not in log and result.n_steps >= 3
     on_seed = log["iteration"] == 0
@@ -131,7 +142,7 @@ def test_a_robot_without_truth_is_judged_by_measurement():
 
 def test_forward_objective_follows_the_commanded_heading_and_never_turns_round():
     # Default direction: the way the seed started. Every cycle moves forward along it in the world.
-    log = InSituOptimizer(objective="forward").run(_stream(seed=2), 20).log
+    log = InSituOptimizer(objective=Objective(kind="forward")).run(_stream(seed=2), 20).log
     start = log[["world_x", "world_y"]].to_numpy()
     direction = start[1] - start[0]
     advance = np.diff(start, axis=0) @ (direction / np.linalg.norm(direction))
@@ -142,14 +153,16 @@ def test_forward_objective_follows_the_commanded_heading_and_never_turns_round()
 def test_forward_objective_sign_matters():
     # Asked to go the other way, the optimiser turns the gait round: the objective starts negative.
     seed_motion = cycle_displacement(PurcellSwimmer(3), seed_gait(2))[:2]
-    log = InSituOptimizer(objective="forward", direction=-seed_motion, trust_radius=0.15).run(_stream(seed=3), 40).log
+    log = InSituOptimizer(step=ModelStep(trust_radius=0.15),
+                          objective=Objective(kind="forward", direction=-seed_motion)).run(_stream(seed=3), 40).log
     assert log["measured_objective"].iloc[0] < 0
     assert log["measured_objective"].iloc[-1] > log["measured_objective"].iloc[0] + 0.02
 
 
 def test_saturated_actuators_are_detected_and_their_steps_rejected():
     # the model's steps alone (climb=False): what the tracking check does to them
-    options = dict(trust_radius=0.15, max_trust_radius=0.3, prediction_tolerance=None, climb=False)
+    options = dict(step=ModelStep(trust_radius=0.15, max_trust_radius=0.3), gate=Gate(prediction_tolerance=None),
+                   climb=False)
     result = InSituOptimizer(**options).run(SaturatingRobot(limit=1.1), 40)
     log = result.log
     limit = max(0.05, 2 * log.loc[log["iteration"] == 0, "tracking_error"].mean())  # "auto": twice the seed's
@@ -160,7 +173,7 @@ def test_saturated_actuators_are_detected_and_their_steps_rejected():
     assert reverts >= result.n_rejected
     assert log.loc[~log["rejected"], "tracking_error"].max() <= 1.1 * limit
     # without the check the optimiser drives the joints far past what they can follow
-    unchecked = InSituOptimizer(**options, max_tracking_error=None).run(SaturatingRobot(limit=1.1), 40).log
+    unchecked = InSituOptimizer(**options, safety=Safety(max_tracking_error=None)).run(SaturatingRobot(limit=1.1), 40).log
     assert not unchecked["rejected"].any() and unchecked["tracking_error"].max() > 2 * limit
 
 
@@ -168,7 +181,7 @@ def test_the_climb_judges_gaits_the_actuators_follow_badly_by_their_measured_out
     """With the automatic tracking limit the climb's gaits are judged by what they measure, not refused for their
     tracking error (twice the seed's would have refused 17 of this run's candidates); the run ends well above the
     seed, and the limit for the model's steps follows the gait the climb kept last: twice what its cycles track."""
-    result = InSituOptimizer(settle_cycles=1).run(SaturatingRobot(limit=1.05), 60, checkpoint=tmp_path / "run.npz")
+    result = InSituOptimizer(safety=Safety(settle_cycles=1)).run(SaturatingRobot(limit=1.05), 60, checkpoint=tmp_path / "run.npz")
     log = result.log
     measured = ~log["settling"]
     seed = log.loc[measured & (log["iteration"] == 0), ["tracking_error", "measured_objective"]].mean()
@@ -198,7 +211,7 @@ def test_a_climb_handing_back_holds_the_models_steps_to_what_its_base_tracks(mon
         return trusted(climb)
 
     monkeypatch.setattr(MeasuredClimb, "model_trusted_again", property(spy))
-    log = InSituOptimizer(climb_rule="es", random_state=7).run(LaggingRobot(), 80, callback=rows.append).log
+    log = InSituOptimizer(climb=Climb(rule="es"), random_state=7).run(LaggingRobot(), 80, callback=rows.append).log
     assert handed_back
     params = log.filter(like="param_").to_numpy()
     seed_limit = max(0.05, 2 * log.loc[log["iteration"] == 0, "tracking_error"].mean())
@@ -216,7 +229,7 @@ def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_
     rejected and goes back to the climb's base, a gait the climb kept, never to the candidate commanded before it
     (which may itself have failed): after every rejection the next gait is one the run kept before (a row that was
     not an unjudged candidate)."""
-    result = InSituOptimizer(settle_cycles=1, max_tracking_error=0.25, climb_rule=climb_rule).run(
+    result = InSituOptimizer(climb=Climb(rule=climb_rule), safety=Safety(settle_cycles=1, max_tracking_error=0.25)).run(
         SaturatingRobot(limit=1.05), 60)
     log = result.log
     params = log.filter(like="param_").to_numpy()
@@ -228,7 +241,8 @@ def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_
 
 
 def test_the_prediction_check_closes_the_gate_when_the_model_overpredicts():
-    log = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3, max_tracking_error=None, climb=False).run(
+    log = InSituOptimizer(step=ModelStep(trust_radius=0.15, max_trust_radius=0.3), climb=False,
+                          safety=Safety(max_tracking_error=None)).run(
         SaturatingRobot(limit=1.1), 25).log
     checked = log.dropna(subset=["prediction_ok"])
     failed = checked[checked["prediction_ok"] == 0]
@@ -237,7 +251,7 @@ def test_the_prediction_check_closes_the_gate_when_the_model_overpredicts():
 
 
 def test_settle_cycles_are_run_but_not_learned_from():
-    result = InSituOptimizer(settle_cycles=1).run(_stream(seed=4), 16)
+    result = InSituOptimizer(safety=Safety(settle_cycles=1)).run(_stream(seed=4), 16)
     log = result.log
     steps = log.index[log["step"]]
     assert len(steps) >= 2
@@ -261,11 +275,11 @@ def _interrupted_then_resumed(tmp_path, make_optimizer, stop_after, n_cycles):
 
 
 @pytest.mark.parametrize("make_optimizer", [
-    lambda: InSituOptimizer(settle_cycles=1),
-    lambda: InSituOptimizer(model=BatchGaitModel(), cycles_per_iteration=3, objective="forward"),
-    lambda: InSituOptimizer(model=ShapeSpaceModel(degree=2), family="free", step_rule="sqp"),
-    lambda: InSituOptimizer(climb="first", climb_rule="cobyqa", family="free", settle_cycles=1),
-    lambda: InSituOptimizer(climb="first", climb_rule="bayes", family="free", settle_cycles=1),
+    lambda: InSituOptimizer(safety=Safety(settle_cycles=1)),
+    lambda: InSituOptimizer(model=BatchGaitModel(), gate=Gate(cycles=3), objective=Objective(kind="forward")),
+    lambda: InSituOptimizer(model=ShapeSpaceModel(degree=2), step=ModelStep(rule="sqp"), family="free"),
+    lambda: InSituOptimizer(climb=Climb(rule="cobyqa"), safety=Safety(settle_cycles=1), family="free"),
+    lambda: InSituOptimizer(climb=Climb(rule="bayes"), safety=Safety(settle_cycles=1), family="free"),
 ], ids=["adaptive", "batch-forward", "shape-space-sqp", "cobyqa-climb", "bayes-climb"])
 def test_resume_is_bit_identical_to_an_uninterrupted_run(tmp_path, make_optimizer):
     whole = make_optimizer().run(_stream(seed=5), 14, ceiling=0.1)
@@ -294,13 +308,13 @@ def test_checkpoint_options_are_validated_before_the_robot_moves(tmp_path):
 
 def test_joint_speed_limit_holds_for_every_commanded_gait():
     limit = 1.3 * 2 * np.pi / 1.5  # rad/s at a period of 1.5 s; the seed needs 2π/1.5 · 1.0
-    result = InSituOptimizer(max_joint_velocity=limit, trust_radius=0.15).run(_stream(seed=6, cycle_period=1.5), 20)
+    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), limits=Limits(max_joint_velocity=limit)).run(_stream(seed=6, cycle_period=1.5), 20)
     assert result.n_steps >= 3
     phase = np.linspace(0, 2 * np.pi, 512)
     for gait in result.gaits:
         assert np.abs(gait.velocity(phase)).max() * 2 * np.pi / 1.5 <= limit * (1 + 1e-9)
     with pytest.raises(ValueError, match="max_joint_velocity"):
-        InSituOptimizer(max_joint_velocity=0.5).run(_stream(cycle_period=1.5), 2)
+        InSituOptimizer(limits=Limits(max_joint_velocity=0.5)).run(_stream(cycle_period=1.5), 2)
 
 
 def test_cycles_from_a_robot_are_checked():
@@ -325,22 +339,33 @@ def test_a_run_that_cannot_be_checkpointed_is_refused_before_the_robot_moves(tmp
     assert optimizer.run(stream, 4).log.shape[0] == 4  # without a checkpoint it runs
 
 
-def test_a_checkpoint_from_before_the_climb_rule_resumes_with_the_evolution_strategy():
+def test_a_checkpoint_of_flat_parameters_resumes_as_the_same_composed_run():
+    """Checkpoints written before the parts hold the optimiser's flat parameters: they are read as the same run,
+    composed (a climb rule missing from them is the evolution strategy they ran)."""
+    from geogait.optimize._presets import from_flat_params
     from geogait.optimize._state import params_from_json, params_to_json
 
-    params = params_to_json(InSituOptimizer())
-    assert params_from_json(params)["climb_rule"] == "auto"
-    del params["climb_rule"]
-    assert InSituOptimizer(**params_from_json(params)).climb_rule == "es"
+    composed = params_from_json({"trust_radius": 0.05, "climb": True, "climb_rule": "cobyqa", "settle_cycles": 2,
+                                 "model_class_cycles": 3, "exploration": 0.2})
+    assert composed["step"] == ModelStep(trust_radius=0.05)
+    assert composed["climb"] == Climb(start="stalled", rule="cobyqa")  # the radii the trust region gave it then
+    assert composed["safety"] == Safety(settle_cycles=2) and composed["checks"] == [ModelClassTest(cycles=3)]
+    assert composed["exploration"] == Exploration(std=0.2)
+    assert from_flat_params({"climb": "first"})["climb"].rule == "es"
+    assert params_from_json({"trust_radius": 0.1, "climb": False})["climb"] is False
+    with pytest.raises(ValueError, match="unknown optimiser parameters"):
+        from_flat_params({"trust_radius": 0.1, "bogus": 1})
+    optimizer = InSituOptimizer(**composed)
+    assert InSituOptimizer(**params_from_json(params_to_json(optimizer))).describe() == optimizer.describe()
 
 
-@pytest.mark.parametrize("climb", [True, "contradicted"])
-def test_model_steps_the_robot_cannot_follow_hand_the_steps_to_the_measured_climb(climb):
+@pytest.mark.parametrize("start", ["stalled", "contradicted"])
+def test_model_steps_the_robot_cannot_follow_hand_the_steps_to_the_measured_climb(start):
     """Joints that stop at 1.1 rad: the model (kinematic, no actuator limits) keeps proposing larger gaits, which
     the robot cannot follow and which do not gain what the model promised. Two such rejections without a kept
     promise between them are two broken promises: the climb takes over (before they counted, none had by cycle
     30)."""
-    log = InSituOptimizer(climb=climb).run(LaggingRobot(cycle_period=20.0, joint_stop=1.1, seed=1), 30).log
+    log = InSituOptimizer(climb=Climb(start=start)).run(LaggingRobot(cycle_period=20.0, joint_stop=1.1, seed=1), 30).log
     assert log["climb"].any()
     first = int(np.flatnonzero(log["climb"])[0])
     assert log["rejected"][:first].sum() >= 2

@@ -6,7 +6,9 @@ import pytest
 from geogait.gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily, seed_gait
 from geogait.models import PerfectInformationModel, ShapeSpaceModel
 from geogait.optimize import (
+    Climb,
     InSituOptimizer,
+    ModelStep,
     StepProblem,
     cached_ceiling,
     joint_limit_constraints,
@@ -67,7 +69,7 @@ def test_sqp_climbs_the_curved_ridge_the_linear_step_stalls_on():
 
 def test_optimizer_searches_the_symmetric_family_of_a_symmetric_swimmer():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=0)
-    result = InSituOptimizer(step_rule="sqp").run(stream, 12)
+    result = InSituOptimizer(step=ModelStep(rule="sqp")).run(stream, 12)
     assert result.n_steps >= 2
     family = SymmetricGaitFamily.from_gait(seed_gait(2))
     for gait in result.gaits:
@@ -83,18 +85,20 @@ def test_optimizer_searches_the_symmetric_family_of_a_symmetric_swimmer():
     with pytest.raises(ValueError, match="'family' parameter of InSituOptimizer"):
         InSituOptimizer(family="helical").run(stream, 1)
     with pytest.raises(ValueError, match="'step_rule' parameter of InSituOptimizer"):
-        InSituOptimizer(step_rule="newton").run(stream, 1)
+        InSituOptimizer(step=ModelStep(rule="newton")).run(stream, 1)
 
 
 def test_optimizer_runs_on_perfect_information_and_on_the_shape_space_model():
     swimmer = PurcellSwimmer(3)
     ceiling = cached_ceiling(swimmer).value
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
-    perfect = InSituOptimizer(model=PerfectInformationModel(system=swimmer), step_rule="sqp",
-                              max_trust_radius=0.5, climb=True).run(stream, 12, ceiling=ceiling)
+    perfect = InSituOptimizer(model=PerfectInformationModel(system=swimmer),
+                              step=ModelStep(rule="sqp", max_trust_radius=0.5),
+                              climb=Climb(start="stalled", sigma=0.5, first_sigma=2 * 0.5, max_sigma=4 * 0.5)).run(stream, 12, ceiling=ceiling)
     assert perfect.log["gamma"].dropna().eq(1.0).all() and perfect.log["ceiling_fraction"].iloc[-1] > 0.99
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
-    learned = InSituOptimizer(model=ShapeSpaceModel(degree=3), step_rule="sqp", climb=True).run(
+    learned = InSituOptimizer(model=ShapeSpaceModel(degree=3), step=ModelStep(rule="sqp"),
+                              climb=Climb(start="stalled")).run(
         stream, 30, ceiling=ceiling)
     assert learned.n_steps >= 5 and learned.log["ceiling_fraction"].iloc[-1] > 0.85
 

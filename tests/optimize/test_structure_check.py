@@ -8,12 +8,12 @@ import pytest
 
 from geogait.gaits import seed_gait
 from geogait.models import ResistanceModel
-from geogait.optimize import STRUCTURED_MODEL_STEPS, InSituOptimizer
-from geogait.optimize._state import RESIDUAL_SHARE_LIMIT
+from geogait.optimize import Climb, Gate, InSituOptimizer, ModelStep, StructureCheck, structured
 from geogait.simulate import SwimmerStream
 from geogait.systems import FunctionSystem, PurcellSwimmer
 
 SWIMMER = PurcellSwimmer(3)
+RESIDUAL_SHARE_LIMIT = StructureCheck().limit
 
 
 def drifting(shapes):
@@ -27,9 +27,8 @@ def stream(system, seed=3):
     return SwimmerStream(system, seed_gait(2), sensor_noise=0.1, seed=seed)
 
 
-def hybrid_optimizer(**options):
-    return InSituOptimizer(model=ResistanceModel.from_swimmer(SWIMMER, residual_degree=2),
-                           **{**STRUCTURED_MODEL_STEPS, **options})
+def hybrid_optimizer(**params):
+    return structured(ResistanceModel.from_swimmer(SWIMMER, residual_degree=2), **params)
 
 
 def first_decision(log) -> int:
@@ -37,7 +36,8 @@ def first_decision(log) -> int:
 
 
 def test_a_hybrid_contradicted_by_its_data_climbs_first_and_one_that_holds_steps():
-    drift = hybrid_optimizer().run(stream(FunctionSystem(drifting, 2)), 10).log
+    with pytest.warns(UserWarning, match="StructureCheck's limit"):
+        drift = hybrid_optimizer().run(stream(FunctionSystem(drifting, 2)), 10).log
     first = first_decision(drift)
     assert drift.loc[first, "climb"]  # the data-driven settings: the climb from the first decision
     assert drift.loc[:first, "residual_share"].max() > RESIDUAL_SHARE_LIMIT
@@ -49,26 +49,27 @@ def test_a_hybrid_contradicted_by_its_data_climbs_first_and_one_that_holds_steps
 def test_the_structure_is_checked_before_the_model_is_confident():
     """With a Γ threshold the model never reaches, a contradicted hybrid still leans on the data (and climbs)
     once it has its first measured cycles; one whose structure holds waits for Γ and takes no step."""
-    drift = hybrid_optimizer(gamma_threshold=0.999).run(stream(FunctionSystem(drifting, 2)), 6).log
-    assert first_decision(drift) == InSituOptimizer().min_cycles_per_iteration - 1
+    drift = hybrid_optimizer(gate__gamma_threshold=0.999).run(stream(FunctionSystem(drifting, 2)), 6).log
+    assert first_decision(drift) == Gate().min_cycles - 1
     assert drift["climb"].iloc[first_decision(drift)]
-    holds = hybrid_optimizer(gamma_threshold=0.999).run(stream(SWIMMER), 6).log
+    holds = hybrid_optimizer(gate__gamma_threshold=0.999).run(stream(SWIMMER), 6).log
     assert not (holds["step"] | holds["climb"]).any()
 
 
-def test_a_step_setting_the_user_chose_is_kept():
-    assert hybrid_optimizer(step_rule="linear", trust_radius=0.2, min_trust_radius=0.1,
-                            max_trust_radius=0.3, climb=True)._leaning_on_data() is None
-    leaning = hybrid_optimizer(trust_radius=0.2, min_trust_radius=0.1, max_trust_radius=0.3)._leaning_on_data()
-    defaults = InSituOptimizer().get_params()
-    assert (leaning.step_rule, leaning.climb, leaning.climb_rule) == \
-        (defaults["step_rule"], defaults["climb"], defaults["climb_rule"])
-    assert STRUCTURED_MODEL_STEPS["climb_rule"] != defaults["climb_rule"]  # (so the line above tests a change)
-    assert (leaning.trust_radius, leaning.min_trust_radius, leaning.max_trust_radius) == (0.2, 0.1, 0.3)
-    # the climb and its rule are one group: one of them given keeps both
-    cobyqa = hybrid_optimizer(climb_rule="cobyqa")._leaning_on_data()
-    assert (cobyqa.climb, cobyqa.climb_rule) == ("contradicted", "cobyqa")
-    assert InSituOptimizer()._leaning_on_data() is None  # already data-driven
+def test_the_structured_preset_declares_the_check_only_for_a_model_that_reports_its_residual():
+    assert hybrid_optimizer().checks == [StructureCheck()]
+    assert structured(ResistanceModel.from_swimmer(SWIMMER)).checks == []
+
+
+def test_the_check_switches_to_what_it_declares_and_keeps_what_it_does_not_name():
+    step = ModelStep(rule="sqp", trust_radius=0.25, min_trust_radius=0.25, max_trust_radius=0.5, rotation_tolerance=0.01)
+    climb = Climb(start="contradicted", rule="es", sigma=0.5, rotation_tolerance=0.01)
+    new_step, new_climb = StructureCheck().fallback(step, climb)
+    assert new_step == ModelStep(rotation_tolerance=0.01)  # the data-driven rule and trust region, the rest kept
+    assert new_climb == Climb(rotation_tolerance=0.01)
+    assert StructureCheck().fallback(step, None)[1] is None  # a run without a climb gets none
+    given = StructureCheck(step=ModelStep(trust_radius=0.05), climb=False)
+    assert given.fallback(step, climb) == (ModelStep(trust_radius=0.05), None)
 
 
 def test_a_run_that_leaned_on_the_data_resumes_bit_identically(tmp_path):

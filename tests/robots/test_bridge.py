@@ -13,7 +13,7 @@ import pytest
 
 from geogait.gaits import Perturbation, seed_gait
 from geogait.models import ResistanceModel
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import Climb, InSituOptimizer
 from geogait.robots import ProcessRobot, Robot
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
@@ -41,7 +41,7 @@ def test_a_driver_without_exploration_of_its_own_is_optimised_as_one_with():
     for own in ("0", "0.3"):
         with ProcessRobot(DRIVER + ["--perturbation", own, "--seed", "2"]) as robot:
             assert robot.protocol_version == 2 and robot.accepts_excitation
-            runs.append(InSituOptimizer(climb=True).run(robot, 10))  # model steps first: it explores
+            runs.append(InSituOptimizer(climb=Climb(start="stalled")).run(robot, 10))  # model steps first: it explores
     assert runs[0].n_steps >= 2
     pd.testing.assert_frame_equal(runs[0].log, runs[1].log)
     assert runs[0].log["excitation"].min() > 0.05  # δ std 0.15 rad, commanded

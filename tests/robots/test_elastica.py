@@ -7,7 +7,7 @@ import pytest
 
 from geogait import GeogaitWarning, se2
 from geogait.gaits import FourierGait, Perturbation
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import Gate, InSituOptimizer, Limits, ModelClassTest, Objective, Safety
 from geogait.robots import ElasticaSnake, ProcessRobot, Robot, check_robot, elastica_snake, snake_seed_gait
 from geogait.robots.continuum import body_pose, curvature_profile
 from geogait.systems import PurcellSwimmer
@@ -183,8 +183,8 @@ def test_the_optimisers_model_class_test_finds_the_snake_outside():
     warm-up vary by a few per cent and the test cannot tell."""
     needs_elastica()
     snake = elastica_snake(seed=0)
-    optimizer = InSituOptimizer(objective="forward", direction_frame="body", max_joint_angle=snake.max_joint_angle,
-                                settle_cycles=1, model_class_cycles=3)  # (the warm-up's transient settles first)
+    optimizer = InSituOptimizer(safety=Safety(settle_cycles=1), limits=Limits(max_joint_angle=snake.max_joint_angle),
+                                objective=Objective(kind="forward", frame="body"), checks=[ModelClassTest(cycles=3)])  # (the warm-up's transient settles first)
     with pytest.warns(GeogaitWarning, match="outside the model class"):
         result = optimizer.run(snake, 10)
     verdict = result.model_class
@@ -196,8 +196,8 @@ def test_the_optimisers_model_class_test_finds_the_snake_outside():
 def test_in_situ_optimiser_runs_on_the_snake():
     needs_elastica()
     snake = elastica_snake(seed=2)
-    optimizer = InSituOptimizer(objective="forward", direction_frame="body", max_joint_angle=snake.max_joint_angle,
-                                min_cycles_per_iteration=1)
+    optimizer = InSituOptimizer(gate=Gate(min_cycles=1), limits=Limits(max_joint_angle=snake.max_joint_angle),
+                                objective=Objective(kind="forward", frame="body"))
     result = optimizer.run(snake, 4)
     assert len(result.log) == 4
     assert np.all(result.log["measured_progress"] > 0)
@@ -231,7 +231,7 @@ def test_optimiser_resumes_a_snake_run_bit_identically(tmp_path):
         if row["cycle"] == 8:
             raise KeyboardInterrupt
 
-    optimizer = InSituOptimizer(objective="forward", direction_frame="body", min_cycles_per_iteration=1)
+    optimizer = InSituOptimizer(gate=Gate(min_cycles=1), objective=Objective(kind="forward", frame="body"))
     whole = optimizer.run(make(6), 11)
     with pytest.raises(KeyboardInterrupt):
         optimizer.run(make(6), 11, checkpoint=path, callback=stop)

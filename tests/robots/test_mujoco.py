@@ -11,7 +11,7 @@ from geogait import se2
 from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.models import AdaptiveGaitModel
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import Climb, InSituOptimizer, ModelStep, Objective, Safety
 from geogait.robots import (
     MODELS_DIRECTORY,
     MujocoRobot,
@@ -482,7 +482,7 @@ def test_the_structured_default_shortens_its_steps_after_gaits_the_actuators_can
     """The resistance model (the default on this RFT chain) steps with a trust radius of at least 0.25; a gait the
     saturated motors cannot follow halves it even below that floor (a rejection is measured, not a noisy ratio)."""
 
-    result = InSituOptimizer(max_tracking_error=0.1, objective="forward", direction_frame="body").run(
+    result = InSituOptimizer(safety=Safety(max_tracking_error=0.1), objective=Objective(kind="forward", frame="body")).run(
         _saturating_swimmer(), 12)
     log = result.log
     assert type(result.model).__name__ == "ResistanceModel" and log["trust_radius"].iloc[0] == 0.25
@@ -614,12 +614,12 @@ def test_time_reversal_family_turns_a_swimmer_with_inertia_and_the_half_wave_fam
 def test_optimiser_searches_the_symmetric_family_on_a_symmetric_model():
     from geogait.gaits import MirrorGaitFamily, SymmetricGaitFamily
 
-    result = InSituOptimizer(objective="forward", direction_frame="body").run(
+    result = InSituOptimizer(objective=Objective(kind="forward", frame="body")).run(
         MujocoRobot(purcell_swimmer_xml(3), seed=2), 10)
     family = SymmetricGaitFamily.from_gait(result.initial_gait, 1)
     assert result.n_steps >= 1 and max(family.residual(gait) for gait in result.gaits) < 1e-9
     unequal = MujocoRobot(purcell_swimmer_xml(5, link_lengths=(0.3, 0.15, 0.2, 0.25, 0.1)), seed=2)
-    mirror = InSituOptimizer(objective="forward", direction_frame="body").run(unequal, 10)
+    mirror = InSituOptimizer(objective=Objective(kind="forward", frame="body")).run(unequal, 10)
     assert mirror.n_steps >= 1 and max(MirrorGaitFamily(4).residual(gait) for gait in mirror.gaits) == 0.0
 
 
@@ -724,7 +724,8 @@ def test_a_resistive_medium_is_read_from_the_model_and_chooses_the_default_model
     assert structured.model.link_lengths == tuple(mujoco_swimmer(3).chain_geometry()["link_lengths"])
     chosen = InSituOptimizer()._structured_default(mujoco_swimmer(3))
     assert (chosen.step_rule, chosen.climb, chosen.climb_rule) == ("sqp", "contradicted", "es")
-    kept = InSituOptimizer(trust_radius=0.15, max_trust_radius=0.3).run(mujoco_swimmer(3, seed=1), 3)
+    kept = InSituOptimizer(step=ModelStep(trust_radius=0.15, max_trust_radius=0.3),
+                           climb=Climb(sigma=0.3, first_sigma=2 * 0.3, max_sigma=4 * 0.3)).run(mujoco_swimmer(3, seed=1), 3)
     assert kept.log["trust_radius"].iloc[0] == 0.15  # a trust region given is the user's
     pytest.importorskip("gymnasium")
     assert not gymnasium_swimmer().resistive_medium

@@ -11,8 +11,8 @@ robot run** — settling cycles included. Methods:
 * ``geogait-resistance`` — the same with :class:`~geogait.models.ResistanceModel` on the chain geometry the
   robot gives (``chain_geometry()``: the built-in and MuJoCo chains), SQP steps over a trust radius up to 0.5
   and the measured climb only when contradicted (:func:`~geogait.optimize.structured`); ``geogait-hybrid`` the
-  same with a degree-2 polynomial residual fitted with the drags (mirror-symmetric where the robot's frame is on the chain's axis); cases whose
-  robot gives no chain geometry skip both;
+  same with a degree-2 polynomial residual fitted with the drags (mirror-symmetric where the robot's frame is on
+  the chain's axis); cases whose robot gives no chain geometry skip both;
 * ``geogait-batch`` — the prior-work batch method (Bittner et al. 2018): a
   :class:`~geogait.models.BatchGaitModel` refit every 30 perturbed cycles;
 * ``cmaes`` / ``cmaes-tuned`` — CMA-ES (the ``cma`` package) from the seed gait: σ₀ = r_max / 3 and

@@ -29,3 +29,9 @@ class Part(Estimator):
     def describe(self) -> dict:
         """The part as JSON values: its class name and parameters."""
         return describe_params(self)
+
+    def __eq__(self, other) -> bool:
+        """Parts are equal when they are of one class with equal parameters."""
+        return type(other) is type(self) and describe_params(other) == describe_params(self)
+
+    __hash__ = None  # (mutable through set_params)

@@ -43,8 +43,12 @@ __all__ = ["DATA_DRIVEN_CLIMB", "DATA_DRIVEN_STEP", "STRUCTURED_CLIMB", "STRUCTU
 DATA_DRIVEN_STEP = {"rule": "linear", "trust_radius": 0.1, "min_trust_radius": 0.02, "max_trust_radius": 0.15}
 DATA_DRIVEN_CLIMB = {"start": "first", "rule": "auto", "sigma": 0.15, "first_sigma": 0.3, "min_sigma": 0.02,
                      "max_sigma": 0.6}
-#: The step and climb settings of a structured model: SQP on its nonlinear prediction within a wider trust
-#: region (it holds far from its data), and the measured climb only when contradicted, by the evolution strategy.
+#: The step and climb settings of a structured model (:class:`~geogait.models.ResistanceModel`): SQP on its nonlinear
+#: prediction over a trust region of 0.25 to 0.5, because a structured model's prediction holds far from the data and
+#: long chains have optima along curved ridges that only large SQP steps follow. The measured climb starts only where
+#: measured outcomes contradict the model, not where it levels off: at the model's optimum, single noisy cycles would
+#: lead an accurate model astray. That climb is the local evolution strategy, not COBYQA: COBYQA starts with 2n + 1
+#: probes at a large radius, which spends the cycles a local repair near the model's optimum needs.
 STRUCTURED_STEP = {"rule": "sqp", "trust_radius": 0.25, "min_trust_radius": 0.25, "max_trust_radius": 0.5}
 STRUCTURED_CLIMB = {"start": "contradicted", "rule": "es", "sigma": 0.5, "first_sigma": 1.0, "min_sigma": 0.25,
                     "max_sigma": 2.0}
