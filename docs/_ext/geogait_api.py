@@ -19,11 +19,13 @@ from sphinx.transforms import SphinxTransform
 
 #: Public modules, in the order data flows through them.
 MODULES = {
+    "geogait": "The package: its error and warning classes, its version",
     "geogait.se2": "SE(2) geometry: exponentials, logarithms, body velocities from poses",
     "geogait.systems": "Simulated locomotors: Purcell swimmers, the kinematic snake, connections on a grid",
     "geogait.gaits": "Gaits: Fourier series per joint, gait families, exploration perturbations",
     "geogait.simulate": "Trajectories, simulation and the simulated robot stream",
     "geogait.robots": "The Robot protocol, the JSON-lines bridge, MuJoCo and PyElastica robots",
+    "geogait.robots.continuum": "Continuum bodies: curvature modes, rods from curvature, their pose and velocity",
     "geogait.io": "Robot logs and streams: readers, column mappings, stream output",
     "geogait.phase": "Gait phase from data: nominal gait fits and phase estimators",
     "geogait.models": "Gait models: the adaptive RLS bank, batch, shape-space and resistance models",
@@ -39,10 +41,9 @@ MODULES = {
 def _home(obj, name: str, module: str) -> str:
     """The public module that documents ``obj``: the one whose package defines it, else ``module``."""
     defined = getattr(obj, "__module__", None) or ""
-    for candidate in MODULES:
-        if (defined == candidate or defined.startswith(candidate + ".")) and name in _public(candidate):
-            return candidate
-    return module
+    homes = [candidate for candidate in MODULES
+             if (defined == candidate or defined.startswith(candidate + ".")) and name in _public(candidate)]
+    return max(homes, key=len) if homes else module  # (the innermost: geogait.robots.continuum, not geogait.robots)
 
 
 def _public(module: str) -> list[str]:
@@ -95,6 +96,14 @@ def _constant(module: str, name: str) -> str:
     return f".. py:data:: {name}\n{option}\n{body}"
 
 
+def _alias(module: str, name: str, home: str) -> str:
+    """A re-exported name: an entry of its own (references to ``module.name`` resolve) pointing to its page."""
+    obj = getattr(importlib.import_module(module), name)
+    directive = "py:class" if inspect.isclass(obj) else "py:function"
+    return (f".. {directive}:: {name}\n   :canonical: {home}.{name}\n   :no-contents-entry:\n\n"
+            f"   The same object as :py:obj:`{home}.{name}`, documented in :mod:`{home}`.\n")
+
+
 def _module_page(module: str, entries: dict, elsewhere: list[tuple[str, str]]) -> str:
     parts = [_title(module), f".. automodule:: {module}\n   :no-members:\n", f".. currentmodule:: {module}\n"]
     for kind, heading in (("class", "Classes"), ("function", "Functions")):
@@ -107,8 +116,8 @@ def _module_page(module: str, entries: dict, elsewhere: list[tuple[str, str]]) -
         rows = "\n".join(_constant(module, name) for name in entries["data"])
         parts.append(f"{_title('Constants', '-')}\n{rows}")
     if elsewhere:
-        rows = "\n".join(f"* :py:obj:`~{home}.{name}` (documented in :mod:`{home}`)" for name, home in elsewhere)
-        parts.append(f"{_title('Also importable from here', '-')}\n{rows}\n")
+        rows = "\n".join(_alias(module, name, home) for name, home in elsewhere)
+        parts.append(f"{_title('Also importable from here', '-')}\n{rows}")
     return "\n".join(parts)
 
 
