@@ -5,7 +5,8 @@
 * **Markup printed as text**: a Sphinx role (``:class:`...```, ``:math:`...```) or directive
   (``.. math::``) outside code blocks is markup that did not render.
 * **Built-in docstrings**: the docstring of ``float``, ``tuple`` or another built-in type shown for an
-  attribute or a constant that has none of its own.
+  attribute or a constant that has none of its own, or of a method inherited from one
+  (``with_traceback``).
 
 Run after the build (``make docs``)::
 
@@ -25,9 +26,15 @@ from urllib.parse import unquote, urlsplit
 EXTERNAL = ("http", "https", "mailto", "data", "javascript", "ftp")
 #: Markup that should have rendered: a role with its backquote, or a directive.
 RAW_MARKUP = re.compile(r":(?:class|func|meth|attr|mod|data|obj|math|ref|doc|exc|term):`|^\s*\.\. [a-z-]+::", re.M)
-#: Opening words of the docstrings of built-in types (float, int, str, tuple, list, dict, bool, object).
-BUILT_IN_DOCSTRINGS = tuple(kind.__doc__.split("\n")[0][:40]
-                            for kind in (float, int, str, tuple, list, dict, bool, object))
+def _opening(docstring: str) -> str:
+    """The first 40 characters a page shows of ``docstring`` (autodoc drops a leading "name(args) --" line)."""
+    return next(line.strip() for line in docstring.splitlines() if line.strip() and not line.endswith("--"))[:40]
+
+
+#: Opening words of the docstrings of built-in types and of the methods that subclasses inherit from them.
+BUILT_IN_DOCSTRINGS = tuple(_opening(thing.__doc__) for thing in (
+    float, int, str, tuple, list, dict, bool, object,
+    BaseException.with_traceback, BaseException.add_note, tuple.count, tuple.index))
 _VERBATIM = {"pre", "code", "script", "style", "textarea"}
 
 
@@ -94,7 +101,7 @@ def unrendered(site) -> list[str]:
             found.append(f"{path.relative_to(site)}: {match.group().strip()!r} (markup printed as text)")
         for opening in BUILT_IN_DOCSTRINGS:
             if opening in text:
-                found.append(f"{path.relative_to(site)}: {opening!r} (a built-in type's docstring)")
+                found.append(f"{path.relative_to(site)}: {opening!r} (a built-in's docstring)")
     return found
 
 

@@ -24,7 +24,6 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 # (the manifests' folder holds tables the results pages link as files, not pages of their own)
 exclude_patterns = ["_build", "_ext", "results/optimizer-robots/**"]
-templates_path = ["_templates"]
 # (a page may step from a title straight to level-3 headings: it renders the same)
 suppress_warnings = ["myst.header"]
 

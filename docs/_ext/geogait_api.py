@@ -66,7 +66,8 @@ def _title(text: str, underline: str = "=") -> str:
 
 def _object_page(module: str, name: str, kind: str) -> str:
     directive = {"class": "autoclass", "function": "autofunction"}[kind]
-    options = "   :members:\n   :inherited-members:\n" if kind == "class" else ""
+    # (inherited members, but not those of built-in bases: an exception's add_note, a named tuple's count)
+    options = "   :members:\n   :inherited-members: BaseException, tuple, list, dict\n" if kind == "class" else ""
     return f"{_title(name)}\n.. currentmodule:: {module}\n\n.. {directive}:: {name}\n{options}"
 
 

@@ -56,8 +56,9 @@ def test_a_missing_site_folder_is_a_usage_error(tmp_path, capsys):
     ("<dd>with :math:`A(r)` the connection</dd>", "':math:`' (markup printed as text)"),
     ("<div>\n.. math:: \\xi = -A(r) \\dot r\n</div>", "'.. math::' (markup printed as text)"),
     ("<dd><p>Convert a string or number to a floating point number, if possible.</p></dd>",
-     "'Convert a string or number to a floating' (a built-in type's docstring)"),
-    ("<dd><p>Built-in immutable sequence.</p></dd>", "'Built-in immutable sequence.' (a built-in type's docstring)"),
+     "'Convert a string or number to a floating' (a built-in's docstring)"),
+    ("<dd><p>Built-in immutable sequence.</p></dd>", "'Built-in immutable sequence.' (a built-in's docstring)"),
+    ("<dd><p>add a note to the exception</p></dd>", "'add a note to the exception' (a built-in's docstring)"),
 ])
 def test_markup_printed_as_text_and_built_in_docstrings_are_found(site, html, finding, capsys):
     (site / "guide" / "api.html").write_text(html)
