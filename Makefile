@@ -39,4 +39,4 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 
 clean:
-	rm -rf $(VENV) out benchmarks/results site docs/api/geogait.*.rst docs/api/generated docs/auto_examples
+	rm -rf $(VENV) out benchmarks/results site docs/api/geogait*.rst docs/api/generated docs/auto_examples

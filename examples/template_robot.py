@@ -10,7 +10,7 @@ system with 0.2 mm of noise.
 
 Run::
 
-    python examples/template_robot.py               # 30 cycles, about 20 s
+    python examples/template_robot.py               # 30 cycles, about 10 s
     python examples/template_robot.py --cycles 60
 """
 
