@@ -233,7 +233,7 @@ class Estimator:
     def get_state(self) -> tuple[dict, dict]:
         """Learned state as ``(metadata, arrays)``: JSON-ready metadata and NumPy arrays.
 
-        What :meth:`save` writes; :func:`estimator_from_state` is the inverse (checkpoints embed it).
+        What :meth:`save` writes, and what :meth:`load` and checkpoints rebuild the estimator from.
         """
         self._check_is_fitted()
         if not self.can_save():

@@ -89,7 +89,8 @@ def check_robot_members(robot, owner: str) -> None:
     robot : object
         The robot to check.
     owner : str
-        Who asks (the function or method named in the error message).
+        Who asks (the function or method named in the error message); ``check_robot`` by default, as
+        before a first run: ``check_robot(MyRobot())``.
     """
     required = ("n_joints", "cycle_period", "gait", "set_gait", "next_cycle")
     missing = [name for name in required if not hasattr(robot, name)]
