@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import se2
-from .._validation import fail
 from ..gaits import FourierGait
+from ..robots import check_cycle
 from ..simulate import Trajectory, end_pose
 
 __all__ = ["CycleMeasurement", "measure_cycle"]
@@ -59,21 +59,7 @@ def measure_cycle(chunk: Trajectory, gait: FourierGait, period: float, owner: st
     -------
     CycleMeasurement
     """
-    if not isinstance(chunk, Trajectory):
-        raise fail("robot", owner, "a next_cycle() returning a geogait.simulate.Trajectory", type(chunk).__name__)
-    n, d = chunk.time.shape[-1], gait.n_joints
-    if chunk.time.ndim != 1 or n < 4:
-        raise fail("robot", owner, "cycles of at least 4 samples without a trial axis",
-                   f"time of shape {chunk.time.shape}")
-    expected = {"phase": (n,), "shape": (n, d), "shape_velocity": (n, d), "body_velocity": (n, 3), "pose": (n, 3)}
-    for name, shape in expected.items():
-        value = np.asarray(getattr(chunk, name))
-        if value.shape != shape:
-            raise fail(f"cycle.{name}", owner, f"an array of shape {shape}", f"shape {value.shape}")
-        if not np.all(np.isfinite(value)):
-            raise fail(f"cycle.{name}", owner, "finite values", "NaN or inf")
-    if not np.all(np.isfinite(chunk.time)) or np.any(np.diff(chunk.time) <= 0):
-        raise fail("cycle.time", owner, "strictly increasing finite time stamps (seconds)", chunk.time[:5])
+    check_cycle(chunk, gait.n_joints, owner)
     end = end_pose(chunk, period)
     nominal = gait.shape(chunk.phase)
     commanded = chunk.commanded_shape if chunk.commanded_shape is not None else nominal

@@ -13,6 +13,7 @@ helpers of :mod:`geogait.robots.continuum` (body frame, curvature, modal shape c
 
 from ..simulate import SwimmerStream
 from ._bridge import PROTOCOL, PROTOCOL_VERSION, ProcessRobot
+from ._check import check_cycle, check_robot
 from ._elastica import ElasticaSnake, elastica_snake, snake_seed_gait
 from ._mujoco import (
     MODELS_DIRECTORY,
@@ -35,9 +36,33 @@ from .continuum import (
     tangent_angles,
 )
 
-__all__ = ["MODELS_DIRECTORY", "PROTOCOL", "PROTOCOL_VERSION", "ROBOT_EXTRAS", "CurvatureModes", "ElasticaSnake",
-           "MujocoRobot", "ProcessRobot", "Robot", "body_pose", "body_velocity", "RobotSpec", "check_robot_members",
-           "read_robot_spec", "curvature_profile",
-           "curvature_rate", "dm_control_swimmer", "elastica_snake", "gymnasium_swimmer", "load_mujoco_model",
-           "mujoco_swimmer", "purcell_swimmer_xml", "rod_from_curvature", "snake_seed_gait", "tangent_angles",
-           "SwimmerStream"]
+__all__ = [
+    "MODELS_DIRECTORY",
+    "PROTOCOL",
+    "PROTOCOL_VERSION",
+    "ROBOT_EXTRAS",
+    "CurvatureModes",
+    "ElasticaSnake",
+    "MujocoRobot",
+    "ProcessRobot",
+    "Robot",
+    "RobotSpec",
+    "SwimmerStream",
+    "body_pose",
+    "body_velocity",
+    "check_cycle",
+    "check_robot",
+    "check_robot_members",
+    "curvature_profile",
+    "curvature_rate",
+    "dm_control_swimmer",
+    "elastica_snake",
+    "gymnasium_swimmer",
+    "load_mujoco_model",
+    "mujoco_swimmer",
+    "purcell_swimmer_xml",
+    "read_robot_spec",
+    "rod_from_curvature",
+    "snake_seed_gait",
+    "tangent_angles",
+]
