@@ -18,7 +18,7 @@ def _quiet_stream(gait=None, seed=0):
 
 
 def test_excitation_is_eq8_at_its_size_continuous_across_cycles():
-    exploration = Exploration(0.15, 2, np.random.default_rng(0))
+    exploration = Exploration(std=0.15).signal(1.0, 2, np.random.default_rng(0))
     cycles = [exploration.next_cycle(period=2.0) for _ in range(400)]
     delta = np.concatenate([c[0] for c in cycles])
     assert delta.std() == pytest.approx(0.15, rel=0.1)
@@ -79,8 +79,10 @@ def test_exploration_options_are_checked_before_the_robot_moves():
     with pytest.raises(ValueError, match="set_excitation"):
         InSituOptimizer(exploration=Exploration(std=0.1)).run(robot, 3)
     for bad in (-0.1, "yes", np.nan):
-        with pytest.raises(ValueError, match="'exploration'"):
+        with pytest.raises(ValueError, match="'std' parameter of Exploration"):
             InSituOptimizer(exploration=Exploration(std=bad)).run(robot, 3)
+    with pytest.raises(ValueError, match="'exploration' parameter of InSituOptimizer"):
+        InSituOptimizer(exploration=0.1).run(robot, 3)
     assert robot.stream.cycle == 0
     with pytest.warns(UserWarning, match="carry no exploration"):  # "auto": it cannot be commanded
         assert InSituOptimizer().run(robot, 4).log["excitation"].max() < 1e-12

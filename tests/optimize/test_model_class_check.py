@@ -69,22 +69,23 @@ def test_joints_that_cannot_follow_the_faster_cycles_leave_the_test_undecided():
 
 def test_the_second_period_respects_the_period_range_and_joint_speed():
     robot = LaggingRobot(cycle_period=1.0)
-    result = InSituOptimizer(period=PeriodSearch(period_range=(0.25, 1.5)), checks=[ModelClassTest(cycles=N)]).run(robot, 10)
+    test = [ModelClassTest(cycles=N)]
+    result = InSituOptimizer(period=PeriodSearch(period_range=(0.25, 1.5)), checks=test).run(robot, 10)
     assert result.log["cycle_period"].iloc[N + 1] == 0.5  # twice is beyond the range: half
-    with pytest.raises(ValueError, match="'model_class_cycles'.*period range and joint-velocity limit"):
-        InSituOptimizer(period=PeriodSearch(period_range=(0.8, 1.5)), checks=[ModelClassTest(cycles=N)]).run(LaggingRobot(), 3)
+    with pytest.raises(ValueError, match="'checks'.*period range and joint-velocity limit"):
+        InSituOptimizer(period=PeriodSearch(period_range=(0.8, 1.5)), checks=test).run(LaggingRobot(), 3)
 
 
 def test_bad_settings_are_named_before_the_robot_moves():
     robot = LaggingRobot()
     for bad in (1, 2, -1, 2.5, "3"):
-        with pytest.raises(ValueError, match="'model_class_cycles'"):
+        with pytest.raises(ValueError, match="'cycles' parameter of ModelClassTest"):
             InSituOptimizer(checks=[ModelClassTest(cycles=bad)]).run(robot, 3)
 
     class FixedPeriod(LaggingRobot):
         set_cycle_period = None
 
-    with pytest.raises(ValueError, match="set_cycle_period.*model_class_cycles"):
+    with pytest.raises(ValueError, match="set_cycle_period.*ModelClassTest"):
         InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(FixedPeriod(), 3)
     assert robot.periods == [] and robot.pose.tolist() == [0, 0, 0]
 

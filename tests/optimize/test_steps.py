@@ -84,7 +84,7 @@ def test_optimizer_searches_the_symmetric_family_of_a_symmetric_swimmer():
     assert any(MirrorGaitFamily(2).residual(gait) > 1e-6 for gait in free.gaits)  # offsets appear
     with pytest.raises(ValueError, match="'family' parameter of InSituOptimizer"):
         InSituOptimizer(family="helical").run(stream, 1)
-    with pytest.raises(ValueError, match="'step_rule' parameter of InSituOptimizer"):
+    with pytest.raises(ValueError, match="'rule' parameter of ModelStep"):
         InSituOptimizer(step=ModelStep(rule="newton")).run(stream, 1)
 
 

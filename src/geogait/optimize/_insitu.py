@@ -384,7 +384,7 @@ def _excites(exploration, spec: RobotSpec, owner: str) -> bool:
         return False
     if exploration != "auto" and not spec.excitation:
         raise fail("robot", owner, "a robot with set_excitation(shape, shape_velocity) for an Exploration "
-                   "(or exploration='auto' / None)", "a robot without it")
+                   "(or exploration='auto' / None)", spec.kind)
     return spec.excitation
 
 
@@ -394,7 +394,7 @@ def _period_range(search: PeriodSearch | None, spec: RobotSpec, period: float, o
         return None
     if not spec.period_control:
         raise fail("robot", owner, "a robot with set_cycle_period(seconds) for a PeriodSearch "
-                   "(e.g. geogait.robots.MujocoRobot)", "a robot without it")
+                   "(e.g. geogait.robots.MujocoRobot)", spec.kind)
     low, high = search.bounds(period)
     if not low <= period <= high:
         raise fail("period_range", owner, f"a range holding the robot's period ({period:g} s)", (low, high))
@@ -409,7 +409,7 @@ def _model_class_check(parts: Composition, spec: RobotSpec, gait: FourierGait, p
         return None
     if not spec.period_control:
         raise fail("robot", owner, "a robot with set_cycle_period(seconds) for a ModelClassTest (the test runs the "
-                   "seed gait at two periods)", "a robot without it")
+                   "seed gait at two periods)", spec.kind)
     low, high = period_range if period_range is not None else (0.0, np.inf)
     speed_limit = parts.limits.max_joint_velocity
     shortest = 0.0 if speed_limit is None else peak_phase_speed(gait) * 2 * np.pi / speed_limit

@@ -19,6 +19,8 @@ class RobotSpec:
 
     Parameters
     ----------
+    kind : str
+        The robot's class name (named in messages).
     n_joints : int
         Shape dimension d.
     cycle_period : float
@@ -42,6 +44,7 @@ class RobotSpec:
         The robot offers ``current_system()`` (a simulator's truth).
     """
 
+    kind: str
     n_joints: int
     cycle_period: float
     joint_ranges: np.ndarray | None = None
@@ -81,7 +84,7 @@ def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
     if getattr(robot, "resistive_medium", False) and callable(getattr(robot, "chain_geometry", None)):
         chain = robot.chain_geometry()
     return RobotSpec(
-        n_joints=int(robot.n_joints), cycle_period=float(robot.cycle_period),
+        kind=type(robot).__name__, n_joints=int(robot.n_joints), cycle_period=float(robot.cycle_period),
         joint_ranges=_joint_ranges(robot, owner),
         front_back_symmetric=_declared(robot, "front_back_symmetric",
                                        swimmer and bool(np.allclose(lengths, lengths[::-1]))),
