@@ -3,12 +3,15 @@ the batch baseline, the phase model and the Γ metric."""
 
 from ._adaptive import AdaptiveGaitModel
 from ._base import (
+    CAPABILITIES,
     MAX_PHASE,
+    GaitModel,
     check_gait_model,
     clone_for_gait,
     gamma,
     has_gait_model_members,
     load_model,
+    model_capabilities,
     model_from_state,
 )
 from ._batch import BatchGaitModel
@@ -21,7 +24,9 @@ from ._rls import RLSBank
 from ._shape_space import ShapeSpaceModel, monomial_exponents, monomials, symmetry_blocks
 
 __all__ = [
+    "CAPABILITIES",
     "MAX_PHASE",
+    "GaitModel",
     "AdaptiveGaitModel",
     "BatchGaitModel",
     "ModelMotion",
@@ -36,6 +41,7 @@ __all__ = [
     "gamma",
     "has_gait_model_members",
     "load_model",
+    "model_capabilities",
     "monomial_exponents",
     "monomials",
     "model_from_state",

@@ -11,6 +11,7 @@ in seconds at any cycle period gives the same gaits as one in cycles; at φ̇ = 
 from __future__ import annotations
 
 import functools
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -23,9 +24,8 @@ from ._displacement import predicted_displacement
 from ._features import PhaseWindows, n_regressors, regressors, split_coefficients
 from ._rls import schedule_rounds
 
-__all__ = ["GaitModelBase", "SampleModel", "PhaseWindowModel", "check_gait_model", "check_samples", "gamma",
-           "load_model",
-           "model_from_state"]
+__all__ = ["CAPABILITIES", "GaitModel", "GaitModelBase", "SampleModel", "PhaseWindowModel", "check_gait_model",
+           "check_samples", "gamma", "load_model", "model_capabilities", "model_from_state"]
 
 FORMAT = "geogait-model"
 _GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
@@ -47,6 +47,52 @@ GAIT_MODEL_CONSTRAINTS = {
     "interaction": Boolean(),
     "resolution": Integer(minimum=4),
 }
+
+
+@runtime_checkable
+class GaitModel(Protocol):
+    """What every gait model offers a closed loop (the optimiser, the path follower): its hyper-parameters and
+    the net motion it predicts for a gait. Further capabilities, each a set of members, are listed in
+    :data:`CAPABILITIES` and read by :func:`model_capabilities`."""
+
+    def get_params(self, deep: bool = True) -> dict:
+        """Hyper-parameters (scikit-learn's contract)."""
+        ...
+
+    def predict_displacement(self, gait, jacobian: bool = False):
+        """Net (x, y, heading) per cycle of ``gait`` (and its Jacobian in the gait's parameters)."""
+        ...
+
+
+#: A gait model's optional capabilities, each the members it needs (methods callable; learned attributes ending in
+#: ``_`` properties of the class). ``online``: learns sample by sample and moves with the gait (the Γ gate);
+#: ``online_gamma``: scores itself online (Γ); ``batch``: fits a block of cycles (the prior work's gate);
+#: ``rotation_spread``: the standard error of its predicted net rotation (set from ``prior_prediction_``, the
+#: a-priori prediction ``partial_fit`` leaves); ``residual_share``: how much of its prediction its structure leaves
+#: to the data; ``forget``: covariance resetting (the path follower); ``save``: ``get_state`` for checkpoints.
+CAPABILITIES = {
+    "online": ("partial_fit", "rebase"),
+    "online_gamma": ("partial_fit", "reset_gamma", "gamma_"),
+    "batch": ("fit",),
+    "rotation_spread": ("rotation_std",),
+    "residual_share": ("residual_share_",),
+    "forget": ("forget",),
+    "save": ("get_state",),
+}
+
+
+def model_capabilities(model) -> frozenset:
+    """The :data:`CAPABILITIES` ``model`` offers (a model's class decides them: an unfitted model has them too).
+
+    Parameters
+    ----------
+    model : GaitModel
+
+    Returns
+    -------
+    frozenset of str
+    """
+    return frozenset(name for name, members in CAPABILITIES.items() if _first_missing(model, members) is None)
 
 
 def check_gait_model(model, members, owner: str, parameter: str = "model", prefix: str = "a") -> None:

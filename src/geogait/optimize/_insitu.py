@@ -30,14 +30,14 @@ from .._estimator import Estimator, InstanceOf, Integer, Options
 from .._files import read_state
 from .._validation import GeogaitError, check_callback, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
-from ..models import check_gait_model, has_gait_model_members
+from ..models import check_gait_model
 from ..robots import RobotSpec, read_robot_spec
 from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
 from ._loop import CycleLoop, new_climb
 from ._measure import peak_phase_speed
 from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period
-from ._models import ONLINE_GAMMA, gate_kind, model_template, run_model, symmetric_chain_model
+from ._models import gate_kind, gate_members, model_template, run_model, symmetric_chain_model
 from ._objective import Objective, robot_feasibility
 from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
 from ._period import PeriodLineSearch
@@ -190,12 +190,12 @@ class InSituOptimizer(Estimator):
         if isinstance(self.exploration, Exploration):
             self.exploration.validate()
         gate = self.gate or Gate()
-        if gate.kind == "gamma" and not has_gait_model_members(model_template(self.model), ONLINE_GAMMA):
-            raise fail("gate", owner, "Gate(kind='cycles') for a model without an online Γ (gamma_, reset_gamma)",
-                       gate)
+        if gate.kind == "gamma":
+            check_gait_model(model_template(self.model), gate_members("gamma"), owner,
+                             prefix="for Gate(kind='gamma') a")
         if self.model is not None:
-            check_gait_model(self.model, ("get_params", "predict_displacement") + (
-                ("partial_fit", "rebase") if gate_kind(gate.kind, self.model) == "gamma" else ("fit",)), owner)
+            check_gait_model(self.model, ("get_params", "predict_displacement")
+                             + gate_members(gate_kind(gate.kind, self.model)), owner)
 
     def composition(self) -> Composition:
         """The parts a run uses, every ``None`` resolved to a fresh default part (validated first)."""

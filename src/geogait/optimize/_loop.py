@@ -13,6 +13,7 @@ from .._files import write_state
 from .._validation import GeogaitError, GeogaitWarning
 from ..gaits import FreeGaitFamily
 from ..learn import shape_amplitude
+from ..models import model_capabilities
 from ..simulate import Trajectory, TrueMotion
 from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb, climb_rule_for
@@ -40,6 +41,7 @@ class CycleLoop:
         self.optimizer, self.parts, self.robot, self.state, self.tag = optimizer, parts, robot, state, tag
         self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
         self.gate = parts.gate_kind
+        self.capabilities = model_capabilities(state.model)  # (of every model the run makes: one class)
         if state.structure_switched:  # (a resumed run that had switched)
             self._switch_structure()
         self.truth = _Oracle(robot, parts.objective.kind, self._evaluate)
@@ -139,7 +141,7 @@ class CycleLoop:
                                   or was_trial and not (search.trial_from is None and state.period == ran_period)))
         if state.check is not None:
             row["model_class_check"] = False
-        if hasattr(type(state.model), "residual_share_"):
+        if "residual_share" in self.capabilities:
             row["residual_share"] = self._residual_share() if not (settling or rejected) else np.nan
         if step or rejected or reverted:
             state.gaits.append(state.gait)
@@ -269,8 +271,9 @@ class CycleLoop:
     def _residual_share(self) -> float:
         """The model's ``residual_share_`` (NaN for a model without one, or not fitted yet)."""
         model = self.state.model
-        fitted = getattr(model, "__sklearn_is_fitted__", lambda: True)()
-        return float(getattr(model, "residual_share_", np.nan)) if fitted else np.nan
+        if "residual_share" not in self.capabilities or not getattr(model, "__sklearn_is_fitted__", lambda: True)():
+            return np.nan
+        return float(model.residual_share_)
 
     def _command_period(self) -> None:
         """Command the state's period; the robot may round it (its timing), and the run uses what it runs."""
@@ -753,7 +756,7 @@ class CycleLoop:
         metadata, arrays = self.state.to_checkpoint()
         model = self.state.model
         model_metadata = None
-        if hasattr(model, "get_state") and hasattr(model, "batch_shape_"):  # fitted
+        if "save" in self.capabilities and getattr(model, "__sklearn_is_fitted__", lambda: True)():
             model_metadata, model_arrays = model.get_state()
             arrays.update({f"model/{k}": np.asarray(v) for k, v in model_arrays.items()})
         robot_state = None

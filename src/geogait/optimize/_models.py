@@ -8,12 +8,9 @@ import numpy as np
 from .. import models
 from .._defaults import window_forgetting_factor
 from ..gaits import FourierGait, SymmetricGaitFamily
-from ..models import AdaptiveGaitModel, clone_for_gait, has_gait_model_members
+from ..models import CAPABILITIES, AdaptiveGaitModel, clone_for_gait, model_capabilities
 
-__all__ = ["ONLINE_GAMMA", "gate_kind", "model_template", "run_model", "symmetric_chain_model"]
-
-#: What a model needs for the online gate (``gate="gamma"``).
-ONLINE_GAMMA = ("partial_fit", "reset_gamma", "gamma_")
+__all__ = ["gate_kind", "gate_members", "model_template", "run_model", "symmetric_chain_model"]
 
 
 def symmetric_chain_model(n_joints: int, shape_scale: float = 1.0):
@@ -50,7 +47,14 @@ def gate_kind(gate: str | None, model) -> str:
     """The gate a run uses: ``gate``, or ``"gamma"`` for a model with online Γ and ``"cycles"`` otherwise."""
     if gate is not None:
         return gate
-    return "gamma" if has_gait_model_members(model_template(model), ONLINE_GAMMA) else "cycles"
+    return "gamma" if "online_gamma" in model_capabilities(model_template(model)) else "cycles"
+
+
+def gate_members(kind: str) -> tuple:
+    """What a model needs of the :class:`~geogait.models.GaitModel` protocol for a gate of ``kind``."""
+    if kind == "gamma":
+        return tuple(dict.fromkeys(CAPABILITIES["online"] + CAPABILITIES["online_gamma"]))
+    return CAPABILITIES["batch"]
 
 
 def run_model(model, gait: FourierGait, period: float, family=None, scale: float = 1.0):

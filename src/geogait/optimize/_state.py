@@ -13,7 +13,7 @@ from .._defaults import MAX_JOINT_ANGLE
 from .._files import read_state
 from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
-from ..models import has_gait_model_members, model_from_state
+from ..models import model_capabilities, model_from_state
 from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb
 from ._exploration import ExcitationSignal
@@ -125,9 +125,10 @@ class RunState:
             self.iteration_data.append(args)
             return
         self.model.partial_fit(*args)
-        error = float(np.mean((self.model.prior_prediction_[..., 2] - chunk.body_velocity[..., 2]) ** 2))
-        previous = self.residual_variance
-        self.residual_variance = error if np.isnan(previous) else 0.8 * previous + 0.2 * error
+        if "rotation_spread" in model_capabilities(self.model):  # (its ω error sizes the rotation's spread)
+            error = float(np.mean((self.model.prior_prediction_[..., 2] - chunk.body_velocity[..., 2]) ** 2))
+            previous = self.residual_variance
+            self.residual_variance = error if np.isnan(previous) else 0.8 * previous + 0.2 * error
         if self.iteration > 0 and self.cycles_in_iteration == 1:
             self.model.reset_gamma()  # the fresh baseline has now seen the new gait once
             self.gamma = np.nan
@@ -143,7 +144,7 @@ class RunState:
         ``rotation_std``, with σ²_ω the recent mean squared a-priori error of ω): only a predicted rotation
         beyond twice this is treated as real and restored. A model without ``rotation_std`` (the batch
         model, a model of your own) reports 0: every predicted rotation is real."""
-        if not has_gait_model_members(self.model, ("rotation_std",)):
+        if "rotation_spread" not in model_capabilities(self.model):
             return 0.0
         if not np.isfinite(self.residual_variance):
             return np.inf
