@@ -1,0 +1,192 @@
+"""The measured climb's moves in a run (the :class:`~geogait.optimize.Climb` part at work): start it, propose
+and judge its candidates, hand the steps back to the model."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..gaits import FreeGaitFamily
+from ._bayes import BayesianSearch
+from ._climb import climb_rule_for
+from ._objective import joint_limit_constraints
+from ._search import QuadraticSearch, onto_joint_limit
+
+
+class ClimbSteps:
+    """Methods of :class:`~geogait.optimize._loop.CycleLoop` (a mixin: it reads the loop's ``parts``, ``state``
+    and ``robot``)."""
+
+    def _start_climb(self, base: tuple | None = None, sigma: float | None = None) -> None:
+        """Hand the steps to the measured climb, from the best gait measured so far (measured again:
+        the climb's cycles carry no exploration when the optimiser owns it), at step ``sigma`` (default
+        the Climb's ``sigma``). A period trial in progress is dropped: while climbing, the period is
+        one of the climb's coordinates."""
+        state = self.state
+        best = self._best_key() if base is None else base
+        state.climb.start(best, self.parts.climb.sigma * state.scale if sigma is None else sigma)
+        if self.parts.climb.rule != "es":
+            state.climb.search = self._new_search(best, state.climb.sigma)
+        if state.period_search is not None:
+            state.period_search.trial_from = None
+
+    def _new_search(self, base: tuple, radius: float) -> QuadraticSearch | BayesianSearch:
+        """The climb rule's search from ``base`` = (gait, period) at trust radius (half-width) ``radius`` down
+        to the smallest trust radius."""
+        state = self.state
+        origin = state.family.params_of(base[0], tolerance=1e-8)
+        if state.period_search is not None:
+            origin = np.append(origin, 0.0)
+        settings = dict(origin=origin, radius=radius, period=base[1],
+                        final_radius=self.parts.climb.min_sigma * state.scale)
+        if climb_rule_for(self.parts.climb.rule, origin.size, self.parts.safety.settle_cycles) == "bayes":
+            return BayesianSearch(**settings, seed=int(state.rng.integers(2**31 - 1)))
+        return QuadraticSearch(**settings)
+
+    def _best_key(self) -> tuple:
+        """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
+        state = self.state
+        current = (state.gait, state.period)
+        keys = [k for k, v in state.measured.items() if len(v) >= 2 or k == current]
+        return max(keys, key=lambda k: float(np.mean(state.measured[k]))) if keys else current
+
+    def _climb_move(self) -> bool:
+        """The climb's turn at a gate decision (:class:`MeasuredClimb`): judge the candidate just measured,
+        go back to the base to measure it again after three failures, or command the next candidate;
+        returns whether the gait changed."""
+        state, parts, climb = self.state, self.parts, self.state.climb
+        key = (state.gait, state.period)
+        measured = climb.measured
+        if np.isnan(climb.rotation_limit) and climb.base in measured:  # the start base, measured as the climb
+            rotation = abs(float(np.mean(climb.rotations[climb.base])))  # measures (clean, when it can)
+            climb.rotation_limit = max(rotation, parts.climb.rotation_tolerance)
+        if climb.candidate is not None:
+            if climb.candidate == key and climb.base in measured:
+                if climb.search is not None:
+                    climb.search.tell(climb.pending, np.mean(measured[key]), np.mean(climb.rotations[key]))
+                kept = climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
+                                   self._rotation_holds(key, climb.base),
+                                   tests_model=climb.search is None or not climb.search.designing)
+                if kept:
+                    self._follow_tracking()
+                # back to model steps (unless outside its class), from the best gait, on a fresh record
+                if climb.model_trusted_again and not self._model_excluded():
+                    climb.active = False
+                    state.distrust = state.prediction_failures = state.stall = 0
+                    state.radius = parts.step.trust_radius * state.scale
+                    state.measured, state.rotations = {}, {}
+                    self._change_gait(*climb.base)
+                    state.previous_gait = None  # (the base was accepted: never refused back to a failed candidate)
+                    state.tracking_follows = True  # the model's steps are held to what the base tracks
+                    return True
+            climb.candidate = None  # a candidate left early (rejected) is not judged
+        remeasure = climb.search is None and key != climb.base and climb.failures >= 3  # (COBYQA: its own model)
+        if climb.base not in measured or remeasure:
+            climb.failures = 0  # measure the base (again: it may have been lucky)
+            self._change_gait(*climb.base)
+            return True
+        return self._climb_candidate()
+
+    def _climb_candidate(self) -> bool:
+        """Command the climb's next candidate: σ from the base in its next direction, shortened until it
+        keeps the joint limits and the feasible region."""
+        state, climb = self.state, self.state.climb
+        if climb.search is not None:
+            return self._search_candidate()
+        base_gait, base_period = climb.base
+        family, search = state.family, state.period_search
+        base = family.params_of(base_gait, tolerance=1e-8)
+        # with optimize_period, log T is one more coordinate (σ / shape_scale in log units)
+        direction = climb.next_direction(state.rng, base.size + (search is not None))
+        for shrink in range(6):
+            length = climb.sigma * 0.5 ** shrink
+            gait = family.gait(base + length * direction[:base.size])
+            period = base_period
+            if search is not None:
+                period = float(np.clip(base_period * np.exp(length * direction[-1] / state.scale),
+                                       search.low, search.high))
+            if self._runnable(gait, period):
+                break
+        else:
+            climb.sigma = max(climb.min_sigma, climb.sigma / 2)
+            return False
+        return self._command_candidate(gait, period)
+
+    def _known_feasibility(self, point) -> np.ndarray:
+        """The feasible region's tightest row at a search point's gait (scaled onto the joint limit),
+        feasible where ≤ 0: COBYQA's known constraint."""
+        state = self.state
+        gait = onto_joint_limit(state.family, point[:state.family.n_params], state.max_joint_angle)
+        return np.array([-state.feasibility(gait.params)[0].min()])
+
+    def _runnable(self, gait, period) -> bool:
+        """``gait`` at ``period`` keeps the joint angle limit (its largest angle over the cycle, exactly: a gait
+        scaled onto the limit runs), the joint speed limit and the feasible region."""
+        parts, state = self.parts, self.state
+        if gait.joint_limit().max() > state.max_joint_angle * (1 + 1e-9):
+            return False
+        if parts.limits.max_joint_velocity is not None:
+            speed = parts.limits.max_joint_velocity * period / (2 * np.pi)
+            rows, bounds = joint_limit_constraints(gait.n_joints, parts.order, None, speed)  # speed rows only
+            if np.any(rows @ gait.params > bounds + 1e-12):
+                return False
+        return state.feasibility is None or bool(state.feasibility(gait.params)[0].min() >= 0)
+
+    def _command_candidate(self, gait, period) -> bool:
+        state, climb = self.state, self.state.climb
+        base_gait, base_period = climb.base
+        climb.predicted_gain = (self._predict(gait)[1] * state.rate(period)
+                                - self._predict(base_gait)[1] * state.rate(base_period))
+        climb.candidate = (gait, period)
+        self._change_gait(gait, period)
+        return True
+
+    def _search_candidate(self) -> bool:
+        """Command the search's next point (:class:`QuadraticSearch`, :class:`BayesianSearch`), scaled back onto
+        the joint limit when beyond it; one that breaks another limit (joint speed, the feasible region) is
+        answered with the worst value measured, unrun. A converged search starts afresh from the base."""
+        state, climb = self.state, self.state.climb
+        n = state.family.n_params
+        for _ in range(100):
+            search = climb.search
+            if not search.values:  # its origin is the base, as the climb measured it
+                search.tell(search.origin, np.mean(climb.measured[climb.base]),
+                            np.mean(climb.rotations[climb.base]))
+            box = None
+            if state.period_search is not None:
+                low, high = (state.scale * np.log(t / search.period)
+                             for t in (state.period_search.low, state.period_search.high))
+                box = [(-np.inf, np.inf)] * n + [(low, high)]
+            rotation = climb.rotation_limit if isinstance(state.family, FreeGaitFamily) else None
+            known = None if state.feasibility is None else self._known_feasibility
+            point = search.next(box, known, rotation)
+            if point is None:  # converged at its smallest radius: afresh from the base
+                climb.search = self._new_search(climb.base, climb.max_sigma / 4)
+                continue
+            gait = onto_joint_limit(state.family, point[:n], state.max_joint_angle)
+            period = search.period if state.period_search is None else \
+                float(search.period * np.exp(point[n] / state.scale))
+            if self._runnable(gait, period):
+                climb.pending = point
+                return self._command_candidate(gait, period)
+            search.refuse(point)
+        return False
+
+    def _rotation_holds(self, key, base) -> bool:
+        """The candidate's mean measured net rotation is within the climb's rotation limit (the start
+        base's, fixed) beyond twice its standard error.
+
+        In a rotation-free family every commanded gait turns a principally kinematic body by exactly
+        zero, so what a single cycle measures is mostly noise: there the limit is at least twice the RMS
+        rotation of every clean cycle the climb has measured (a gait that turns stands out of that
+        spread; one within it cannot be told from noise).
+        """
+        climb = self.state.climb
+        rotations = np.asarray(climb.rotations.get(key, []))
+        if rotations.size == 0:
+            return True
+        error = float(np.std(rotations, ddof=1) / np.sqrt(rotations.size)) if rotations.size > 1 else 0.0
+        limit = climb.rotation_limit
+        if not isinstance(self.state.family, FreeGaitFamily):
+            measured = np.concatenate([np.asarray(v, dtype=float) for v in climb.rotations.values()])
+            limit = max(limit, 2 * float(np.sqrt(np.mean(measured ** 2))))
+        return abs(float(rotations.mean())) <= limit + 2 * error
