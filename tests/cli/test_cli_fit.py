@@ -2,6 +2,8 @@
 
 import json
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
@@ -192,3 +194,53 @@ def test_fit_refuses_a_folder_whose_files_include_its_inputs(fitted, tmp_path):
                                       "--smoothing-window", "21", "--out", str(project)])
     assert result.exit_code == 1 and "a file other than the inputs (it would be overwritten)" in result.stderr
     assert mapping.read_bytes() == before and sorted(p.name for p in project.iterdir()) == ["mapping.json"]
+
+
+# -- the folder lock -------------------------------------------------------------------------------
+@pytest.fixture
+def holder():
+    """Another process holding the lock of a folder (as a run writing it does) until the test ends."""
+    processes = []
+
+    def hold(folder):
+        process = subprocess.Popen([sys.executable, "-c", "import sys; from geogait._files import OutputLock; "
+                                    "lock = OutputLock(sys.argv[1]); print('held', flush=True); sys.stdin.read()",
+                                    str(folder)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        processes.append(process)
+        assert process.stdout.readline() == "held\n"
+        return process.pid
+
+    yield hold
+    for process in processes:
+        process.stdin.close()
+        process.wait(timeout=30)
+
+
+def test_fit_and_predict_are_refused_while_another_run_writes_their_folder(fitted, tmp_path, holder):
+    """Issue 58, finding 2: fit and predict take the folder lock optimize takes; a second run into a folder
+    being written is one error line naming the process, exit 1, and writes nothing (no folder left behind)."""
+    _, folder, _ = fitted
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    pid = holder(busy)
+    fit = ["fit", str(folder / "log.csv"), *POSE_OPTIONS, "--out"]
+    predict = ["predict", str(folder / "out" / "model.npz"), str(folder / "log.csv"), "--phaser",
+               str(folder / "out" / "phaser.npz"), "--mapping", str(folder / "out" / "mapping.json")]
+    for command in ([*fit, str(busy)], [*predict, "--out", str(busy / "p.csv")],
+                    [*predict, "--out", str(tmp_path / "new" / "p.csv"), "--summary", str(busy / "p.json")]):
+        result = CliRunner().invoke(app, command)
+        assert result.exit_code == 1, result.output
+        assert result.stderr.splitlines() == [f"error: The output folder {busy} is being written by another "
+                                              f"geogait run (process {pid}); wait for it to finish or choose "
+                                              "another --out."]
+    assert [p.name for p in busy.iterdir()] == [".geogait.lock"] and not (tmp_path / "new").exists()
+
+
+def test_predict_leaves_no_lock_file_in_the_folder_it_writes_into(fitted, tmp_path):
+    _, folder, _ = fitted
+    out = folder / "out"
+    result = CliRunner().invoke(app, ["predict", str(out / "model.npz"), str(folder / "log.csv"), "--phaser",
+                                      str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"),
+                                      "--out", str(tmp_path / "p.csv")])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv", "p.json"]
