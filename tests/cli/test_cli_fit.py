@@ -244,3 +244,21 @@ def test_predict_leaves_no_lock_file_in_the_folder_it_writes_into(fitted, tmp_pa
                                       "--out", str(tmp_path / "p.csv")])
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv", "p.json"]
+
+
+def test_fit_and_predict_refuse_a_log_naming_a_used_column_twice(fitted, tmp_path):
+    """Issue 58, finding 6: both used the first of two `q0` columns silently."""
+    _, folder, _ = fitted
+    frame = pd.read_csv(folder / "log.csv")
+    pd.concat([frame, frame[["q0"]] * 2], axis=1).to_csv(tmp_path / "twice.csv", index=False)
+    out = folder / "out"
+    for command in (["fit", str(tmp_path / "twice.csv"), *POSE_OPTIONS, "--out", str(tmp_path / "fit")],
+                    ["predict", str(out / "model.npz"), str(tmp_path / "twice.csv"), "--phaser",
+                     str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"), "--out",
+                     str(tmp_path / "p.csv")]):
+        result = CliRunner().invoke(app, command)
+        assert result.exit_code == 1, result.output
+        assert result.stderr.splitlines() == ["error: The 'source' parameter of read_log must be a table whose used "
+                                              "columns appear once each. Got \"the column(s) ['q0'] more than "
+                                              "once\" instead."]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["twice.csv"]

@@ -68,3 +68,13 @@ def test_stream_goes_on_learning_in_the_model_it_was_given(run, config, tmp_path
     assert stream(model, "--out", model, text=lines(run, 100, 150)).exit_code == 0
     assert load_model(model).n_samples_seen_ == 150
     assert pd.read_json(model.with_name("m.stream.json"), typ="series")["command"] == "stream"
+
+
+def test_stream_refuses_a_csv_header_naming_a_used_column_twice(run, config, tmp_path):
+    """Issue 58, finding 6: the stream used the last of two `shape_0` columns (fit and predict the first)."""
+    frame = run.to_pandas()
+    text = pd.concat([frame, frame[["shape_0"]] * 2], axis=1).to_csv(index=False)
+    result = stream(config, "--format", "csv", "--out", tmp_path / "m.npz", text=text)
+    one_error_line(result, "'header' parameter of input line 1 must be a CSV header naming each column once",
+                   "['shape_0'] more than once")
+    assert not (tmp_path / "m.npz").exists()

@@ -281,6 +281,33 @@ def test_cells_that_are_not_real_numbers_and_repeated_columns_are_named():
         read_log(pd.concat([frame, frame[["q1"]]], axis=1), **COLUMNS)
 
 
+@pytest.mark.parametrize("repeated", ["q0", "x"])
+def test_a_csv_naming_a_used_column_twice_is_refused_naming_it(tmp_path, repeated):
+    """Issue 58, finding 6: pandas reads a repeated CSV header name as `q0.1`, so the first column was used
+    silently; a repeated unused column is read as before."""
+    from geogait import GeogaitError
+
+    frame = small_log(200)
+    pd.concat([frame, frame[[repeated]] + 1.0], axis=1).to_csv(tmp_path / "log.csv", index=False)
+    with pytest.raises(GeogaitError, match=rf"used columns appear once each. Got \"the column\(s\) \['{repeated}'\]"):
+        read_log(tmp_path / "log.csv", **COLUMNS)
+    note = frame[["t"]].rename(columns={"t": "note"})
+    pd.concat([frame, note, note], axis=1).to_csv(tmp_path / "notes.csv", index=False)
+    assert read_log(tmp_path / "notes.csv", **COLUMNS).n_samples == 200
+
+
+def test_a_streamed_csv_header_naming_a_used_column_twice_is_refused_naming_it():
+    import io
+
+    from geogait import GeogaitError
+    from geogait.io import CsvReader
+
+    header = "time,shape_0,shape_1,shape_0,body_velocity_x,body_velocity_y,body_velocity_theta\n"
+    with pytest.raises(GeogaitError, match=r"'header' parameter of input line 1 must be a CSV header naming each "
+                                           r"column once. Got \"the column\(s\) \['shape_0'\] more than once"):
+        list(CsvReader(io.StringIO(header + "0,1,2,3,4,5,6\n"), 2))
+
+
 def test_a_robot_put_back_between_two_recordings_is_not_an_outlier():
     """Two segments a minute apart, the robot 2 m further on in the second: the pose steps are checked within
     each segment; the same jump inside one recording is still refused."""

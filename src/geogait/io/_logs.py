@@ -65,6 +65,7 @@ the source row of every sample.
 
 from __future__ import annotations
 
+import csv
 import json
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
@@ -559,12 +560,23 @@ def load_frame(source) -> pd.DataFrame:
         raise fail("source", _READ, "an existing file", f"{path} ({describe_path_kind(path) or 'does not exist'})")
     kind = "CSV" if suffix == ".csv" else "Parquet"
     try:
-        return pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+        return _read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, pa.ArrowException,
             ValueError) as error:
         reason = " ".join(str(error).split())[:200]
         raise GeogaitError(f"The 'source' parameter of {_READ} must be a readable {kind} file. Got {str(path)!r} "
                            f"({reason}) instead.") from None
+
+
+def _read_csv(path: Path) -> pd.DataFrame:
+    """The CSV file ``path`` as a table whose columns carry the header's names as written: pandas renames a
+    repeated name (``shape_0``, ``shape_0.1``), which would hide it from the check of the used columns."""
+    frame = pd.read_csv(path)
+    with open(path, encoding="utf-8-sig", newline="") as stream:
+        header = next(csv.reader(stream), [])
+    if len(set(header)) < len(header) and len(header) == frame.shape[1]:
+        frame.columns = header
+    return frame
 
 
 def _numeric_columns(frame: pd.DataFrame, columns: ColumnMapping) -> dict[str, np.ndarray]:
