@@ -220,8 +220,8 @@ def test_stream_warns_when_time_stamps_disagree_with_the_model(run, config, tmp_
     result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "m.npz")], input=text)
     assert result.exit_code == 0 and "warning: The stream's phase advances at 0.006283 rad per time unit" \
         in result.stderr, result.stderr
-    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "m.npz"), "--time-unit", "ms"],
-                                input=text)
+    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "m.npz"), "--time-unit", "ms",
+                                      "--overwrite"], input=text)
     assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
 
 

@@ -118,7 +118,8 @@ def refuse_existing(paths, *, overwrite: bool) -> None:
     """
     if overwrite:
         return
-    existing = [Path(path) for path in paths if Path(path).exists()]
+    # (a folder in a file's place is not an earlier run's file: the write's own check names it)
+    existing = [Path(path) for path in paths if Path(path).exists() and not Path(path).is_dir()]
     if existing:
         more = f" (and {len(existing) - 1} more of the files this run writes)" if len(existing) > 1 else ""
         raise GeogaitError(f"{existing[0]} exists{more}; give --overwrite to replace it, or choose another --out.")
