@@ -453,7 +453,7 @@ def test_degrees_given_as_radians_are_warned_about(run, config, tmp_path):
     (lambda r: (r.phase, r.shape + 1j, r.shape_velocity, r.body_velocity), r"'shape' .* real numbers. Got 'complex"),
     (lambda r: (r.phase.astype(str), r.shape, r.shape_velocity, r.body_velocity), r"'phase' .* Got 'text \(<U"),
     (lambda r: (r.phase, r.shape, r.shape_velocity.astype(object).astype(str).astype(object), r.body_velocity),
-     r"'shape_velocity' .* Got 'text or complex numbers among"),
+     r"'shape_velocity' .* Got 'text, booleans or complex numbers among"),
     (lambda r: (r.phase[None, :0], r.shape[None, :0], r.shape_velocity[None, :0], r.body_velocity[None, :0]),
      r"at least one sample"),
     (lambda r: (r.phase[None][:0], r.shape[None][:0], r.shape_velocity[None][:0], r.body_velocity[None][:0]),

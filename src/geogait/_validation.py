@@ -61,20 +61,27 @@ def check_float(
     return value
 
 
-def _not_real(value) -> str | None:
-    """What makes ``value`` other than real numbers (complex numbers, text), or None."""
-    dtype = getattr(value, "dtype", None)
+def not_real(value) -> str | None:
+    """What makes ``value`` other than real numbers (complex numbers, booleans, text), or None: NumPy would
+    cast each silently (dropping an imaginary part, reading True as 1)."""
+    dtype, items = getattr(value, "dtype", None), None
     if not isinstance(dtype, np.dtype):  # a list, a scalar: as NumPy reads it (a ragged one fails later)
         try:
             dtype = np.asarray(value).dtype
+            items = np.asarray(value, dtype=object).flat  # (a mixed list: NumPy reads [1, True] as [1, 1])
         except (TypeError, ValueError):
             return None
+    elif dtype.kind == "O":
+        items = np.asarray(value).flat
     if dtype.kind == "c":
         return "complex numbers"
+    if dtype.kind == "b":
+        return "booleans (True/False), not numbers"
     if dtype.kind in "USV":
         return f"text ({dtype}), not numbers"
-    if dtype.kind == "O" and any(isinstance(item, str | bytes | complex) for item in np.asarray(value).flat):
-        return "text or complex numbers among its values"
+    if items is not None and any(isinstance(item, str | bytes | complex | bool | np.bool_ | np.complexfloating)
+                                 for item in items):
+        return "text, booleans or complex numbers among its values"
     return None
 
 
@@ -96,8 +103,8 @@ def check_array(
     """
     if value is None:
         raise fail(name, owner, "an array of real numbers", None)
-    what = _not_real(value)
-    if what is not None:  # (float() would drop an imaginary part or read "1.5" as a number)
+    what = not_real(value)
+    if what is not None:  # (float() would drop an imaginary part, read True as 1 or "1.5" as a number)
         raise fail(name, owner, "an array of real numbers", what)
     try:
         array = np.asarray(value, dtype=float)
