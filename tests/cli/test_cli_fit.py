@@ -262,3 +262,37 @@ def test_fit_and_predict_refuse_a_log_naming_a_used_column_twice(fitted, tmp_pat
                                               "columns appear once each. Got \"the column(s) ['q0'] more than "
                                               "once\" instead."]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["twice.csv"]
+
+
+# -- logs that fit or predict cannot score as given ---------------------------------------------------------
+def test_a_log_in_which_the_robot_stood_still_gives_one_clear_warning(tmp_path):
+    """Issue 58 (confusing): a standing-still log gave numpy's 'invalid value encountered in scalar divide' and Γ
+    null without a word; now one warning saying why, and Γ printed as undefined."""
+    run = simulate(PurcellSwimmer(3), seed_gait(2), 12, seed=0, samples_per_cycle=100)
+    pd.DataFrame({"time": run.time, "q0": run.shape[:, 0], "q1": run.shape[:, 1], "x": 0.0, "y": 0.0,
+                  "yaw": 0.0}).to_csv(tmp_path / "still.csv", index=False)
+    result = CliRunner().invoke(app, ["fit", str(tmp_path / "still.csv"), "--shape", "q0,q1", "--pose", "x,y,yaw",
+                                      "--out", str(tmp_path / "fit")])
+    assert result.exit_code == 0, result.output
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("warning: ")]
+    assert warnings == ["warning: The measured body velocity of the log given to fit_log is zero at every held-out "
+                        "sample: the robot stood still, so Γ says nothing about its motion (null where the model and "
+                        "the phase-model baseline both predict the standstill exactly)."]
+    assert "held-out Γ undefined over 3 cycles" in result.stderr
+    results = json.loads((tmp_path / "fit" / "report.json").read_text())["results"]
+    assert results["held_out_gamma"] is None
+
+
+def test_predict_warns_of_angles_in_degrees_as_fit_does(fitted, tmp_path):
+    """Issue 58 (confusing): predict on a log in degrees gave Γ −2,949.6 without the warning fit gives."""
+    _, folder, _ = fitted
+    frame = pd.read_csv(folder / "log.csv")
+    frame[["q0", "q1"]] = np.rad2deg(frame[["q0", "q1"]])
+    frame.to_csv(tmp_path / "degrees.csv", index=False)
+    out = folder / "out"
+    result = CliRunner().invoke(app, ["predict", str(out / "model.npz"), str(tmp_path / "degrees.csv"), "--phaser",
+                                      str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"), "--out",
+                                      str(tmp_path / "p.csv")])
+    assert result.exit_code == 0, result.output
+    assert re.search(r"^warning: The 'shape' values of predict_log reach [0-9.]+, more than a full turn \(2π\): "
+                     "geogait expects radians; were they given in degrees\\?$", result.stderr, re.MULTILINE)

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
@@ -130,7 +131,7 @@ def fit(
         paths = result.save(out, mapping=columns, extra={"command": "fit", **versions(), "options": options,
                                                          "wall_time_s": round(time.perf_counter() - started, 3)})
     summary = result.summary()
-    typer.echo(f"held-out Γ {summary['held_out_gamma']:.3f} over {summary['n_test_cycles']} cycles "
+    typer.echo(f"held-out Γ {_gamma_text(summary['held_out_gamma'])} over {summary['n_test_cycles']} cycles "
                f"({summary['n_train_cycles']} training); online Γ {summary['online_gamma_end']:.3f}; "
                f"gait order {summary['gait_order']}; phase rate {summary['phase_rate']:.4g} rad per time unit",
                err=True)
@@ -196,9 +197,14 @@ def predict(
                                    "phaser": None if phaser is None else str(phaser), "options": options,
                                    "wall_time_s": round(time.perf_counter() - started, 3)})
     value = result.gamma()
-    typer.echo(f"Γ {value:.3f} over {data.n_samples} samples" if value is not None
+    typer.echo(f"Γ {_gamma_text(value)} over {data.n_samples} samples" if value is not None
                else f"predicted {data.n_samples} samples (no measured body velocity: no Γ)", err=True)
     typer.echo(f"wrote {paths[0]} and {paths[1]}", err=True)
+
+
+def _gamma_text(value: float) -> str:
+    """Γ as printed: three decimals, or 'undefined' (NaN: a log in which the robot stood still)."""
+    return "undefined" if np.isnan(value) else f"{value:.3f}"
 
 
 def _check_log(log: Path) -> None:
