@@ -220,8 +220,8 @@ def test_stream_warns_when_time_stamps_disagree_with_the_model(run, config, tmp_
     result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "m.npz")], input=text)
     assert result.exit_code == 0 and "warning: The stream's phase advances at 0.006283 rad per time unit" \
         in result.stderr, result.stderr
-    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "m.npz"), "--time-unit", "ms"],
-                                input=text)
+    result = CliRunner().invoke(app, ["stream", str(config), "--out", str(tmp_path / "m.npz"), "--time-unit", "ms",
+                                      "--overwrite"], input=text)
     assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
 
 
@@ -453,7 +453,7 @@ def test_degrees_given_as_radians_are_warned_about(run, config, tmp_path):
     (lambda r: (r.phase, r.shape + 1j, r.shape_velocity, r.body_velocity), r"'shape' .* real numbers. Got 'complex"),
     (lambda r: (r.phase.astype(str), r.shape, r.shape_velocity, r.body_velocity), r"'phase' .* Got 'text \(<U"),
     (lambda r: (r.phase, r.shape, r.shape_velocity.astype(object).astype(str).astype(object), r.body_velocity),
-     r"'shape_velocity' .* Got 'text or complex numbers among"),
+     r"'shape_velocity' .* Got 'text, booleans or complex numbers among"),
     (lambda r: (r.phase[None, :0], r.shape[None, :0], r.shape_velocity[None, :0], r.body_velocity[None, :0]),
      r"at least one sample"),
     (lambda r: (r.phase[None][:0], r.shape[None][:0], r.shape_velocity[None][:0], r.body_velocity[None][:0]),

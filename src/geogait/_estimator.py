@@ -24,7 +24,7 @@ from typing import ClassVar
 import numpy as np
 
 from ._files import read_state, write_state
-from ._validation import GeogaitError, check_choice, check_float, check_int, fail
+from ._validation import GeogaitError, check_choice, check_float, check_int, check_magnitude, fail
 
 __all__ = ["Boolean", "Estimator", "InstanceOf", "Integer", "Options", "Real", "check_is_fitted",
            "estimator_from_state", "read_estimator"]
@@ -283,6 +283,8 @@ def estimator_from_state(metadata: dict, state: dict, file_format: str | None = 
             what = "NaN or infinity" if value.dtype.kind == "f" else f"{value.dtype} values"
             raise GeogaitError(f"the {_kind(file_format)} array {name!r} holds {what}; geogait never saves such a "
                                "state (the file was changed or corrupted).")
+        if value.dtype.kind == "f":  # (nor values beyond the bound every input is held to)
+            check_magnitude(value, name, f"the saved {_kind(file_format)}")
     if not isinstance(metadata.get("params"), dict):
         raise GeogaitError(f"inconsistent {_kind(file_format)} state (corrupt file): no hyper-parameters.")
     try:

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import GeogaitError, fail
+from ._validation import MAX_MAGNITUDE, GeogaitError, fail
 
 __all__ = ["OutputLock", "RepeatedKey", "atomic_savez", "atomic_write", "check_outputs", "check_writable",
            "default_summary_path", "describe_path_kind", "dumps_json", "json_ready", "output_set", "read_state",
@@ -352,16 +352,20 @@ def write_state(path, metadata: dict, state: dict[str, np.ndarray], *, require_f
     """Atomically write ``metadata`` (JSON) and ``state`` arrays to ``path``.
 
     With ``require_finite`` (models and phasers), refuses with :class:`~geogait.GeogaitError`,
-    writing nothing, when a floating-point array holds NaN or infinity: a non-finite model never
-    replaces a good file. Records that hold NaN on purpose (a log with "no value yet") pass False.
+    writing nothing, when a floating-point array holds NaN, infinity or a value beyond ±1e12
+    (:data:`~geogait._validation.MAX_MAGNITUDE`, what loading accepts): such a model never replaces a good
+    file. Records that hold NaN on purpose (a log with "no value yet") pass False.
     """
     arrays = {f"state/{name}": np.asarray(value) for name, value in state.items()}
-    bad = [name for name, value in arrays.items()
-           if require_finite and np.issubdtype(value.dtype, np.inexact) and not np.all(np.isfinite(value))]
-    if bad:
-        raise GeogaitError(f"Refusing to save {Path(path)}: the state went non-finite (NaN or inf in "
-                           f"{', '.join(name.removeprefix('state/') for name in bad)}); the previous file, "
-                           "if any, is kept.")
+    floats = {name.removeprefix("state/"): value for name, value in arrays.items()
+              if require_finite and np.issubdtype(value.dtype, np.inexact) and value.size}
+    for what, bad in (("non-finite (NaN or inf in", [name for name, value in floats.items()
+                                                     if not np.all(np.isfinite(value))]),
+                      (f"beyond ±{MAX_MAGNITUDE:g} (in", [name for name, value in floats.items()
+                                                         if not float(np.max(np.abs(value))) <= MAX_MAGNITUDE])):
+        if bad:
+            raise GeogaitError(f"Refusing to save {Path(path)}: the state went {what} {', '.join(bad)}); the "
+                               "previous file, if any, is kept.")
     # json.dumps as written since format version 1: readers (optimiser checkpoints) rely on NaN round trips
     arrays["metadata"] = np.frombuffer(json.dumps(metadata).encode(), dtype=np.uint8)
     return atomic_savez(path, arrays)

@@ -61,20 +61,27 @@ def check_float(
     return value
 
 
-def _not_real(value) -> str | None:
-    """What makes ``value`` other than real numbers (complex numbers, text), or None."""
-    dtype = getattr(value, "dtype", None)
+def not_real(value) -> str | None:
+    """What makes ``value`` other than real numbers (complex numbers, booleans, text), or None: NumPy would
+    cast each silently (dropping an imaginary part, reading True as 1)."""
+    dtype, items = getattr(value, "dtype", None), None
     if not isinstance(dtype, np.dtype):  # a list, a scalar: as NumPy reads it (a ragged one fails later)
         try:
             dtype = np.asarray(value).dtype
+            items = np.asarray(value, dtype=object).flat  # (a mixed list: NumPy reads [1, True] as [1, 1])
         except (TypeError, ValueError):
             return None
+    elif dtype.kind == "O":
+        items = np.asarray(value).flat
     if dtype.kind == "c":
         return "complex numbers"
+    if dtype.kind == "b":
+        return "booleans (True/False), not numbers"
     if dtype.kind in "USV":
         return f"text ({dtype}), not numbers"
-    if dtype.kind == "O" and any(isinstance(item, str | bytes | complex) for item in np.asarray(value).flat):
-        return "text or complex numbers among its values"
+    if items is not None and any(isinstance(item, str | bytes | complex | bool | np.bool_ | np.complexfloating)
+                                 for item in items):
+        return "text, booleans or complex numbers among its values"
     return None
 
 
@@ -96,8 +103,8 @@ def check_array(
     """
     if value is None:
         raise fail(name, owner, "an array of real numbers", None)
-    what = _not_real(value)
-    if what is not None:  # (float() would drop an imaginary part or read "1.5" as a number)
+    what = not_real(value)
+    if what is not None:  # (float() would drop an imaginary part, read True as 1 or "1.5" as a number)
         raise fail(name, owner, "an array of real numbers", what)
     try:
         array = np.asarray(value, dtype=float)
@@ -139,6 +146,29 @@ def check_choice(value, name: str, owner: str, choices: Sequence[str]) -> str:
     if value not in choices:
         raise fail(name, owner, "one of " + ", ".join(repr(c) for c in choices), value)
     return value
+
+
+def smallest_budget(settle_cycles: int, model_class_cycles: int = 0) -> int:
+    """The fewest cycles of an in-situ run (:class:`~geogait.optimize.InSituOptimizer`) that hold one measured cycle.
+
+    The optimiser spends its first cycles without measuring: ``settle_cycles`` settle cycles, or, with a
+    model-class test (``model_class_cycles`` > 0), the test's plan — the start's ``settle_cycles``, then
+    ``model_class_cycles`` cycles at each of two periods, each period change followed by ``max(1,
+    settle_cycles)`` settle cycles (the plan of :class:`geogait.optimize._model_class.ModelClassCheck`). A run
+    needs one cycle more: a budget below this ends with no measured cycle, every cycle spent for nothing.
+
+    Parameters
+    ----------
+    settle_cycles, model_class_cycles : int
+        The optimiser's settings (checked by it).
+
+    Returns
+    -------
+    int
+    """
+    if not model_class_cycles:
+        return settle_cycles + 1
+    return settle_cycles + 2 * model_class_cycles + 2 * max(1, settle_cycles) + 1
 
 
 #: Largest magnitude accepted for any sample value (angles, rates, velocities, poses, time steps):

@@ -2,6 +2,8 @@
 
 import json
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
@@ -192,3 +194,105 @@ def test_fit_refuses_a_folder_whose_files_include_its_inputs(fitted, tmp_path):
                                       "--smoothing-window", "21", "--out", str(project)])
     assert result.exit_code == 1 and "a file other than the inputs (it would be overwritten)" in result.stderr
     assert mapping.read_bytes() == before and sorted(p.name for p in project.iterdir()) == ["mapping.json"]
+
+
+# -- the folder lock -------------------------------------------------------------------------------
+@pytest.fixture
+def holder():
+    """Another process holding the lock of a folder (as a run writing it does) until the test ends."""
+    processes = []
+
+    def hold(folder):
+        process = subprocess.Popen([sys.executable, "-c", "import sys; from geogait._files import OutputLock; "
+                                    "lock = OutputLock(sys.argv[1]); print('held', flush=True); sys.stdin.read()",
+                                    str(folder)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        processes.append(process)
+        assert process.stdout.readline() == "held\n"
+        return process.pid
+
+    yield hold
+    for process in processes:
+        process.stdin.close()
+        process.wait(timeout=30)
+
+
+def test_fit_and_predict_are_refused_while_another_run_writes_their_folder(fitted, tmp_path, holder):
+    """Issue 58, finding 2: fit and predict take the folder lock optimize takes; a second run into a folder
+    being written is one error line naming the process, exit 1, and writes nothing (no folder left behind)."""
+    _, folder, _ = fitted
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    pid = holder(busy)
+    fit = ["fit", str(folder / "log.csv"), *POSE_OPTIONS, "--out"]
+    predict = ["predict", str(folder / "out" / "model.npz"), str(folder / "log.csv"), "--phaser",
+               str(folder / "out" / "phaser.npz"), "--mapping", str(folder / "out" / "mapping.json")]
+    for command in ([*fit, str(busy)], [*predict, "--out", str(busy / "p.csv")],
+                    [*predict, "--out", str(tmp_path / "new" / "p.csv"), "--summary", str(busy / "p.json")]):
+        result = CliRunner().invoke(app, command)
+        assert result.exit_code == 1, result.output
+        assert result.stderr.splitlines() == [f"error: The output folder {busy} is being written by another "
+                                              f"geogait run (process {pid}); wait for it to finish or choose "
+                                              "another --out."]
+    assert [p.name for p in busy.iterdir()] == [".geogait.lock"] and not (tmp_path / "new").exists()
+
+
+def test_predict_leaves_no_lock_file_in_the_folder_it_writes_into(fitted, tmp_path):
+    _, folder, _ = fitted
+    out = folder / "out"
+    result = CliRunner().invoke(app, ["predict", str(out / "model.npz"), str(folder / "log.csv"), "--phaser",
+                                      str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"),
+                                      "--out", str(tmp_path / "p.csv")])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv", "p.json"]
+
+
+def test_fit_and_predict_refuse_a_log_naming_a_used_column_twice(fitted, tmp_path):
+    """Issue 58, finding 6: both used the first of two `q0` columns silently."""
+    _, folder, _ = fitted
+    frame = pd.read_csv(folder / "log.csv")
+    pd.concat([frame, frame[["q0"]] * 2], axis=1).to_csv(tmp_path / "twice.csv", index=False)
+    out = folder / "out"
+    for command in (["fit", str(tmp_path / "twice.csv"), *POSE_OPTIONS, "--out", str(tmp_path / "fit")],
+                    ["predict", str(out / "model.npz"), str(tmp_path / "twice.csv"), "--phaser",
+                     str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"), "--out",
+                     str(tmp_path / "p.csv")]):
+        result = CliRunner().invoke(app, command)
+        assert result.exit_code == 1, result.output
+        assert result.stderr.splitlines() == ["error: The 'source' parameter of read_log must be a table whose used "
+                                              "columns appear once each. Got \"the column(s) ['q0'] more than "
+                                              "once\" instead."]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["twice.csv"]
+
+
+# -- logs that fit or predict cannot score as given ---------------------------------------------------------
+def test_a_log_in_which_the_robot_stood_still_gives_one_clear_warning(tmp_path):
+    """Issue 58 (confusing): a standing-still log gave numpy's 'invalid value encountered in scalar divide' and Γ
+    null without a word; now one warning saying why, and Γ printed as undefined."""
+    run = simulate(PurcellSwimmer(3), seed_gait(2), 12, seed=0, samples_per_cycle=100)
+    pd.DataFrame({"time": run.time, "q0": run.shape[:, 0], "q1": run.shape[:, 1], "x": 0.0, "y": 0.0,
+                  "yaw": 0.0}).to_csv(tmp_path / "still.csv", index=False)
+    result = CliRunner().invoke(app, ["fit", str(tmp_path / "still.csv"), "--shape", "q0,q1", "--pose", "x,y,yaw",
+                                      "--out", str(tmp_path / "fit")])
+    assert result.exit_code == 0, result.output
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("warning: ")]
+    assert warnings == ["warning: The measured body velocity of the log given to fit_log is zero at every held-out "
+                        "sample: the robot stood still, so Γ says nothing about its motion (null where the model and "
+                        "the phase-model baseline both predict the standstill exactly)."]
+    assert "held-out Γ undefined over 3 cycles" in result.stderr
+    results = json.loads((tmp_path / "fit" / "report.json").read_text())["results"]
+    assert results["held_out_gamma"] is None
+
+
+def test_predict_warns_of_angles_in_degrees_as_fit_does(fitted, tmp_path):
+    """Issue 58 (confusing): predict on a log in degrees gave Γ −2,949.6 without the warning fit gives."""
+    _, folder, _ = fitted
+    frame = pd.read_csv(folder / "log.csv")
+    frame[["q0", "q1"]] = np.rad2deg(frame[["q0", "q1"]])
+    frame.to_csv(tmp_path / "degrees.csv", index=False)
+    out = folder / "out"
+    result = CliRunner().invoke(app, ["predict", str(out / "model.npz"), str(tmp_path / "degrees.csv"), "--phaser",
+                                      str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"), "--out",
+                                      str(tmp_path / "p.csv")])
+    assert result.exit_code == 0, result.output
+    assert re.search(r"^warning: The 'shape' values of predict_log reach [0-9.]+, more than a full turn \(2π\): "
+                     "geogait expects radians; were they given in degrees\\?$", result.stderr, re.MULTILINE)

@@ -171,6 +171,15 @@ def test_track_trials_options_refused_where_they_cannot_act(tmp_path, options, m
     assert result.exit_code == 1 and message in result.stderr and not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize("offset", ["1e300", "-1.1e12"])
+def test_an_offset_beyond_the_bound_is_refused_before_the_run(tmp_path, offset):
+    """Issue 58, finding 7: --offset 1e300 ran and reported a cross-track error of 1e300."""
+    result = _run("track", "--quick", "--offset", offset, "--out", tmp_path / "x")
+    assert result.exit_code == 1 and not (tmp_path / "x").exists()
+    assert result.stderr.splitlines() == [f"error: The '--offset' option must be a finite number of body lengths "
+                                          f"within ±1e+12. Got {float(offset)} instead."]
+
+
 # -- per-trial statistics and the drag-change windows -----------------------------------------
 def _frame(errors: dict, cycles=40):
     """Long-format frame: ``errors`` maps (trial, controller) to |e| as a function of the cycle."""

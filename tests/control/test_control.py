@@ -369,6 +369,9 @@ def test_tracker_rejects_bad_settings(three_link):
         PathTracker().run(object(), ReferencePath.line(), 2)
     with pytest.raises(GeogaitError, match="'warmup_turns' parameter of PathTracker"):
         PathTracker(warmup_turns=-1).run(robot, ReferencePath.line(), 2)
+    with pytest.raises(GeogaitError, match=r"'start_offset' parameter of PathTracker.run must be a finite float in "
+                                           r"\[-1e\+12, 1e\+12\]. Got 1e\+300"):  # (issue 58, finding 7)
+        PathTracker().run(robot, ReferencePath.line(), 2, start_offset=1e300)
     assert isinstance(FourierGait, type)
 
 

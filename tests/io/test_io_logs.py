@@ -184,6 +184,48 @@ def test_datetime_time_column_becomes_seconds(run):
     np.testing.assert_allclose(read_log(stamped, **COLUMNS).time, run.time - run.time[0], atol=1e-6)
 
 
+@pytest.mark.parametrize("clock", [
+    lambda t: (pd.Timestamp("2025-01-01") + pd.to_timedelta(t, unit="s")).dt.strftime("%Y-%m-%dT%H:%M:%S.%f"),
+    lambda t: (pd.Timestamp("2025-01-01") + pd.to_timedelta(t, unit="s")).dt.strftime("%Y-%m-%dT%H:%M:%S.%f+02:00"),
+    lambda t: pd.to_timedelta(t, unit="s").astype(str),
+])
+def test_a_csv_of_iso_date_times_or_time_deltas_is_read_in_seconds(run, tmp_path, clock):
+    """Issue 58 (confusing): the docs say date-time columns are read; in a CSV (text) they were refused."""
+    from geogait import GeogaitError
+
+    frame = mocap_log(run)
+    frame.assign(t=clock(frame.t)).to_csv(tmp_path / "log.csv", index=False)
+    np.testing.assert_allclose(read_log(tmp_path / "log.csv", **COLUMNS).time, run.time - run.time[0], atol=1e-6)
+    with pytest.raises(GeogaitError, match="'time_unit' parameter of read_log must be None or 's' for a column of "
+                                           "date-times or time deltas"):
+        read_log(tmp_path / "log.csv", **COLUMNS, time_unit="ms")
+
+
+def test_text_that_is_not_a_clock_is_still_named_in_the_time_column(run, tmp_path):
+    from geogait import GeogaitError
+
+    frame = mocap_log(run).astype({"t": object})
+    frame.loc[5, "t"] = "later"
+    frame.to_csv(tmp_path / "log.csv", index=False)
+    with pytest.raises(GeogaitError, match=r"'t' parameter of read_log must be a numeric column. Got .*'later'"):
+        read_log(tmp_path / "log.csv", **COLUMNS)
+
+
+@pytest.mark.parametrize(("factor", "change"), [(1000, "seconds, then milliseconds"),
+                                                (1e-6, "microseconds, then seconds")])
+def test_a_change_of_time_unit_within_a_log_is_named(run, factor, change):
+    """Issue 58 (confusing): stamps in s, then ms split the log at the jump, each part regular, and the second
+    part's rates were read 1000× off without a word."""
+    from geogait import GeogaitError
+
+    frame = mocap_log(run)
+    frame.loc[1500:, "t"] = frame.loc[1500:, "t"] * factor + (0 if factor > 1 else 1e3)
+    with pytest.raises(GeogaitError, match=rf"'t' parameter of read_log must be time stamps in one unit throughout. "
+                                           rf"Got steps of 0.01 until row 1500 and {0.01 * factor:.4g} from it "
+                                           rf"\({factor:.4g}×: {change}\?\)"):
+        read_log(frame, **COLUMNS)
+
+
 def test_log_tables_and_trajectory(run):
     log = read_log(mocap_log(run), **COLUMNS)
     table = log.to_pandas()
@@ -279,6 +321,33 @@ def test_cells_that_are_not_real_numbers_and_repeated_columns_are_named():
         read_log(frame.astype({"q1": complex}), **COLUMNS)
     with pytest.raises(GeogaitError, match=r"used columns appear once each. Got \"the column\(s\) \['q1'\]"):
         read_log(pd.concat([frame, frame[["q1"]]], axis=1), **COLUMNS)
+
+
+@pytest.mark.parametrize("repeated", ["q0", "x"])
+def test_a_csv_naming_a_used_column_twice_is_refused_naming_it(tmp_path, repeated):
+    """Issue 58, finding 6: pandas reads a repeated CSV header name as `q0.1`, so the first column was used
+    silently; a repeated unused column is read as before."""
+    from geogait import GeogaitError
+
+    frame = small_log(200)
+    pd.concat([frame, frame[[repeated]] + 1.0], axis=1).to_csv(tmp_path / "log.csv", index=False)
+    with pytest.raises(GeogaitError, match=rf"used columns appear once each. Got \"the column\(s\) \['{repeated}'\]"):
+        read_log(tmp_path / "log.csv", **COLUMNS)
+    note = frame[["t"]].rename(columns={"t": "note"})
+    pd.concat([frame, note, note], axis=1).to_csv(tmp_path / "notes.csv", index=False)
+    assert read_log(tmp_path / "notes.csv", **COLUMNS).n_samples == 200
+
+
+def test_a_streamed_csv_header_naming_a_used_column_twice_is_refused_naming_it():
+    import io
+
+    from geogait import GeogaitError
+    from geogait.io import CsvReader
+
+    header = "time,shape_0,shape_1,shape_0,body_velocity_x,body_velocity_y,body_velocity_theta\n"
+    with pytest.raises(GeogaitError, match=r"'header' parameter of input line 1 must be a CSV header naming each "
+                                           r"column once. Got \"the column\(s\) \['shape_0'\] more than once"):
+        list(CsvReader(io.StringIO(header + "0,1,2,3,4,5,6\n"), 2))
 
 
 def test_a_robot_put_back_between_two_recordings_is_not_an_outlier():

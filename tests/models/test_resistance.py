@@ -248,6 +248,23 @@ def test_bad_input_is_named():
         ResistanceModel.from_swimmer("purcell")
 
 
+@pytest.mark.parametrize(("chain", "match"), [
+    (dict(link_lengths=[True, True, True]), "'link_lengths'.* real numbers. Got 'booleans"),
+    (dict(link_lengths=np.array([1, 1, 1]) + 1j), "'link_lengths'.* real numbers. Got 'complex numbers'"),
+    (dict(link_lengths=[1e300, 1, 1]), r"'link_lengths'.*within ±1e\+12"),
+    (dict(frame_offset=[True, False, 0]), "'frame_offset'.* real numbers. Got 'text, booleans or complex"),
+    (dict(frame_offset=np.array([1j, 0, 0])), "'frame_offset'.* real numbers. Got 'complex numbers'"),
+    (dict(frame_offset=[1e300, 0, 0]), r"'frame_offset'.*within ±1e\+12"),
+    (dict(shape_map=[[True, False], [False, True]]), "'shape_map'.* real numbers. Got 'booleans"),
+    (dict(shape_map=np.eye(2) * 1j), "'shape_map'.* real numbers. Got 'complex numbers'"),
+    (dict(shape_map=np.eye(2) * 1e300), r"'shape_map'.*within ±1e\+12"),
+])
+def test_a_chain_of_booleans_complex_numbers_or_huge_values_is_refused_not_cast(chain, match):
+    """Issue 58 (confusing): each was cast silently (True as 1, 1j as 0) and 1e300 accepted."""
+    with pytest.raises(GeogaitError, match=match):
+        ResistanceModel(**{"link_lengths": [1.0, 1.0, 1.0], **chain}).validate()
+
+
 def test_the_optimiser_reaches_the_ceiling_with_the_resistance_model():
     """Five links, 10 % sensor noise: with the chain's geometry known and its drags learned, SQP steps over
     a large trust region reach the rotation-free ceiling (the window and shape-space models stop near

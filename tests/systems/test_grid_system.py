@@ -43,15 +43,16 @@ def test_the_grid_reproduces_the_analytic_swimmers_ceiling(grid):
     np.testing.assert_allclose(sampled.gait.joint_limit(), analytic.gait.joint_limit(), atol=1e-2)
 
 
-def sysplotter_file(path, transposed=False):
+def sysplotter_file(path, transposed=False, change=lambda field: field):
     """The swimmer's connection as sysplotter saves it: −A on ndgrid arrays in a 3 × d cell (d × 3 if
-    ``transposed``), cells column by column (as MATLAB writes them)."""
+    ``transposed``), cells column by column (as MATLAB writes them); ``change`` applied to the first field."""
     r1, r2 = np.meshgrid(AXIS, AXIS, indexing="ij")
     values = SWIMMER.connection(np.stack([r1, r2], axis=-1))
     cells = np.empty((2, 3) if transposed else (3, 2), dtype=object)
     for row in range(3):
         for col in range(2):
             cells[(col, row) if transposed else (row, col)] = -values[..., row, col]
+    cells[0, 0] = change(cells[0, 0])
     grids = np.empty((2, 1), dtype=object)
     grids[0, 0], grids[1, 0] = r1, r2
     savemat(path, {"s": {"grid": {"eval": grids}, "vecfield": {"eval": {"content": {"Avec": cells}}}}})
@@ -90,6 +91,36 @@ def test_outside_the_grid_is_an_error_not_an_extrapolation(grid):
 def test_bad_grids_are_refused(axes, values, match):
     with pytest.raises(GeogaitError, match=match):
         GridSystem(axes, values)
+
+
+AXES = [np.linspace(0, 1, 5), np.linspace(0, 1, 5)]
+
+
+@pytest.mark.parametrize(("axes", "values", "match"), [
+    (AXES, np.full((5, 5, 3, 2), 1e300), r"'connection'.*within ±1e\+12. Got '1e\+300 at index \(0, 0, 0, 0\)'"),
+    (AXES, np.full((5, 5, 3, 2), 1j), r"'connection'.*real numbers. Got 'complex numbers'"),
+    (AXES, np.ones((5, 5, 3, 2), dtype=bool), r"'connection'.*real numbers. Got 'booleans"),
+    ([AXES[0] * 1e300, AXES[1]], np.zeros((5, 5, 3, 2)), r"'axes\[0\]'.*within ±1e\+12"),
+    ([[False, True, True, True, True], AXES[1]], np.zeros((5, 5, 3, 2)), r"'axes\[0\]'.*Got 'booleans"),
+])
+def test_grids_beyond_the_bound_or_not_real_are_refused(axes, values, match):
+    """Issue 58, finding 7: a 1e300 connection was interpolated into 1e297 velocities."""
+    with pytest.raises(GeogaitError, match=match):
+        GridSystem(axes, values)
+
+
+@pytest.mark.parametrize(("change", "match"), [
+    (lambda field: field + 1e-3j, "must be an array of real numbers. Got 'complex numbers'"),
+    (lambda field: field * 1e300, r"must be plausible values, within ±1e\+12"),
+    (lambda field: np.where(np.arange(field.size).reshape(field.shape) == 100, np.nan, field),
+     r"must be finite \(no NaN or inf\)"),
+])
+def test_a_sysplotter_field_that_is_not_real_finite_and_bounded_is_named(tmp_path, change, match):
+    """Issue 58, finding 7: a complex field lost its imaginary part silently (a ComplexWarning at most)."""
+    path = sysplotter_file(tmp_path / "sysf_calc.mat", change=change)
+    with pytest.raises(GeogaitError, match=r"'s\.vecfield\.eval\.content\.Avec\{1\} in .*sysf_calc.mat' parameter of "
+                                           rf"GridSystem.from_sysplotter {match}"):
+        GridSystem.from_sysplotter(path)
 
 
 def test_bad_sysplotter_files_get_one_clear_line(tmp_path):

@@ -59,6 +59,20 @@ def test_bad_limits_are_named():
         apart().feasibility(np.zeros((4, 3)))
 
 
+@pytest.mark.parametrize(("make", "match"), [
+    (lambda: LinearRegion([[True, False]], [1.0]), "'normals'.*Got 'booleans"),
+    (lambda: LinearRegion([[1.0, 0.0]], [True]), "'bounds'.*Got 'booleans"),
+    (lambda: LinearRegion.from_rows([[1.0, True, 1.0]]), "'rows'.*Got 'text, booleans or complex numbers"),
+    (lambda: LinearRegion.from_rows(np.array([[1 + 1j, 0, 1]])), "'rows'.*Got 'complex numbers'"),
+    (lambda: LinearRegion.from_rows([[1 + 1j, 0, 1]]), "'rows'.*Got 'complex numbers'"),
+    (lambda: LinearRegion.from_rows([[1.0, 0.0, 1e300]]), r"'rows'.*within ±1e\+12"),
+])
+def test_booleans_and_complex_limits_are_refused_not_cast(make, match):
+    """Issue 58 (confusing): True was read as 1 and 1 + 1j as 1; a complex list was a TypeError."""
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
 class LimitedRobot(BareRobot):
     """A swimmer behind a wall whose joints may not bend more than ``limit`` rad against each other; it declares
     its chain front-back symmetric, as the bridge's reference driver does."""

@@ -137,3 +137,16 @@ def test_the_seed_keeps_its_harmonics_or_says_why_not():
     np.testing.assert_allclose(lifted.shape(phase), region.seed_gait(order=2).shape(phase), atol=1e-15)
     with pytest.raises(GeogaitError, match="'amplitude' parameter"):
         region.seed_gait(amplitude=np.inf, order=2)
+
+
+@pytest.mark.parametrize(("feasibility", "gradient", "match"), [
+    (lambda r: LIMIT - r[..., 0] + 0j, None, "'feasibility' callable .* must return real numbers. Got complex"),
+    (lambda r: r[..., 0] < LIMIT, None, "'feasibility' callable .* must return real numbers. Got booleans"),
+    (lambda r: 1e300 - r[..., 0], None, r"'feasibility' callable .* must return values within ±1e\+12. Got 1e\+300"),
+    (lambda r: LIMIT - r[..., 0], lambda r: np.ones(r.shape) * 1j, "'gradient' callable .* must return real numbers"),
+])
+def test_a_region_callable_returning_other_than_real_bounded_numbers_is_named(feasibility, gradient, match):
+    """Issue 58 (confusing): a complex margin lost its imaginary part, a boolean one read as 0 and 1."""
+    with pytest.raises(GeogaitError, match=match):
+        region = RegionSystem(SWIMMER, feasibility, gradient=gradient, seed=seed_gait(2, amplitude=0.7))
+        region.feasibility([0.1, 0.2], jacobian=True)

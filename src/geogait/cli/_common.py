@@ -18,7 +18,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 import geogait
 
-from .._files import OutputLock, folder_entries, write_json
+from .._files import LOCK_FILE, OutputLock, folder_entries, write_json
 from .._validation import GeogaitError
 
 console = Console(stderr=True)
@@ -59,27 +59,20 @@ def configure(base, **changes):
 
 
 @contextlib.contextmanager
-def claim_output(path: Path, *, overwrite: bool):
-    """Create the output folder ``path``, lock it for this run and check that it may be written (a context
-    manager giving the held :class:`~geogait._files.OutputLock`).
+def locked_folder(path: Path, *, keep_lock_file: bool = True):
+    """Create the output folder ``path`` (and its parents) and lock it for this run (a context manager giving the
+    held :class:`~geogait._files.OutputLock`): a second run writing into it is refused until this one ends.
 
-    A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``. Nothing in it
-    is removed here: a command replaces an earlier run's files only once its own run is under way (every
-    option checked, the robot started), so a run refused at its start leaves the earlier one whole; a folder
-    this call created (and each parent it created) is removed again when the run fails before writing
-    anything into it. Raises a
-    :class:`~geogait.GeogaitError` when the folder is another run's (locked), not empty, a file, or cannot be
-    created.
+    A folder this call created (and each parent it created) is removed again when the run fails before writing
+    anything into it. Without ``keep_lock_file``, a lock file this call created is removed at the end (a folder
+    the run only adds files to, e.g. the current one, keeps no trace of the lock). Raises a
+    :class:`~geogait.GeogaitError` when the folder is another run's (locked), a file, or cannot be created.
     """
     created = [level for level in (Path(path), *Path(path).parents) if not level.exists()]  # (innermost first)
     folder = output_folder(path)
+    had_lock_file = (folder / LOCK_FILE).exists()
     lock = OutputLock(folder)
     try:
-        existing = folder_entries(folder)
-        if existing and not overwrite:
-            shown = ", ".join(existing[:4]) + (", …" if len(existing) > 4 else "")
-            raise GeogaitError(f"The output folder {folder} is not empty ({shown}); give --overwrite to replace "
-                               "the run it holds, or choose another --out.")
         yield lock
     except BaseException:
         if created and not folder_entries(folder):  # (nothing of this run in it: leave no trace)
@@ -89,7 +82,29 @@ def claim_output(path: Path, *, overwrite: bool):
                     level.rmdir()
         raise
     finally:
+        if not keep_lock_file and not had_lock_file:
+            lock.remove()
         lock.release()
+
+
+@contextlib.contextmanager
+def claim_output(path: Path, *, overwrite: bool):
+    """Create the output folder ``path``, lock it for this run and check that it may be written (a context
+    manager giving the held :class:`~geogait._files.OutputLock`, see :func:`locked_folder`).
+
+    A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``. Nothing in it
+    is removed here: a command replaces an earlier run's files only once its own run is under way (every
+    option checked, the robot started), so a run refused at its start leaves the earlier one whole. Raises a
+    :class:`~geogait.GeogaitError` when the folder is another run's (locked), not empty, a file, or cannot be
+    created.
+    """
+    with locked_folder(path) as lock:
+        existing = folder_entries(lock.folder)
+        if existing and not overwrite:
+            shown = ", ".join(existing[:4]) + (", …" if len(existing) > 4 else "")
+            raise GeogaitError(f"The output folder {lock.folder} is not empty ({shown}); give --overwrite to "
+                               "replace the run it holds, or choose another --out.")
+        yield lock
 
 
 #: The --overwrite option of commands that write named files (fit, predict, the figures).
@@ -103,7 +118,8 @@ def refuse_existing(paths, *, overwrite: bool) -> None:
     """
     if overwrite:
         return
-    existing = [Path(path) for path in paths if Path(path).exists()]
+    # (a folder in a file's place is not an earlier run's file: the write's own check names it)
+    existing = [Path(path) for path in paths if Path(path).exists() and not Path(path).is_dir()]
     if existing:
         more = f" (and {len(existing) - 1} more of the files this run writes)" if len(existing) > 1 else ""
         raise GeogaitError(f"{existing[0]} exists{more}; give --overwrite to replace it, or choose another --out.")

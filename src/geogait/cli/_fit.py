@@ -7,10 +7,13 @@ and exit code 1.
 
 from __future__ import annotations
 
+import contextlib
+import os
 import time
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
@@ -21,7 +24,7 @@ from ..learn import LogFit, fit_log, predict_log
 from ..models import AdaptiveGaitModel
 from ..phase import Phaser
 from ._app import app
-from ._common import Overwrite, comma_list, output_folder, refuse_existing, versions
+from ._common import Overwrite, comma_list, locked_folder, refuse_existing, versions
 
 Columns = Annotated[str | None, typer.Option(help="Comma-separated column names.")]
 Mapping = Annotated[Path | None, typer.Option(help="Column mapping file (.json or .toml); options override it.")]
@@ -116,21 +119,19 @@ def fit(
     check_outputs({"--out": out}, [log, mapping], "fit")
     for name in LogFit.OUTPUT_FILES:
         check_outputs({"--out": Path(out) / name}, [log, mapping], "fit")
-    refuse_existing([Path(out) / name for name in LogFit.OUTPUT_FILES], overwrite=overwrite)
-    if Path(out).exists() and not Path(out).is_dir():
-        output_folder(out)  # (its message for a file given as the folder)
-    data = read_log(log, columns, drop_nan=drop_nan, **log_options)
-    result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
-                     test_fraction=test_fraction, refit=refit)
-    output_folder(out)  # (created only once there is a model to write into it)
-    options = {"log": str(log), "smoothing_window": smoothing_window, "drop_nan": drop_nan,
-               "time_unit": time_unit, "outlier_limit": outlier_limit,
-               "forgetting_factor": forgetting_factor, "windows": windows, "gait_order": gait_order,
-               "test_fraction": test_fraction, "refit": refit}
-    paths = result.save(out, mapping=columns, extra={"command": "fit", **versions(), "options": options,
-                                                     "wall_time_s": round(time.perf_counter() - started, 3)})
+    with locked_folder(out):  # (a second run into the folder is refused until this one has written it)
+        refuse_existing([Path(out) / name for name in LogFit.OUTPUT_FILES], overwrite=overwrite)
+        data = read_log(log, columns, drop_nan=drop_nan, **log_options)
+        result = fit_log(data, forgetting_factor=forgetting_factor, n_windows=windows, gait_order=order,
+                         test_fraction=test_fraction, refit=refit)
+        options = {"log": str(log), "smoothing_window": smoothing_window, "drop_nan": drop_nan,
+                   "time_unit": time_unit, "outlier_limit": outlier_limit,
+                   "forgetting_factor": forgetting_factor, "windows": windows, "gait_order": gait_order,
+                   "test_fraction": test_fraction, "refit": refit}
+        paths = result.save(out, mapping=columns, extra={"command": "fit", **versions(), "options": options,
+                                                         "wall_time_s": round(time.perf_counter() - started, 3)})
     summary = result.summary()
-    typer.echo(f"held-out Γ {summary['held_out_gamma']:.3f} over {summary['n_test_cycles']} cycles "
+    typer.echo(f"held-out Γ {_gamma_text(summary['held_out_gamma'])} over {summary['n_test_cycles']} cycles "
                f"({summary['n_train_cycles']} training); online Γ {summary['online_gamma_end']:.3f}; "
                f"gait order {summary['gait_order']}; phase rate {summary['phase_rate']:.4g} rad per time unit",
                err=True)
@@ -176,26 +177,34 @@ def predict(
     if out.suffix.lower() != ".csv":
         raise GeogaitError(f"--out is the predictions CSV file: give a name ending in .csv. Got {str(out)!r} "
                            "instead (the Γ summary goes to --summary).")
-    refuse_existing([out, summary_path], overwrite=overwrite)
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
-    fitted = AdaptiveGaitModel.load(model)
-    estimator = None if phaser is None else Phaser.load(phaser)
-    data, has_measured = read_log_for_prediction(
-        log, mapping, measured=measured, time=time_column, shape=_names(shape, "--shape"),
-        pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
-        shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase, degrees=degrees,
-        drop_nan=drop_nan, **log_options)
-    result = predict_log(fitted, data, phaser=estimator, measured=has_measured)
-    options = {"time_unit": time_unit, "outlier_limit": outlier_limit, "smoothing_window": smoothing_window,
-               "drop_nan": drop_nan, "measured": measured}
-    paths = result.save(out, summary_path=summary_path, protect=inputs,
-                        extra={"command": "predict", **versions(), "model": str(model), "log": str(log),
-                               "phaser": None if phaser is None else str(phaser), "options": options,
-                               "wall_time_s": round(time.perf_counter() - started, 3)})
+    with contextlib.ExitStack() as locks:  # (each folder written into, once; a second run is refused meanwhile)
+        for folder in dict.fromkeys(Path(os.path.realpath(path)).parent for path in (out, summary_path)):
+            locks.enter_context(locked_folder(folder, keep_lock_file=False))
+        refuse_existing([out, summary_path], overwrite=overwrite)
+        fitted = AdaptiveGaitModel.load(model)
+        estimator = None if phaser is None else Phaser.load(phaser)
+        data, has_measured = read_log_for_prediction(
+            log, mapping, measured=measured, time=time_column, shape=_names(shape, "--shape"),
+            pose=_names(pose, "--pose"), body_velocity=_names(body_velocity, "--body-velocity"),
+            shape_velocity=_names(shape_velocity, "--shape-velocity"), phase=phase, degrees=degrees,
+            drop_nan=drop_nan, **log_options)
+        result = predict_log(fitted, data, phaser=estimator, measured=has_measured)
+        options = {"time_unit": time_unit, "outlier_limit": outlier_limit, "smoothing_window": smoothing_window,
+                   "drop_nan": drop_nan, "measured": measured}
+        paths = result.save(out, summary_path=summary_path, protect=inputs,
+                            extra={"command": "predict", **versions(), "model": str(model), "log": str(log),
+                                   "phaser": None if phaser is None else str(phaser), "options": options,
+                                   "wall_time_s": round(time.perf_counter() - started, 3)})
     value = result.gamma()
-    typer.echo(f"Γ {value:.3f} over {data.n_samples} samples" if value is not None
+    typer.echo(f"Γ {_gamma_text(value)} over {data.n_samples} samples" if value is not None
                else f"predicted {data.n_samples} samples (no measured body velocity: no Γ)", err=True)
     typer.echo(f"wrote {paths[0]} and {paths[1]}", err=True)
+
+
+def _gamma_text(value: float) -> str:
+    """Γ as printed: three decimals, or 'undefined' (NaN: a log in which the robot stood still)."""
+    return "undefined" if np.isnan(value) else f"{value:.3f}"
 
 
 def _check_log(log: Path) -> None:

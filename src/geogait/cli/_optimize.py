@@ -14,7 +14,7 @@ import typer
 
 from .._defaults import MAX_JOINT_ANGLE, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
-from .._validation import GeogaitError, check_float, check_int
+from .._validation import GeogaitError, check_int, smallest_budget
 from ..experiments.optimization import (
     OptimizationConfig,
     OptimizationResult,
@@ -49,6 +49,7 @@ from ..plotting import (
     save_figure,
 )
 from ..robots import ProcessRobot
+from ..robots._bridge import PERIOD_RANGE
 from ..simulate import SwimmerStream
 from ..simulate._stream import MAX_SENSOR_NOISE
 from ..systems import PurcellSwimmer
@@ -314,6 +315,11 @@ def _optimizer(settings, robot=None) -> InSituOptimizer:
     if 0 < settings.get("model_class_cycles", 0) < 3:
         raise typer.BadParameter(f"expected 0 (no test) or at least 3 cycles per period, got "
                                  f"{settings['model_class_cycles']}", param_hint="--model-class-cycles")
+    _check_budget(settings)
+    low, high = PERIOD_RANGE
+    if not (np.isfinite(settings["period"]) and low <= settings["period"] <= high):
+        raise typer.BadParameter(f"expected seconds in [{low:g}, {high:g}] (1000 cycles a second to one a day), got "
+                                 f"{settings['period']:g}", param_hint="--period")
     if settings.get("model_class_cycles", 0) and settings["robot"] is not None:
         raise GeogaitError("--model-class-cycles runs the seed gait at two periods, and the JSON-lines bridge has no "
                            "message that changes a driver's period: run the test on the built-in swimmer, or in "
@@ -399,6 +405,26 @@ def _composed(settings, robot=None) -> InSituOptimizer:
     return optimizer.set_params(**params)
 
 
+def _budget(settings) -> int:
+    """The run's cycle budget: --cycles, else the default for the robot or the swimmer."""
+    if settings["cycles"] is not None:
+        return settings["cycles"]
+    return 100 if settings["robot"] is not None else default_budget(settings["links"])
+
+
+def _check_budget(settings) -> None:
+    """A budget that holds no measured cycle is refused before the robot moves (see smallest_budget)."""
+    settle, test = settings["settle_cycles"], settings.get("model_class_cycles", 0)
+    smallest, budget = smallest_budget(settle, test), _budget(settings)
+    if budget >= smallest:
+        return
+    spent = [f"--settle-cycles {settle}"] * bool(settle) + [f"--model-class-cycles {test}"] * bool(test)
+    given = f"--cycles {budget}" if settings["cycles"] is not None else f"the default budget of {budget} cycles"
+    raise GeogaitError(f"{given} holds no measured cycle: with {' and '.join(spent)} the first {smallest - 1} "
+                       f"cycles are not measured; give --cycles {smallest} or more, or fewer "
+                       f"{' or '.join(option.split()[0] for option in spent)}.")
+
+
 def _ceiling_kind(settings) -> str:
     return "progress" if settings["objective"] == "forward" else settings["objective"]
 
@@ -408,7 +434,6 @@ def _target(settings):
     if settings["robot"] is not None:
         return None, lambda: ProcessRobot(settings["robot"], timeout=settings["robot_timeout"])
     system = PurcellSwimmer(settings["links"])
-    check_float(settings["period"], "period", "geogait optimize", low=0, low_open=True)
     perturbation = Perturbation.from_std(settings["perturbation"], frequency=2.0 / settings["period"])
     stream = SwimmerStream(system, seed_gait(system.n_joints), perturbation=perturbation,
                            sensor_noise=settings["noise"], seed=settings["seed"], cycle_period=settings["period"])
@@ -416,9 +441,7 @@ def _target(settings):
 
 
 def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
-    cycles = settings["cycles"]
-    if cycles is None:
-        cycles = 100 if settings["robot"] is not None else default_budget(settings["links"])
+    cycles = _budget(settings)
     name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
     started = [False]
     with progress_bar() as progress:
@@ -464,6 +487,9 @@ _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise
                   "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
                   "step_rule": (str, None), "robot": (str, None), "robot_timeout": (int, float),
                   "checkpoint_every": (int,)}
+#: Settings added since the first runs: absent from an older run.json (then their defaults), else of these types.
+_LATER_SETTING_TYPES = {"direction_frame": (str,), "climb": (str, None), "climb_rule": (str, None),
+                        "model_class_cycles": (int,)}
 
 
 def _read_settings(folder: Path) -> dict:
@@ -481,7 +507,7 @@ def _read_settings(folder: Path) -> dict:
         raise GeogaitError(f"{path} is not valid JSON: {error}") from None
     if not isinstance(settings, dict):
         raise GeogaitError(f"{path} is not the settings record of a run (a JSON object expected).")
-    for name, kinds in _SETTING_TYPES.items():
+    for name, kinds in {**_SETTING_TYPES, **{k: v for k, v in _LATER_SETTING_TYPES.items() if k in settings}}.items():
         value = settings.get(name, ...)
         ok = value is not ... and ((value is None and None in kinds) or (
             not isinstance(value, bool) and isinstance(value, tuple(k for k in kinds if k is not None))))

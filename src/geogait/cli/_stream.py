@@ -24,7 +24,7 @@ from ..io import CsvReader, JsonLinesReader
 from ..learn import StreamLearner, load_stream_model, run_stream
 from ..phase import Phaser
 from ._app import app
-from ._common import write_manifest
+from ._common import Overwrite, _is_fresh_run_manifest, refuse_existing, write_manifest
 
 _EXIT = {"eof": 0, "output closed": 0, "error": 1, "SIGINT": 128 + signal.SIGINT, "SIGTERM": 128 + signal.SIGTERM}
 
@@ -48,7 +48,8 @@ def stream(
     save_every: Annotated[int | None, typer.Option(
         help="Also save after every N learned samples [default: only at the end].", min=1)] = None,
     out: Annotated[Path | None, typer.Option(
-        help="Where to save the model (default: the model file itself; for a config, <config>.npz).")] = None,
+        help="Where to save the model (default: the model file itself; for a config, <config>.npz). Another "
+             "existing file is replaced only with --overwrite.")] = None,
     phase_window: Annotated[int | None, typer.Option(
         help="Memory of the online phase tracker in samples (time constant: a quarter of it) [default: two "
              "training cycles].", min=4)] = None,
@@ -62,6 +63,7 @@ def stream(
         help="Quarantine samples further than this many robust standard deviations from the median of the last "
              "1000 accepted ones (0: off; values beyond ±1e12 are always quarantined).", min=0)
     ] = DEFAULT_OUTLIER_LIMIT,
+    overwrite: Overwrite = False,
 ) -> None:
     """Learn from samples on stdin; write each sample's a-priori prediction and online Γ to stdout.
 
@@ -80,6 +82,10 @@ def stream(
     # the saved model may be the output (learning goes on in it); a config or the phaser may not
     config = model_or_config if model_or_config.suffix.lower() == ".json" else None
     check_outputs({"--out": target}, [phaser, config], "stream")
+    if not _same_path(target, model_or_config):  # (the model given is saved into: learning goes on in it)
+        refuse_existing([target], overwrite=overwrite)
+    if not _is_fresh_run_manifest(_manifest(target), "stream"):  # (an earlier stream's record is replaced)
+        refuse_existing([_manifest(target)], overwrite=overwrite)
     model = load_stream_model(model_or_config)
     estimator = None if phaser is None else Phaser.load(phaser)
     learner = StreamLearner(model, phaser=estimator, phase_window=phase_window, derivative_window=derivative_window,
@@ -95,16 +101,25 @@ def stream(
     _report(summary)
     config = {"model_or_config": str(model_or_config), "phaser": None if phaser is None else str(phaser),
               "format": fmt, "save_every": save_every, "out": str(target), "phase_window": phase_window,
-              "derivative_window": derivative_window, "time_unit": time_unit, "outlier_limit": outlier_limit}
+              "derivative_window": derivative_window, "time_unit": time_unit, "outlier_limit": outlier_limit,
+              "overwrite": overwrite}
     results = {"n_samples": summary.n_samples, "n_learned": summary.n_learned, "n_rejected": summary.n_rejected,
                "first_rejection": summary.first_rejection, "online_gamma": summary.gamma, "reason": summary.reason,
                "error": summary.error, "saved": None if summary.saved is None else str(summary.saved)}
     try:
-        write_manifest(target.with_name(f"{target.stem}.stream.json"), command="stream", config=config,
+        write_manifest(_manifest(target), command="stream", config=config,
                        results=results, started=started)
     except OSError as failure:
         typer.echo(f"warning: could not write the stream manifest: {failure}", err=True)
     raise typer.Exit(code=_EXIT[summary.reason])
+
+
+def _manifest(target: Path) -> Path:
+    return target.with_name(f"{target.stem}.stream.json")
+
+
+def _same_path(a: Path, b: Path) -> bool:
+    return os.path.realpath(a) == os.path.realpath(b)
 
 
 def _silence_stdout() -> None:

@@ -57,7 +57,7 @@ import pandas as pd
 from .. import se2
 from .._defaults import FEASIBILITY_TOLERANCE
 from .._estimator import Estimator, Integer, Options, Real
-from .._validation import GeogaitError, check_callback, check_choice, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_callback, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
@@ -356,7 +356,7 @@ class PathTracker(Estimator):
         if not isinstance(path, ReferencePath):
             raise fail("path", owner, "a ReferencePath", type(path).__name__)
         n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)
-        start_offset = check_float(start_offset, "start_offset", owner)
+        start_offset = check_float(start_offset, "start_offset", owner, low=-MAX_MAGNITUDE, high=MAX_MAGNITUDE)
         reference = robot.gait if gait is None else gait
         if not isinstance(reference, FourierGait) or reference.n_joints != robot.n_joints:
             raise fail("gait", owner, f"a FourierGait with {robot.n_joints} joints", reference)

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from .._defaults import TRACKING_WARMUP_TURNS
-from .._validation import GeogaitError, GeogaitWarning
+from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning
 from ..control import CONTROLLERS, EXPLORATION, PATH_KINDS, AdaptiveExploration, PathTracker, ReferencePath
 from ..gaits import Perturbation
 from ..plotting import plt, save_figure
@@ -139,9 +139,9 @@ class TrackSettings:
             if not (np.isfinite(self.noise) and 0 <= self.noise <= MAX_SENSOR_NOISE):
                 raise GeogaitError(f"The {name('noise')} must be a fraction in [0, {MAX_SENSOR_NOISE:g}] of the "
                                    f"signal's RMS. Got {self.noise} instead.")
-        if self.offset is not None and not np.isfinite(self.offset):
-            raise GeogaitError(f"The {name('offset')} must be a finite number of body lengths. Got {self.offset} "
-                               "instead.")
+        if self.offset is not None and not abs(self.offset) <= MAX_MAGNITUDE:  # (NaN fails `<=` too)
+            raise GeogaitError(f"The {name('offset')} must be a finite number of body lengths within "
+                               f"±{MAX_MAGNITUDE:g}. Got {self.offset} instead.")
         if not (self.path in BUILT_IN_PATHS or self.path.endswith(".csv") or Path(self.path).exists()):
             raise GeogaitError(f"The {name('path')} must be one of {', '.join(BUILT_IN_PATHS)} or a waypoints CSV "
                                f"file (columns x, y). Got {self.path!r} instead.")

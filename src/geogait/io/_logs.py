@@ -9,8 +9,9 @@ Units: angles in radians (``degrees=True`` converts the shape, shape-velocity an
 columns and the ω column of body velocity; the phase column is always radians), lengths in any
 unit (body velocities come out in that unit per time unit), time in seconds or in the unit
 declared by ``time_unit`` (``"ms"``, ``"us"``, ``"ns"``: time and the rate columns are converted to
-seconds); pandas datetimes/timedeltas become seconds. The model's RLS prior is scaled for rates
-per second of a gait of about 0.01–100 cycles per second: :func:`~geogait.io.fit_log` warns when
+seconds); pandas datetimes/timedeltas, and their ISO 8601 text in a CSV, become seconds; stamps that change
+unit within the log (segments stepping 1000×, 10⁶× or 10⁹× apart) are an error. The model's RLS prior is
+scaled for rates per second of a gait of about 0.01–100 cycles per second: :func:`~geogait.io.fit_log` warns when
 the phase rate is outside that range and refuses rates outside 1 cycle per day – 1000 cycles per
 second.
 
@@ -63,6 +64,7 @@ the source row of every sample.
 
 from __future__ import annotations
 
+import csv
 import json
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
@@ -409,7 +411,7 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     scale = _time_scale(time_unit)
     limit = None if outlier_limit is None else check_float(outlier_limit, "outlier_limit", _READ, low=0,
                                                            low_open=True)
-    frame = load_frame(source)
+    frame = _read_clock_text(load_frame(source), columns.time)
     if scale != 1.0 and columns.time in frame.columns and _is_clock(frame[columns.time]):
         raise fail("time_unit", _READ, "None or 's' for a column of date-times or time deltas (they are read in "
                    "seconds)", time_unit)
@@ -425,6 +427,7 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
     stamps = data[columns.time]
     _check_increasing(stamps, rows, columns.time)
     segment = _segments(stamps, rows, options.gap_factor)
+    _check_one_time_unit(stamps, rows, segment, columns.time)
     _check_outliers(data, columns, rows, segment, limit)
     log = _build(data, columns, options, stamps, segment, rows)
     return log if time_unit is None else replace(log, time_unit="s")
@@ -557,12 +560,23 @@ def load_frame(source) -> pd.DataFrame:
         raise fail("source", _READ, "an existing file", f"{path} ({describe_path_kind(path) or 'does not exist'})")
     kind = "CSV" if suffix == ".csv" else "Parquet"
     try:
-        return pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+        return _read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, pa.ArrowException,
             ValueError) as error:
         reason = " ".join(str(error).split())[:200]
         raise GeogaitError(f"The 'source' parameter of {_READ} must be a readable {kind} file. Got {str(path)!r} "
                            f"({reason}) instead.") from None
+
+
+def _read_csv(path: Path) -> pd.DataFrame:
+    """The CSV file ``path`` as a table whose columns carry the header's names as written: pandas renames a
+    repeated name (``shape_0``, ``shape_0.1``), which would hide it from the check of the used columns."""
+    frame = pd.read_csv(path)
+    with open(path, encoding="utf-8-sig", newline="") as stream:
+        header = next(csv.reader(stream), [])
+    if len(set(header)) < len(header) and len(header) == frame.shape[1]:
+        frame.columns = header
+    return frame
 
 
 def _numeric_columns(frame: pd.DataFrame, columns: ColumnMapping) -> dict[str, np.ndarray]:
@@ -604,6 +618,23 @@ def _as_float(series: pd.Series, name: str, is_time: bool) -> np.ndarray:
     return converted.to_numpy(float)
 
 
+def _read_clock_text(frame: pd.DataFrame, name: str) -> pd.DataFrame:
+    """``frame`` with its time column ``name`` read as date-times or time deltas when it holds their text (a CSV
+    keeps ISO 8601 stamps such as ``2026-01-01T00:00:00.010`` as text), else as it is."""
+    if (frame.columns == name).sum() != 1 or not pd.api.types.is_string_dtype(frame[name]):  # (text or objects)
+        return frame
+    text = frame[name].dropna()
+    if not len(text) or not all(isinstance(value, str) for value in text) or \
+            pd.to_numeric(text, errors="coerce").notna().any():  # (numbers among them: not a clock column)
+        return frame
+    for parse in (lambda text: pd.to_datetime(text, format="ISO8601", utc=True), pd.to_timedelta):
+        try:
+            return frame.assign(**{name: parse(frame[name])})
+        except (ValueError, TypeError, OverflowError):
+            continue
+    return frame
+
+
 def _is_clock(series: pd.Series) -> bool:
     """A column of date-times or time deltas: its stamps carry their own unit."""
     return pd.api.types.is_datetime64_any_dtype(series) or pd.api.types.is_timedelta64_dtype(series)
@@ -630,6 +661,25 @@ def _check_increasing(stamps: np.ndarray, rows: np.ndarray, name: str) -> None:
             raise fail(name, _READ, "strictly increasing time stamps",
                        f"{kind} time stamp {stamps[i + 1]:g} at row {rows[i + 1]} "
                        f"(row {rows[i]} has {stamps[i]:g})")
+
+
+#: Factors between seconds and the other time units: segments whose steps differ by one of them changed unit.
+_UNIT_FACTORS = {1e3: "milliseconds", 1e6: "microseconds", 1e9: "nanoseconds"}
+
+
+def _check_one_time_unit(stamps: np.ndarray, rows: np.ndarray, segment: np.ndarray, name: str) -> None:
+    """Refuse a log whose segments step 1000×, 10⁶× or 10⁹× apart (to 2 %): stamps in seconds, then milliseconds?
+    (The jump between the units splits the log into segments; each alone looks regular.)"""
+    steps = [(int(rows[mine][0]), float(np.median(np.diff(stamps[mine]))))
+             for mine in (segment == s for s in np.unique(segment)) if mine.sum() >= 3]
+    for row, step in steps[1:]:
+        ratio = step / steps[0][1]
+        factor = next((f for f in _UNIT_FACTORS for r in (ratio, 1 / ratio) if abs(r / f - 1) <= 0.02), None)
+        if factor is not None:
+            change = f"seconds, then {_UNIT_FACTORS[factor]}" if ratio > 1 else f"{_UNIT_FACTORS[factor]}, then seconds"
+            raise GeogaitError(f"The '{name}' parameter of {_READ} must be time stamps in one unit throughout. Got "
+                               f"steps of {steps[0][1]:.4g} until row {row} and {step:.4g} from it ({ratio:.4g}×: "
+                               f"{change}?) instead.")
 
 
 def _segments(stamps: np.ndarray, rows: np.ndarray, gap_factor: float) -> np.ndarray:

@@ -273,6 +273,10 @@ class CsvReader:
                   "shape_velocity": [f"shape_velocity_{j}" for j in range(d)],
                   "body_velocity": list(BODY_VELOCITY_COLUMNS)}
         index = {name: i for i, name in enumerate(header)}
+        repeated = [name for names in groups.values() for name in names if header.count(name) > 1]
+        if repeated:  # (the index keeps the last: which one the producer meant is unknown)
+            raise fail("header", "input line 1", "a CSV header naming each column once",
+                       f"the column(s) {repeated} more than once")
         found: dict[str, list[int] | None] = {}
         for key, names in groups.items():
             present = [name for name in names if name in index]

@@ -43,7 +43,7 @@ import pandas as pd
 from .._defaults import DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._estimator import check_is_fitted
 from .._files import check_outputs, default_summary_path, output_set, write_json, write_text
-from .._validation import GeogaitError, GeogaitWarning, check_float, check_int, fail
+from .._validation import GeogaitError, GeogaitWarning, check_float, check_int, fail, warn_if_degrees
 from ..gaits import FourierGait
 from ..io import PREDICTION_COLUMNS, ColumnMapping, Log, mapping_to_json
 from ..models import AdaptiveGaitModel, gamma
@@ -361,6 +361,7 @@ def fit_log(log: Log, *, forgetting_factor: float | None = None, n_windows: int 
     log = log.with_phase(unwrapped)
     cycle = _cycles(unwrapped)
     test = _held_out(cycle, log.segment, fraction)
+    _warn_if_still(log.body_velocity[test], "held-out sample", "fit_log")
     train = ~test
     nominal = fit_nominal_gait(log.phase[train], log.shape[train], order=gait_order, max_order=max_gait_order,
                                groups=cycle[train])
@@ -484,11 +485,22 @@ def predict_log(model: AdaptiveGaitModel, log: Log, *, phaser: Phaser | None = N
                    f"{log.n_joints} shape columns")
     unwrapped, used = _unwrapped_phase(log, phaser, fit=False)
     _warn_on_rate_mismatch(log, unwrapped, float(model.phase_rate))
+    warn_if_degrees(log.shape, "shape", "predict_log")  # (as the model warns when fit on such a log)
+    if measured:
+        _warn_if_still(log.body_velocity, "sample", "predict_log")
     log = log.with_phase(unwrapped)
     prediction = model.predict(log.phase, log.shape, log.shape_velocity)
     baseline = model.phase_model_.predict(log.phase)
     return LogPrediction(log=log, cycle=_cycles(unwrapped), prediction=prediction, baseline=baseline,
                          measured=bool(measured), phase_source="phase column" if used is None else "Phaser")
+
+
+def _warn_if_still(body_velocity: np.ndarray, where: str, owner: str) -> None:
+    """Warn when the measured body velocity Γ is scored on is zero throughout (Γ is then NaN or meaningless)."""
+    if not np.any(body_velocity):
+        warnings.warn(f"The measured body velocity of the log given to {owner} is zero at every {where}: the robot "
+                      "stood still, so Γ says nothing about its motion (null where the model and the phase-model "
+                      "baseline both predict the standstill exactly).", GeogaitWarning, stacklevel=3)
 
 
 def _warn_on_rate_mismatch(log: Log, unwrapped: list[np.ndarray], expected: float) -> None:

@@ -170,9 +170,11 @@ def gamma(error_model, error_baseline) -> np.ndarray:
     -------
     ndarray of shape (...)
         Γ, the sums running over the last (sample) axis: 1 is a perfect model, 0 no better than the
-        baseline, negative worse.
+        baseline, negative worse; NaN where both sums are zero (a body that never moved: Γ is undefined,
+        and the caller says so).
     """
-    return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 1.0 - np.sum(error_model, axis=-1) / np.sum(error_baseline, axis=-1)
 
 
 def check_smoothing_order(smoothing_order: int, n_windows: int, owner: str) -> None:

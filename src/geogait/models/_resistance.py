@@ -42,7 +42,7 @@ import numpy as np
 
 from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real
-from .._validation import check_array, check_float, fail
+from .._validation import MAX_MAGNITUDE, check_array, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..simulate import cycle_velocity
@@ -84,45 +84,34 @@ class _BodyFrame:
 
 
 class _FrameOffset:
-    """Constraint: None or a finite (x, y, angle)."""
+    """Constraint: None or a finite (x, y, angle) of real numbers within ±1e12 (no boolean or complex cast)."""
 
     def __call__(self, value, name: str, owner: str) -> None:
-        if value is None:
-            return
-        try:
-            offset = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            offset = None
-        if offset is None or offset.shape != (3,) or not np.all(np.isfinite(offset)):
+        if value is not None and check_array(value, name, owner, limit=MAX_MAGNITUDE).shape != (3,):
             raise fail(name, owner, "None or a finite (x, y, angle)", value)
 
 
 class _ShapeMap:
-    """Constraint: None or a finite 2-D array (the chain's joints × the robot's shape coordinates)."""
+    """Constraint: None or a finite 2-D array (the chain's joints × the robot's shape coordinates), real numbers
+    within ±1e12."""
 
     def __call__(self, value, name: str, owner: str) -> None:
         if value is None:
             return
-        try:
-            matrix = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            matrix = None
-        if matrix is None or matrix.ndim != 2 or 0 in matrix.shape or not np.all(np.isfinite(matrix)):
+        matrix = check_array(value, name, owner, limit=MAX_MAGNITUDE)
+        if matrix.ndim != 2 or 0 in matrix.shape:
             raise fail(name, owner, "None or a finite 2-D array (the chain's joints × the robot's shape coordinates)",
                        value)
 
 
 class _LinkLengths:
-    """Constraint: None or at least two positive, finite link lengths."""
+    """Constraint: None or at least two positive, finite link lengths (real numbers within ±1e12)."""
 
     def __call__(self, value, name: str, owner: str) -> None:
         if value is None:
             return
-        try:
-            lengths = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise fail(name, owner, "a sequence of at least 2 positive link lengths", value) from None
-        if lengths.ndim != 1 or lengths.size < 2 or not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
+        lengths = check_array(value, name, owner, limit=MAX_MAGNITUDE)
+        if lengths.ndim != 1 or lengths.size < 2 or np.any(lengths <= 0):
             raise fail(name, owner, "a sequence of at least 2 positive link lengths", value)
 
 

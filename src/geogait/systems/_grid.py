@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import GeogaitError, check_array, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, fail
 from ._base import check_shapes
 
 __all__ = ["GridSystem"]
@@ -58,12 +58,12 @@ class GridSystem:
             raise fail("axes", owner, "a sequence of d one-dimensional arrays (one per joint)", axes)
         checked = []
         for k, axis in enumerate(axes):
-            axis = check_array(axis, f"axes[{k}]", owner, ndim=1)
+            axis = check_array(axis, f"axes[{k}]", owner, ndim=1, limit=MAX_MAGNITUDE)
             if axis.size < _MIN_POINTS or np.any(np.diff(axis) <= 0):
                 raise fail(f"axes[{k}]", owner, f"strictly increasing with at least {_MIN_POINTS} points", axis)
             checked.append(axis)
         d = len(checked)
-        values = check_array(connection, "connection", owner)
+        values = check_array(connection, "connection", owner, limit=MAX_MAGNITUDE)
         expected = tuple(axis.size for axis in checked) + (3, d)
         if values.shape != expected:
             raise fail("connection", owner, f"an array of shape {expected} (grid points × 3 × d)",
@@ -158,7 +158,7 @@ class GridSystem:
                                    f"(it varies along another axis than {k + 1}).")
             axes.append(axis[:, 0])
         try:  # MATLAB stores the 3 × d cell column by column
-            connection = -np.stack([np.stack([np.asarray(fields[row + 3 * col], dtype=float).reshape(grids[0].shape)
+            connection = -np.stack([np.stack([fields[row + 3 * col].reshape(grids[0].shape)
                                               for col in range(d)], axis=-1) for row in range(3)], axis=-2)
         except ValueError:
             raise GeogaitError(f"{owner}: the connection fields in {path} are not shaped like its grid "
@@ -205,10 +205,9 @@ class GridSystem:
 
 
 def _cells(value, owner: str, path, field: str) -> list:
-    """A MATLAB cell array read by scipy (an object array) as a flat list of float arrays, column-major."""
+    """A MATLAB cell array read by scipy (an object array) as a flat list of float arrays, column-major; each
+    cell real, finite and within ±1e12 (scipy reads complex and logical arrays as they are)."""
     if not (isinstance(value, np.ndarray) and value.dtype == object):
         raise GeogaitError(f"{owner}: {field} in {path} is not a cell array of grids.")
-    try:
-        return [np.asarray(cell, dtype=float) for cell in value.ravel(order="F")]
-    except (TypeError, ValueError):
-        raise GeogaitError(f"{owner}: {field} in {path} holds something other than numeric grids.") from None
+    return [check_array(cell, f"{field}{{{k + 1}}} in {path}", owner, limit=MAX_MAGNITUDE)
+            for k, cell in enumerate(value.ravel(order="F"))]

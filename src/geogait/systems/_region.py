@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, check_array, check_float, check_int, fail, not_real
 from ..gaits import FourierGait
 from ._base import check_shapes
 
@@ -144,12 +144,19 @@ class RegionSystem:
         return gait
 
     def _evaluate(self, function, shapes, expected, what):
-        value = np.asarray(function(shapes), dtype=float)
+        value = function(shapes)
+        odd = not_real(value)
+        if odd is not None:  # (NumPy would drop an imaginary part or read True as 1)
+            raise GeogaitError(f"The '{what}' callable of {self.name} must return real numbers. Got {odd} instead.")
+        value = np.asarray(value, dtype=float)
         if value.shape != expected:
             raise GeogaitError(f"The '{what}' callable of {self.name} must return an array of shape {expected} for "
                                f"shapes of shape {shapes.shape}. Got shape {value.shape} instead.")
         if not np.all(np.isfinite(value)):
             raise GeogaitError(f"The '{what}' callable of {self.name} must return finite values. Got NaN or inf.")
+        if value.size and np.abs(value).max() > MAX_MAGNITUDE:
+            raise GeogaitError(f"The '{what}' callable of {self.name} must return values within ±{MAX_MAGNITUDE:g}. "
+                               f"Got {float(np.abs(value).max()):g}.")
         return value
 
 
@@ -195,7 +202,7 @@ class LinearRegion:
     @classmethod
     def from_rows(cls, rows) -> LinearRegion:
         """From rows ``[a_0, …, a_{d-1}, b]`` (the bridge hello's ``"shape_constraints"``)."""
-        rows = np.asarray(rows, dtype=float)
+        rows = check_array(rows, "rows", "LinearRegion.from_rows", limit=MAX_MAGNITUDE)
         if rows.ndim != 2 or rows.shape[1] < 2:
             raise fail("rows", "LinearRegion.from_rows", "rows [a_0, ..., a_(d-1), b]", f"shape {rows.shape}")
         return cls(rows[:, :-1], rows[:, -1])

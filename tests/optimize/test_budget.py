@@ -1,0 +1,22 @@
+"""smallest_budget against the optimiser itself: the cycles a run spends before it measures one."""
+
+import pytest
+
+from geogait._validation import smallest_budget
+from geogait.gaits import seed_gait
+from geogait.optimize import InSituOptimizer
+from geogait.optimize._model_class import ModelClassCheck
+from geogait.simulate import SwimmerStream
+from geogait.systems import PurcellSwimmer
+
+
+@pytest.mark.parametrize(("settle", "test"), [(0, 0), (3, 0), (0, 3), (2, 3)])
+def test_the_smallest_budget_holds_exactly_one_measured_cycle(settle, test):
+    system = PurcellSwimmer(3)
+    budget = smallest_budget(settle, test)
+    robot = SwimmerStream(system, seed_gait(2), seed=0)
+    result = InSituOptimizer(settle_cycles=settle, model_class_cycles=test, random_state=0).run(robot, budget)
+    assert len(result.log) == budget and (~result.log["settling"]).sum() == 1
+    assert not result.log["settling"].iloc[-1]
+    if test:
+        assert budget == len(ModelClassCheck(1.0, 2.0, test, settle_cycles=settle).plan) + 1
