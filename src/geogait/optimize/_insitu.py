@@ -38,7 +38,7 @@ from ._loop import CycleLoop, new_climb
 from ._measure import peak_phase_speed
 from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period
 from ._models import gate_kind, gate_members, model_template, run_model, symmetric_chain_model
-from ._objective import Objective, robot_feasibility
+from ._objective import Objective, spec_feasibility
 from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
 from ._period import PeriodLineSearch
 from ._result import InSituResult
@@ -271,7 +271,7 @@ class InSituOptimizer(Estimator):
         period_range = _period_range(parts.period, spec, period, owner)
         excites = _excites(self.exploration, spec, owner)
         family = self._family(spec, gait)
-        feasibility = robot_feasibility(robot, gait.n_joints, self.order)
+        feasibility = spec_feasibility(spec, gait.n_joints, self.order)
         if feasibility is not None and feasibility(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
             raise fail("robot", owner, "a seed gait inside the robot's feasible region (its system's singular set's "
                        "margin, or the region it declares; e.g. the system's own seed_gait())",
@@ -291,7 +291,8 @@ class InSituOptimizer(Estimator):
         state.check = check
         if state.check is not None:  # the test's plan runs the start's settle cycles
             state.settle_left = 0
-        return CycleLoop(self, parts, robot, state, checkpoint, checkpoint_every, checkpoint_tag).run(callback, record)
+        loop = CycleLoop(self, parts, robot, spec, state, checkpoint, checkpoint_every, checkpoint_tag)
+        return loop.run(callback, record)
 
     @classmethod
     def resume(cls, checkpoint, robot, *, callback: Callable[[dict], None] | None = None,
@@ -337,17 +338,17 @@ class InSituOptimizer(Estimator):
             state.climb = new_climb(parts.climb, state.scale)
         if "rng" not in metadata["state"]:
             state.rng = np.random.default_rng(optimizer.random_state)
-        state.feasibility = robot_feasibility(robot, state.gait.n_joints, optimizer.order)
+        state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order)
         if n_cycles is not None:
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
-        if robot_state is not None and hasattr(robot, "restore_robot_state"):
+        if robot_state is not None and spec.saves_state:
             robot.restore_robot_state({**robot_state, **prefixed_arrays(arrays, "robot/")})
         else:
             robot.set_gait(state.robot_gait)
             if state.period_search is not None and robot.cycle_period != state.robot_period:
                 robot.set_cycle_period(state.robot_period)
-        loop = CycleLoop(optimizer, parts, robot, state, path, metadata["checkpoint_every"], metadata.get("tag"))
+        loop = CycleLoop(optimizer, parts, robot, spec, state, path, metadata["checkpoint_every"], metadata.get("tag"))
         return loop.run(callback, record)
 
     # -- gait family --------------------------------------------------------------------------

@@ -28,14 +28,15 @@ from ._state import (
 class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
     """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
 
-    def __init__(self, optimizer, parts, robot, state, checkpoint, checkpoint_every, tag=None):
-        self.optimizer, self.parts, self.robot, self.state, self.tag = optimizer, parts, robot, state, tag
+    def __init__(self, optimizer, parts, robot, spec, state, checkpoint, checkpoint_every, tag=None):
+        self.optimizer, self.parts, self.robot, self.spec, self.state = optimizer, parts, robot, spec, state
+        self.tag = tag
         self.checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
         self.gate = parts.gate_kind
         self.capabilities = model_capabilities(state.model)  # (of every model the run makes: one class)
         if state.structure_switched:  # (a resumed run that had switched)
             self._switch_structure()
-        self.truth = _Oracle(robot, parts.objective.kind, self._evaluate)
+        self.truth = _Oracle(robot if spec.simulated else None, parts.objective.kind, self._evaluate)
         if not state.gaits:
             state.gaits = [state.gait]
             state.robot_gait = state.gait

@@ -57,7 +57,7 @@ class RunRecords:
             model_metadata, model_arrays = model.get_state()
             arrays.update({f"model/{k}": np.asarray(v) for k, v in model_arrays.items()})
         robot_state = None
-        if hasattr(self.robot, "robot_state"):
+        if self.spec.saves_state:
             robot_state = {}
             for key, value in self.robot.robot_state().items():
                 if isinstance(value, np.ndarray):
@@ -75,7 +75,7 @@ class _Oracle:
     """True (x, y, heading) and objective per cycle of a gait, when the robot exposes its system."""
 
     def __init__(self, robot, objective_name, evaluate):
-        self.system = getattr(robot, "current_system", None)
+        self.system = None if robot is None else robot.current_system
         self.available = self.system is not None
         self.objective, self.evaluate = objective_name, evaluate
         self.cache = {}

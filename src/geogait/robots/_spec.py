@@ -40,8 +40,11 @@ class RobotSpec:
         The robot takes the optimiser's exploration (``set_excitation``, unless ``accepts_excitation`` is false).
     saves_state : bool
         The robot offers ``robot_state`` and ``restore_robot_state`` (bit-identical resumes).
-    simulated : bool
-        The robot offers ``current_system()`` (a simulator's truth).
+    system : System or None
+        A simulator's system at the start (``current_system()``), else None.
+    region : callable or None
+        The shapes the robot may take, as it declares them: ``feasibility(shapes, jacobian=False)``, a signed margin
+        ≥ 0 inside (a simulated system's singular set is read from ``system`` instead).
     """
 
     kind: str
@@ -54,7 +57,13 @@ class RobotSpec:
     period_control: bool = False
     excitation: bool = False
     saves_state: bool = False
-    simulated: bool = False
+    system: object = None
+    region: object = None
+
+    @property
+    def simulated(self) -> bool:
+        """The robot offers ``current_system()`` (a simulator's truth)."""
+        return self.system is not None
 
 
 def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
@@ -95,7 +104,7 @@ def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
         and bool(getattr(robot, "accepts_excitation", True)),
         saves_state=callable(getattr(robot, "robot_state", None))
         and callable(getattr(robot, "restore_robot_state", None)),
-        simulated=system is not None)
+        system=system, region=robot.feasibility if callable(getattr(robot, "feasibility", None)) else None)
 
 
 def _declared(robot, name: str, otherwise: bool) -> bool:
