@@ -148,29 +148,6 @@ def check_choice(value, name: str, owner: str, choices: Sequence[str]) -> str:
     return value
 
 
-def smallest_budget(settle_cycles: int, model_class_cycles: int = 0) -> int:
-    """The fewest cycles of an in-situ run (:class:`~geogait.optimize.InSituOptimizer`) that hold one measured cycle.
-
-    The optimiser spends its first cycles without measuring: ``settle_cycles`` settle cycles, or, with a
-    model-class test (``model_class_cycles`` > 0), the test's plan — the start's ``settle_cycles``, then
-    ``model_class_cycles`` cycles at each of two periods, each period change followed by ``max(1,
-    settle_cycles)`` settle cycles (the plan of :class:`geogait.optimize._model_class.ModelClassCheck`). A run
-    needs one cycle more: a budget below this ends with no measured cycle, every cycle spent for nothing.
-
-    Parameters
-    ----------
-    settle_cycles, model_class_cycles : int
-        The optimiser's settings (checked by it).
-
-    Returns
-    -------
-    int
-    """
-    if not model_class_cycles:
-        return settle_cycles + 1
-    return settle_cycles + 2 * model_class_cycles + 2 * max(1, settle_cycles) + 1
-
-
 #: Largest magnitude accepted for any sample value (angles, rates, velocities, poses, time steps):
 #: far beyond any physical reading in any unit, and small enough that the products the models form
 #: (regressors δ ⊗ δ̇, covariance updates) stay far from overflow.

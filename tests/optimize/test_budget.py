@@ -2,9 +2,8 @@
 
 import pytest
 
-from geogait._validation import smallest_budget
 from geogait.gaits import seed_gait
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import InSituOptimizer, smallest_budget
 from geogait.optimize._model_class import ModelClassCheck
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer

@@ -14,7 +14,7 @@ import typer
 
 from .._defaults import MAX_JOINT_ANGLE, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
-from .._validation import GeogaitError, check_int, smallest_budget
+from .._validation import GeogaitError, check_int
 from ..experiments.optimization import (
     OptimizationConfig,
     OptimizationResult,
@@ -37,6 +37,7 @@ from ..optimize import (
     for_robot,
     prior_work,
     read_checkpoint_metadata,
+    smallest_budget,
     structured,
 )
 from ..plotting import (
@@ -413,7 +414,7 @@ def _budget(settings) -> int:
 
 
 def _check_budget(settings) -> None:
-    """A budget that holds no measured cycle is refused before the robot moves (see smallest_budget)."""
+    """A budget that holds no measured cycle is refused before the robot moves (``smallest_budget``)."""
     settle, test = settings["settle_cycles"], settings.get("model_class_cycles", 0)
     smallest, budget = smallest_budget(settle, test), _budget(settings)
     if budget >= smallest:

@@ -7,6 +7,7 @@ from ._climb import BAYES_DESIGN_CYCLES, CLIMB_RULES, climb_rule_for
 from ._exploration import ExcitationSignal, Exploration
 from ._insitu import Composition, InSituOptimizer, symmetric_chain_model
 from ._measure import CycleMeasurement, measure_cycle
+from ._model_class import smallest_budget
 from ._objective import (
     OBJECTIVES,
     Objective,
@@ -66,6 +67,7 @@ __all__ = [
     "read_checkpoint_metadata",
     "rms_speed",
     "robot_feasibility",
+    "smallest_budget",
     "sqp_step",
     "structured",
     "symmetric_chain_model",

@@ -36,7 +36,7 @@ from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
 from ._loop import CycleLoop, new_climb
 from ._measure import peak_phase_speed
-from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period
+from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period, smallest_budget
 from ._models import gate_kind, gate_members, model_template, run_model, symmetric_chain_model
 from ._objective import Objective, spec_feasibility
 from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
@@ -239,7 +239,7 @@ class InSituOptimizer(Estimator):
         parts = self.composition()
         owner = "InSituOptimizer.run"
         check_callback(callback, record, owner)
-        n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)
+        n_cycles = _check_budget(n_cycles, parts, owner)
         checkpoint_every = check_int(checkpoint_every, "checkpoint_every", owner, minimum=1)
         if ceiling is not None:
             ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
@@ -340,6 +340,7 @@ class InSituOptimizer(Estimator):
             state.rng = np.random.default_rng(optimizer.random_state)
         state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order)
         if n_cycles is not None:
+            n_cycles = _check_budget(n_cycles, parts, "InSituOptimizer.resume")
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
         if robot_state is not None and spec.saves_state:
@@ -376,6 +377,13 @@ class InSituOptimizer(Estimator):
         if self.family == "mirror" or (member and spec.mirror_symmetric):
             return mirror
         return FreeGaitFamily(gait.n_joints, self.order)
+
+
+def _check_budget(n_cycles, parts: Composition, owner: str) -> int:
+    """A cycle budget that holds at least one measured cycle (:func:`smallest_budget`)."""
+    test = 0 if parts.model_class is None else parts.model_class.cycles
+    smallest = smallest_budget(parts.safety.settle_cycles, test)
+    return check_int(n_cycles, "n_cycles", owner, minimum=smallest)
 
 
 # -- what the robot declares ---------------------------------------------------------------------

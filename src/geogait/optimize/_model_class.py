@@ -119,3 +119,27 @@ def second_period(period: float, low: float, high: float, shortest: float) -> fl
         if max(low, shortest) * (1 - 1e-12) <= candidate <= high * (1 + 1e-12):
             return candidate
     return None
+
+
+def smallest_budget(settle_cycles: int, model_class_cycles: int = 0) -> int:
+    """The fewest cycles of an in-situ run (:class:`~geogait.optimize.InSituOptimizer`) that hold one measured
+    cycle.
+
+    The optimiser spends its first cycles without measuring: ``settle_cycles`` settle cycles, or, with a
+    model-class test (``model_class_cycles`` > 0), the test's plan — the start's ``settle_cycles``, then
+    ``model_class_cycles`` cycles at each of two periods, each period change followed by ``max(1,
+    settle_cycles)`` settle cycles (the plan of :class:`ModelClassCheck`). A run
+    needs one cycle more: a budget below this ends with no measured cycle, every cycle spent for nothing.
+
+    Parameters
+    ----------
+    settle_cycles, model_class_cycles : int
+        The optimiser's settings (checked by it).
+
+    Returns
+    -------
+    int
+    """
+    if not model_class_cycles:
+        return settle_cycles + 1
+    return settle_cycles + 2 * model_class_cycles + 2 * max(1, settle_cycles) + 1
