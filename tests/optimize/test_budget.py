@@ -3,7 +3,7 @@
 import pytest
 
 from geogait.gaits import seed_gait
-from geogait.optimize import InSituOptimizer, smallest_budget
+from geogait.optimize import InSituOptimizer, ModelClassTest, Safety, smallest_budget
 from geogait.optimize._model_class import ModelClassCheck
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
@@ -14,8 +14,11 @@ def test_the_smallest_budget_holds_exactly_one_measured_cycle(settle, test):
     system = PurcellSwimmer(3)
     budget = smallest_budget(settle, test)
     robot = SwimmerStream(system, seed_gait(2), seed=0)
-    result = InSituOptimizer(settle_cycles=settle, model_class_cycles=test, random_state=0).run(robot, budget)
+    checks = [ModelClassTest(cycles=test)] if test else []
+    result = InSituOptimizer(safety=Safety(settle_cycles=settle), checks=checks).run(robot, budget)
     assert len(result.log) == budget and (~result.log["settling"]).sum() == 1
     assert not result.log["settling"].iloc[-1]
     if test:
         assert budget == len(ModelClassCheck(1.0, 2.0, test, settle_cycles=settle).plan) + 1
+    with pytest.raises(ValueError, match=f"'n_cycles' parameter of InSituOptimizer.run must be an int >= {budget}"):
+        InSituOptimizer(safety=Safety(settle_cycles=settle), checks=checks).run(robot, budget - 1)
