@@ -26,8 +26,8 @@ def _cycles_per_second(name: str, **options) -> float:
 def run():
     rows = []
     for name, label, options in (("wheeled-snake", "wheeled snake, feasible region", {}),
-                                 ("swimmer5", "built-in 5-link", {"climb_rule": "cobyqa"}),
-                                 ("swimmer5", "built-in 5-link, Bayesian climb", {"climb_rule": "bayes"})):
+                                 ("swimmer5", "built-in 5-link", {"climb__rule": "cobyqa"}),
+                                 ("swimmer5", "built-in 5-link, Bayesian climb", {"climb__rule": "bayes"})):
         value = max(_cycles_per_second(name, **options) for _ in range(2))
         rows.append(dict(benchmark="measured climb", case=f"{label}, {CYCLES} cycles (robot included)",
                          value=value, unit="cycles/s"))

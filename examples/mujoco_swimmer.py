@@ -36,7 +36,7 @@ import numpy as np
 from geogait import se2
 from geogait.gaits import Perturbation
 from geogait.models import AdaptiveGaitModel
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import InSituOptimizer, Objective, Safety
 from geogait.robots import MujocoRobot, gymnasium_swimmer, mujoco_swimmer, purcell_swimmer_xml
 
 ROBOTS = {
@@ -79,7 +79,7 @@ def optimise(make, n_cycles: int, seed: int, warmup: int = 2, **options) -> dict
     robot = make(seed=seed)
     if warmup:
         robot.next_cycles(warmup)
-    optimizer = InSituOptimizer(objective="forward", direction_frame="body", **options)
+    optimizer = InSituOptimizer(objective=Objective(kind="forward", frame="body"), **options)
     started = time.perf_counter()
     result = optimizer.run(robot, n_cycles)
     seconds = time.perf_counter() - started
@@ -115,7 +115,7 @@ def saturation(n_cycles: int, seed: int) -> dict:
 
     rows = {}
     for label, limit in (("no_check", None), ("max_tracking_error_0.1", 0.1)):
-        rows[label] = optimise(make, n_cycles, seed, max_tracking_error=limit)
+        rows[label] = optimise(make, n_cycles, seed, safety=Safety(max_tracking_error=limit))
     return rows
 
 

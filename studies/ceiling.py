@@ -19,7 +19,7 @@ CONFIG names: free-linear (the previous default), symmetric-linear, symmetric-sq
 shape-sqp (ShapeSpaceModel, degree 3 below 9 links, 2 at 9), mirror-linear, mirror-sqp
 (ShapeSpaceModel of degree 3 with the swimmer's mirror and reversal symmetries built in,
 ``symmetry="mirror+reversal"``), resistance-linear, resistance-sqp (:class:`~geogait.models.ResistanceModel`: the
-swimmer's geometry given, its drags learned; with ``geogait.optimize.STRUCTURED_MODEL_STEPS``: trust radius
+swimmer's geometry given, its drags learned; with the structured preset (``geogait.optimize.structured``): trust radius
 0.25 to 0.5, the measured climb only when contradicted), hybrid-linear, hybrid-sqp (the same with a degree-2
 symmetric residual),
 perfect-linear, perfect-sqp (true connection, trust radius up to
@@ -35,16 +35,20 @@ import time
 import numpy as np
 from joblib import Parallel, delayed
 
-from geogait._defaults import STRUCTURED_MODEL_STEPS
 from geogait.gaits import seed_gait
 from geogait.models import PerfectInformationModel, ResistanceModel, ShapeSpaceModel
-from geogait.optimize import InSituOptimizer, cached_ceiling
+from geogait.optimize import InSituOptimizer, cached_ceiling, from_flat_params
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
 CONFIGS = ("free-linear", "symmetric-linear", "symmetric-sqp", "shape-linear", "shape-sqp", "mirror-linear",
            "mirror-sqp", "resistance-linear", "resistance-sqp", "hybrid-linear", "hybrid-sqp", "perfect-linear",
            "perfect-sqp")
+
+
+#: The structured preset's step and climb settings by their flat names.
+STRUCTURED_FLAT = {"step_rule": "sqp", "trust_radius": 0.25, "min_trust_radius": 0.25, "max_trust_radius": 0.5,
+                   "climb": "contradicted", "climb_rule": "es"}
 
 
 def optimizer(config, links):
@@ -60,7 +64,7 @@ def optimizer(config, links):
         options["model"] = ShapeSpaceModel(degree=3, symmetry="mirror+reversal")
     if model in ("resistance", "hybrid"):  # the chain's geometry known, its drags learned (and a residual)
         residual = {"residual_degree": 2, "residual_symmetry": "mirror+reversal"} if model == "hybrid" else {}
-        options = {**STRUCTURED_MODEL_STEPS, **options,
+        options = {**STRUCTURED_FLAT, **options,
                    "model": ResistanceModel.from_swimmer(PurcellSwimmer(links), **residual)}
     if model == "perfect":
         options.update(model=PerfectInformationModel(system=PurcellSwimmer(links)), max_trust_radius=0.5)
@@ -72,7 +76,7 @@ def optimizer(config, links):
             options["model"].set_params(**{key.removeprefix("model."): value})
         else:
             options[key] = value
-    return InSituOptimizer(**options)
+    return InSituOptimizer(**from_flat_params(options))  # (settings by their flat names)
 
 
 def one(links, cycles, name, seed, ceiling, perturbation):

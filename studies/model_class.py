@@ -11,8 +11,9 @@ from ``studies/kinematic_snake_log.py``).
 noise; the verdict from its seed gait run clean (no exploration, no noise) at both periods, where the test
 resolves a 5 % difference (with exploration the cycle-to-cycle spread needs hundreds of cycles for that). The
 first 2 cycles at each period are dropped (settling). With ``--in-run N`` also the in-situ optimiser's own test
-(``InSituOptimizer(model_class_cycles=3)``: the seed gait clean at the robot's period and at twice it, within a
-run with its exploration and noise) on seeds 0 … N−1. Robots whose extras are missing are skipped with one line.
+(``InSituOptimizer(checks=[ModelClassTest(cycles=3)])``: the seed gait clean at the robot's period and at
+twice it, within a run with its exploration and noise) on seeds 0 … N−1. Robots whose extras are missing are
+skipped with one line.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import pandas as pd
 from geogait.experiments.robot_benchmark import CASES, available_cases, case_optimizer
 from geogait.io import read_log
 from geogait.learn import fit_log
+from geogait.optimize import ModelClassTest
 from geogait.simulate import Trajectory
 
 COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
@@ -73,11 +75,11 @@ def robot_row(name: str, cycles: int) -> dict:
 
 
 def in_run_rows(name: str, seeds: int, cycles: int = 3) -> list[dict]:
-    """The in-situ optimiser's own test (``model_class_cycles``) on the robot with its exploration and noise, as
+    """The in-situ optimiser's own test (``ModelClassTest``) on the robot with its exploration and noise, as
     the robot benchmark runs it (its settling cycles, objective and period range), one row per seed."""
     case, rows = CASES[name], []
     for seed in range(seeds):
-        optimizer = case_optimizer(case, model_class_cycles=cycles, random_state=seed)
+        optimizer = case_optimizer(case, checks=[ModelClassTest(cycles=cycles)], random_state=seed)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # (the verdict is recorded, not printed)
             result = optimizer.run(case.make_robot(seed, True, True), case.settle_cycles + 2 * cycles + 2)
@@ -99,7 +101,7 @@ def main():
     parser.add_argument("--cycles", type=int, default=20, help="cycles per period (2 of them settle)")
     parser.add_argument("--log", action="append", default=[], help="NAME=CSV: a log of two periods (two segments)")
     parser.add_argument("--in-run", type=int, default=0,
-                        help="seeds of the optimiser's own test (model_class_cycles=3) per robot (0: none)")
+                        help="seeds of the optimiser's own test (ModelClassTest(cycles=3)) per robot (0: none)")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     names, skipped = available_cases(args.cases.split(","))

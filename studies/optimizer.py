@@ -17,14 +17,14 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from geogait.gaits import seed_gait
-from geogait.optimize import InSituOptimizer, cached_ceiling
+from geogait.optimize import InSituOptimizer, cached_ceiling, from_flat_params
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
 
 def one(links, cycles, noise, params, seed, ceiling):
     stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=noise, seed=seed)
-    log = InSituOptimizer(**params).run(stream, cycles, ceiling=ceiling).log
+    log = InSituOptimizer(**from_flat_params(params)).run(stream, cycles, ceiling=ceiling).log  # (a grid of flat names)
     fraction = log["ceiling_fraction"].to_numpy()
     first = np.argmax(fraction >= 0.9) if (fraction >= 0.9).any() else 999
     return fraction[-1], np.abs(log["true_heading"]).max(), first

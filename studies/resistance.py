@@ -3,7 +3,7 @@
 For each geometry error e, model (``resistance``: the drags learned on the given geometry; ``hybrid``: the same plus
 a degree-2 symmetric polynomial residual fitted with the drags) and trial i, an in-situ optimisation of the LINKS-link
 swimmer in Fig. 5's setting (sensor noise 0.1, the stream's perturbations, seed gait, stream seed i) with
-``geogait.optimize.STRUCTURED_MODEL_STEPS`` (SQP, trust radius 0.25 to 0.5, the measured climb only when
+``geogait.optimize.structured`` (SQP, trust radius 0.25 to 0.5, the measured climb only when
 contradicted). The model is
 told link lengths each exactly e wrong: length j times (1 + e s_j), signs s_j = ±1 drawn per trial (seed
 1000 + i), so the chain's proportions and its total length are both off. Prints the median [25-75 %] share of
@@ -21,10 +21,9 @@ import time
 import numpy as np
 from joblib import Parallel, delayed
 
-from geogait._defaults import STRUCTURED_MODEL_STEPS
 from geogait.gaits import seed_gait
 from geogait.models import ResistanceModel
-from geogait.optimize import InSituOptimizer, cached_ceiling
+from geogait.optimize import cached_ceiling, structured
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
@@ -41,8 +40,7 @@ def one(links, cycles, model, error, trial, ceiling, climb_rule=None):
     swimmer = PurcellSwimmer(links)
     stream = SwimmerStream(swimmer, seed_gait(links - 1), sensor_noise=0.1, seed=trial)
     estimator = ResistanceModel(link_lengths=wrong_lengths(swimmer, error, trial), **MODELS[model])
-    rule = {} if climb_rule is None else {"climb_rule": climb_rule}
-    optimizer = InSituOptimizer(model=estimator, **{**STRUCTURED_MODEL_STEPS, **rule})
+    optimizer = structured(estimator) if climb_rule is None else structured(estimator, climb__rule=climb_rule)
     log = optimizer.run(stream, cycles, ceiling=ceiling).log
     return {"model": model, "geometry_error": error, "trial": trial,
             "ceiling_fraction": log["ceiling_fraction"].round(6).tolist(),

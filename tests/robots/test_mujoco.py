@@ -11,7 +11,7 @@ from geogait import se2
 from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.models import AdaptiveGaitModel
-from geogait.optimize import Climb, InSituOptimizer, ModelStep, Objective, Safety
+from geogait.optimize import Climb, InSituOptimizer, ModelClassTest, Objective, Safety, for_robot
 from geogait.robots import (
     MODELS_DIRECTORY,
     MujocoRobot,
@@ -46,7 +46,7 @@ def realised_amplitude(trajectory):
 def test_robot_protocol_and_trajectory_contract(name):
     robot = ROBOTS[name](seed=0)
     assert isinstance(robot, Robot)
-    check_robot(robot, "test")
+    assert check_robot(ROBOTS[name](seed=0)).saves_state  # (it runs a cycle, then again from the restored state)
     d, n, period = robot.n_joints, robot.samples_per_cycle, robot.cycle_period
     first, second = robot.next_cycle(), robot.next_cycle()
     for k, cycle in enumerate((first, second)):
@@ -454,9 +454,9 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
         return np.hypot(*net_motion(run, 0, robot.samples_per_cycle)[:2]), error
 
     # the window model (the default on a chain that declares no resistive medium): small steps near the limit
-    options = dict(objective="forward", direction_frame="body", model=AdaptiveGaitModel(forgetting_factor=0.95),
-                   climb=True)
-    checked = InSituOptimizer(max_tracking_error=0.1, **options).run(_saturating_swimmer(), 30)
+    options = dict(objective=Objective(kind="forward", frame="body"), model=AdaptiveGaitModel(forgetting_factor=0.95),
+                   climb=Climb(start="stalled"))
+    checked = InSituOptimizer(safety=Safety(max_tracking_error=0.1), **options).run(_saturating_swimmer(), 30)
     log = checked.log
     assert checked.n_rejected >= 3  # measured 9
     assert np.all(log.loc[log["rejected"], "tracking_error"] > 0.1)
@@ -470,8 +470,8 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
     # learns realised shapes, then over-predicts the commanded gait (measured: by 60 %) and only the
     # prediction check keeps closing the gate.
     # (the measured-outcome revert and climb, which also pull such a run back, are off to show the runaway)
-    unchecked = InSituOptimizer(**{**options, "climb": False}, max_tracking_error=None, revert_tolerance=None).run(
-        _saturating_swimmer(), 30)
+    unchecked = InSituOptimizer(**{**options, "climb": False},
+                                safety=Safety(max_tracking_error=None, revert_tolerance=None)).run(_saturating_swimmer(), 30)
     assert unchecked.n_rejected == 0
     assert unchecked.final_gait.joint_limit().max() > 1.5  # far beyond the seed's 1 rad
     assert unchecked.log["tracking_error"].iloc[-10:].mean() > 3 * 0.1
@@ -708,28 +708,29 @@ def test_chain_geometry_of_a_frame_off_its_link_and_of_a_non_chain():
         shuffled.chain_geometry()
 
 
-def test_a_resistive_medium_is_read_from_the_model_and_chooses_the_default_model():
+def test_a_resistive_medium_is_read_from_the_model_and_for_robot_chooses_the_structured_preset():
     """Linear drag on every link (purcell_swimmer_xml's RFT actuators) is a resistive medium; quadratic fluid drag,
-    a link without its dampers, or Gymnasium's swimmer is not. The default model follows: ResistanceModel on the
-    chain's geometry, with the structured steps, only where the medium is resistive."""
+    a link without its dampers, or Gymnasium's swimmer is not. ``for_robot`` follows: ResistanceModel on the
+    chain's geometry, with the structured steps, only where the medium is resistive; the optimiser itself never
+    changes a model or setting it was given."""
 
     assert mujoco_swimmer(3).resistive_medium and mujoco_swimmer(5).resistive_medium
     assert not MujocoRobot(purcell_swimmer_xml(3, drag="fluid")).resistive_medium
     undamped = re.sub(r'\s*<general name="drag2_y"[^>]*/>', "", purcell_swimmer_xml(3))  # one link free sideways
     assert "drag2_x" in undamped and "drag2_y" not in undamped and not MujocoRobot(undamped).resistive_medium
-    explicit = InSituOptimizer(model=AdaptiveGaitModel(forgetting_factor=0.95)).run(mujoco_swimmer(3, seed=1), 3)
-    assert type(explicit.model).__name__ == "AdaptiveGaitModel"  # a model given is the model used
-    structured = InSituOptimizer().run(mujoco_swimmer(3, seed=1), 3)
-    assert type(structured.model).__name__ == "ResistanceModel" and structured.log["trust_radius"].iloc[0] == 0.25
-    assert structured.model.link_lengths == tuple(mujoco_swimmer(3).chain_geometry()["link_lengths"])
-    chosen = InSituOptimizer()._structured_default(mujoco_swimmer(3))
-    assert (chosen.step_rule, chosen.climb, chosen.climb_rule) == ("sqp", "contradicted", "es")
-    kept = InSituOptimizer(step=ModelStep(trust_radius=0.15, max_trust_radius=0.3),
-                           climb=Climb(sigma=0.3, first_sigma=2 * 0.3, max_sigma=4 * 0.3)).run(mujoco_swimmer(3, seed=1), 3)
-    assert kept.log["trust_radius"].iloc[0] == 0.15  # a trust region given is the user's
+    explicit = for_robot(mujoco_swimmer(3), model=AdaptiveGaitModel(forgetting_factor=0.95))
+    assert type(explicit.run(mujoco_swimmer(3, seed=1), 3).model).__name__ == "AdaptiveGaitModel"  # a model given
+    chosen = for_robot(mujoco_swimmer(3))
+    assert type(chosen.model).__name__ == "ResistanceModel"
+    assert chosen.model.link_lengths == tuple(mujoco_swimmer(3).chain_geometry()["link_lengths"])
+    assert (chosen.step.rule, chosen.climb.start, chosen.climb.rule) == ("sqp", "contradicted", "es")
+    assert chosen.run(mujoco_swimmer(3, seed=1), 3).log["trust_radius"].iloc[0] == 0.25
+    kept = for_robot(mujoco_swimmer(3), step__trust_radius=0.3)
+    assert kept.run(mujoco_swimmer(3, seed=1), 3).log["trust_radius"].iloc[0] == 0.3  # a setting given is the user's
+    assert type(InSituOptimizer().run(mujoco_swimmer(3, seed=1), 3).model).__name__ != "ResistanceModel"
     pytest.importorskip("gymnasium")
     assert not gymnasium_swimmer().resistive_medium
-    assert type(InSituOptimizer().run(gymnasium_swimmer(seed=1), 3).model).__name__ != "ResistanceModel"
+    assert for_robot(gymnasium_swimmer()).model is None
 
 
 @pytest.mark.parametrize("case", ["mujoco-purcell5-unequal", "gymnasium-swimmer"])
@@ -744,7 +745,7 @@ def test_the_optimisers_model_class_test_passes_both_swimmers(case):
     case = CASES[case]
     robot = case.make_robot(0, explore=True, noise=True)
     period = robot.cycle_period
-    result = case_optimizer(case, model_class_cycles=3).run(robot, 14)
+    result = case_optimizer(case, checks=[ModelClassTest(cycles=3)]).run(robot, 14)
     verdict = result.model_class
     if case.name == "gymnasium-swimmer":
         assert verdict.principally_kinematic is None and "realised gait differs between the periods" in verdict.reason

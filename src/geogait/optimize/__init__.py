@@ -21,7 +21,7 @@ from ._objective import (
 )
 from ._part import Part
 from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
-from ._presets import default, for_robot, paper_loop, prior_work, structured
+from ._presets import default, for_robot, from_flat_params, paper_loop, prior_work, structured
 from ._result import InSituResult
 from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
@@ -56,6 +56,7 @@ __all__ = [
     "default_objective",
     "feasibility_constraint",
     "for_robot",
+    "from_flat_params",
     "joint_limit_constraints",
     "linear_step",
     "measure_cycle",
