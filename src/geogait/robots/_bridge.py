@@ -74,7 +74,10 @@ What geogait checks (a driver is trusted with nothing):
   commanded shapes (when sent) follow the gait sent rather than an earlier one (RMS distance
   more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps
   further than 20× what the body velocity and the cycle's other steps allow (also across the
-  cycle boundary). An implausible cycle is **quarantined**: not
+  cycle boundary), and the body velocities agree with the poses
+  (:func:`~geogait.simulate.velocity_pose_disagreement`: no unit mismatch, no sample's body velocity —
+  the last one's sets the cycle's end pose — moving the body 20× further from its poses than the cycle's
+  steps). An implausible cycle is **quarantined**: not
   returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
   :data:`MAX_QUARANTINED` in a row (or that many following an earlier gait since the last
   ``set_gait``) end the run with an error naming the reason.
@@ -97,7 +100,7 @@ from .._files import RepeatedKey, unique_keys
 from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
-from ..simulate import Trajectory
+from ..simulate import Trajectory, velocity_pose_disagreement
 from ..systems import BODY_FRAMES, LinearRegion
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
@@ -351,7 +354,7 @@ class ProcessRobot:
             if error > 1.5 * other + 1e-12:
                 return (f"the commanded shapes follow an earlier gait (RMS {other:.3g} rad), not the one sent "
                         f"(RMS {error:.3g} rad): set_gait ignored?")
-        return self._pose_jump(cycle)
+        return self._pose_jump(cycle) or velocity_pose_disagreement(cycle, self.cycle_period)
 
     def _pose_jump(self, cycle: Trajectory) -> str | None:
         """A pose step far beyond what the body velocity and the other steps of the cycle allow."""
