@@ -44,3 +44,31 @@ def test_body_velocities_in_other_units_than_the_poses_end_the_run_naming_the_fa
                                                r"body (99\d|1e\+03)× as far as its poses do .*different units"):
             robot.next_cycle()
 
+
+HELLO = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
+         "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}}
+CHAIN = {"link_lengths": [0.3, 0.4, 0.3], "body_frame": 1}
+
+
+def hello_driver(tmp_path, hello):
+    script = tmp_path / "driver.py"
+    script.write_text(f"import json, sys\nprint(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")
+    return [sys.executable, str(script)]
+
+
+@pytest.mark.parametrize(("fields", "name"), [
+    ({"chain": dict(CHAIN, frame_offset=[1e300, 0, 0])}, "chain"),
+    ({"chain": dict(CHAIN, frame_offset=[0, 0, -2e12])}, "chain"),
+    ({"chain": dict(CHAIN, link_lengths=[0.3, 1e300, 0.3])}, "chain"),
+    ({"chain": {"link_lengths": [0.25] * 4, "shape_map": [[1, 0], [0.5, 1e300], [0, 1]]}}, "chain"),
+    ({"joint_ranges": [[-1e300, 1], [-1, 1]]}, "joint_ranges"),
+    ({"joint_ranges": [[-1, 1], [-1, 2e12]]}, "joint_ranges"),
+    ({"shape_constraints": [[1, -1, 1e300]]}, "shape_constraints"),
+    ({"shape_constraints": [[1e300, -1, 1]]}, "shape_constraints"),
+])
+def test_hello_numbers_beyond_the_documented_bound_are_refused_naming_the_field(tmp_path, fields, name):
+    """1e300 in chain.frame_offset, shape_map or joint_ranges gave Γ NaN every cycle, no step, exit 0."""
+    with pytest.raises(GeogaitError, match=rf"robot driver .*'{name}' must be .*within ±1e\+12"):
+        ProcessRobot(hello_driver(tmp_path, dict(HELLO, **fields)))
+    bounded = json.loads(json.dumps(fields).replace("1e+300", "1e12").replace("2000000000000.0", "1e12"))
+    ProcessRobot(hello_driver(tmp_path, dict(HELLO, **bounded))).close()  # the bound itself is accepted

@@ -134,6 +134,15 @@ def _is_number(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
+def _plausible(values) -> bool:
+    """JSON numbers (nested lists of them), each finite and within the documented ±MAX_MAGNITUDE."""
+    try:
+        array = np.asarray(values, dtype=float)
+    except (OverflowError, TypeError, ValueError):  # (an integer beyond the float range, a ragged list)
+        return False
+    return bool(np.all(np.abs(array) <= MAX_MAGNITUDE))  # (NaN fails <=)
+
+
 class ProcessRobot:
     """A :class:`~geogait.robots.Robot` behind a driver process (module docstring).
 
@@ -547,12 +556,12 @@ class ProcessRobot:
             ranges = hello["joint_ranges"]
             values = None
             if isinstance(ranges, list) and len(ranges) == self.n_joints and all(
-                    isinstance(row, list) and len(row) == 2 and all(map(_is_number, row)) for row in ranges):
+                    isinstance(row, list) and len(row) == 2 and all(map(_is_number, row)) for row in ranges) \
+                    and _plausible(ranges):
                 values = np.array(ranges, dtype=float)
-            if values is None or not np.all(np.isfinite(values)) or np.any(values[:, 0] >= 0) \
-                    or np.any(values[:, 1] <= 0):
+            if values is None or np.any(values[:, 0] >= 0) or np.any(values[:, 1] <= 0):
                 raise self._failure(f"'joint_ranges' must be {self.n_joints} pairs [low, high] with low < 0 < high, "
-                                    f"got {_cut(repr(ranges), 80)}")
+                                    f"numbers within ±{MAX_MAGNITUDE:g}, got {_cut(repr(ranges), 80)}")
             self.joint_ranges = values
         self.chain, self.resistive_medium = (None, False) if hello.get("chain") is None \
             else self._read_chain(hello["chain"])
@@ -564,12 +573,14 @@ class ProcessRobot:
         """The hello's ``shape_constraints``: rows [a_0 … a_(d-1), b], a · r ≤ b, a not all zero."""
         d = self.n_joints
         if isinstance(rows, list) and 1 <= len(rows) <= 10_000 and all(
-                isinstance(row, list) and len(row) == d + 1 and all(map(_is_number, row)) for row in rows):
+                isinstance(row, list) and len(row) == d + 1 and all(map(_is_number, row)) for row in rows) \
+                and _plausible(rows):
             values = np.array(rows, dtype=float)
-            if np.all(np.isfinite(values)) and np.all(np.abs(values[:, :d]).max(axis=1) > 0):
+            if np.all(np.abs(values[:, :d]).max(axis=1) > 0):
                 return LinearRegion.from_rows(values)
-        raise self._failure(f"'shape_constraints' must be a list of rows [a_0, ..., a_{d - 1}, b] of finite numbers "
-                            f"(a · shape <= b, shape units; a not all zero), got {_cut(repr(rows), 80)}")
+        raise self._failure(f"'shape_constraints' must be a list of rows [a_0, ..., a_{d - 1}, b] of numbers within "
+                            f"±{MAX_MAGNITUDE:g} (a · shape <= b, shape units; a not all zero), got "
+                            f"{_cut(repr(rows), 80)}")
 
     def _read_chain(self, chain) -> tuple[dict, bool]:
         """The hello's ``chain`` (positive link lengths, a body frame, an optional frame offset, an optional shape
@@ -581,7 +592,8 @@ class ProcessRobot:
         expected = (f"'chain' must be {{'link_lengths': {d + 1} positive numbers (or N >= 2 with a 'shape_map' of "
                     f"N - 1 rows of {d} numbers: each joint's angle from the {d} shape coordinates), 'body_frame': "
                     f"one of {', '.join(BODY_FRAMES)} or a link index in 0..{n_links - 1}, 'frame_offset': [x, y, "
-                    f"angle] or null, 'resistive': true or false}}, got {_cut(repr(chain), 120)}")
+                    f"angle] or null, 'resistive': true or false}}, every number within ±{MAX_MAGNITUDE:g}, got "
+                    f"{_cut(repr(chain), 120)}")
         if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset", "resistive",
                                                         "shape_map"}:
             raise self._failure(expected)
@@ -589,16 +601,16 @@ class ProcessRobot:
         if not isinstance(chain.get("resistive", False), bool):
             raise self._failure(expected)
         if not (isinstance(lengths, list) and len(lengths) == n_links and n_links >= 2
-                and all(map(_is_number, lengths)) and all(np.isfinite(v) and v > 0 for v in lengths)):
+                and all(map(_is_number, lengths)) and _plausible(lengths) and all(v > 0 for v in lengths)):
             raise self._failure(expected)
         if not (frame in BODY_FRAMES or type(frame) is int and 0 <= frame < n_links):
             raise self._failure(expected)
         if offset is not None and not (isinstance(offset, list) and len(offset) == 3 and all(map(_is_number, offset))
-                                       and all(np.isfinite(v) for v in offset)):
+                                       and _plausible(offset)):
             raise self._failure(expected)
-        if mapped and not (isinstance(shape_map, list) and len(shape_map) == n_links - 1 and all(
-                isinstance(row, list) and len(row) == d and all(map(_is_number, row))
-                and all(np.isfinite(v) for v in row) for row in shape_map)):
+        if mapped and not (isinstance(shape_map, list) and len(shape_map) == n_links - 1 and _plausible(shape_map)
+                           and all(isinstance(row, list) and len(row) == d and all(map(_is_number, row))
+                                   for row in shape_map)):
             raise self._failure(expected)
         geometry = {"link_lengths": [float(v) for v in lengths], "body_frame": frame,
                     "frame_offset": None if offset is None else tuple(float(v) for v in offset)}
