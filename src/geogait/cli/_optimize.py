@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import textwrap
 import time
 from pathlib import Path
 from typing import Annotated
@@ -408,11 +409,40 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             optimizer.set_params(model=AdaptiveGaitModel(forgetting_factor=window_forgetting_factor(robot.n_joints)))
         if settings["method"] == "resistance" and optimizer.model is None:  # the chain the driver declares
             optimizer.set_params(model=ResistanceModel(**robot.chain_geometry()))
+        hello = _hello(robot) if settings["robot"] is not None else None
         if resumed:
+            _check_resumed_hello(checkpoint, hello)
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
                              record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
-                             checkpoint_tag={"run_id": run_id})
+                             checkpoint_tag={"run_id": run_id, "hello": hello})
+
+
+def _hello(robot) -> dict:
+    """What a --robot driver's hello declares that the run's gaits were chosen for (kept in its checkpoint)."""
+    ranges, region = robot.joint_ranges, robot.shape_constraints
+    return {"n_joints": int(robot.n_joints), "cycle_period": float(robot.cycle_period),
+            "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
+            "shape_constraints": None if region is None
+            else np.column_stack([region.normals, region.bounds]).tolist()}
+
+
+def _check_resumed_hello(checkpoint: Path, hello: dict | None) -> None:
+    """A resumed --robot run's driver declares what it declared when the run started: the held gait was kept within
+    those joint limits and that region, and its speeds were set for that period."""
+    tag = read_checkpoint_metadata(checkpoint).get("tag")
+    then = tag.get("hello") if isinstance(tag, dict) else None
+    if hello is None or not isinstance(then, dict):  # (the built-in swimmer; a checkpoint that predates the hello)
+        return
+    unit = {"cycle_period": " s"}
+    changed = [f"{name}: {'none' if then.get(name) is None else then.get(name)}{unit.get(name, '')} then, "
+               f"{'none' if value is None else value}{unit.get(name, '')} now"
+               for name, value in hello.items() if then.get(name) != value]
+    if changed:
+        what = textwrap.shorten("; ".join(changed), 300, placeholder=" …")
+        raise GeogaitError(f"--resume {checkpoint.parent}: the robot driver's hello changed since the run started "
+                           f"({what}); its gaits were chosen for the earlier one. Restore the driver's settings, or "
+                           "start a new run with --out.")
 
 
 def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
