@@ -255,7 +255,10 @@ class ReferencePath:
             window = 1.0 if window is None else check_float(window, "window", "ReferencePath.project", low=0,
                                                             low_open=True)
             near = np.asarray(near, dtype=float)  # a scalar shares one candidate list among all positions
-            count = int(np.ceil(2 * window / self._lengths.min())) + 2
+            # the window's worth of the shortest segments, but never more than the path holds in the window's laps
+            # (one segment 1e-10 long asked for 2e10 candidates)
+            laps = int(np.ceil(2 * window / self.length)) + 1 if self.closed else 1
+            count = int(min(np.ceil(2 * window / self._lengths.min()), laps * self._lengths.size)) + 2
             first = np.searchsorted(self._starts, self._wrap(near - window), side="right") - 1
             raw = first[..., None] + np.arange(count)
             if self.closed:
