@@ -96,7 +96,7 @@ import warnings
 
 import numpy as np
 
-from .._files import RepeatedKey, unique_keys
+from .._files import MAX_LINE_BYTES, RepeatedKey, unique_keys
 from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
@@ -111,8 +111,6 @@ PROTOCOL_VERSION = 2
 #: Protocol versions this geogait speaks (a driver's hello names one).
 PROTOCOL_VERSIONS = (1, 2)
 _MAX_SAMPLES = 1_000_000  # per cycle: a driver that never ends its cycle is an error, not a memory leak
-#: Longest line read from a driver (bytes): one sample of a 200-joint robot is about 10 kB.
-MAX_LINE_BYTES = 1 << 20
 #: Longest driver text (error message, stderr line) shown, in characters.
 MAX_TEXT = 300
 #: Implausible cycles in a row that end a run.
