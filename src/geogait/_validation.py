@@ -197,3 +197,65 @@ def warn_if_degrees(shape: np.ndarray, name: str, owner: str) -> bool:
                       stacklevel=3)
         return True
     return False
+
+
+#: Most memory (bytes) one model, constraint set or plan may ask for: what a 16 GB machine spares one run.
+MAX_BYTES = 4 * 2**30
+
+
+def check_bytes(n_bytes: float, what: str, owner: str, largest: str) -> None:
+    """Raise when ``what`` would take more than :data:`MAX_BYTES`, before it is allocated.
+
+    Parameters
+    ----------
+    n_bytes : float
+        The estimate.
+    what : str
+        What would take it ("a window model of 99 joints").
+    owner : str
+        Who asked (for the message).
+    largest : str
+        The largest supported value, in words ("at most 70 joints").
+    """
+    if n_bytes > MAX_BYTES:
+        raise GeogaitError(f"{owner}: {what} would take {n_bytes / 2**30:.4g} GiB of memory, more than the "
+                           f"{MAX_BYTES / 2**30:g} GiB one run may use; {largest}.")
+
+
+def gait_bytes(n_joints: int, order: int) -> float:
+    """Bytes the optimiser's joint-limit rows take for a gait family of d joints and Fourier order K.
+
+    The angle and speed limits hold on 64 K phases per joint, two signs each, over d (2K + 1) gait
+    parameters; a step keeps about 8 such arrays alive (measured: 9.3 MB at d = 2, K = 8).
+    """
+    return 8.0 * 8 * 2 * 2 * 64 * order * n_joints**2 * (2 * order + 1)
+
+
+def chain_motion_bytes(n_joints: int, resolution: int = 128) -> float:
+    """Bytes the derivative of a chain's cycle velocity with respect to its gait takes (the ceiling's and the
+    resistance model's ``cycle_velocity(jacobian=True)``): the connection of d + 1 links at 2R Magnus nodes,
+    perturbed in each of d joints, whose largest array holds 2R · d · 2 · d (d + 1) floats, and one copy of it
+    (d = 199 asked for 30.2 GiB)."""
+    return 2 * 8.0 * 2 * resolution * n_joints * 2 * n_joints * (n_joints + 1)
+
+
+def check_gait_size(n_joints: int, order: int, owner: str, name: str = "order") -> None:
+    """Refuse a gait family of ``n_joints`` joints and Fourier ``order`` whose optimisation would not fit in
+    :data:`MAX_BYTES` (:func:`gait_bytes`), naming the largest supported order (or number of joints).
+
+    Parameters
+    ----------
+    n_joints, order : int
+    owner : str
+        Who asked (for the message).
+    name : str
+        The order's name for the message (an option, a hello field).
+    """
+    per_order = MAX_BYTES / gait_bytes(n_joints, 1) * 3  # K (2K + 1) within this
+    largest = int((np.sqrt(1 + 8 * per_order) - 1) // 4)
+    while largest > 0 and gait_bytes(n_joints, largest) > MAX_BYTES:  # (rounding)
+        largest -= 1
+    joints = int(np.sqrt(MAX_BYTES / gait_bytes(1, 1)))
+    hint = (f"at most {name} {largest} with {n_joints} joints" if largest >= 1
+            else f"at most {joints} joints, even at {name} 1")
+    check_bytes(gait_bytes(n_joints, order), f"a gait family of {n_joints} joints and {name} {order}", owner, hint)

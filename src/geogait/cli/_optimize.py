@@ -15,7 +15,15 @@ import typer
 
 from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
-from .._validation import GeogaitError, check_float, check_int
+from .._validation import (
+    MAX_BYTES,
+    GeogaitError,
+    chain_motion_bytes,
+    check_bytes,
+    check_float,
+    check_gait_size,
+    check_int,
+)
 from ..experiments.optimization import (
     OptimizationConfig,
     OptimizationResult,
@@ -25,7 +33,14 @@ from ..experiments.optimization import (
 )
 from ..gaits import Perturbation, seed_gait
 from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
-from ..optimize import CLIMB_RULES, OBJECTIVES, InSituOptimizer, cached_ceiling, read_checkpoint_metadata
+from ..optimize import (
+    CLIMB_RULES,
+    OBJECTIVES,
+    InSituOptimizer,
+    cached_ceiling,
+    read_checkpoint_metadata,
+    symmetric_chain_model,
+)
 from ..plotting import (
     plot_height_function,
     plot_joint_angles,
@@ -70,7 +85,9 @@ _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 @app.command()
 def optimize(
     links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
-                                                            "(two links, one joint, cannot swim).")] = 3,
+                                                            "(two links, one joint, cannot swim; a swimmer whose "
+                                                            "model or ceiling would need more than 4 GiB is refused, "
+                                                            "naming the most links that fit).")] = 3,
     cycles: Annotated[int | None, typer.Option(
         help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
              "With --resume: the new total.",
@@ -84,7 +101,8 @@ def optimize(
     forgetting_factor: Annotated[float | None, typer.Option(
         help="λ of the RLS filters, in (0, 1], with --method adaptive or shape [default: 1 - 0.1/d for d "
              "joints].")] = None,
-    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
+    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family (at most what fits in 4 GiB: "
+                                            "180 for 2 joints, 45 for 8).")] = 1,
     objective: Annotated[str, typer.Option(
         help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
              "cycles).")] = "progress",
@@ -171,6 +189,7 @@ def optimize(
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
+    _check_memory(settings, optimizer)
     system, target = _target(settings)
     run_id = _run_id(settings)
     # the folder is locked for this run (a run still writing it is neither resumed nor overwritten)
@@ -410,12 +429,34 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
         if settings["method"] == "resistance" and optimizer.model is None:  # the chain the driver declares
             optimizer.set_params(model=ResistanceModel(**robot.chain_geometry()))
         hello = _hello(robot) if settings["robot"] is not None else None
+        check_gait_size(robot.n_joints, settings["order"], "geogait optimize", "--order")
         if resumed:
             _check_resumed_hello(checkpoint, hello)
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
                              record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
                              checkpoint_tag={"run_id": run_id, "hello": hello})
+
+
+def _check_memory(settings: dict, optimizer) -> None:
+    """The built-in swimmer's gait family and model fit in memory, checked before its ceiling is computed (a
+    robot's joints are known once its driver says hello: checked then)."""
+    if settings["robot"] is not None:
+        return
+    check_gait_size(settings["links"] - 1, settings["order"], "geogait optimize", "--order")
+
+    def run_bytes(links: int) -> float:  # the ceiling's chain motion, or the model run_model picks for the swimmer
+        symmetric = settings.get("family", "auto") in ("auto", "symmetric") and links >= 3
+        model = optimizer.model or (symmetric_chain_model(links - 1) if symmetric else AdaptiveGaitModel())
+        return max(model.memory_bytes(links - 1) if hasattr(model, "memory_bytes") else 0.0,
+                   chain_motion_bytes(links - 1))
+
+    largest = settings["links"]
+    while largest > 3 and run_bytes(largest) > MAX_BYTES:
+        largest -= 1
+    check_bytes(run_bytes(settings["links"]), f"the {settings['links']}-link swimmer's ceiling and model",
+                "geogait optimize", f"at most --links {largest} with --method {settings['method']} and --family "
+                f"{settings.get('family', 'auto')}")
 
 
 def _hello(robot) -> dict:

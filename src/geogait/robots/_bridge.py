@@ -97,7 +97,7 @@ import warnings
 import numpy as np
 
 from .._files import MAX_LINE_BYTES, RepeatedKey, unique_keys
-from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, fail
+from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, check_gait_size, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory, velocity_pose_disagreement
@@ -621,6 +621,10 @@ class ProcessRobot:
         if type(order) is not int or not 1 <= order <= 1000:
             raise self._failure(f"'gait' must be {{'order': K in 1..1000, 'params': [...]}}, "
                                 f"got {_cut(repr(gait), 80)}")
+        try:  # (before its parameters are read: 10,000 joints at order 1000 would not fit an optimisation)
+            check_gait_size(self.n_joints, order, "the hello's 'gait'", "order")
+        except GeogaitError as error:
+            raise self._failure(str(error)) from None
         params = self._field(gait, "params", (self.n_joints * (2 * gait["order"] + 1),))
         return FourierGait.from_params(params, self.n_joints)
 
