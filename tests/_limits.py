@@ -5,6 +5,7 @@ import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,17 +29,20 @@ def within_memory(code: str, timeout: float = 300) -> subprocess.CompletedProces
 
 def seconds_to_stop(argv: list[str], after: float, sig=signal.SIGTERM, limit: float = 60) -> tuple[float, int, str]:
     """Start ``argv``, send ``sig`` ``after`` seconds, and return (seconds it took to exit, exit code, stderr)."""
-    process = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=_environment())
-    try:
-        process.wait(timeout=after)
-        raise AssertionError(f"{argv} ended before the signal (exit code {process.returncode}): nothing was tested")
-    except subprocess.TimeoutExpired:
-        pass
-    process.send_signal(sig)
-    sent = time.monotonic()
-    try:
-        process.wait(timeout=limit)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
-    return time.monotonic() - sent, process.returncode, process.stderr.read()
+    with tempfile.TemporaryFile("w+") as stderr:  # (a pipe nobody reads would block a chatty process)
+        process = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=stderr, text=True, env=_environment())
+        try:
+            process.wait(timeout=after)
+            raise AssertionError(f"{argv} ended before the signal (exit code {process.returncode}): nothing tested")
+        except subprocess.TimeoutExpired:
+            pass
+        process.send_signal(sig)
+        sent = time.monotonic()
+        try:
+            process.wait(timeout=limit)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        seconds = time.monotonic() - sent
+        stderr.seek(0)
+        return seconds, process.returncode, stderr.read()

@@ -32,6 +32,7 @@ PATH_KINDS = ("line", "circle", "figure8")
 _SPACING = 0.02  # body lengths between polyline vertices of the built-in curves (sagitta < 1e-4 at radius 0.5)
 _MAX_VERTICES = 200_000  # of a built-in curve: beyond, the vertices spread out (sagitta < 1.3e-4 at radius 1e6)
 _COMPILED_FROM = 16  # positions from which a projection runs compiled (below, NumPy's call overhead is smaller)
+_KERNEL_TESTS = 4_000_000  # position-segment tests per compiled call: about 10 ms
 #: Largest size (radius, length, |coordinate|) of a path, body lengths.
 MAX_PATH_SIZE = 1e6
 
@@ -274,9 +275,13 @@ class ReferencePath:
         kernel = nearest_segment_kernel() if candidates.ndim == 1 and position.size > 2 * _COMPILED_FROM else None
         if kernel is not None:  # candidates shared by many positions (a planner's horizon): compiled, same bits
             flat = np.ascontiguousarray(position.reshape(-1, 2))
+            x, y = flat[:, 0].copy(), flat[:, 1].copy()
+            segments = start[:, 0].copy(), start[:, 1].copy(), step[:, 0].copy(), step[:, 1].copy(), length
             best, along = np.empty(flat.shape[0], dtype=np.int64), np.empty(flat.shape[0])
-            kernel(flat[:, 0].copy(), flat[:, 1].copy(), start[:, 0].copy(), start[:, 1].copy(), step[:, 0].copy(),
-                   step[:, 1].copy(), length, best, along)
+            chunk = max(1, _KERNEL_TESTS // length.size)  # (between calls SIGTERM and Ctrl-C are handled)
+            for first in range(0, flat.shape[0], chunk):
+                part = slice(first, first + chunk)
+                kernel(x[part], y[part], *segments, best[part], along[part])
             best, along = best.reshape(batch + (1,)), along.reshape(batch)
         else:
             ex = position[..., 0, None] - start[..., 0]
