@@ -222,13 +222,34 @@ def check_bytes(n_bytes: float, what: str, owner: str, largest: str) -> None:
                            f"{MAX_BYTES / 2**30:g} GiB one run may use; {largest}.")
 
 
-def gait_bytes(n_joints: int, order: int) -> float:
-    """Bytes the optimiser's joint-limit rows take for a gait family of d joints and Fourier order K.
+#: Longest a single solver step may block (seconds): SIGTERM and Ctrl-C wait for it.
+MAX_SOLVE_SECONDS = 1.0
+#: Rate of SciPy's SLSQP on m inequality rows over n parameters, in m² n per second (measured on a loaded 2-core
+#: machine: 8192 rows over 66 parameters, d = 2 and K = 16 with speed rows, 1.72 s between two callbacks).
+_SOLVE_RATE = 2.5e9
 
-    The angle and speed limits hold on 64 K phases per joint, two signs each, over d (2K + 1) gait
-    parameters; a step keeps about 8 such arrays alive (measured: 9.3 MB at d = 2, K = 8).
-    """
-    return 8.0 * 8 * 2 * 2 * 64 * order * n_joints**2 * (2 * order + 1)
+
+def _joint_rows(n_joints: int, order: int, speed_limit: bool) -> float:
+    """Rows of the optimiser's joint limits: angle (and speed) on 64 K phases per joint, two signs each."""
+    return (2 if speed_limit else 1) * 2 * 64 * order * n_joints
+
+
+def gait_bytes(n_joints: int, order: int, speed_limit: bool = True) -> float:
+    """Bytes the optimiser's joint-limit rows take for a gait family of d joints and Fourier order K: the rows
+    over d (2K + 1) gait parameters, about 8 such arrays alive in a step (measured: 9.3 MB at d = 2, K = 8 with
+    speed rows)."""
+    return 8 * 8.0 * _joint_rows(n_joints, order, speed_limit) * n_joints * (2 * order + 1)
+
+
+def gait_solve_seconds(n_joints: int, order: int, speed_limit: bool = True) -> float:
+    """Seconds one SLSQP step on those rows blocks (m² n at :data:`_SOLVE_RATE`)."""
+    return _joint_rows(n_joints, order, speed_limit) ** 2 * n_joints * (2 * order + 1) / _SOLVE_RATE
+
+
+def gait_fits(n_joints: int, order: int, speed_limit: bool = True) -> bool:
+    """Whether a gait family's optimisation fits :data:`MAX_BYTES` and steps of :data:`MAX_SOLVE_SECONDS`."""
+    return (gait_bytes(n_joints, order, speed_limit) <= MAX_BYTES
+            and gait_solve_seconds(n_joints, order, speed_limit) <= MAX_SOLVE_SECONDS)
 
 
 def chain_motion_bytes(n_joints: int, resolution: int = 128) -> float:
@@ -239,9 +260,10 @@ def chain_motion_bytes(n_joints: int, resolution: int = 128) -> float:
     return 2 * 8.0 * 2 * resolution * n_joints * 2 * n_joints * (n_joints + 1)
 
 
-def check_gait_size(n_joints: int, order: int, owner: str, name: str = "order") -> None:
+def check_gait_size(n_joints: int, order: int, owner: str, name: str = "order", speed_limit: bool = True) -> None:
     """Refuse a gait family of ``n_joints`` joints and Fourier ``order`` whose optimisation would not fit in
-    :data:`MAX_BYTES` (:func:`gait_bytes`), naming the largest supported order (or number of joints).
+    :data:`MAX_BYTES` or would block SIGTERM and Ctrl-C for more than :data:`MAX_SOLVE_SECONDS` per solver step
+    (:func:`gait_fits`), naming the largest supported order (or number of joints).
 
     Parameters
     ----------
@@ -250,12 +272,22 @@ def check_gait_size(n_joints: int, order: int, owner: str, name: str = "order") 
         Who asked (for the message).
     name : str
         The order's name for the message (an option, a hello field).
+    speed_limit : bool
+        Whether joint speed limits add their rows (as many as the angle limits).
     """
-    per_order = MAX_BYTES / gait_bytes(n_joints, 1) * 3  # K (2K + 1) within this
-    largest = int((np.sqrt(1 + 8 * per_order) - 1) // 4)
-    while largest > 0 and gait_bytes(n_joints, largest) > MAX_BYTES:  # (rounding)
-        largest -= 1
-    joints = int(np.sqrt(MAX_BYTES / gait_bytes(1, 1)))
+    if gait_fits(n_joints, order, speed_limit):
+        return
+    largest = 0
+    while gait_fits(n_joints, largest + 1, speed_limit):
+        largest += 1
+    joints = 1
+    while gait_fits(joints + 1, 1, speed_limit):
+        joints += 1
     hint = (f"at most {name} {largest} with {n_joints} joints" if largest >= 1
             else f"at most {joints} joints, even at {name} 1")
-    check_bytes(gait_bytes(n_joints, order), f"a gait family of {n_joints} joints and {name} {order}", owner, hint)
+    size, seconds = gait_bytes(n_joints, order, speed_limit), gait_solve_seconds(n_joints, order, speed_limit)
+    if size > MAX_BYTES:
+        check_bytes(size, f"a gait family of {n_joints} joints and {name} {order}", owner, hint)
+    raise GeogaitError(f"{owner}: a gait family of {n_joints} joints and {name} {order} would block each solver step "
+                       f"for about {seconds:.3g} s (SIGTERM and Ctrl-C wait for it; at most {MAX_SOLVE_SECONDS:g} s "
+                       f"is allowed); {hint}.")

@@ -23,6 +23,7 @@ from .._validation import (
     check_float,
     check_gait_size,
     check_int,
+    gait_fits,
 )
 from ..experiments.optimization import (
     OptimizationConfig,
@@ -86,8 +87,9 @@ _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 def optimize(
     links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
                                                             "(two links, one joint, cannot swim; a swimmer whose "
-                                                            "model or ceiling would need more than 4 GiB is refused, "
-                                                            "naming the most links that fit).")] = 3,
+                                                            "model or ceiling would need more than 4 GiB, or solver "
+                                                            "steps over a second, is refused, naming the most links "
+                                                            "that fit).")] = 3,
     cycles: Annotated[int | None, typer.Option(
         help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
              "With --resume: the new total.",
@@ -101,8 +103,9 @@ def optimize(
     forgetting_factor: Annotated[float | None, typer.Option(
         help="λ of the RLS filters, in (0, 1], with --method adaptive or shape [default: 1 - 0.1/d for d "
              "joints].")] = None,
-    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family (at most what fits in 4 GiB: "
-                                            "180 for 2 joints, 45 for 8).")] = 1,
+    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family (at most what fits in 4 GiB "
+                                            "with solver steps under a second: 21 for 2 joints, 5 for 8; 13 and 3 "
+                                            "with --max-joint-velocity).")] = 1,
     objective: Annotated[str, typer.Option(
         help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
              "cycles).")] = "progress",
@@ -429,7 +432,8 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
         if settings["method"] == "resistance" and optimizer.model is None:  # the chain the driver declares
             optimizer.set_params(model=ResistanceModel(**robot.chain_geometry()))
         hello = _hello(robot) if settings["robot"] is not None else None
-        check_gait_size(robot.n_joints, settings["order"], "geogait optimize", "--order")
+        check_gait_size(robot.n_joints, settings["order"], "geogait optimize", "--order",
+                        speed_limit=settings["max_joint_velocity"] is not None)
         if resumed:
             _check_resumed_hello(checkpoint, hello)
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
@@ -439,11 +443,13 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
 
 
 def _check_memory(settings: dict, optimizer) -> None:
-    """The built-in swimmer's gait family and model fit in memory, checked before its ceiling is computed (a
-    robot's joints are known once its driver says hello: checked then)."""
+    """The built-in swimmer's gait family and model fit in memory and solver steps short enough for SIGTERM, checked
+    before its ceiling is computed (a robot's joints are known once its driver says hello: checked then)."""
     if settings["robot"] is not None:
         return
-    check_gait_size(settings["links"] - 1, settings["order"], "geogait optimize", "--order")
+    speed = settings["max_joint_velocity"] is not None
+    if gait_fits(settings["links"] - 1, 1, speed):  # (else the number of links is what to change)
+        check_gait_size(settings["links"] - 1, settings["order"], "geogait optimize", "--order", speed_limit=speed)
 
     def run_bytes(links: int) -> float:  # the ceiling's chain motion, or the model run_model picks for the swimmer
         symmetric = settings.get("family", "auto") in ("auto", "symmetric") and links >= 3
@@ -451,12 +457,18 @@ def _check_memory(settings: dict, optimizer) -> None:
         return max(model.memory_bytes(links - 1) if hasattr(model, "memory_bytes") else 0.0,
                    chain_motion_bytes(links - 1))
 
+    def fits(links: int) -> bool:
+        return run_bytes(links) <= MAX_BYTES and gait_fits(links - 1, 1, speed)
+
     largest = settings["links"]
-    while largest > 3 and run_bytes(largest) > MAX_BYTES:
+    while largest > 3 and not fits(largest):
         largest -= 1
+    hint = f"at most --links {largest} with --method {settings['method']} and --family {settings.get('family', 'auto')}"
     check_bytes(run_bytes(settings["links"]), f"the {settings['links']}-link swimmer's ceiling and model",
-                "geogait optimize", f"at most --links {largest} with --method {settings['method']} and --family "
-                f"{settings.get('family', 'auto')}")
+                "geogait optimize", hint)
+    if not fits(settings["links"]):
+        raise GeogaitError(f"geogait optimize: the {settings['links']}-link swimmer's joint limits would block each "
+                           "solver step for more than a second (SIGTERM and Ctrl-C wait for it); " + hint + ".")
 
 
 def _hello(robot) -> dict:

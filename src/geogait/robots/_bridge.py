@@ -622,7 +622,7 @@ class ProcessRobot:
             raise self._failure(f"'gait' must be {{'order': K in 1..1000, 'params': [...]}}, "
                                 f"got {_cut(repr(gait), 80)}")
         try:  # (before its parameters are read: 10,000 joints at order 1000 would not fit an optimisation)
-            check_gait_size(self.n_joints, order, "the hello's 'gait'", "order")
+            check_gait_size(self.n_joints, order, "the hello's 'gait'", "order", speed_limit=False)
         except GeogaitError as error:
             raise self._failure(str(error)) from None
         params = self._field(gait, "params", (self.n_joints * (2 * gait["order"] + 1),))
