@@ -439,7 +439,7 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles)
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
                              record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
-                             checkpoint_tag={"run_id": run_id, "hello": hello})
+                             checkpoint_tag={"run_id": run_id, **({} if hello is None else {"hello": hello})})
 
 
 def _check_memory(settings: dict, optimizer) -> None:
