@@ -6,7 +6,9 @@ cycle, period 1 s) and, from cycle ``cycle`` on for ``cycles`` cycles, does what
 
 * plausibility faults (geogait must quarantine the cycle): ``phase_stuck``, ``time_scale`` (time
   stamps × ``magnitude``), ``pose_jump`` (first pose of the cycle moved by ``magnitude``),
-  ``frozen_joints``, ``ignore_set_gait`` (every cycle, whatever ``cycle`` says);
+  ``frozen_joints``, ``ignore_set_gait`` (every cycle, whatever ``cycle`` says), ``velocity_glitch`` (the body
+  velocity of sample ``sample``, default the last, set to [``magnitude``, 0, 0]), ``velocity_scale`` (every body
+  velocity × ``magnitude``: a unit mismatch);
 * protocol faults (geogait must stop with a clear error): ``string_numbers``, ``bool_numbers``, ``huge_numbers``,
   ``bad_utf8``, ``endless_line``, ``huge_error``, ``huge_stderr``, ``deep_json``, ``second_hello``,
   ``repeated_key`` (a key twice in one line), ``clock_per_cycle`` (time stamps restarting at 0);
@@ -57,7 +59,7 @@ def main() -> int:
             if active:
                 if _protocol_fault(fault, samples, out, magnitude):
                     return 1
-                _plausibility_fault(fault, samples, magnitude)
+                _plausibility_fault(fault, samples, magnitude, config.get("sample", -1))
             for sample in samples:
                 send(sample)
             send({"type": "cycle_end"})
@@ -66,7 +68,7 @@ def main() -> int:
     return 0
 
 
-def _plausibility_fault(fault: str, samples: list, magnitude: float) -> None:
+def _plausibility_fault(fault: str, samples: list, magnitude: float, index: int) -> None:
     if fault == "phase_stuck":
         for sample in samples:
             sample["phase"] = samples[0]["phase"]
@@ -79,6 +81,11 @@ def _plausibility_fault(fault: str, samples: list, magnitude: float) -> None:
         for sample in samples:
             sample["shape"] = list(samples[0]["shape"])
             sample["shape_velocity"] = [0.0, 0.0]
+    elif fault == "velocity_glitch":
+        samples[index]["body_velocity"] = [magnitude, 0.0, 0.0]
+    elif fault == "velocity_scale":
+        for sample in samples:
+            sample["body_velocity"] = [magnitude * v for v in sample["body_velocity"]]
 
 
 def _protocol_fault(fault: str, samples: list, out, magnitude: float) -> bool:

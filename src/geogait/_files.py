@@ -34,9 +34,12 @@ import numpy as np
 
 from ._validation import MAX_MAGNITUDE, GeogaitError, fail
 
-__all__ = ["OutputLock", "RepeatedKey", "atomic_savez", "atomic_write", "check_outputs", "check_writable",
-           "default_summary_path", "describe_path_kind", "dumps_json", "json_ready", "output_set", "read_state",
-           "unique_keys", "write_json", "write_state", "write_text"]
+#: Longest line read from a driver or an input stream: one sample of a 200-joint robot is about 10 kB.
+MAX_LINE_BYTES = 1 << 20
+
+__all__ = ["MAX_LINE_BYTES", "OutputLock", "RepeatedKey", "atomic_savez", "atomic_write", "bounded_lines",
+           "check_outputs", "check_writable", "default_summary_path", "describe_path_kind", "dumps_json", "json_ready",
+           "output_set", "read_state", "unique_keys", "write_json", "write_state", "write_text"]
 
 _UMASK_LOCK = threading.Lock()
 
@@ -699,3 +702,27 @@ def check_outputs(outputs: dict, inputs, owner: str) -> None:
         for b in names[i + 1:]:
             if resolved[a] == resolved[b]:
                 raise fail(b, owner, f"a file other than '{a}'", str(outputs[b]))
+
+
+def bounded_lines(stream, limit: int = MAX_LINE_BYTES):
+    """The lines of a text ``stream``, each read no further than ``limit`` characters: a longer one raises
+    :class:`~geogait.GeogaitError` naming it (a line that never ends is not held in memory).
+
+    Parameters
+    ----------
+    stream : text stream
+        With ``readline(size)`` (``sys.stdin``, an open file).
+    limit : int
+        Characters per line, its line end not counted.
+
+    Yields
+    ------
+    str
+    """
+    number = 0
+    while line := stream.readline(limit + 1):
+        number += 1
+        if len(line) > limit and not (len(line) == limit + 1 and line.endswith("\n")):
+            raise GeogaitError(f"input line {number} is longer than {limit} characters (a line without its end, or "
+                               "not the input meant?)")
+        yield line

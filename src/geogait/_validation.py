@@ -204,3 +204,97 @@ def warn_if_degrees(shape: np.ndarray, name: str, owner: str) -> bool:
                       stacklevel=3)
         return True
     return False
+
+
+#: Most memory (bytes) one model, constraint set or plan may ask for: what a 16 GB machine spares one run.
+MAX_BYTES = 4 * 2**30
+
+
+def check_bytes(n_bytes: float, what: str, owner: str, largest: str) -> None:
+    """Raise when ``what`` would take more than :data:`MAX_BYTES`, before it is allocated.
+
+    Parameters
+    ----------
+    n_bytes : float
+        The estimate.
+    what : str
+        What would take it ("a window model of 99 joints").
+    owner : str
+        Who asked (for the message).
+    largest : str
+        The largest supported value, in words ("at most 70 joints").
+    """
+    if n_bytes > MAX_BYTES:
+        raise GeogaitError(f"{owner}: {what} would take {n_bytes / 2**30:.4g} GiB of memory, more than the "
+                           f"{MAX_BYTES / 2**30:g} GiB one run may use; {largest}.")
+
+
+#: Longest a single solver step may block (seconds): SIGTERM and Ctrl-C wait for it.
+MAX_SOLVE_SECONDS = 1.0
+#: Rate of SciPy's SLSQP on m inequality rows over n parameters, in m² n per second (measured on a loaded 2-core
+#: machine: 8192 rows over 66 parameters, d = 2 and K = 16 with speed rows, 1.72 s between two callbacks).
+_SOLVE_RATE = 2.5e9
+
+
+def _joint_rows(n_joints: int, order: int, speed_limit: bool) -> float:
+    """Rows of the optimiser's joint limits: angle (and speed) on 64 K phases per joint, two signs each."""
+    return (2 if speed_limit else 1) * 2 * 64 * order * n_joints
+
+
+def gait_bytes(n_joints: int, order: int, speed_limit: bool = True) -> float:
+    """Bytes the optimiser's joint-limit rows take for a gait family of d joints and Fourier order K: the rows
+    over d (2K + 1) gait parameters, about 8 such arrays alive in a step (measured: 9.3 MB at d = 2, K = 8 with
+    speed rows)."""
+    return 8 * 8.0 * _joint_rows(n_joints, order, speed_limit) * n_joints * (2 * order + 1)
+
+
+def gait_solve_seconds(n_joints: int, order: int, speed_limit: bool = True) -> float:
+    """Seconds one SLSQP step on those rows blocks (m² n at :data:`_SOLVE_RATE`)."""
+    return _joint_rows(n_joints, order, speed_limit) ** 2 * n_joints * (2 * order + 1) / _SOLVE_RATE
+
+
+def gait_fits(n_joints: int, order: int, speed_limit: bool = True) -> bool:
+    """Whether a gait family's optimisation fits :data:`MAX_BYTES` and steps of :data:`MAX_SOLVE_SECONDS`."""
+    return (gait_bytes(n_joints, order, speed_limit) <= MAX_BYTES
+            and gait_solve_seconds(n_joints, order, speed_limit) <= MAX_SOLVE_SECONDS)
+
+
+def chain_motion_bytes(n_joints: int, resolution: int = 128) -> float:
+    """Bytes the derivative of a chain's cycle velocity with respect to its gait takes (the ceiling's and the
+    resistance model's ``cycle_velocity(jacobian=True)``): the connection of d + 1 links at 2R Magnus nodes,
+    perturbed in each of d joints, whose largest array holds 2R · d · 2 · d (d + 1) floats, and one copy of it
+    (d = 199 asked for 30.2 GiB)."""
+    return 2 * 8.0 * 2 * resolution * n_joints * 2 * n_joints * (n_joints + 1)
+
+
+def check_gait_size(n_joints: int, order: int, owner: str, name: str = "order", speed_limit: bool = True) -> None:
+    """Refuse a gait family of ``n_joints`` joints and Fourier ``order`` whose optimisation would not fit in
+    :data:`MAX_BYTES` or would block SIGTERM and Ctrl-C for more than :data:`MAX_SOLVE_SECONDS` per solver step
+    (:func:`gait_fits`), naming the largest supported order (or number of joints).
+
+    Parameters
+    ----------
+    n_joints, order : int
+    owner : str
+        Who asked (for the message).
+    name : str
+        The order's name for the message (an option, a hello field).
+    speed_limit : bool
+        Whether joint speed limits add their rows (as many as the angle limits).
+    """
+    if gait_fits(n_joints, order, speed_limit):
+        return
+    largest = 0
+    while gait_fits(n_joints, largest + 1, speed_limit):
+        largest += 1
+    joints = 1
+    while gait_fits(joints + 1, 1, speed_limit):
+        joints += 1
+    hint = (f"at most {name} {largest} with {n_joints} joints" if largest >= 1
+            else f"at most {joints} joints, even at {name} 1")
+    size, seconds = gait_bytes(n_joints, order, speed_limit), gait_solve_seconds(n_joints, order, speed_limit)
+    if size > MAX_BYTES:
+        check_bytes(size, f"a gait family of {n_joints} joints and {name} {order}", owner, hint)
+    raise GeogaitError(f"{owner}: a gait family of {n_joints} joints and {name} {order} would block each solver step "
+                       f"for about {seconds:.3g} s (SIGTERM and Ctrl-C wait for it; at most {MAX_SOLVE_SECONDS:g} s "
+                       f"is allowed); {hint}.")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import textwrap
 import time
 from pathlib import Path
 from typing import Annotated
@@ -14,7 +15,15 @@ import typer
 
 from .._defaults import MAX_JOINT_ANGLE, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
-from .._validation import GeogaitError, check_int
+from .._validation import (
+    MAX_BYTES,
+    GeogaitError,
+    chain_motion_bytes,
+    check_bytes,
+    check_gait_size,
+    check_int,
+    gait_fits,
+)
 from ..experiments.optimization import (
     OptimizationConfig,
     OptimizationResult,
@@ -39,6 +48,7 @@ from ..optimize import (
     read_checkpoint_metadata,
     smallest_budget,
     structured,
+    symmetric_chain_model,
 )
 from ..plotting import (
     plot_height_function,
@@ -85,7 +95,10 @@ _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 @app.command()
 def optimize(
     links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
-                                                            "(two links, one joint, cannot swim).")] = 3,
+                                                            "(two links, one joint, cannot swim; a swimmer whose "
+                                                            "model or ceiling would need more than 4 GiB, or solver "
+                                                            "steps over a second, is refused, naming the most links "
+                                                            "that fit).")] = 3,
     cycles: Annotated[int | None, typer.Option(
         help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
              "With --resume: the new total.",
@@ -99,7 +112,9 @@ def optimize(
     forgetting_factor: Annotated[float | None, typer.Option(
         help="λ of the RLS filters, in (0, 1], with --method adaptive or shape [default: 1 - 0.1/d for d "
              "joints].")] = None,
-    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
+    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family (at most what fits in 4 GiB "
+                                            "with solver steps under a second: 21 for 2 joints, 5 for 8; 13 and 3 "
+                                            "with --max-joint-velocity).")] = 1,
     objective: Annotated[str, typer.Option(
         help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
              "cycles).")] = "progress",
@@ -186,6 +201,7 @@ def optimize(
                         robot_timeout=robot_timeout, checkpoint_every=checkpoint_every)
         folder = out
     optimizer = _optimizer(settings)  # every option checked before anything starts or is written
+    _check_memory(settings, optimizer)
     system, target = _target(settings)
     run_id = _run_id(settings)
     # the folder is locked for this run (a run still writing it is neither resumed nor overwritten)
@@ -466,11 +482,72 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
         checkpoint = folder / CHECKPOINT_FILE
         if settings["robot"] is not None:  # a driver's joints, chain and medium are known once it is connected
             optimizer = _optimizer(settings, robot)
+        hello = _hello(robot) if settings["robot"] is not None else None
+        check_gait_size(robot.n_joints, settings["order"], "geogait optimize", "--order",
+                        speed_limit=settings["max_joint_velocity"] is not None)
         if resumed:
+            _check_resumed_hello(checkpoint, hello)
             return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles), optimizer
+        tag = {"run_id": run_id, **({} if hello is None else {"hello": hello})}
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
                              record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
-                             checkpoint_tag={"run_id": run_id}), optimizer
+                             checkpoint_tag=tag), optimizer
+
+
+def _check_memory(settings: dict, optimizer) -> None:
+    """The built-in swimmer's gait family and model fit in memory and solver steps short enough for SIGTERM, checked
+    before its ceiling is computed (a robot's joints are known once its driver says hello: checked then)."""
+    if settings["robot"] is not None:
+        return
+    speed = settings["max_joint_velocity"] is not None
+    if gait_fits(settings["links"] - 1, 1, speed):  # (else the number of links is what to change)
+        check_gait_size(settings["links"] - 1, settings["order"], "geogait optimize", "--order", speed_limit=speed)
+
+    def run_bytes(links: int) -> float:  # the ceiling's chain motion, or the model run_model picks for the swimmer
+        symmetric = settings.get("family", "auto") in ("auto", "symmetric") and links >= 3
+        model = optimizer.model or (symmetric_chain_model(links - 1) if symmetric else AdaptiveGaitModel())
+        return max(model.memory_bytes(links - 1) if hasattr(model, "memory_bytes") else 0.0,
+                   chain_motion_bytes(links - 1))
+
+    def fits(links: int) -> bool:
+        return run_bytes(links) <= MAX_BYTES and gait_fits(links - 1, 1, speed)
+
+    largest = settings["links"]
+    while largest > 3 and not fits(largest):
+        largest -= 1
+    hint = f"at most --links {largest} with --method {settings['method']} and --family {settings.get('family', 'auto')}"
+    check_bytes(run_bytes(settings["links"]), f"the {settings['links']}-link swimmer's ceiling and model",
+                "geogait optimize", hint)
+    if not fits(settings["links"]):
+        raise GeogaitError(f"geogait optimize: the {settings['links']}-link swimmer's joint limits would block each "
+                           "solver step for more than a second (SIGTERM and Ctrl-C wait for it); " + hint + ".")
+
+
+def _hello(robot) -> dict:
+    """What a --robot driver's hello declares that the run's gaits were chosen for (kept in its checkpoint)."""
+    ranges, region = robot.joint_ranges, robot.shape_constraints
+    return {"n_joints": int(robot.n_joints), "cycle_period": float(robot.cycle_period),
+            "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
+            "shape_constraints": None if region is None
+            else np.column_stack([region.normals, region.bounds]).tolist()}
+
+
+def _check_resumed_hello(checkpoint: Path, hello: dict | None) -> None:
+    """A resumed --robot run's driver declares what it declared when the run started: the held gait was kept within
+    those joint limits and that region, and its speeds were set for that period."""
+    tag = read_checkpoint_metadata(checkpoint).get("tag")
+    then = tag.get("hello") if isinstance(tag, dict) else None
+    if hello is None or not isinstance(then, dict):  # (the built-in swimmer; a checkpoint that predates the hello)
+        return
+    unit = {"cycle_period": " s"}
+    changed = [f"{name}: {'none' if then.get(name) is None else then.get(name)}{unit.get(name, '')} then, "
+               f"{'none' if value is None else value}{unit.get(name, '')} now"
+               for name, value in hello.items() if then.get(name) != value]
+    if changed:
+        what = textwrap.shorten("; ".join(changed), 300, placeholder=" …")
+        raise GeogaitError(f"--resume {checkpoint.parent}: the robot driver's hello changed since the run started "
+                           f"({what}); its gaits were chosen for the earlier one. Restore the driver's settings, or "
+                           "start a new run with --out.")
 
 
 def _write_settings(folder: Path, settings: dict, run_id: str) -> None:

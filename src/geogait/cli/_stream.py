@@ -18,7 +18,7 @@ from typing import Annotated
 import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
-from .._files import check_outputs
+from .._files import bounded_lines, check_outputs
 from .._kernels import fast_path_note
 from ..io import CsvReader, JsonLinesReader
 from ..learn import StreamLearner, load_stream_model, run_stream
@@ -94,7 +94,7 @@ def stream(
     note = fast_path_note()
     if note is not None:
         typer.echo(note, err=True)
-    reader = (CsvReader if fmt == "csv" else JsonLinesReader)(sys.stdin, learner.n_joints)
+    reader = (CsvReader if fmt == "csv" else JsonLinesReader)(bounded_lines(sys.stdin), learner.n_joints)
     summary = run_stream(learner, sys.stdin, sys.stdout, fmt=fmt, reader=_noting(reader, estimator is not None))
     if summary.reason == "output closed":
         _silence_stdout()

@@ -26,7 +26,7 @@ from ._steering import (
     steering_family,
     travel_rows,
 )
-from ._tracker import CONTROLLERS, DEFAULT_TURN_LIMIT, EXPLORATION, PathTracker, TrackingResult
+from ._tracker import CONTROLLERS, DEFAULT_TURN_LIMIT, EXPLORATION, PathTracker, TrackingResult, check_plan_size
 
 __all__ = [
     "AdaptiveExploration",
@@ -42,6 +42,7 @@ __all__ = [
     "TURN_SPACING",
     "TrackingResult",
     "TrueMotion",
+    "check_plan_size",
     "end_pose",
     "max_feasible_turn",
     "max_step_family",

@@ -32,6 +32,7 @@ PATH_KINDS = ("line", "circle", "figure8")
 _SPACING = 0.02  # body lengths between polyline vertices of the built-in curves (sagitta < 1e-4 at radius 0.5)
 _MAX_VERTICES = 200_000  # of a built-in curve: beyond, the vertices spread out (sagitta < 1.3e-4 at radius 1e6)
 _COMPILED_FROM = 16  # positions from which a projection runs compiled (below, NumPy's call overhead is smaller)
+_KERNEL_TESTS = 4_000_000  # position-segment tests per compiled call: about 10 ms
 #: Largest size (radius, length, |coordinate|) of a path, body lengths.
 MAX_PATH_SIZE = 1e6
 
@@ -255,7 +256,10 @@ class ReferencePath:
             window = 1.0 if window is None else check_float(window, "window", "ReferencePath.project", low=0,
                                                             low_open=True)
             near = np.asarray(near, dtype=float)  # a scalar shares one candidate list among all positions
-            count = int(np.ceil(2 * window / self._lengths.min())) + 2
+            # the window's worth of the shortest segments, but never more than the path holds in the window's laps
+            # (one segment 1e-10 long asked for 2e10 candidates)
+            laps = int(np.ceil(2 * window / self.length)) + 1 if self.closed else 1
+            count = int(min(np.ceil(2 * window / self._lengths.min()), laps * self._lengths.size)) + 2
             first = np.searchsorted(self._starts, self._wrap(near - window), side="right") - 1
             raw = first[..., None] + np.arange(count)
             if self.closed:
@@ -271,9 +275,13 @@ class ReferencePath:
         kernel = nearest_segment_kernel() if candidates.ndim == 1 and position.size > 2 * _COMPILED_FROM else None
         if kernel is not None:  # candidates shared by many positions (a planner's horizon): compiled, same bits
             flat = np.ascontiguousarray(position.reshape(-1, 2))
+            x, y = flat[:, 0].copy(), flat[:, 1].copy()
+            segments = start[:, 0].copy(), start[:, 1].copy(), step[:, 0].copy(), step[:, 1].copy(), length
             best, along = np.empty(flat.shape[0], dtype=np.int64), np.empty(flat.shape[0])
-            kernel(flat[:, 0].copy(), flat[:, 1].copy(), start[:, 0].copy(), start[:, 1].copy(), step[:, 0].copy(),
-                   step[:, 1].copy(), length, best, along)
+            chunk = max(1, _KERNEL_TESTS // length.size)  # (between calls SIGTERM and Ctrl-C are handled)
+            for first in range(0, flat.shape[0], chunk):
+                part = slice(first, first + chunk)
+                kernel(x[part], y[part], *segments, best[part], along[part])
             best, along = best.reshape(batch + (1,)), along.reshape(batch)
         else:
             ex = position[..., 0, None] - start[..., 0]

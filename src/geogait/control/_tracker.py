@@ -57,7 +57,17 @@ import pandas as pd
 from .. import se2
 from .._defaults import FEASIBILITY_TOLERANCE
 from .._estimator import Estimator, Integer, Options, Real
-from .._validation import MAX_MAGNITUDE, GeogaitError, check_callback, check_choice, check_float, check_int, fail
+from .._validation import (
+    MAX_BYTES,
+    MAX_MAGNITUDE,
+    GeogaitError,
+    check_bytes,
+    check_callback,
+    check_choice,
+    check_float,
+    check_int,
+    fail,
+)
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
@@ -75,13 +85,33 @@ from ._steering import (
     steering_family,
 )
 
-__all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "EXPLORATION", "PathTracker", "TrackingResult"]
+__all__ = ["CONTROLLERS", "DEFAULT_TURN_LIMIT", "EXPLORATION", "PathTracker", "TrackingResult", "check_plan_size"]
 
 CONTROLLERS = ("adaptive", "frozen", "true")
 EXPLORATION = ("fixed", "adaptive")
 DEFAULT_TURN_LIMIT = 1.0
 #: Largest turn of the path's tangent (rad) over the horizon's reach ahead that counts as straight.
 STRAIGHT_BEND = 0.1
+#: Bytes a plan takes per predicted cycle and candidate (first turn, held turn): its poses, their projections onto
+#: the path and the temporaries of both (about 50 floats).
+_PLAN_BYTES = 400
+
+
+def check_plan_size(horizon: int, n_first_turns: int, n_turns: int | None, owner: str, name: str = "horizon") -> None:
+    """Refuse a receding horizon whose plans would take more than MAX_BYTES, naming the longest that fits.
+
+    Parameters
+    ----------
+    horizon, n_first_turns : int
+    n_turns : int or None
+        None: the most turns the default spacing gives (turn limit π).
+    owner, name : str
+        For the message: who asked, and the horizon's name there.
+    """
+    turns = n_turns if n_turns is not None else 2 * int(round(np.pi / TURN_SPACING)) + 1
+    per_cycle = _PLAN_BYTES * n_first_turns * turns
+    check_bytes(per_cycle * (horizon + 1), f"a plan of {horizon} cycles over {n_first_turns} × {turns} turns", owner,
+                f"the {name} can be at most {max(0, int(MAX_BYTES // per_cycle) - 1)}")
 """Largest |turn| per cycle (rad) asked of the steering family when ``turn_limit`` is None, before the
 joint limits cut it."""
 WARMUP_TURN_LEVELS = (0.5, -0.5, 1.0, -1.0)
@@ -274,6 +304,7 @@ class PathTracker(Estimator):
                        self.straight_horizon)
         if self.n_turns is not None and self.n_turns % 2 == 0:
             raise fail("n_turns", owner, "an odd int >= 3 (zero turn is a member) or None", self.n_turns)
+        check_plan_size(self.horizon, self.n_first_turns, self.n_turns, owner)
         self._exploration_plan()
         if self.model is not None:
             needs = ("get_params", "partial_fit", "predict_displacement") + (("forget",) if self.change_forgetting > 1

@@ -22,7 +22,15 @@ import pandas as pd
 
 from .._defaults import TRACKING_WARMUP_TURNS
 from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning
-from ..control import CONTROLLERS, EXPLORATION, PATH_KINDS, AdaptiveExploration, PathTracker, ReferencePath
+from ..control import (
+    CONTROLLERS,
+    EXPLORATION,
+    PATH_KINDS,
+    AdaptiveExploration,
+    PathTracker,
+    ReferencePath,
+    check_plan_size,
+)
 from ..gaits import Perturbation
 from ..plotting import plt, save_figure
 from ..robots import ProcessRobot
@@ -167,6 +175,7 @@ class TrackSettings:
         if not (isinstance(self.horizon, int | np.integer) and self.horizon >= 1):
             raise GeogaitError(f"The {name('horizon')} must be a whole number of cycles >= 1. Got {self.horizon!r} "
                                "instead.")
+        check_plan_size(int(self.horizon), PathTracker().n_first_turns, None, "geogait track", name("horizon"))
         if not (isinstance(self.straight_horizon, int | np.integer) and 1 <= self.straight_horizon <= self.horizon):
             raise GeogaitError(f"The {name('straight_horizon')} must be a whole number of cycles in 1..{self.horizon} "
                                f"(the horizon). Got {self.straight_horizon!r} instead.")

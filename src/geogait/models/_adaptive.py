@@ -7,7 +7,16 @@ import numpy as np
 from .. import _kernels
 from .._docs import fill_doc
 from .._estimator import Real
-from .._validation import MAX_MAGNITUDE, check_array, check_choice, check_float, fail, warn_if_degrees
+from .._validation import (
+    MAX_BYTES,
+    MAX_MAGNITUDE,
+    check_array,
+    check_bytes,
+    check_choice,
+    check_float,
+    fail,
+    warn_if_degrees,
+)
 from ..gaits import FourierGait
 from ._base import (
     GAIT_MODEL_CONSTRAINTS,
@@ -135,11 +144,27 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.n_joints_ = n_joints
         self.batch_shape_ = batch
         n = n_regressors(self.n_joints_, self.interaction)
+        self._check_size(batch, n_joints, n)
         self.bank_ = RLSBank(self.batch_shape_, self.windows_.n_windows, n, 3, self.forgetting_factor,
                              self.initial_covariance)
         self.phase_model_ = phase_baseline(self, self.forgetting_factor)
         self.psi_ = np.zeros(self.batch_shape_ + (2,))
         self.n_samples_seen_ = 0
+
+    def memory_bytes(self, n_joints: int) -> float:
+        """Bytes this model takes for ``n_joints`` joints at its peak: M window covariances of n × n regressors and
+        the updates' temporaries (1.2–1.6 × the covariances, measured at 20 and 30 joints)."""
+        return 1.5 * 8.0 * self.n_windows * n_regressors(n_joints, self.interaction) ** 2
+
+    def _check_size(self, batch: tuple, n_joints: int, n: int) -> None:
+        """Refuse window covariances beyond MAX_BYTES (for every batch element), naming the most joints that fit."""
+        copies = float(np.prod(batch))
+        largest = n_joints
+        while largest > 1 and copies * self.memory_bytes(largest) > MAX_BYTES:
+            largest -= 1
+        check_bytes(copies * self.memory_bytes(n_joints), f"a window model of {n_joints} joints ({self.n_windows} "
+                    f"windows of {n} regressors)", type(self).__name__,
+                    f"at most {largest} joints with {self.n_windows} windows")
 
     @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):

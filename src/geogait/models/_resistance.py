@@ -42,7 +42,7 @@ import numpy as np
 
 from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real
-from .._validation import MAX_MAGNITUDE, check_array, check_float, fail
+from .._validation import MAX_BYTES, MAX_MAGNITUDE, chain_motion_bytes, check_array, check_bytes, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import gauss_phases, integrate_cycle
 from ..simulate import cycle_velocity
@@ -357,6 +357,11 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         return jacobian
 
     # -- fitting ------------------------------------------------------------------------------
+    def memory_bytes(self, n_joints: int) -> float:
+        """Bytes this model's predicted cycle takes at its peak with its derivative (the chain's connection perturbed
+        in each joint at every Magnus node: :func:`~geogait._validation.chain_motion_bytes`)."""
+        return chain_motion_bytes(self._n_links - 1, self.resolution)
+
     def _reset(self, n_joints: int):
         self.validate()
         if n_joints != self._robot_joints:
@@ -364,6 +369,12 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
                 f"shape_map has {self._robot_joints} columns"
             raise fail("shape", f"{type(self).__name__}.partial_fit", f"{self._robot_joints} joints ({given})",
                        f"{n_joints} joints")
+        chain = self._n_links - 1
+        largest = chain
+        while largest > 1 and chain_motion_bytes(largest, self.resolution) > MAX_BYTES:
+            largest -= 1
+        check_bytes(self.memory_bytes(n_joints), f"a resistance model of a {self._n_links}-link chain at resolution "
+                    f"{self.resolution}", type(self).__name__, f"at most {largest + 1} links at that resolution")
         _, design, prior = self._design()
         self.n_joints_ = n_joints
         self.batch_shape_ = ()

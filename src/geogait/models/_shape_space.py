@@ -50,13 +50,14 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 
 import numpy as np
 
 from .. import _kernels
 from .._docs import fill_doc
 from .._estimator import Estimator, Integer, Options, Real
-from .._validation import GeogaitError, check_array, check_float, fail
+from .._validation import MAX_BYTES, GeogaitError, check_array, check_bytes, check_float, fail
 from ..gaits import FourierGait
 from ..se2 import SERIES_THRESHOLD, gauss_phases, integrate_cycle
 from ._base import (
@@ -284,11 +285,30 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         return out
 
     # -- fitting ------------------------------------------------------------------------------
+    def memory_bytes(self, n_joints: int) -> float:
+        """Bytes this model takes for ``n_joints`` joints at its peak: (m d)² floats for m monomials of degree ≤ D,
+        times what the covariance, its symmetry basis and the updates' temporaries take together (measured at
+        8 joints: 1.4 with symmetry, 3.4 without)."""
+        weights = math.comb(n_joints + self.degree, self.degree) * n_joints
+        return (1.5 if self.symmetry else 3.5) * 8.0 * weights**2
+
+    def _check_size(self, batch: tuple, n_joints: int) -> None:
+        """Refuse a covariance beyond MAX_BYTES (for every batch element), naming the most joints that fit."""
+        copies = float(np.prod(batch))
+        largest = n_joints
+        while largest > 1 and copies * self.memory_bytes(largest) > MAX_BYTES:
+            largest -= 1
+        features = math.comb(n_joints + self.degree, self.degree) * n_joints
+        check_bytes(copies * self.memory_bytes(n_joints), f"a shape-space model of degree {self.degree} in "
+                    f"{n_joints} joints ({features} weights per output)", type(self).__name__,
+                    f"at most {largest} joints at degree {self.degree}")
+
     def _check_param_combinations(self) -> None:
         check_smoothing_order(self.smoothing_order, self.n_windows, type(self).__name__)
 
     def _reset(self, batch: tuple, n_joints: int):
         self.validate()
+        self._check_size(batch, n_joints)
         exponents = monomial_exponents(n_joints, self.degree)
         blocks = symmetry_blocks(exponents, self.symmetry)
         empty = [int(k) for outputs, basis in blocks if basis.shape[1] == 0 for k in outputs]

@@ -74,7 +74,10 @@ What geogait checks (a driver is trusted with nothing):
   commanded shapes (when sent) follow the gait sent rather than an earlier one (RMS distance
   more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps
   further than 20× what the body velocity and the cycle's other steps allow (also across the
-  cycle boundary). An implausible cycle is **quarantined**: not
+  cycle boundary), and the body velocities agree with the poses
+  (:func:`~geogait.simulate.velocity_pose_disagreement`: no unit mismatch, no sample's body velocity —
+  the last one's sets the cycle's end pose — moving the body 20× further from its poses than the cycle's
+  steps). An implausible cycle is **quarantined**: not
   returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
   :data:`MAX_QUARANTINED` in a row (or that many following an earlier gait since the last
   ``set_gait``) end the run with an error naming the reason.
@@ -93,11 +96,11 @@ import warnings
 
 import numpy as np
 
-from .._files import RepeatedKey, unique_keys
-from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, fail
+from .._files import MAX_LINE_BYTES, RepeatedKey, unique_keys
+from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, check_gait_size, fail
 from ..gaits import FourierGait, check_excitation
 from ..se2 import body_velocity_from_poses
-from ..simulate import Trajectory
+from ..simulate import Trajectory, velocity_pose_disagreement
 from ..systems import BODY_FRAMES, LinearRegion
 
 __all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
@@ -108,8 +111,6 @@ PROTOCOL_VERSION = 2
 #: Protocol versions this geogait speaks (a driver's hello names one).
 PROTOCOL_VERSIONS = (1, 2)
 _MAX_SAMPLES = 1_000_000  # per cycle: a driver that never ends its cycle is an error, not a memory leak
-#: Longest line read from a driver (bytes): one sample of a 200-joint robot is about 10 kB.
-MAX_LINE_BYTES = 1 << 20
 #: Longest driver text (error message, stderr line) shown, in characters.
 MAX_TEXT = 300
 #: Implausible cycles in a row that end a run.
@@ -129,6 +130,15 @@ def _cut(text, limit: int = MAX_TEXT) -> str:
 
 def _is_number(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _plausible(values) -> bool:
+    """JSON numbers (nested lists of them), each finite and within the documented ±MAX_MAGNITUDE."""
+    try:
+        array = np.asarray(values, dtype=float)
+    except (OverflowError, TypeError, ValueError):  # (an integer beyond the float range, a ragged list)
+        return False
+    return bool(np.all(np.abs(array) <= MAX_MAGNITUDE))  # (NaN fails <=)
 
 
 class ProcessRobot:
@@ -351,7 +361,7 @@ class ProcessRobot:
             if error > 1.5 * other + 1e-12:
                 return (f"the commanded shapes follow an earlier gait (RMS {other:.3g} rad), not the one sent "
                         f"(RMS {error:.3g} rad): set_gait ignored?")
-        return self._pose_jump(cycle)
+        return self._pose_jump(cycle) or velocity_pose_disagreement(cycle, self.cycle_period)
 
     def _pose_jump(self, cycle: Trajectory) -> str | None:
         """A pose step far beyond what the body velocity and the other steps of the cycle allow."""
@@ -544,12 +554,12 @@ class ProcessRobot:
             ranges = hello["joint_ranges"]
             values = None
             if isinstance(ranges, list) and len(ranges) == self.n_joints and all(
-                    isinstance(row, list) and len(row) == 2 and all(map(_is_number, row)) for row in ranges):
+                    isinstance(row, list) and len(row) == 2 and all(map(_is_number, row)) for row in ranges) \
+                    and _plausible(ranges):
                 values = np.array(ranges, dtype=float)
-            if values is None or not np.all(np.isfinite(values)) or np.any(values[:, 0] >= 0) \
-                    or np.any(values[:, 1] <= 0):
+            if values is None or np.any(values[:, 0] >= 0) or np.any(values[:, 1] <= 0):
                 raise self._failure(f"'joint_ranges' must be {self.n_joints} pairs [low, high] with low < 0 < high, "
-                                    f"got {_cut(repr(ranges), 80)}")
+                                    f"numbers within ±{MAX_MAGNITUDE:g}, got {_cut(repr(ranges), 80)}")
             self.joint_ranges = values
         self.chain, self.resistive_medium = (None, False) if hello.get("chain") is None \
             else self._read_chain(hello["chain"])
@@ -561,12 +571,14 @@ class ProcessRobot:
         """The hello's ``shape_constraints``: rows [a_0 … a_(d-1), b], a · r ≤ b, a not all zero."""
         d = self.n_joints
         if isinstance(rows, list) and 1 <= len(rows) <= 10_000 and all(
-                isinstance(row, list) and len(row) == d + 1 and all(map(_is_number, row)) for row in rows):
+                isinstance(row, list) and len(row) == d + 1 and all(map(_is_number, row)) for row in rows) \
+                and _plausible(rows):
             values = np.array(rows, dtype=float)
-            if np.all(np.isfinite(values)) and np.all(np.abs(values[:, :d]).max(axis=1) > 0):
+            if np.all(np.abs(values[:, :d]).max(axis=1) > 0):
                 return LinearRegion.from_rows(values)
-        raise self._failure(f"'shape_constraints' must be a list of rows [a_0, ..., a_{d - 1}, b] of finite numbers "
-                            f"(a · shape <= b, shape units; a not all zero), got {_cut(repr(rows), 80)}")
+        raise self._failure(f"'shape_constraints' must be a list of rows [a_0, ..., a_{d - 1}, b] of numbers within "
+                            f"±{MAX_MAGNITUDE:g} (a · shape <= b, shape units; a not all zero), got "
+                            f"{_cut(repr(rows), 80)}")
 
     def _read_chain(self, chain) -> tuple[dict, bool]:
         """The hello's ``chain`` (positive link lengths, a body frame, an optional frame offset, an optional shape
@@ -578,7 +590,8 @@ class ProcessRobot:
         expected = (f"'chain' must be {{'link_lengths': {d + 1} positive numbers (or N >= 2 with a 'shape_map' of "
                     f"N - 1 rows of {d} numbers: each joint's angle from the {d} shape coordinates), 'body_frame': "
                     f"one of {', '.join(BODY_FRAMES)} or a link index in 0..{n_links - 1}, 'frame_offset': [x, y, "
-                    f"angle] or null, 'resistive': true or false}}, got {_cut(repr(chain), 120)}")
+                    f"angle] or null, 'resistive': true or false}}, every number within ±{MAX_MAGNITUDE:g}, got "
+                    f"{_cut(repr(chain), 120)}")
         if not isinstance(chain, dict) or set(chain) - {"link_lengths", "body_frame", "frame_offset", "resistive",
                                                         "shape_map"}:
             raise self._failure(expected)
@@ -586,16 +599,16 @@ class ProcessRobot:
         if not isinstance(chain.get("resistive", False), bool):
             raise self._failure(expected)
         if not (isinstance(lengths, list) and len(lengths) == n_links and n_links >= 2
-                and all(map(_is_number, lengths)) and all(np.isfinite(v) and v > 0 for v in lengths)):
+                and all(map(_is_number, lengths)) and _plausible(lengths) and all(v > 0 for v in lengths)):
             raise self._failure(expected)
         if not (frame in BODY_FRAMES or type(frame) is int and 0 <= frame < n_links):
             raise self._failure(expected)
         if offset is not None and not (isinstance(offset, list) and len(offset) == 3 and all(map(_is_number, offset))
-                                       and all(np.isfinite(v) for v in offset)):
+                                       and _plausible(offset)):
             raise self._failure(expected)
-        if mapped and not (isinstance(shape_map, list) and len(shape_map) == n_links - 1 and all(
-                isinstance(row, list) and len(row) == d and all(map(_is_number, row))
-                and all(np.isfinite(v) for v in row) for row in shape_map)):
+        if mapped and not (isinstance(shape_map, list) and len(shape_map) == n_links - 1 and _plausible(shape_map)
+                           and all(isinstance(row, list) and len(row) == d and all(map(_is_number, row))
+                                   for row in shape_map)):
             raise self._failure(expected)
         geometry = {"link_lengths": [float(v) for v in lengths], "body_frame": frame,
                     "frame_offset": None if offset is None else tuple(float(v) for v in offset)}
@@ -608,6 +621,10 @@ class ProcessRobot:
         if type(order) is not int or not 1 <= order <= 1000:
             raise self._failure(f"'gait' must be {{'order': K in 1..1000, 'params': [...]}}, "
                                 f"got {_cut(repr(gait), 80)}")
+        try:  # (before its parameters are read: 10,000 joints at order 1000 would not fit an optimisation)
+            check_gait_size(self.n_joints, order, "the hello's 'gait'", "order", speed_limit=False)
+        except GeogaitError as error:
+            raise self._failure(str(error)) from None
         params = self._field(gait, "params", (self.n_joints * (2 * gait["order"] + 1),))
         return FourierGait.from_params(params, self.n_joints)
 

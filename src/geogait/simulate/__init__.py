@@ -2,7 +2,8 @@
 
 from ._oracle import TrueMotion, cycle_displacement, cycle_velocity
 from ._stream import DragRatioSchedule, SwimmerStream, simulate, simulate_rate
-from ._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory, end_pose
+from ._trajectory import BODY_VELOCITY_COLUMNS, POSE_COLUMNS, Trajectory, end_pose, velocity_pose_disagreement
 
 __all__ = ["BODY_VELOCITY_COLUMNS", "POSE_COLUMNS", "DragRatioSchedule", "SwimmerStream", "Trajectory", "TrueMotion",
-           "cycle_displacement", "cycle_velocity", "end_pose", "simulate", "simulate_rate"]
+           "cycle_displacement", "cycle_velocity", "end_pose", "simulate", "simulate_rate",
+           "velocity_pose_disagreement"]

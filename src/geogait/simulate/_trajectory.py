@@ -12,7 +12,7 @@ from .. import se2
 from .._files import atomic_write, write_text
 from .._validation import fail
 
-__all__ = ["Trajectory", "end_pose"]
+__all__ = ["Trajectory", "end_pose", "velocity_pose_disagreement"]
 
 #: Column names of body velocity and world pose in every table geogait writes or reads by default.
 BODY_VELOCITY_COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
@@ -182,3 +182,84 @@ def end_pose(cycle: Trajectory, period: float | None = None) -> np.ndarray:
     time = np.asarray(cycle.time, dtype=float)
     dt = time[-1] - time[-2] if period is None else period / pose.shape[0]
     return se2.compose(pose[-1], se2.exp(np.asarray(cycle.body_velocity, dtype=float)[-1] * dt))
+
+
+#: Ratio beyond which a cycle's body velocities and poses are read as in different units (either way).
+UNIT_MISMATCH = 10.0
+#: How far beyond the cycle's typical steps one sample's body velocity may move the body away from its poses.
+GLITCH = 20.0
+
+
+def velocity_pose_disagreement(cycle: Trajectory, period: float | None = None) -> str | None:
+    r"""Why one cycle's measured body velocities cannot be the motion its poses record (None: they agree).
+
+    Two checks, each robust to sensor noise on either measurement:
+
+    * **glitch**: each sample's step ξ_k Δt_k against the pose step it should match; the last sample's,
+      which sets the cycle's end pose (:func:`end_pose`), against the step before it. A difference more
+      than :data:`GLITCH` × (the cycle's 90th-percentile pose step + velocity step) is a glitch;
+    * **unit mismatch**: over each quarter of the cycle, the motion the body velocities integrate to
+      (Σ ξ_k Δt_k) and the motion the poses record (Σ g_k⁻¹ g_(k+1)), translation and heading apart: an
+      RMS ratio beyond :data:`UNIT_MISMATCH` either way (velocities in mm/s with poses in m, degrees with
+      radians) is named with its factor.
+
+    Parameters
+    ----------
+    cycle : Trajectory
+        One cycle of n ≥ 4 unbatched samples with poses and body velocities.
+    period : float, optional
+        Seconds per cycle: the last sample's interval is ``period / n``, as :func:`end_pose` takes it.
+
+    Returns
+    -------
+    str or None
+        The disagreement in words (for a quarantine), or None.
+    """
+    pose, velocity = np.asarray(cycle.pose, dtype=float), np.asarray(cycle.body_velocity, dtype=float)
+    time = np.asarray(cycle.time, dtype=float)
+    if pose.ndim != 2 or pose.shape[0] < 4 or velocity.shape != pose.shape:
+        raise fail("cycle", "velocity_pose_disagreement", "one cycle of at least 4 unbatched samples with poses and "
+                   "body velocities", f"pose {pose.shape}, body_velocity {velocity.shape}")
+    n = pose.shape[0]
+    dt = np.append(np.diff(time), time[-1] - time[-2] if period is None else period / n)
+    recorded = se2.between(pose[:-1], pose[1:])
+    recorded[:, 2] = se2.wrap_angle(recorded[:, 2])
+    moved = velocity * dt[:, None]
+    return _glitch(recorded, moved, dt) or _unit_mismatch(recorded, moved[:-1])  # (one glitch skews a quarter)
+
+
+def _magnitudes(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Translation and heading sizes of body-frame steps ``(..., 3)``."""
+    return np.hypot(steps[..., 0], steps[..., 1]), np.abs(steps[..., 2])
+
+
+def _unit_mismatch(recorded: np.ndarray, moved: np.ndarray) -> str | None:
+    quarters = np.array_split(np.arange(len(recorded)), 4)
+    sums = [np.array([steps[q].sum(axis=0) for q in quarters]) for steps in (recorded, moved)]
+    # pose noise σ moves a quarter by about √2 σ, and changes consecutive steps by about √6 σ
+    for part, (poses, velocities, change) in enumerate(zip(_magnitudes(sums[0]), _magnitudes(sums[1]),
+                                                           _magnitudes(np.diff(recorded, axis=0)), strict=True)):
+        by_poses, by_velocities = np.sqrt(np.mean(poses ** 2)), np.sqrt(np.mean(velocities ** 2))
+        noise = np.sqrt(np.mean(change ** 2))
+        if by_velocities > UNIT_MISMATCH * (by_poses + noise) or by_poses > UNIT_MISMATCH * (by_velocities + noise):
+            what = ("translation", "heading")[part]
+            factor = f"{by_velocities / by_poses:.3g}×" if by_poses > 0 else "infinitely"
+            return (f"its body velocities move the body {factor} as far as its poses do ({what}, RMS per quarter "
+                    f"cycle {by_velocities:.3g} against {by_poses:.3g}): body velocities and poses in different "
+                    "units?")
+    return None
+
+
+def _glitch(recorded: np.ndarray, moved: np.ndarray, dt: np.ndarray) -> str | None:
+    expected = np.vstack([recorded, recorded[-1] * dt[-1] / dt[-2]])  # (the last step: as long as the one before)
+    for part, (off, steps, velocities) in enumerate(zip(_magnitudes(moved - expected), _magnitudes(recorded),
+                                                        _magnitudes(moved[:-1]), strict=True)):
+        typical = np.percentile(steps, 90) + np.percentile(velocities, 90)
+        limit = GLITCH * typical + 1e-12
+        k = int(np.argmax(off))
+        if off[k] > limit:
+            what = ("translation", "heading")[part]
+            where = " (the last sample's: it sets the cycle's end pose)" if k == len(off) - 1 else ""
+            return (f"the body velocity at sample {k}{where} moves the body {off[k]:.4g} ({what}) away from what its "
+                    f"poses record, where the cycle's other steps allow about {typical:.3g}")
+    return None

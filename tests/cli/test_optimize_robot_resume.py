@@ -1,0 +1,58 @@
+"""``geogait optimize --resume`` of a --robot run reads the driver's hello again and refuses one that changed."""
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from geogait.cli import app
+
+FAULT_DRIVER = Path(__file__).parents[1] / "_fault_driver.py"
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture
+def robot_run(tmp_path):
+    """A 2-cycle --robot run whose driver reads its hello from hello.json (edited between start and resume)."""
+    hello = tmp_path / "hello.json"
+    hello.write_text(json.dumps({}))
+    wrapper = tmp_path / "driver.py"
+    wrapper.write_text("import json, runpy, sys\n"
+                       f"hello = json.loads(open({str(hello)!r}).read())\n"
+                       f"sys.argv = [{str(FAULT_DRIVER)!r}, json.dumps({{'hello': hello}})]\n"
+                       f"runpy.run_path({str(FAULT_DRIVER)!r}, run_name='__main__')\n")
+    out = tmp_path / "run"
+    result = invoke("optimize", "--robot", f"{sys.executable} {wrapper}", "--cycles", "2", "--out", out)
+    assert result.exit_code == 0, result.output
+    return out, hello
+
+
+@pytest.mark.parametrize(("changed", "fragment"), [
+    ({"joint_ranges": [[-1.2, 1.2], [-1.2, 1.2]]}, "joint_ranges: none then, [[-1.2, 1.2], [-1.2, 1.2]] now"),
+    ({"cycle_period": 2.0}, "cycle_period: 1.0 s then, 2.0 s now"),
+    ({"shape_constraints": [[1, -1, 0.9]]}, "shape_constraints: none then, [[1.0, -1.0, 0.9]] now"),
+])
+def test_a_resumed_robot_whose_hello_changed_is_refused_naming_what_changed(robot_run, changed, fragment):
+    """Before: a driver now declaring joint limits of ±1.2 rad was commanded 1.93 rad, one whose period doubled got
+    speeds off by 2×."""
+    out, hello = robot_run
+    before = (out / "checkpoint.npz").read_bytes()
+    hello.write_text(json.dumps(changed))
+    result = invoke("optimize", "--resume", out, "--cycles", "4")
+    assert result.exit_code == 1, result.output
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "Traceback" not in result.output, result.output
+    assert "hello" in errors[0] and fragment in errors[0], errors[0]
+    assert (out / "checkpoint.npz").read_bytes() == before
+
+
+def test_a_resumed_robot_whose_hello_is_the_same_continues(robot_run):
+    out, _ = robot_run
+    result = invoke("optimize", "--resume", out, "--cycles", "3")
+    assert result.exit_code == 0, result.output
+    assert len((out / "cycles.csv").read_text().splitlines()) == 1 + 3
