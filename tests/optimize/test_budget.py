@@ -22,3 +22,10 @@ def test_the_smallest_budget_holds_exactly_one_measured_cycle(settle, test):
         assert budget == len(ModelClassCheck(1.0, 2.0, test, settle_cycles=settle).plan) + 1
     with pytest.raises(ValueError, match=f"'n_cycles' parameter of InSituOptimizer.run must be an int >= {budget}"):
         InSituOptimizer(safety=Safety(settle_cycles=settle), checks=checks).run(robot, budget - 1)
+
+
+def test_a_gait_family_or_model_the_machine_cannot_hold_is_refused_before_the_robot_moves():
+    robot = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)
+    with pytest.raises(ValueError, match="order 1000000 would take .* GiB.*at most order 21 with 2 joints"):
+        InSituOptimizer(order=10**6).run(robot, 3)
+    assert robot.cycle == 0

@@ -69,7 +69,8 @@ class GaitModel(Protocol):
 #: ``online_gamma``: scores itself online (Γ); ``batch``: fits a block of cycles (the prior work's gate);
 #: ``rotation_spread``: the standard error of its predicted net rotation (set from ``prior_prediction_``, the
 #: a-priori prediction ``partial_fit`` leaves); ``residual_share``: how much of its prediction its structure leaves
-#: to the data; ``forget``: covariance resetting (the path follower); ``save``: ``get_state`` for checkpoints.
+#: to the data; ``forget``: covariance resetting (the path follower); ``save``: ``get_state`` for checkpoints;
+#: ``memory``: the bytes it will take for d joints, so a run can refuse it before the robot moves.
 CAPABILITIES = {
     "online": ("partial_fit", "rebase"),
     "online_gamma": ("partial_fit", "reset_gamma", "gamma_"),
@@ -78,6 +79,7 @@ CAPABILITIES = {
     "residual_share": ("residual_share_",),
     "forget": ("forget",),
     "save": ("get_state",),
+    "memory": ("memory_bytes",),
 }
 
 

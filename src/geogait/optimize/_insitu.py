@@ -28,9 +28,9 @@ import numpy as np
 from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE
 from .._estimator import Estimator, InstanceOf, Integer, Options
 from .._files import read_state
-from .._validation import GeogaitError, check_callback, check_float, check_int, fail
+from .._validation import GeogaitError, check_bytes, check_callback, check_float, check_gait_size, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
-from ..models import check_gait_model
+from ..models import check_gait_model, model_capabilities
 from ..robots import RobotSpec, read_robot_spec
 from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
@@ -253,6 +253,7 @@ class InSituOptimizer(Estimator):
         if self.order < robot.gait.highest_harmonic():
             raise fail("order", owner, f"at least the highest harmonic of the robot's seed gait "
                        f"({robot.gait.highest_harmonic()}), which would be dropped", self.order)
+        check_gait_size(robot.gait.n_joints, self.order, owner, speed_limit=parts.limits.max_joint_velocity is not None)
         gait = robot.gait.with_order(self.order)
         limits = parts.limits
         r_max = _joint_limit(limits, spec)
@@ -278,9 +279,12 @@ class InSituOptimizer(Estimator):
                        "a seed gait that leaves it")
         scale = _shape_scale(limits, gait)
         check = _model_class_check(parts, spec, gait, period, period_range, owner)
+        model = run_model(self.model, gait, period, family, scale)
+        if "memory" in model_capabilities(model):
+            check_bytes(model.memory_bytes(gait.n_joints), f"a {type(model).__name__} of {gait.n_joints} joints", owner,
+                        "fewer joints, or a model of fewer weights")
         robot.set_gait(gait)  # (every check passed: a refused run leaves the robot as it was)
-        state = RunState(gait=gait, radius=parts.step.trust_radius * scale,
-                         model=run_model(self.model, gait, period, family, scale),
+        state = RunState(gait=gait, radius=parts.step.trust_radius * scale, model=model,
                          n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
                          settle_left=parts.safety.settle_cycles, max_joint_angle=r_max, scale=scale,
                          feasibility=feasibility, robot_period=period, seed_period=period,
