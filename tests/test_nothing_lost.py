@@ -109,13 +109,13 @@ def test_resume_refuses_options_it_would_ignore(finished, options, names):
 
 
 def test_a_lock_taken_on_a_removed_lock_file_is_taken_again_on_the_new_one(tmp_path):
-    """A failed run removes the lock file of a folder it created (OutputLock.remove); a run that had opened that
+    """A run removes its lock file when it ends (OutputLock.release); a run that had opened that
     file before must not hold a lock nobody else can see: it locks the file now there, or is refused."""
     from geogait._files import LOCK_FILE, _same_inode
 
     first = OutputLock(tmp_path)
     opened_before = os.open(tmp_path / LOCK_FILE, os.O_RDWR)  # another run, between its open and its flock
-    first.remove()
+    first.release()
     assert not (tmp_path / LOCK_FILE).exists() and not _same_inode(opened_before, tmp_path / LOCK_FILE)
     os.close(opened_before)
     with OutputLock(tmp_path):

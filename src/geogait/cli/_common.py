@@ -63,7 +63,7 @@ def claim_output(path: Path, *, overwrite: bool):
     """Create the output folder ``path``, lock it for this run and check that it may be written (a context
     manager giving the held :class:`~geogait._files.OutputLock`).
 
-    A folder holding anything (other than geogait's lock file) is refused unless ``overwrite``. Nothing in it
+    A folder holding anything (other than a lock file of a run that died) is refused unless ``overwrite``. Nothing in it
     is removed here: a command replaces an earlier run's files only once its own run is under way (every
     option checked, the robot started), so a run refused at its start leaves the earlier one whole; a folder
     this call created (and each parent it created) is removed again when the run fails before writing
@@ -83,7 +83,7 @@ def claim_output(path: Path, *, overwrite: bool):
         yield lock
     except BaseException:
         if created and not folder_entries(folder):  # (nothing of this run in it: leave no trace)
-            lock.remove()
+            lock.release()
             with contextlib.suppress(OSError):  # (a level holding anything else stays)
                 for level in created:
                     level.rmdir()
@@ -201,8 +201,8 @@ def _is_fresh_run_manifest(path: Path, command: str) -> bool:
 
 
 def write_manifest(path: Path, *, command: str, config: dict, results: dict, started: float) -> Path:
-    """JSON record of a run: config, seed, versions, wall time and headline numbers (strict JSON). (Where a
-    redraw's record goes, beside the run's, is :func:`claim_figure`'s.)
+    """The manifest of a run, the JSON file that records it: config, seed, versions, wall time and headline numbers
+    (strict JSON). (Where a redraw's manifest goes, beside the run's, is :func:`claim_figure`'s.)
 
     Returns
     -------
