@@ -17,15 +17,16 @@ import signal
 import sys
 import threading
 import warnings
+from collections.abc import Callable
 from contextlib import contextmanager
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 from typer.exceptions import TyperException
 
 from .._validation import GeogaitError
 
-__all__ = ["GeogaitGroup", "app", "error_message", "figure_app"]
+__all__ = ["GeogaitGroup", "app", "error_message", "figure_app", "help_from"]
 
 
 def _input_errors() -> tuple[type[BaseException], ...]:
@@ -106,6 +107,30 @@ def _refuse_non_finite(group, args) -> None:
             bounds = " and ".join(f"{sign} {bound:g}" for sign, bound in (("≥", param.min), ("≤", param.max))
                                   if bound is not None)
             raise GeogaitError(f"The '{name}' option must be a finite number {bounds}. Got {value} instead.")
+
+
+class _HelpFromLibrary(TyperCommand):
+    """A command whose option help texts name the library's values as ``{placeholders}``: filled in when the command
+    is parsed (its ``--help`` included), not when :mod:`geogait.cli` is imported, so that ``geogait --help`` imports
+    none of the library (its modules import SciPy and pyplot)."""
+
+    values: Callable[[], dict]
+    _filled = False
+
+    def parse_args(self, ctx, args):
+        if not self._filled:
+            values = self.values()
+            for param in self.params:
+                if getattr(param, "help", None):
+                    param.help = param.help.format_map(values)
+            self._filled = True
+        return super().parse_args(ctx, args)
+
+
+def help_from(values: Callable[[], dict]) -> type[TyperCommand]:
+    """The command class (``@app.command(cls=...)``) that fills ``{name}`` in its option help texts from ``values()``
+    when the command runs or shows its help."""
+    return type("HelpFromLibrary", (_HelpFromLibrary,), {"values": staticmethod(values)})
 
 
 class Terminated(KeyboardInterrupt):

@@ -16,10 +16,6 @@ import typer
 from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._files import check_outputs, default_summary_path, describe_path_kind
 from .._validation import GeogaitError
-from ..io import read_log, read_log_for_prediction, resolve_mapping
-from ..learn import LogFit, fit_log, predict_log
-from ..models import AdaptiveGaitModel
-from ..phase import Phaser
 from ._app import app
 from ._common import Overwrite, comma_list, output_folder, refuse_existing, versions
 
@@ -104,6 +100,9 @@ def fit(
     Γ is scored on the held-out last cycles of every segment (report.json: Γ overall and per cycle, online Γ,
     gait order, phase rate). phaser.npz is written when the phase is estimated (no --phase column).
     """
+    from ..io import read_log, resolve_mapping
+    from ..learn import LogFit, fit_log
+
     started = time.perf_counter()
     order = _gait_order(gait_order)
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
@@ -168,6 +167,11 @@ def predict(
     overwrite: Overwrite = False,
 ) -> None:
     """Predict the body velocity of every sample of a log; write a CSV and Γ (if ξ was measured)."""
+    from ..io import read_log_for_prediction
+    from ..learn import predict_log
+    from ..models import AdaptiveGaitModel
+    from ..phase import Phaser
+
     started = time.perf_counter()
     _check_log(log)
     summary_path = default_summary_path(out) if summary is None else summary

@@ -15,30 +15,7 @@ import typer
 from .._defaults import MAX_JOINT_ANGLE, STRUCTURED_MODEL_STEPS, window_forgetting_factor
 from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, output_set, write_text
 from .._validation import GeogaitError, check_float, check_int
-from ..experiments.optimization import (
-    OptimizationConfig,
-    OptimizationResult,
-    default_budget,
-    run_optimization,
-    shape_method_model,
-)
-from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
-from ..optimize import CLIMB_RULES, OBJECTIVES, InSituOptimizer, cached_ceiling, read_checkpoint_metadata
-from ..plotting import (
-    plot_height_function,
-    plot_joint_angles,
-    plot_path,
-    plot_progress,
-    plot_shape_space,
-    plt,
-    save_figure,
-)
-from ..robots import ProcessRobot
-from ..simulate import SwimmerStream
-from ..simulate._stream import MAX_SENSOR_NOISE
-from ..systems import PurcellSwimmer
-from ._app import app, figure_app
+from ._app import app, figure_app, help_from
 from ._common import (
     Overwrite,
     claim_figure,
@@ -53,7 +30,6 @@ from ._common import (
     write_manifest,
 )
 
-_FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 _METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
@@ -66,12 +42,24 @@ _NOT_IDENTITY = ("cycles", "robot_timeout", "run_id")
 _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 
 
-@app.command()
+def _help_values() -> dict:
+    """The library's values the help texts of ``optimize`` and ``figure optimization`` show."""
+    from ..experiments.optimization import OptimizationConfig, default_budget
+    from ..optimize import OBJECTIVES, InSituOptimizer
+
+    fig5 = OptimizationConfig()
+    return {"budget_3": default_budget(3), "budget_5": default_budget(5), "objectives": ", ".join(OBJECTIVES),
+            "trials": fig5.n_trials, "links": listed(fig5.links), "budgets": listed(fig5.budgets),
+            "baseline_trials": fig5.baseline_trials, "baseline_iterations": fig5.baseline_iterations,
+            "batch_cycles": InSituOptimizer().cycles_per_iteration, "noise": fig5.sensor_noise, "seed": fig5.seed}
+
+
+@app.command(cls=help_from(_help_values))
 def optimize(
     links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
                                                             "(two links, one joint, cannot swim).")] = 3,
     cycles: Annotated[int | None, typer.Option(
-        help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
+        help="Cycle budget [default: {budget_3} for 3 links, else {budget_5}; 100 with --robot]. "
              "With --resume: the new total.",
     )] = None,
     seed: Annotated[int, typer.Option(min=0, help="Random seed: the optimiser's exploration and climb, and the "
@@ -85,7 +73,7 @@ def optimize(
              "joints].")] = None,
     order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
     objective: Annotated[str, typer.Option(
-        help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
+        help="Objective: {objectives} (forward: along the mean motion of the seed's measured "
              "cycles).")] = "progress",
     direction_frame: Annotated[str, typer.Option(
         help="Frame of forward: world (a heading to keep) or body (the robot's own axis, immune to heading "
@@ -183,6 +171,8 @@ def optimize(
 
 def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
     """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set."""
+    from ..optimize import cached_ceiling
+
     ceiling = None
     if system is not None:
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
@@ -260,6 +250,8 @@ def _refuse_options_with_resume(ctx) -> None:
 
 def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
     """The checkpoint in ``folder`` is the run its run.json describes, and --cycles does not undo cycles run."""
+    from ..optimize import read_checkpoint_metadata
+
     checkpoint = folder / CHECKPOINT_FILE
     metadata = read_checkpoint_metadata(checkpoint)
     stored = settings.get("run_id")
@@ -279,7 +271,15 @@ def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
                            f"already run; give a total of at least {done}.")
 
 
-def _optimizer(settings) -> InSituOptimizer:
+def _optimizer(settings):
+    """The InSituOptimizer of a run's settings, every setting checked."""
+    from ..experiments.optimization import shape_method_model
+    from ..gaits import seed_gait
+    from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
+    from ..optimize import CLIMB_RULES, InSituOptimizer
+    from ..simulate._stream import MAX_SENSOR_NOISE
+    from ..systems import PurcellSwimmer
+
     if settings["method"] not in _METHODS:
         raise typer.BadParameter(f"expected one of {', '.join(_METHODS)}, got {settings['method']!r}",
                                  param_hint="--method")
@@ -369,6 +369,11 @@ def _ceiling_kind(settings) -> str:
 
 def _target(settings):
     """(system or None, context manager giving the robot): the built-in swimmer or a driver process."""
+    from ..gaits import Perturbation, seed_gait
+    from ..robots import ProcessRobot
+    from ..simulate import SwimmerStream
+    from ..systems import PurcellSwimmer
+
     if settings["robot"] is not None:
         return None, lambda: ProcessRobot(settings["robot"], timeout=settings["robot_timeout"])
     system = PurcellSwimmer(settings["links"])
@@ -380,6 +385,10 @@ def _target(settings):
 
 
 def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
+    from ..experiments.optimization import default_budget
+    from ..models import AdaptiveGaitModel, ResistanceModel
+    from ..optimize import InSituOptimizer
+
     cycles = settings["cycles"]
     if cycles is None:
         cycles = 100 if settings["robot"] is not None else default_budget(settings["links"])
@@ -461,6 +470,16 @@ def _read_settings(folder: Path) -> dict:
 
 
 def _figures(folder, system, result, ceiling) -> None:
+    from ..plotting import (
+        plot_height_function,
+        plot_joint_angles,
+        plot_path,
+        plot_progress,
+        plot_shape_space,
+        plt,
+        save_figure,
+    )
+
     gaits = {"seed": result.initial_gait, "final": result.final_gait}
     if ceiling is not None:
         gaits["ceiling"] = ceiling.gait
@@ -487,22 +506,21 @@ def _figures(folder, system, result, ceiling) -> None:
     save_figure(fig, folder / "path.png")
 
 
-@figure_app.command("optimization")
+@figure_app.command("optimization", cls=help_from(_help_values))
 def figure_optimization(
     trials: Annotated[int | None, typer.Option(
-        min=1, help=f"In-situ trials per swimmer [default: {_FIG5.n_trials}].")] = None,
+        min=1, help="In-situ trials per swimmer [default: {trials}].")] = None,
     links: Annotated[str | None, typer.Option(
-        help=f"Swimmers, comma-separated [default: {listed(_FIG5.links)}].")] = None,
+        help="Swimmers, comma-separated [default: {links}].")] = None,
     cycles: Annotated[str | None, typer.Option(
-        help=f"Cycle budgets per swimmer [default: {listed(_FIG5.budgets)}].")] = None,
+        help="Cycle budgets per swimmer [default: {budgets}].")] = None,
     baseline_trials: Annotated[int | None, typer.Option(
-        min=0, help=f"Batch-method trials per swimmer [default: {_FIG5.baseline_trials}].")] = None,
+        min=0, help="Batch-method trials per swimmer [default: {baseline_trials}].")] = None,
     baseline_iterations: Annotated[int | None, typer.Option(
-        min=1, help=f"Batch iterations of {InSituOptimizer().cycles_per_iteration} cycles "
-             f"[default: {_FIG5.baseline_iterations}].")] = None,
+        min=1, help="Batch iterations of {batch_cycles} cycles [default: {baseline_iterations}].")] = None,
     noise: Annotated[float | None, typer.Option(
-        min=0, help=f"Sensor noise on ξ, fraction of RMS [default: {_FIG5.sensor_noise}].")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help=f"Root random seed [default: {_FIG5.seed}].")] = None,
+        min=0, help="Sensor noise on ξ, fraction of RMS [default: {noise}].")] = None,
+    seed: Annotated[int | None, typer.Option(min=0, help="Root random seed [default: {seed}].")] = None,
     jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
     scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
     quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
@@ -511,6 +529,8 @@ def figure_optimization(
     overwrite: Overwrite = False,
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
+    from ..experiments.optimization import OptimizationConfig, OptimizationResult, default_budget, run_optimization
+
     started = time.perf_counter()
     members, manifest = claim_figure(out, "optimization", from_csv, "figure optimization", overwrite=overwrite)
     if from_csv is not None:

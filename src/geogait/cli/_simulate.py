@@ -11,11 +11,7 @@ import typer
 
 from .._files import output_set
 from .._validation import GeogaitError
-from ..gaits import Perturbation, seed_gait
-from ..plotting import plot_path, plot_shape_space, plt, save_figure
-from ..simulate import DragRatioSchedule, SwimmerStream, Trajectory
-from ..systems import BODY_FRAMES, PurcellSwimmer
-from ._app import app
+from ._app import app, help_from
 from ._common import claim_output, comma_list, console, progress_bar, write_manifest
 
 #: Every file a simulation writes into its folder (replaced as one set with --overwrite).
@@ -25,7 +21,13 @@ RUN_FILES = ("trajectory.parquet", "trajectory.csv", "trajectory.png", "manifest
 MAX_SAMPLES = 10_000_000
 
 
-@app.command()
+def _help_values() -> dict:
+    from ..systems import BODY_FRAMES
+
+    return {"body_frames": ", ".join(BODY_FRAMES)}
+
+
+@app.command(cls=help_from(_help_values))
 def simulate(
     links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer (one joint cannot move).",
                                        min=3)] = 3,
@@ -40,7 +42,7 @@ def simulate(
     noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.", min=0, max=100)] = 0.0,
     shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.", min=0,
                                                max=100)] = 0.0,
-    body_frame: Annotated[str, typer.Option(help=f"Body frame: {', '.join(BODY_FRAMES)}.")] = "middle",
+    body_frame: Annotated[str, typer.Option(help="Body frame: {body_frames}.")] = "middle",
     seed: Annotated[int, typer.Option(help="Root random seed.", min=0)] = 0,
     overwrite: Annotated[bool, typer.Option(
         help="Replace the simulation an existing --out folder holds.")] = False,
@@ -48,6 +50,11 @@ def simulate(
         "out/simulate"),
 ) -> None:
     """Simulate the seed gait with perturbations; write Parquet + CSV + a PNG."""
+    from ..gaits import Perturbation, seed_gait
+    from ..plotting import plot_path, plot_shape_space, plt, save_figure
+    from ..simulate import DragRatioSchedule, SwimmerStream, Trajectory
+    from ..systems import PurcellSwimmer
+
     started = time.perf_counter()
     ratios = comma_list(drag_ratio, "--drag-ratio")
     if cycles * samples_per_cycle > MAX_SAMPLES:

@@ -19,10 +19,6 @@ import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import check_outputs
-from .._kernels import fast_path_note
-from ..io import CsvReader, JsonLinesReader
-from ..learn import StreamLearner, load_stream_model, run_stream
-from ..phase import Phaser
 from ._app import app
 from ._common import write_manifest
 
@@ -70,6 +66,11 @@ def stream(
 
     The model is saved atomically at the end of the input, on Ctrl-C or SIGTERM, and every --save-every samples.
     """
+    from .._kernels import fast_path_note
+    from ..io import CsvReader, JsonLinesReader
+    from ..learn import StreamLearner, load_stream_model, run_stream
+    from ..phase import Phaser
+
     started = time.perf_counter()
     if fmt not in ("jsonl", "csv"):
         raise typer.BadParameter(f"expected 'jsonl' or 'csv', got {fmt!r}", param_hint="--format")

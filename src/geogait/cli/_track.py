@@ -13,20 +13,6 @@ import typer
 
 from .._files import dumps_json, json_ready, output_set, write_text
 from .._validation import GeogaitError
-from ..control import ReferencePath
-from ..experiments.track import TrackSettings, run_track
-from ..experiments.tracking import (
-    CUSTOM_PATH,
-    PATHS,
-    TrackingConfig,
-    TrackingResult,
-    drag_change_cycle,
-    plot_steering_family,
-    run_tracking,
-    steering_families,
-    trial_stats,
-)
-from ..plotting import plt, save_figure
 from ._app import app, figure_app
 from ._common import (
     Overwrite,
@@ -63,6 +49,8 @@ def _ratios(text: str) -> tuple[float, ...]:
 
 def _figure_paths(text: str, option: str) -> tuple[tuple[str, ...], str | None]:
     """``--path`` / ``--drag-path`` of ``figure tracking``: built-in names and at most one waypoints CSV."""
+    from ..experiments.tracking import CUSTOM_PATH, PATHS
+
     names, files = [], []
     for item in (v.strip() for v in text.split(",") if v.strip()):
         if item in PATHS:
@@ -159,6 +147,8 @@ def track(
     stops after the warm-up, and the true controller (swimmer only) uses the true connection of the
     environment in force.
     """
+    from ..experiments.track import TrackSettings, run_track
+
     started = time.perf_counter()
     settings = TrackSettings(
         links=links, path=path, drag_ratios=_ratios(drag_ratio), cycles=cycles, change_cycle=change_cycle,
@@ -199,7 +189,7 @@ _OPTION_NAMES = {"drag_ratios": "drag_ratio"}
 
 
 @contextlib.contextmanager
-def _live_progress(settings: TrackSettings):
+def _live_progress(settings):
     """One progress bar per controller, added once its robot is up (a driver that cannot start fails first)."""
     label = "robot" if settings.robot is not None else f"{settings.links}-link"
     progress, tasks = progress_bar(), {}
@@ -269,6 +259,19 @@ def figure_tracking(
     per swimmer, path, environment, trial and controller, with the drag-change windows) and
     tracking.json (pooled and per-trial statistics).
     """
+    from ..control import ReferencePath
+    from ..experiments.tracking import (
+        CUSTOM_PATH,
+        TrackingConfig,
+        TrackingResult,
+        drag_change_cycle,
+        plot_steering_family,
+        run_tracking,
+        steering_families,
+        trial_stats,
+    )
+    from ..plotting import plt, save_figure
+
     started = time.perf_counter()
     paths, file = _figure_paths(path, "--path") if path is not None else (None, None)
     drag_paths, drag_file = _figure_paths(drag_path, "--drag-path") if drag_path is not None else (None, None)
