@@ -12,6 +12,7 @@ application.
 
 from __future__ import annotations
 
+import inspect
 import os
 import signal
 import sys
@@ -73,12 +74,15 @@ def _warnings_as_lines():
 
 
 def _escape_help(command) -> None:
-    """Escape ``[`` in help texts so that rich shows "[default: 3]" and "geogait[dask]" as written."""
+    """Escape ``[`` in help texts so that rich shows "[default: 3]" and "geogait[dask]" as written; a command's
+    paragraphs each on one line, wrapped to the terminal."""
     from rich.markup import escape
 
     if getattr(command, "_geogait_escaped", False):
         return
     command._geogait_escaped = True
+    if command.help:  # (one line per paragraph: rich keeps the docstring's line breaks after the first paragraph)
+        command.help = "\n\n".join(" ".join(part.split()) for part in inspect.cleandoc(command.help).split("\n\n"))
     for param in getattr(command, "params", []):
         if getattr(param, "help", None):
             param.help = escape(param.help)

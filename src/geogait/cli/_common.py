@@ -92,8 +92,13 @@ def claim_output(path: Path, *, overwrite: bool):
         lock.release()
 
 
+#: The help's group of the options that say where and how a command writes (every command has one).
+RUN_PANEL = "Run and output"
+#: The help's group of a ``figure`` command's experiment settings.
+EXPERIMENT_PANEL = "Experiment"
 #: The --overwrite option of commands that write named files (fit, predict, the figures).
-Overwrite = Annotated[bool, typer.Option(help="Replace the files an earlier run wrote there (refused without it).")]
+Overwrite = Annotated[bool, typer.Option("--overwrite", rich_help_panel=RUN_PANEL,
+                                         help="Replace the files an earlier run wrote there (refused without it).")]
 
 
 def refuse_existing(paths, *, overwrite: bool) -> None:
@@ -142,6 +147,11 @@ def explain_nulls(value, reason: str = "not available for this run"):
         if item is None and not str(key).endswith("_null_reason") and f"{key}_null_reason" not in value:
             out[f"{key}_null_reason"] = reason
     return out
+
+
+def one_of(values) -> str:
+    """The metavar of an option with the choices ``values``: "a | b | c" (wrapped at the spaces in the help)."""
+    return " | ".join(values)
 
 
 def listed(values) -> str:

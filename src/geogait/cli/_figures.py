@@ -16,7 +16,18 @@ from rich.table import Table
 
 from .._files import output_set
 from ._app import figure_app, help_from
-from ._common import Overwrite, claim_figure, comma_list, configure, console, listed, output_folder, write_manifest
+from ._common import (
+    EXPERIMENT_PANEL,
+    RUN_PANEL,
+    Overwrite,
+    claim_figure,
+    comma_list,
+    configure,
+    console,
+    listed,
+    output_folder,
+    write_manifest,
+)
 
 
 def _help_values() -> dict:
@@ -32,20 +43,26 @@ def _help_values() -> dict:
             "drag_ratios": listed(environments.drag_ratios),
             "forgetting_factors": listed(environments.forgetting_factors)}
 
-Trials = Annotated[int | None, typer.Option(help="Number of trials (default: see the experiment's docs).", min=1)]
-Links = Annotated[int | None, typer.Option(help="Links of the Purcell swimmer [default: {links}].")]
-Seed = Annotated[int | None, typer.Option(help="Root random seed [default: {seed}].", min=0)]
-Jobs = Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")]
-Scheduler = Annotated[str | None, typer.Option(help="Address of a Dask scheduler to run the trials on "
+Trials = Annotated[int | None, typer.Option(
+    rich_help_panel=EXPERIMENT_PANEL, help="Number of trials (default: see the experiment's docs).", min=1)]
+Links = Annotated[int | None, typer.Option(
+    rich_help_panel=EXPERIMENT_PANEL, help="Links of the Purcell swimmer [default: {links}].")]
+Seed = Annotated[int | None, typer.Option(rich_help_panel=RUN_PANEL, help="Root random seed [default: {seed}].", min=0)]
+Jobs = Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")]
+Scheduler = Annotated[str | None, typer.Option(
+    rich_help_panel=RUN_PANEL, help="Address of a Dask scheduler to run the trials on "
                                                     "(needs geogait[dask]; then --jobs must be 1).")]
-Quick = Annotated[bool, typer.Option(help="Few trials and cycles: finishes in seconds.")]
-Out = Annotated[Path, typer.Option(help="Output folder.")]
-FromCsv = Annotated[Path | None, typer.Option(help="Redraw the figure from this CSV instead of running.")]
-SamplesPerCycle = Annotated[int | None, typer.Option(help="Samples per gait cycle [default: {samples_per_cycle}].",
+Quick = Annotated[bool, typer.Option("--quick", rich_help_panel=RUN_PANEL,
+                                     help="Few trials and cycles: finishes in seconds.")]
+Out = Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")]
+FromCsv = Annotated[Path | None, typer.Option(
+    rich_help_panel=RUN_PANEL, help="Redraw the figure from this CSV instead of running.")]
+SamplesPerCycle = Annotated[int | None, typer.Option(
+    rich_help_panel=EXPERIMENT_PANEL, help="Samples per gait cycle [default: {samples_per_cycle}].",
                                                      min=4, max=100_000)]
-Perturbation = Annotated[float | None, typer.Option(
+Perturbation = Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
     help="Std (rad) of the shape perturbation δ [default: {perturbation}].")]
-ChunkSize = Annotated[int | None, typer.Option(
+ChunkSize = Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
     help="Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
          "[default: {chunk_size}].")]
 
@@ -79,9 +96,9 @@ def _write(result, folder: Path, name: str, command: str, started: float, extra:
 def accuracy(
     trials: Trials = None,
     links: Links = None,
-    cycles: Annotated[int | None, typer.Option(
+    cycles: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Cycles per trial; checkpoints every 5 [default: {cycles}].")] = None,
-    noise: Annotated[float | None, typer.Option(
+    noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Sensor noise on ξ as a fraction of its RMS [default: {accuracy_noise}].")] = None,
     perturbation: Perturbation = None,
     samples_per_cycle: SamplesPerCycle = None,
@@ -135,13 +152,13 @@ def _accuracy_table(summary: dict) -> Table:
 def environments(
     trials: Trials = None,
     links: Links = None,
-    cycles_per_environment: Annotated[int | None, typer.Option(
+    cycles_per_environment: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Cycles in each environment [default: {cycles_per_environment}].")] = None,
-    drag_ratios: Annotated[str | None, typer.Option(
+    drag_ratios: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Comma-separated drag ratio of each environment [default: {drag_ratios}].")] = None,
-    forgetting_factors: Annotated[str | None, typer.Option(
+    forgetting_factors: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Comma-separated λ of the adaptive models [default: {forgetting_factors}].")] = None,
-    noise: Annotated[float | None, typer.Option(
+    noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Sensor noise on ξ as a fraction of its RMS [default: {environments_noise}].")] = None,
     perturbation: Perturbation = None,
     samples_per_cycle: SamplesPerCycle = None,

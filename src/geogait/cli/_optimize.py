@@ -7,7 +7,7 @@ import hashlib
 import json
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 import typer
@@ -17,6 +17,8 @@ from .._files import OutputLock, describe_path_kind, dumps_json, json_ready, out
 from .._validation import GeogaitError, check_float, check_int
 from ._app import app, figure_app, help_from
 from ._common import (
+    EXPERIMENT_PANEL,
+    RUN_PANEL,
     Overwrite,
     claim_figure,
     claim_output,
@@ -25,12 +27,24 @@ from ._common import (
     console,
     explain_nulls,
     listed,
+    one_of,
     output_folder,
     progress_bar,
     write_manifest,
 )
 
 _METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
+#: The library's choices (geogait.optimize imports SciPy: spelled out here for a fast help; tests/cli check them).
+_OBJECTIVES = ("progress", "efficiency", "forward", "budget")
+_CLIMB_RULES = ("auto", "cobyqa", "bayes", "es")
+_FAMILIES = ("auto", "free", "symmetric", "mirror")
+_STEP_RULES = ("linear", "sqp")
+_DIRECTION_FRAMES = ("world", "body")
+#: --climb's values, as InSituOptimizer's climb parameter spells them.
+_CLIMB = {"on": True, "off": False, "contradicted": "contradicted", "first": "first"}
+#: The help's option groups.
+_ROBOT, _GAIT, _MODEL, _CLIMB_PANEL, _SAFETY, _RUN = ("Robot", "Gait family and objective", "Model and steps",
+                                                      "Measured climb", "Safety limits", "Run and output")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
@@ -45,10 +59,10 @@ _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
 def _help_values() -> dict:
     """The library's values the help texts of ``optimize`` and ``figure optimization`` show."""
     from ..experiments.optimization import OptimizationConfig, default_budget
-    from ..optimize import OBJECTIVES, InSituOptimizer
+    from ..optimize import InSituOptimizer
 
     fig5 = OptimizationConfig()
-    return {"budget_3": default_budget(3), "budget_5": default_budget(5), "objectives": ", ".join(OBJECTIVES),
+    return {"budget_3": default_budget(3), "budget_5": default_budget(5),
             "trials": fig5.n_trials, "links": listed(fig5.links), "budgets": listed(fig5.budgets),
             "baseline_trials": fig5.baseline_trials, "baseline_iterations": fig5.baseline_iterations,
             "batch_cycles": InSituOptimizer().cycles_per_iteration, "noise": fig5.sensor_noise, "seed": fig5.seed}
@@ -56,80 +70,90 @@ def _help_values() -> dict:
 
 @app.command(cls=help_from(_help_values))
 def optimize(
-    links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
-                                                            "(two links, one joint, cannot swim).")] = 3,
-    cycles: Annotated[int | None, typer.Option(
-        help="Cycle budget [default: {budget_3} for 3 links, else {budget_5}; 100 with --robot]. "
-             "With --resume: the new total.",
-    )] = None,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed: the optimiser's exploration and climb, and the "
-                                                  "built-in swimmer's sensor noise.")] = 0,
-    noise: Annotated[float, typer.Option(min=0, help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
-    perturbation: Annotated[float, typer.Option(min=0, help="Std (rad) of the shape perturbation δ.")] = 0.15,
-    period: Annotated[float, typer.Option(help="Seconds per cycle of the built-in swimmer.")] = 1.0,
-    gamma_threshold: Annotated[float, typer.Option(help="Γ* that gates a step.")] = 0.5,
-    forgetting_factor: Annotated[float | None, typer.Option(
-        help="λ of the RLS filters, in (0, 1], with --method adaptive or shape [default: 1 - 0.1/d for d "
-             "joints].")] = None,
-    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family.")] = 1,
-    objective: Annotated[str, typer.Option(
-        help="Objective: {objectives} (forward: along the mean motion of the seed's measured "
-             "cycles).")] = "progress",
-    direction_frame: Annotated[str, typer.Option(
-        help="Frame of forward: world (a heading to keep) or body (the robot's own axis, immune to heading "
-             "drift).")] = "world",
-    max_joint_angle: Annotated[float | None, typer.Option(
-        help="Joint limit r_max (rad) [default: from the robot's declared joint ranges, else 2π/3].")] = None,
-    max_joint_velocity: Annotated[float | None, typer.Option(help="Joint speed limit (rad/s) [default: none].")] = None,
-    settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
-    max_tracking_error: Annotated[str, typer.Option(
-        help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
-    method: Annotated[str, typer.Option(
-        help="Model: auto (the library's default: the resistance model on a --robot that declares a resistive "
-             "chain, else Fig. 5's symmetric shape-space model in the rotation-free "
-             "symmetric family, else the window model), adaptive (this paper's RLS window model), shape "
-             "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
-             "symmetries; for --robot degree 3 without), resistance (the chain's drag coefficients learned on its "
-             "known geometry: the swimmer's, or the chain a --robot driver declares in its hello; SQP steps up to "
-             "0.5, the measured climb only when contradicted) or batch "
-             "(Bittner 2018).",
-    )] = "auto",
-    family: Annotated[str, typer.Option(
-        help="Gait family: auto (rotation-free: the front-back symmetric family on front-back symmetric chains, "
-             "else the half-wave symmetric family on mirror-symmetric bodies), free, symmetric or mirror.")] = "auto",
-    step_rule: Annotated[str | None, typer.Option(
-        help="Step rule: linear (linearised, constrained) or sqp [default: sqp for --method resistance, else "
-             "linear].")] = None,
-    climb: Annotated[str | None, typer.Option(
-        help="Measured climb (steps from measured outcomes when the model's do not deliver): on (when the model "
-             "is contradicted or levels off), contradicted (only when contradicted), first (from the first "
-             "decision, handing over to the model once it predicts) or off [default: contradicted for --method "
-             "resistance, else first].")] = None,
-    climb_rule: Annotated[str | None, typer.Option(
-        help="How the measured climb proposes candidates: cobyqa (SciPy's COBYQA: quadratic models of the "
-             "measured outcomes), bayes (trust-region Bayesian optimisation: a Gaussian process of every measured "
-             "outcome), auto (bayes where COBYQA's initial design would take more than 30 cycles, else cobyqa) or "
-             "es (a mirrored (1+1) evolution strategy) [default: es for --method resistance and a robot that "
-             "declares a resistive medium, else auto].")] = None,
-    model_class_cycles: Annotated[int, typer.Option(
-        min=0, help="Test first whether the robot is inside the model class: run the seed gait this many cycles "
-                    "at its period and at twice it (>= 3; the robot must offer set_cycle_period); outside, the "
-                    "model takes no step [default: 0, no test].")] = 0,
-    robot: Annotated[str | None, typer.Option(
-        help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
-    robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
-    checkpoint_every: Annotated[int, typer.Option(help="Write OUT/checkpoint.npz every this many cycles.")] = 1,
-    resume: Annotated[Path | None, typer.Option(
-        help="Continue the run whose folder this is, with its own settings (run.json); only --cycles (the new "
-             "total) and --robot-timeout may be given with it.")] = None,
-    overwrite: Annotated[bool, typer.Option(
-        help="Replace the run in a non-empty --out folder (its files are removed once this run is under way: a run "
-             "refused at its start leaves them).")] = False,
-    out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
-        "out/optimize"),
+    links: Annotated[int, typer.Option(min=3, max=200, rich_help_panel=_ROBOT, help=(
+        "Links of the built-in Purcell swimmer."))] = 3,
+    period: Annotated[float, typer.Option(rich_help_panel=_ROBOT, help="Seconds per gait cycle of the built-in "
+                                                                       "swimmer.")] = 1.0,
+    noise: Annotated[float, typer.Option(min=0, rich_help_panel=_ROBOT, help=(
+        "Sensor noise on the built-in swimmer's body velocity ξ, a fraction of its RMS."))] = 0.1,
+    perturbation: Annotated[float, typer.Option(min=0, rich_help_panel=_ROBOT, help=(
+        "Std (rad) of the random shape perturbation δ on the built-in swimmer's joints (what the model learns "
+        "from)."))] = 0.15,
+    robot: Annotated[str | None, typer.Option(metavar="COMMAND", rich_help_panel=_ROBOT, help=(
+        "Optimise the robot behind this driver command (JSON-lines bridge, docs/robots.md)."))] = None,
+    robot_timeout: Annotated[float, typer.Option(rich_help_panel=_ROBOT, help=(
+        "Seconds to wait for each line of the --robot driver."))] = 30.0,
+    objective: Annotated[Literal[_OBJECTIVES], typer.Option(metavar=one_of(_OBJECTIVES), rich_help_panel=_GAIT, help=(
+        "Score of a gait, at zero net rotation: progress per cycle, efficiency (per shape-space path length), "
+        "forward (progress along the seed gait's mean motion), budget (per second at a fixed RMS joint "
+        "speed)."))] = "progress",
+    direction_frame: Annotated[Literal[_DIRECTION_FRAMES], typer.Option(
+        metavar=one_of(_DIRECTION_FRAMES), rich_help_panel=_GAIT, help=(
+        "Frame of --objective forward: world (a fixed heading) or body (the robot's axis)."))] = "world",
+    order: Annotated[int, typer.Option(rich_help_panel=_GAIT, help="Fourier order of the gaits searched.")] = 1,
+    family: Annotated[Literal[_FAMILIES], typer.Option(metavar=one_of(_FAMILIES), rich_help_panel=_GAIT, help=(
+        "Gaits searched: free (all of --order), symmetric (the same read from both ends), mirror (each "
+        "half-cycle mirrors the other: θ(φ + π) = −θ(φ)); auto: symmetric on a front-back symmetric chain, else "
+        "mirror on a mirror-symmetric body (neither then turns), else free."))] = "auto",
+    method: Annotated[Literal[_METHODS], typer.Option(metavar=one_of(_METHODS), rich_help_panel=_MODEL, help=(
+        "Model of ξ: adaptive (local, about the current gait), shape (over the whole shape space), resistance "
+        "(a chain's drag coefficients), batch (refit every block of cycles, Bittner 2018); auto: resistance "
+        "for a --robot chain in a resistive medium, else shape on the built-in swimmer, else adaptive."))
+    ] = "auto",
+    gamma_threshold: Annotated[float, typer.Option(rich_help_panel=_MODEL, help=(
+        "Γ*: the model steps once its Γ reaches this (Γ = 1 − its error predicting ξ / the phase average's: "
+        "1 exact, 0 no better)."))] = 0.5,
+    forgetting_factor: Annotated[float | None, typer.Option(rich_help_panel=_MODEL, help=(
+        "λ in (0, 1]: the weight older samples keep per update (--method adaptive or shape) [default: "
+        "1 − 0.1/d for d joints]."))] = None,
+    step_rule: Annotated[Literal[_STEP_RULES] | None, typer.Option(
+        metavar=one_of(_STEP_RULES), rich_help_panel=_MODEL, help=(
+        "The model's step: linear (on its linearisation) or sqp (sequential quadratic programming) [default: "
+        "sqp for --method resistance, else linear]."))] = None,
+    settle_cycles: Annotated[int, typer.Option(rich_help_panel=_MODEL, help=(
+        "Cycles after each gait change not learned from."))] = 0,
+    model_class_cycles: Annotated[int, typer.Option(min=0, rich_help_panel=_MODEL, help=(
+        "Test first whether the robot is principally kinematic (its motion set by its shape's path, not speed): "
+        "the seed gait this many cycles (≥ 3) at its period and at twice it. 0: no test."))] = 0,
+    climb: Annotated[Literal[tuple(_CLIMB)] | None, typer.Option(
+        metavar=one_of(tuple(_CLIMB)), rich_help_panel=_CLIMB_PANEL, help=(
+        "When to take steps from measured outcomes alone: first (until the model predicts them), on (once the "
+        "model is contradicted, its promised gain twice not measured, or levels off), contradicted (only "
+        "then), off [default: contradicted for --method resistance, else first]."))] = None,
+    climb_rule: Annotated[Literal[_CLIMB_RULES] | None, typer.Option(
+        metavar=one_of(_CLIMB_RULES), rich_help_panel=_CLIMB_PANEL, help=(
+        "How the climb proposes gaits: cobyqa (SciPy's quadratic models), bayes (a Gaussian process), es (a "
+        "(1+1) evolution strategy); auto: bayes where cobyqa's first design takes over 30 cycles, else cobyqa "
+        "[default: es for --method resistance in a resistive medium, else auto]."))] = None,
+    max_joint_angle: Annotated[float | None, typer.Option(metavar="RAD", rich_help_panel=_SAFETY, help=(
+        "Joint limit (rad) of every gait [default: the robot's declared joint ranges, else 2π/3]."))] = None,
+    max_joint_velocity: Annotated[float | None, typer.Option(metavar="RAD/S", rich_help_panel=_SAFETY, help=(
+        "Joint speed limit (rad/s) of every gait [default: none]."))] = None,
+    max_tracking_error: Annotated[str, typer.Option(metavar="RAD | auto | off", rich_help_panel=_SAFETY, help=(
+        "Largest RMS realised − commanded joint angle (rad) of a kept gait: a number, off, or auto (twice the "
+        "seed gait's)."))] = "auto",
+    cycles: Annotated[int | None, typer.Option(rich_help_panel=_RUN, help=(
+        "Cycle budget [default: {budget_3} for 3 links, else {budget_5}; 100 with --robot]. With --resume: the "
+        "new total."))] = None,
+    seed: Annotated[int, typer.Option(min=0, rich_help_panel=_RUN, help=(
+        "Random seed (exploration, climb, the built-in swimmer's noise)."))] = 0,
+    checkpoint_every: Annotated[int, typer.Option(rich_help_panel=_RUN, help=(
+        f"Cycles between checkpoints ({CHECKPOINT_FILE}, what --resume continues)."))] = 1,
+    resume: Annotated[Path | None, typer.Option(metavar="DIR", rich_help_panel=_RUN, help=(
+        f"Continue the run in this folder with its settings ({RUN_FILE}); only --cycles and --robot-timeout "
+        "may be given with it."))] = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", rich_help_panel=_RUN, help=(
+        "Replace the run in --out (once this run is under way)."))] = False,
+    out: Annotated[Path, typer.Option(metavar="DIR", rich_help_panel=_RUN, help=(
+        "Output folder (empty or new, unless --overwrite)."))] = Path("out/optimize"),
     ctx: typer.Context = None,
 ) -> None:
-    """Optimise a gait in situ (built-in swimmer or --robot); write PNGs, per-cycle CSV, JSON summary."""
+    """Optimise a gait in situ on the built-in swimmer or a --robot.
+
+    Cycle by cycle, geogait learns a model of the body velocity ξ from the shape r, steps to the gait the model
+    predicts to be better, and keeps what measures better. It writes cycles.csv, gait.png, progress.png, path.png
+    and the manifest summary.json, also for the cycles an interrupted run ran (--resume DIR continues it).
+    """
     started = time.perf_counter()
     if resume is not None:
         _refuse_options_with_resume(ctx)
@@ -428,8 +452,6 @@ def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
     write_text(folder / RUN_FILE, dumps_json({**settings, "run_id": run_id}, indent=1) + "\n")
 
 
-#: --climb's values, as InSituOptimizer's climb parameter spells them.
-_CLIMB = {"on": True, "off": False, "contradicted": "contradicted", "first": "first"}
 
 #: The settings a run.json must hold, with the JSON types each may take (None: null allowed).
 _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise": (int, float),
@@ -508,24 +530,29 @@ def _figures(folder, system, result, ceiling) -> None:
 
 @figure_app.command("optimization", cls=help_from(_help_values))
 def figure_optimization(
-    trials: Annotated[int | None, typer.Option(
+    trials: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         min=1, help="In-situ trials per swimmer [default: {trials}].")] = None,
-    links: Annotated[str | None, typer.Option(
+    links: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Swimmers, comma-separated [default: {links}].")] = None,
-    cycles: Annotated[str | None, typer.Option(
+    cycles: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Cycle budgets per swimmer [default: {budgets}].")] = None,
-    baseline_trials: Annotated[int | None, typer.Option(
+    baseline_trials: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         min=0, help="Batch-method trials per swimmer [default: {baseline_trials}].")] = None,
-    baseline_iterations: Annotated[int | None, typer.Option(
+    baseline_iterations: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         min=1, help="Batch iterations of {batch_cycles} cycles [default: {baseline_iterations}].")] = None,
-    noise: Annotated[float | None, typer.Option(
+    noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         min=0, help="Sensor noise on ξ, fraction of RMS [default: {noise}].")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help="Root random seed [default: {seed}].")] = None,
-    jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
-    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
-    quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
-    from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-optimization"),
+    seed: Annotated[int | None, typer.Option(
+        rich_help_panel=RUN_PANEL, min=0, help="Root random seed [default: {seed}].")] = None,
+    jobs: Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")] = 1,
+    scheduler: Annotated[str | None, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Dask scheduler address (needs geogait[dask]).")] = None,
+    quick: Annotated[bool, typer.Option(
+        "--quick", rich_help_panel=RUN_PANEL, help="3-link only, a few short trials: seconds.")] = False,
+    from_csv: Annotated[Path | None, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Redraw from this CSV instead of running.")] = None,
+    out: Annotated[Path, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Output folder.")] = Path("out/figure-optimization"),
     overwrite: Overwrite = False,
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
