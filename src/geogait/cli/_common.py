@@ -20,6 +20,7 @@ import geogait
 
 from .._files import OutputLock, folder_entries, write_json
 from .._validation import GeogaitError
+from ._app import in_cli_words
 
 console = Console(stderr=True)
 
@@ -50,12 +51,10 @@ def configure(base, **changes):
     try:
         return dataclasses.replace(base, **given).validate()
     except GeogaitError as error:
-        text = str(error)
-        for field, (option, _) in changes.items():
-            prefix = f"The '{field}' parameter of {type(base).__name__}"
-            if text.startswith(prefix):
-                raise GeogaitError(f"The '{option}' option{text[len(prefix):]}") from None
-        raise
+        said = in_cli_words(str(error), {field: option for field, (option, _) in changes.items()})
+        if said == str(error):
+            raise
+        raise GeogaitError(said) from None
 
 
 @contextlib.contextmanager

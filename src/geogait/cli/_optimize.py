@@ -36,7 +36,7 @@ from ._common import (
 _METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
 #: The library's choices (geogait.optimize imports SciPy: spelled out here for a fast help; tests/cli check them).
 _OBJECTIVES = ("progress", "efficiency", "forward", "budget")
-_CLIMB_RULES = ("auto", "cobyqa", "bayes", "es")
+_CLIMB_RULES = ("auto", "es", "cobyqa", "bayes")
 _FAMILIES = ("auto", "free", "symmetric", "mirror")
 _STEP_RULES = ("linear", "sqp")
 _DIRECTION_FRAMES = ("world", "body")
@@ -72,8 +72,8 @@ def _help_values() -> dict:
 def optimize(
     links: Annotated[int, typer.Option(min=3, max=200, rich_help_panel=_ROBOT, help=(
         "Links of the built-in Purcell swimmer."))] = 3,
-    period: Annotated[float, typer.Option(rich_help_panel=_ROBOT, help="Seconds per gait cycle of the built-in "
-                                                                       "swimmer.")] = 1.0,
+    period: Annotated[float, typer.Option(
+        min=1e-3, max=1e4, rich_help_panel=_ROBOT, help="Seconds per gait cycle of the built-in swimmer.")] = 1.0,
     noise: Annotated[float, typer.Option(min=0, rich_help_panel=_ROBOT, help=(
         "Sensor noise on the built-in swimmer's body velocity ξ, a fraction of its RMS."))] = 0.1,
     perturbation: Annotated[float, typer.Option(min=0, rich_help_panel=_ROBOT, help=(
