@@ -214,15 +214,17 @@ def test_a_figure_redraws_its_own_run_freely_and_another_runs_only_with_overwrit
 
 def test_a_run_that_replaced_another_and_died_is_resumed_as_itself(finished, tmp_path):
     """Once a run is under way its run.json replaces the earlier run's, the earlier summary and checkpoint are gone,
-    and its own checkpoint follows its first cycle (whatever --checkpoint-every): killed later, it is resumed as
-    itself, never as the run it replaced."""
+    and its own checkpoint follows its first cycle (whatever --checkpoint-every): failing later, it writes its own
+    summary of the cycles that checkpoint holds, and is resumed as itself, never as the run it replaced."""
     folder = copy_of(finished, tmp_path)
     driver = shlex.join([sys.executable, str(Path(__file__).with_name("_fault_driver.py")),
                          json.dumps({"fault": "huge_error", "cycle": 2, "magnitude": 10})])  # fails in its 3rd cycle
     one_error_line(invoke("optimize", "--robot", driver, "--checkpoint-every", "5", "--overwrite", "--out", folder),
                    "EEEEEEEEEE")
     run = json.loads((folder / "run.json").read_text())
-    assert run["robot"] == driver and not (folder / "summary.json").exists()
+    summary = json.loads((folder / "summary.json").read_text())
+    assert run["robot"] == driver and summary["config"]["run_id"] == run["run_id"]
+    assert summary["results"]["cycles_run"] == 1
     from geogait.optimize import read_checkpoint_metadata
 
     metadata = read_checkpoint_metadata(folder / "checkpoint.npz")

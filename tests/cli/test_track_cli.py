@@ -56,9 +56,10 @@ def test_the_tracker_goes_round_a_closed_csv_path_and_stops_at_the_end_of_an_ope
     """The 3-link swimmer steps ≈ 0.1 body lengths a cycle: 16 cycles are more than one lap of the 1.2 body
     length square. Closed, it keeps going; open, the run stops at the last waypoint."""
     options = ["track", "--links", "3", "--quick", "--warmup", "3", "--cycles", "16", "--controllers", "adaptive"]
-    closed = _run(*options, "--path", _square(tmp_path), "--out", tmp_path / "closed")
+    closed = _run(*options, "--path", _square(tmp_path), "--out", tmp_path / "closed", "--json")
     assert closed.exit_code == 0, closed.output
     results = _summary(tmp_path / "closed")["results"]
+    assert json.loads(closed.stdout) == results  # --json: the results as one JSON document on stdout
     assert results["path_closed"] is True and results["path_length"] == pytest.approx(1.2)
     assert results["adaptive"]["stopped_early"] is False
     assert len(pd.read_csv(tmp_path / "closed" / "cycles.csv")) == 16

@@ -6,6 +6,7 @@ import contextlib
 import dataclasses
 import json
 import platform
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -15,10 +16,11 @@ import numpy as np
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
 import geogait
 
-from .._files import OutputLock, folder_entries, write_json
+from .._files import OutputLock, dumps_json, folder_entries, write_json
 from .._validation import GeogaitError
 from ._app import in_cli_words
 
@@ -98,6 +100,30 @@ EXPERIMENT_PANEL = "Experiment"
 #: The --overwrite option of commands that write named files (fit, predict, the figures).
 Overwrite = Annotated[bool, typer.Option("--overwrite", rich_help_panel=RUN_PANEL,
                                          help="Replace the files an earlier run wrote there (refused without it).")]
+
+
+#: The --json option of the commands that print their results (a table otherwise).
+Json = Annotated[bool, typer.Option("--json", rich_help_panel=RUN_PANEL, help=(
+    "Print the results on stdout as one JSON document, for programs (a table otherwise)."))]
+
+
+def print_results(results: dict, table: Callable[[], Table], *, as_json: bool) -> None:
+    """A run's results on stdout: the rich ``table()`` for a reader, or with ``as_json`` ``results`` as one strict
+    JSON document (UTF-8, written as is: no terminal wrapping, no escapes)."""
+    if as_json:
+        sys.stdout.write(dumps_json(results, indent=1, ensure_ascii=False) + "\n")
+        sys.stdout.flush()
+    else:
+        Console().print(table())
+
+
+def results_table(title: str, *columns: str) -> Table:
+    """An empty results table: the first column names a row, the others hold numbers (right-aligned)."""
+    table = Table(title=title, title_justify="left")
+    table.add_column(columns[0])
+    for column in columns[1:]:
+        table.add_column(column, justify="right")
+    return table
 
 
 def refuse_existing(paths, *, overwrite: bool) -> None:

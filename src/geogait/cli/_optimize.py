@@ -19,6 +19,7 @@ from ._app import app, figure_app, help_from
 from ._common import (
     EXPERIMENT_PANEL,
     RUN_PANEL,
+    Json,
     Overwrite,
     claim_figure,
     claim_output,
@@ -29,7 +30,9 @@ from ._common import (
     listed,
     one_of,
     output_folder,
+    print_results,
     progress_bar,
+    results_table,
     write_manifest,
 )
 
@@ -53,7 +56,7 @@ RUN_FILES = ("summary.json", RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "gait.png"
 #: Settings that do not change what a run computes: left out of its identity (--cycles may extend a run).
 _NOT_IDENTITY = ("cycles", "robot_timeout", "run_id")
 #: Options a resume may be given (every other option is the run's own, read from run.json).
-_RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
+_RESUME_OPTIONS = ("cycles", "robot_timeout", "resume", "json_output")
 
 
 def _help_values() -> dict:
@@ -146,6 +149,7 @@ def optimize(
         "Replace the run in --out (once this run is under way)."))] = False,
     out: Annotated[Path, typer.Option(metavar="DIR", rich_help_panel=_RUN, help=(
         "Output folder (empty or new, unless --overwrite)."))] = Path("out/optimize"),
+    json_output: Json = False,
     ctx: typer.Context = None,
 ) -> None:
     """Optimise a gait in situ on the built-in swimmer or a --robot.
@@ -189,12 +193,13 @@ def optimize(
         if resume is not None:
             _check_resume(folder, settings, run_id)
         summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
-    console.print(dumps_json(summary, indent=1))
+    print_results(summary, lambda: _results_table(summary), as_json=json_output)
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
 
 
 def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
-    """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set."""
+    """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set. A run
+    that is interrupted or fails writes the outputs of the cycles its checkpoint holds before it ends."""
     from ..optimize import cached_ceiling
 
     ceiling = None
@@ -202,17 +207,31 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
                                      max_joint_angle=settings["max_joint_angle"] or MAX_JOINT_ANGLE)
-    with target() as robot_driver:
-        result = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
-        quarantined = list(getattr(robot_driver, "quarantined", []))
-        declared = _declared(robot_driver, result)
+    run = dict(optimizer=optimizer, system=system, settings=settings, folder=folder, run_id=run_id, resumed=resumed,
+               started=started, ceiling=ceiling)
+    robot = None
+    try:
+        with target() as robot_driver:
+            robot = robot_driver
+            result = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
+            return _write_outputs(result, robot_driver, **run)
+    except BaseException:  # Ctrl-C, SIGTERM, a driver that died, a failed cycle: the cycles run are not lost
+        if robot is not None:
+            _write_what_ran(target if system is not None else lambda: contextlib.nullcontext(_Stopped(robot)), run)
+        raise
+
+
+def _write_outputs(result, robot, *, optimizer, system, settings, folder, run_id, resumed, started, ceiling) -> dict:
+    """cycles.csv, the figures and summary.json of ``result``, as one set; returns the summary."""
     summary = result.summary(ceiling)
     summary["model_used"] = type(result.model).__name__  # (the default depends on what the robot declares)
+    summary["cycles_run"] = len(result.log)
     config = dict(settings)
     if settings["robot"] is not None:
+        quarantined = list(getattr(robot, "quarantined", []))
         summary["quarantined_cycles"] = len(quarantined)
         summary["quarantine_reasons"] = quarantined[:20]
-        summary["robot"] = declared
+        summary["robot"] = _declared(robot, result)
         for name in _SWIMMER_ONLY:  # the built-in swimmer's options say nothing about a robot's run
             config.pop(name, None)
     if summary["forward_direction"] is None:
@@ -225,6 +244,77 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
         write_manifest(staged / "summary.json", command="optimize", config={**config, "run_id": run_id,
                        "optimizer": optimizer.describe(), "resumed": resumed}, results=summary, started=started)
     return summary
+
+
+def _write_what_ran(target, run: dict) -> None:
+    """After an interrupted or failed run: the outputs of the cycles its checkpoint holds (read back on a fresh
+    built-in swimmer, or on the stopped robot's declarations) and one line on how to continue it. A failure here is
+    reported as a warning: the run's own error is the one to tell."""
+    from ..optimize import InSituOptimizer, read_checkpoint_metadata
+
+    folder, checkpoint = run["folder"], run["folder"] / CHECKPOINT_FILE
+    try:
+        metadata = read_checkpoint_metadata(checkpoint) if checkpoint.is_file() else {}
+        tag, state = metadata.get("tag") or {}, metadata.get("state") or {}
+        done = state.get("cycle") if isinstance(state, dict) else None
+        if not isinstance(tag, dict) or tag.get("run_id") != run["run_id"] or not isinstance(done, int) or done < 1:
+            return  # (stopped before this run's first checkpoint: nothing of it to write)
+        with target() as robot:
+            result = InSituOptimizer.resume(checkpoint, robot, n_cycles=done)
+            _write_outputs(result, robot, **run)
+    except Exception as failure:  # (see the docstring)
+        typer.echo(f"warning: the outputs of the cycles run could not be written: {failure}", err=True)
+        return
+    typer.echo(f"note: wrote cycles.csv, summary.json and the figures of the {done} cycles run to {folder}/; "
+               f"continue with: geogait optimize --resume {folder}", err=True)
+
+
+class _Stopped:
+    """A robot whose run stopped (its driver interrupted or dead), for reading the run's checkpoint back: what it
+    declared, and no motion (commands are dropped: it runs no further cycle)."""
+
+    def __init__(self, robot):
+        self._robot = robot
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def set_gait(self, gait) -> None:
+        pass
+
+    def set_excitation(self, shape, shape_velocity) -> None:
+        pass
+
+    def set_cycle_period(self, seconds) -> None:
+        pass
+
+    def next_cycle(self):
+        raise GeogaitError("the robot of a stopped run runs no further cycle")
+
+
+def _results_table(summary: dict):
+    """The headline numbers of a run (summary.json holds them all)."""
+    table = results_table("geogait optimize", "result", "value")
+
+    def change(seed, final):
+        return f"{seed:.4g} → {final:.4g} ({(final - seed) / abs(seed):+.0%})" if seed else f"{seed:.4g} → {final:.4g}"
+
+    table.add_row("cycles run", str(summary["cycles_run"]))
+    table.add_row("measured objective per cycle, seed → final gait",
+                  change(summary["seed_measured_objective"], summary["final_measured_objective"]))
+    if summary.get("final_displacement_per_cycle") is not None:  # (the built-in swimmer: its true motion)
+        table.add_row("true displacement per cycle, seed → final gait",
+                      change(summary["seed_displacement_per_cycle"], summary["final_displacement_per_cycle"]))
+    if summary.get("final_ceiling_fraction") is not None:
+        table.add_row("final gait, share of the ceiling", f"{summary['final_ceiling_fraction']:.1%}")
+        at_90 = summary.get("first_cycle_at_90_percent_of_ceiling")
+        table.add_row("first cycle at 90 % of the ceiling", "not reached" if at_90 is None else str(at_90))
+    table.add_row("steps taken, rejected, reverted to the best",
+                  f"{summary['steps']}, {summary['rejected_steps']}, {summary['reverted_to_best']}")
+    table.add_row("model, gait family", f"{summary['model_used']}, {summary['gait_family']}")
+    if "quarantined_cycles" in summary:
+        table.add_row("cycles quarantined (implausible data)", str(summary["quarantined_cycles"]))
+    return table
 
 
 #: Options of the built-in swimmer: refused with --robot, and left out of a --robot run's summary.
@@ -528,6 +618,23 @@ def _figures(folder, system, result, ceiling) -> None:
     save_figure(fig, folder / "path.png")
 
 
+def _fig5_table(summary: dict):
+    """Fig. 5's headline numbers per swimmer (optimization.json holds them all)."""
+    table = results_table("Improvement of the displacement per cycle over the seed gait", "swimmer", "trials",
+                          "cycles", "median [25–75 %]", "share of the ceiling", "batch method")
+    for swimmer, numbers in summary.items():
+        if not isinstance(numbers, dict) or "improvement_percentiles" not in numbers:
+            continue
+        spread = numbers["improvement_percentiles"]
+        batch = numbers.get("batch") or {}
+        table.add_row(swimmer, str(numbers["trials"]), str(numbers["budget_cycles"]),
+                      f"{spread['p50']:+.0%} [{spread['p25']:+.0%}, {spread['p75']:+.0%}]",
+                      f"{numbers['median_ceiling_fraction']:.0%}",
+                      "" if batch.get("final_median_improvement") is None
+                      else f"{batch['final_median_improvement']:+.0%} in {batch['cycles_budget']} cycles")
+    return table
+
+
 @figure_app.command("optimization", cls=help_from(_help_values))
 def figure_optimization(
     trials: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
@@ -554,6 +661,7 @@ def figure_optimization(
     out: Annotated[Path, typer.Option(
         rich_help_panel=RUN_PANEL, help="Output folder.")] = Path("out/figure-optimization"),
     overwrite: Overwrite = False,
+    json_output: Json = False,
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
     from ..experiments.optimization import OptimizationConfig, OptimizationResult, default_budget, run_optimization
@@ -584,7 +692,7 @@ def figure_optimization(
                        config=result.config_dict() or {"from_csv": str(from_csv)},
                        results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers, **summary},
                        started=started)
-    console.print(dumps_json(summary, indent=1, default=str))
+    print_results(summary, lambda: _fig5_table(summary), as_json=json_output)
     written = ["optimization.png", *([] if from_csv is not None else ["optimization.csv"]), manifest]
     console.print(f"wrote {folder}/ ({', '.join(written)})")
 

@@ -11,12 +11,13 @@ from typing import Annotated, Literal
 import numpy as np
 import typer
 
-from .._files import dumps_json, json_ready, output_set, write_text
+from .._files import json_ready, output_set, write_text
 from .._validation import GeogaitError
 from ._app import app, figure_app
 from ._common import (
     EXPERIMENT_PANEL,
     RUN_PANEL,
+    Json,
     Overwrite,
     claim_figure,
     claim_output,
@@ -25,7 +26,9 @@ from ._common import (
     explain_nulls,
     one_of,
     output_folder,
+    print_results,
     progress_bar,
+    results_table,
     write_manifest,
 )
 
@@ -163,9 +166,11 @@ def track(
     out: Annotated[Path, typer.Option(
         metavar="DIR", rich_help_panel=RUN_PANEL, help="Output folder (empty or new, unless --overwrite).")
     ] = Path("out/track"),
+    json_output: Json = False,
 ) -> None:
-    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and summary.json
-    (with --trials N > 1: path.png, cycles.csv, trials.csv and summary.json, per-trial ratios included).
+    """Follow a path with steering gaits; write path.png, family.png, cycles.csv and the manifest summary.json.
+
+    With --trials N > 1: path.png, cycles.csv, trials.csv and summary.json, per-trial ratios included.
 
     Each controller runs on its own copy of the simulated swimmer with the same seed (same perturbations
     and noise), or its own driver process of --robot: the adaptive model keeps learning, the frozen one
@@ -201,8 +206,41 @@ def track(
             write_manifest(staged / "summary.json", command="track",
                            config=_json(settings.manifest(outcome.step), "not used by this run"),
                            results=_json(outcome.summary), started=started)
-        console.print(dumps_json(_json(outcome.summary), indent=1))
+        print_results(_json(outcome.summary), lambda: _results_table(outcome.summary), as_json=json_output)
         console.print(f"wrote {out}/ ({', '.join(written)})")
+
+
+def _results_table(summary: dict):
+    """Each controller's tracking errors (summary.json holds every number)."""
+    table = results_table("Tracking error per controller", "controller", "cycles", "cross-track mean (BL)",
+                          "cross-track p95", "heading mean (rad)", "heading p95", "final Γ")
+    for name, numbers in summary.items():
+        if isinstance(numbers, dict) and "cross_track_mean" in numbers:
+            cells = [numbers.get(key) for key in ("cross_track_mean", "cross_track_p95", "heading_error_mean",
+                                                    "heading_error_p95", "final_gamma")]
+            table.add_row(name + (" (stopped early)" if numbers.get("stopped_early") else ""),
+                          str(numbers.get("cycles", "")), *("–" if v is None else f"{v:.3g}" for v in cells))
+    if not table.rows:  # (--trials N > 1: the pooled statistics)
+        return _flat_table("geogait track", summary)
+    return table
+
+
+def _flat_table(title: str, summary: dict):
+    """Every number of a nested summary, one row each, named by its path ("adaptive › cross_track_mean")."""
+    table = results_table(title, "result", "value")
+
+    def add(prefix, value):
+        if isinstance(value, dict):
+            for key, item in value.items():
+                if not str(key).endswith("_null_reason"):
+                    add(f"{prefix} › {key}" if prefix else str(key), item)
+        elif isinstance(value, bool) or not isinstance(value, int | float):
+            table.add_row(prefix, "–" if value is None else str(value))
+        else:
+            table.add_row(prefix, f"{value:.4g}")
+
+    add("", summary)
+    return table
 
 
 def _option(field: str) -> str:
@@ -287,6 +325,7 @@ def figure_tracking(
         rich_help_panel=RUN_PANEL, help="Redraw from this CSV instead of running.")] = None,
     out: Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")] = Path("out/figure-tracking"),
     overwrite: Overwrite = False,
+    json_output: Json = False,
 ) -> None:
     """Path following with adaptive, frozen and true-connection controllers; drag change 2 → 4.
 
@@ -352,7 +391,7 @@ def figure_tracking(
                        config=result.config_dict() or {"from_csv": str(from_csv)},
                        results=_json({"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers,
                                       **summary}), started=started)
-    console.print(dumps_json(_json(summary), indent=1))
+    print_results(_json(summary), lambda: _flat_table("geogait figure tracking", summary), as_json=json_output)
     written = ["tracking.png", "steering-family.png", *([] if from_csv is not None else ["tracking.csv"]),
                "tracking-trials.csv", manifest]
     console.print(f"wrote {folder}/ ({', '.join(written)})")
