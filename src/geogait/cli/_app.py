@@ -288,8 +288,10 @@ class GeogaitGroup(TyperGroup):
 
 app = typer.Typer(
     name="geogait",
-    help="Adaptive, data-driven gait modeling and in-situ gait optimisation of principally "
-    "kinematic locomotors.",
+    help="Adaptive, data-driven gait modeling and in-situ gait optimisation of principally kinematic locomotors."
+         "\n\nWords the commands use: r is the shape (joint angles), ξ the body velocity, a gait a periodic path "
+         "of r; Γ scores a model's prediction of ξ: 1 − its error / the error of the phase average (1 exact, 0 no "
+         "better).",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,

@@ -2,7 +2,7 @@
 
 Each command runs its experiment (or, with ``--from-csv``, reads earlier results back) and writes
 ``<name>.png``, ``<name>.csv`` (long format: one row per trial × model × checkpoint) and
-``<name>.json`` (config, seed, versions, run time, headline numbers) into ``--out``.
+the manifest ``<name>.json`` (config, seed, versions, run time, headline numbers) into ``--out``.
 """
 
 from __future__ import annotations

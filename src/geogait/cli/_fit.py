@@ -158,7 +158,8 @@ def predict(
     out: Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL,
         help="Predictions CSV, a name ending in .csv (never one of the inputs).")] = Path("predictions.csv"),
     summary: Annotated[Path | None, typer.Option(rich_help_panel=RUN_PANEL,
-        help="Γ summary JSON [default: --out with suffix .json; <name>.summary.json for an --out ending in .json].")
+        help="The manifest: Γ and the settings, JSON [default: --out with suffix .json; <name>.summary.json for an "
+             "--out ending in .json].")
     ] = None,
     mapping: Mapping = None,
     time_column: Annotated[str | None, typer.Option(

@@ -331,7 +331,7 @@ def figure_tracking(
 
     Writes tracking.png, steering-family.png, tracking.csv (every cycle), tracking-trials.csv (one row
     per swimmer, path, environment, trial and controller, with the drag-change windows) and
-    tracking.json (pooled and per-trial statistics).
+    the manifest tracking.json (pooled and per-trial statistics).
     """
     from ..control import ReferencePath
     from ..experiments.tracking import (
