@@ -1,19 +1,28 @@
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
+# every extra (tests, docs, benchmarks: what CI installs)
 STAMP := $(VENV)/.installed
+# what the demo needs: geogait and its compiled one-sample path (the extra "fast")
+DEMO_STAMP := $(VENV)/.installed-demo
 
 .PHONY: install demo test test-fast docs bench bench-robots lint clean
 
-$(STAMP): pyproject.toml
+$(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[dev]"
 	touch $(STAMP)
 
+$(DEMO_STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/pip install --quiet -e ".[fast]"
+	touch $(DEMO_STAMP)
+
 install: $(STAMP)
 
-demo: $(STAMP)
+demo: $(DEMO_STAMP)
 	$(BIN)/geogait optimize --links 3 --overwrite --out out/demo
 
 test: $(STAMP)

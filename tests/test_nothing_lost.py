@@ -109,13 +109,13 @@ def test_resume_refuses_options_it_would_ignore(finished, options, names):
 
 
 def test_a_lock_taken_on_a_removed_lock_file_is_taken_again_on_the_new_one(tmp_path):
-    """A failed run removes the lock file of a folder it created (OutputLock.remove); a run that had opened that
+    """A run removes its lock file when it ends (OutputLock.release); a run that had opened that
     file before must not hold a lock nobody else can see: it locks the file now there, or is refused."""
     from geogait._files import LOCK_FILE, _same_inode
 
     first = OutputLock(tmp_path)
     opened_before = os.open(tmp_path / LOCK_FILE, os.O_RDWR)  # another run, between its open and its flock
-    first.remove()
+    first.release()
     assert not (tmp_path / LOCK_FILE).exists() and not _same_inode(opened_before, tmp_path / LOCK_FILE)
     os.close(opened_before)
     with OutputLock(tmp_path):
@@ -214,15 +214,17 @@ def test_a_figure_redraws_its_own_run_freely_and_another_runs_only_with_overwrit
 
 def test_a_run_that_replaced_another_and_died_is_resumed_as_itself(finished, tmp_path):
     """Once a run is under way its run.json replaces the earlier run's, the earlier summary and checkpoint are gone,
-    and its own checkpoint follows its first cycle (whatever --checkpoint-every): killed later, it is resumed as
-    itself, never as the run it replaced."""
+    and its own checkpoint follows its first cycle (whatever --checkpoint-every): failing later, it writes its own
+    summary of the cycles that checkpoint holds, and is resumed as itself, never as the run it replaced."""
     folder = copy_of(finished, tmp_path)
     driver = shlex.join([sys.executable, str(Path(__file__).with_name("_fault_driver.py")),
                          json.dumps({"fault": "huge_error", "cycle": 2, "magnitude": 10})])  # fails in its 3rd cycle
     one_error_line(invoke("optimize", "--robot", driver, "--checkpoint-every", "5", "--overwrite", "--out", folder),
                    "EEEEEEEEEE")
     run = json.loads((folder / "run.json").read_text())
-    assert run["robot"] == driver and not (folder / "summary.json").exists()
+    summary = json.loads((folder / "summary.json").read_text())
+    assert run["robot"] == driver and summary["config"]["run_id"] == run["run_id"]
+    assert summary["results"]["cycles_run"] == 1
     from geogait.optimize import read_checkpoint_metadata
 
     metadata = read_checkpoint_metadata(folder / "checkpoint.npz")
@@ -587,7 +589,7 @@ def test_paths_and_plots_are_bounded(tmp_path):
         ReferencePath.circle(1e9)
     with pytest.raises(GeogaitError, match="'points' parameter"):
         ReferencePath.waypoints([[0, 0], [1e13, 0]])
-    one_error_line(invoke("track", "--scale", "1e9", "--out", tmp_path / "x"), "The '--scale' option")
+    one_error_line(invoke("track", "--scale", "1e9", "--out", tmp_path / "x"), "--scale")
 
 
 def test_every_gait_given_to_the_shape_space_plot_is_drawn_with_its_start():

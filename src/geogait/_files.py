@@ -497,8 +497,8 @@ class OutputLock:
     """An exclusive lock on an output folder while one run writes it (``fcntl.flock`` on ``.geogait.lock``).
 
     The lock is held on an open file, so the system releases it when the process ends in any way (even
-    ``kill -9``). A lock taken on a file that was removed meanwhile (a failed run cleaning up a folder it
-    created, :meth:`remove`) is not a lock on the folder: it is taken again on the file now there. The
+    ``kill -9``). A lock taken on a file that was removed meanwhile (by the run that held it, :meth:`release`)
+    is not a lock on the folder: it is taken again on the file now there. The
     holder's process id is written into the file for the message another run gets.
 
     Parameters
@@ -543,20 +543,17 @@ class OutputLock:
         os.ftruncate(handle, 0)
         os.pwrite(handle, f"{os.getpid()}\n".encode(), 0)
 
-    def remove(self) -> None:
-        """Remove the lock file, still holding the lock (a run that leaves no trace of itself), then release it.
-
-        Another run waiting on the removed file takes the lock again on a new one (see above)."""
-        if self._handle is not None:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(self._path)
-        self.release()
-
     def release(self) -> None:
-        """Give the lock back (also done by the system when the process ends)."""
-        if self._handle is not None:
-            os.close(self._handle)  # closing the only descriptor releases the flock
-            self._handle = None
+        """Remove the lock file, still holding the lock, then give the lock back: a finished run leaves no trace of
+        it in its folder. Another run that opened the removed file meanwhile takes the lock again on a new one
+        (see above). The system releases the lock when the process ends in any other way."""
+        if self._handle is None:
+            return
+        if _same_inode(self._handle, self._path):  # (only the file this lock holds: never another run's)
+            with contextlib.suppress(OSError):  # (a lock file that cannot be removed is harmless: it stays)
+                os.unlink(self._path)
+        os.close(self._handle)  # closing the only descriptor releases the flock
+        self._handle = None
 
     def __enter__(self):
         return self

@@ -22,12 +22,13 @@ __all__ = ["plot_body_velocity", "plot_gait_against_phase", "plot_height_functio
 
 
 def plot_path(ax, pose, *, label=None, color="k"):
-    """Swimmer path in the plane: positions ``(n, 3)`` poses, start and end marked."""
+    """Swimmer path in the plane: positions ``(n, 3)`` poses, start (open circle) and end (filled) marked and named."""
     pose = np.asarray(pose)
     ax.plot(pose[:, 0], pose[:, 1], color=color, lw=1.2, label=label)
-    ax.plot(pose[0, 0], pose[0, 1], "o", color=color, ms=4)
-    ax.annotate("", xy=pose[-1, :2], xytext=pose[max(len(pose) - 20, 0), :2],
-                arrowprops=dict(arrowstyle="->", color=color))
+    ax.plot(pose[0, 0], pose[0, 1], "o", mfc="white", mec=color, ms=7)
+    ax.plot(pose[-1, 0], pose[-1, 1], "o", color=color, ms=7)
+    for point, name in ((pose[0, :2], "start"), (pose[-1, :2], "end")):
+        ax.annotate(name, xy=point, xytext=(6, 6), textcoords="offset points", fontsize=8, color=color)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (body lengths)")
     ax.set_ylabel("y (body lengths)")
@@ -78,17 +79,27 @@ def plot_height_function(ax, system, direction, limit: float):
 
 
 def plot_joint_angles(ax, gaits: dict[str, FourierGait]):
-    """Joint angles θ_j(φ) over one cycle for each named gait (solid: first gait, dashed: others)."""
+    """Joint angles θ_j(φ) over one cycle for each named gait: colour names the joint, line style the gait (a
+    legend for each)."""
+    from matplotlib.lines import Line2D
+
     phase = np.linspace(0, 2 * np.pi, 200)
-    for index, (name, gait) in enumerate(gaits.items()):
+    styles = ["-", "--", ":", "-."]
+    n_joints = 0
+    for index, gait in enumerate(gaits.values()):
         values = gait.shape(phase)
+        n_joints = max(n_joints, gait.n_joints)
         for j in range(gait.n_joints):
-            ax.plot(phase, values[:, j], color=f"C{j % 10}", ls=["-", "--", ":"][index % 3], lw=1.2,
-                    label=f"{name}" if j == 0 else None)
-    ax.set_xlabel("phase φ (rad)")
-    ax.set_ylabel("joint angle θ_j (rad)")
-    ax.set_title("Joint angles over a cycle (colour: joint)")
-    ax.legend(fontsize=8)
+            ax.plot(phase, values[:, j], color=f"C{j % 10}", ls=styles[index % len(styles)], lw=1.2)
+    ax.set_xlabel(r"phase $\varphi$ (rad)")
+    ax.set_ylabel(r"joint angle $\theta_j$ (rad)")
+    ax.set_title("Joint angles over a cycle")
+    gait_legend = ax.legend([Line2D([], [], color="k", ls=styles[i % len(styles)]) for i in range(len(gaits))],
+                            list(gaits), title="gait", fontsize=8, title_fontsize=8, loc="upper left")
+    ax.add_artist(gait_legend)
+    ax.legend([Line2D([], [], color=f"C{j % 10}") for j in range(n_joints)],
+              [rf"$\theta_{{{j + 1}}}$" for j in range(n_joints)], title="joint", fontsize=8, title_fontsize=8,
+              loc="upper right", ncol=1 if n_joints <= 5 else 2)
     return ax
 
 
@@ -117,12 +128,18 @@ def plot_progress(ax, log, *, seed_value: float, ceiling_value: float | None = N
         ax.axhline(ceiling_value, color="C3", ls="--", label="ceiling (true connection)")
     ax.set_xlabel("cycle")
     ax.set_ylabel("displacement per cycle (body lengths)")
-    twin = ax.twinx()
-    twin.plot(log["cycle"], log["gamma"], ".", color="C0", ms=4, alpha=0.7)  # NaN on burn-in cycles
-    twin.set_ylabel("online Γ (blue)", color="C0")
-    twin.set_ylim(0, 1)
+    scored = int(np.isfinite(log["gamma"].to_numpy(dtype=float)).sum())  # NaN on burn-in cycles and one-cycle trials
+    if scored:
+        twin = ax.twinx()
+        twin.plot(log["cycle"], log["gamma"], ".", color="C0", ms=4, alpha=0.7)
+        twin.set_ylabel("online Γ (blue)", color="C0")
+        twin.set_ylim(0, 1)
+    if scored < len(log) / 2:  # (a measured climb tries each gait for one cycle: Γ is scored on a gait's second)
+        ax.text(0.5, 1.01, f"online Γ scored on {scored} of {len(log)} cycles: only on a gait's second cycle and "
+                "later, and the measured climb runs each trial once", transform=ax.transAxes, fontsize=7,
+                color="C0", ha="center", va="bottom")
     ax.legend(loc="lower right", fontsize=8)
-    ax.set_title("In-situ optimisation")
+    ax.set_title("In-situ optimisation", pad=14 if scored < len(log) / 2 else None)
     return ax
 
 
@@ -169,19 +186,22 @@ def plot_gait_against_phase(ax, phase, shape, gait: FourierGait):
     return ax
 
 
-def plot_body_velocity(axes, time, measured, predicted, baseline=None):
-    """One axis per component of ξ: measured, model prediction and phase-model baseline over time.
+def plot_body_velocity(axes, time, measured, predicted, baseline=None, time_unit: str | None = None):
+    """One axis per component of ξ: measured, model prediction and phase-model baseline over time, in the log's
+    length unit and ``time_unit`` (``"s"``; None: the log's own time unit).
 
     Lines break where consecutive points are not consecutive samples (NaN rows in the inputs).
     """
+    per = "s" if time_unit == "s" else "time unit"
+    units = (f"length/{per}", f"length/{per}", f"rad/{per}")
     for k, ax in enumerate(axes):
         ax.plot(time, measured[:, k], color="0.6", lw=1.0, label="measured")
-        ax.plot(time, predicted[:, k], color="C0", lw=1.2, label="model ξ̂")
+        ax.plot(time, predicted[:, k], color="C0", lw=1.2, label=r"model $\hat{\xi}$")
         if baseline is not None:
-            ax.plot(time, baseline[:, k], color="C3", lw=0.8, ls="--", label="phase model ξ_T")
-        ax.set_ylabel(_COMPONENTS[k])
+            ax.plot(time, baseline[:, k], color="C3", lw=0.8, ls="--", label=r"phase model $\xi_T$")
+        ax.set_ylabel(f"{_COMPONENTS[k]} ({units[k]})")
     axes[0].legend(loc="upper right", fontsize=8, ncol=3)
-    axes[-1].set_xlabel("time")
+    axes[-1].set_xlabel(f"time ({'s' if time_unit == 's' else 'the log’s unit'}); length: the log’s pose unit")
     return axes
 
 
@@ -210,7 +230,7 @@ def write_fit_figures(fit, folder) -> dict[str, Path]:
     time, measured, predicted, baseline = _broken(data["index"][shown], data["time"][shown], data["measured"][shown],
                                                   data["predicted"][shown], data["baseline"][shown])
     fig, axes = plt.subplots(3, 1, figsize=(9, 6.5), sharex=True)
-    plot_body_velocity(axes, time, measured, predicted, baseline)
+    plot_body_velocity(axes, time, measured, predicted, baseline, time_unit=fit.log.time_unit)
     axes[0].set_title(f"Held-out body velocity (first {min(_SHOWN_CYCLES, np.unique(data['cycle']).size)} held-out "
                       f"cycles), Γ = {fit.held_out_gamma():.3f}")
     save_figure(fig, paths.setdefault("body_velocity_figure", folder / "body_velocity.png"))

@@ -1,80 +1,131 @@
-"""``geogait optimize``: budgets, option ranges and run.json fields checked before the robot moves."""
+"""``geogait optimize`` as a user meets it: its folder after a run, its output, an interrupted run."""
 
 import json
+import os
 import shlex
 import shutil
+import signal
+import subprocess
 import sys
+import time
+from pathlib import Path
 
+import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+from geogait._files import LOCK_FILE
 from geogait.cli import app
+
+RUN = ["optimize", "--links", "3", "--cycles", "2"]
 
 
 def invoke(*args):
     return CliRunner().invoke(app, [str(a) for a in args])
 
 
-def one_error_line(result, *fragments):
-    assert result.exit_code == 1, result.output
-    errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
-    assert len(errors) == 1 and "Traceback" not in result.output, result.output
-    assert "a bug in geogait" not in errors[0] and all(fragment in errors[0] for fragment in fragments), errors[0]
-    return errors[0]
-
-
-@pytest.mark.parametrize(("options", "message"), [
-    (["--settle-cycles", "6", "--cycles", "6"], "--cycles 6 holds no measured cycle: with --settle-cycles 6 the "
-     "first 6 cycles are not measured; give --cycles 7 or more, or fewer --settle-cycles."),
-    (["--model-class-cycles", "3", "--cycles", "8"], "--cycles 8 holds no measured cycle: with --model-class-cycles "
-     "3 the first 8 cycles are not measured; give --cycles 9 or more, or fewer --model-class-cycles."),
-    (["--model-class-cycles", "3", "--settle-cycles", "50"], "the default budget of 40 cycles holds no measured "
-     "cycle: with --settle-cycles 50 and --model-class-cycles 3 the first 156 cycles are not measured; give "
-     "--cycles 157 or more"),
-])
-def test_a_budget_that_holds_no_measured_cycle_is_refused_before_the_run(tmp_path, options, message):
-    """Issue 58, finding 8: such a run spent every cycle, then ended in an IndexError with no cycles.csv."""
-    one_error_line(invoke("optimize", *options, "--out", tmp_path / "run"), message)
-    assert not (tmp_path / "run").exists()
-
-
-def test_a_robot_is_not_started_for_a_budget_that_holds_no_measured_cycle(tmp_path):
-    moved = tmp_path / "moved"
-    driver = shlex.join([sys.executable, "-c", f"open({str(moved)!r}, 'w')"])
-    one_error_line(invoke("optimize", "--robot", driver, "--settle-cycles", "5", "--cycles", "5", "--out",
-                          tmp_path / "run"), "--cycles 5 holds no measured cycle", "give --cycles 6 or more")
-    assert not moved.exists() and not (tmp_path / "run").exists()
-
-
-@pytest.mark.parametrize("period", ["1e-300", "0.0009", "86401", "1e300", "0", "-1"])
-def test_a_period_the_swimmer_cannot_run_is_an_option_error(tmp_path, period):
-    """Issue 58, finding 8: --period 1e-300 ended in an OverflowError (1e-100: a model error after the start)."""
-    one_error_line(invoke("optimize", "--period", period, "--out", tmp_path / "run"),
-                   "Invalid value for --period: expected seconds in [0.001, 86400]")
-    assert not (tmp_path / "run").exists()
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A finished 2-cycle optimisation run (seed 0): its folder and what it printed."""
+    folder = tmp_path_factory.mktemp("runs") / "a"
+    result = invoke(*RUN, "--out", folder)
+    assert result.exit_code == 0, result.output
+    return folder, result
 
 
 @pytest.fixture(scope="module")
-def finished(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("runs") / "a"
-    result = invoke("optimize", "--cycles", "2", "--out", folder)
+def finished(run) -> Path:
+    return run[0]
+
+
+def test_the_results_are_a_table_on_stdout_and_what_was_written_on_stderr(run):
+    folder, result = run
+    assert "cycles run" in result.stdout and "share of the ceiling" in result.stdout
+    assert "{" not in result.stdout and f"wrote {folder}/" in result.stderr
+
+
+def test_with_json_the_results_are_one_json_document_on_stdout(tmp_path):
+    result = invoke(*RUN, "--out", tmp_path / "j", "--json")
     assert result.exit_code == 0, result.output
-    return folder
+    printed = json.loads(result.stdout)  # (valid JSON: nothing wrapped, nothing else on stdout)
+    assert printed == json.loads((tmp_path / "j" / "summary.json").read_text())["results"]
+    assert printed["cycles_run"] == 2 and "\\u" not in result.stdout
 
 
-@pytest.mark.parametrize(("field", "value", "expected"), [
-    ("model_class_cycles", "3", "an integer"), ("model_class_cycles", [3], "an integer"),
-    ("climb", ["on"], "a string or null"), ("climb", {}, "a string or null"),
-    ("climb_rule", 1, "a string or null"), ("direction_frame", None, "a string"),
-])
-def test_a_run_json_field_of_the_wrong_type_is_named_on_resume(finished, tmp_path, field, value, expected):
-    """Issue 58, finding 8: an edited run.json gave a TypeError on --resume."""
-    folder = tmp_path / "run"
+def test_a_finished_run_leaves_no_lock_file(finished):
+    assert (finished / "summary.json").is_file()
+    assert not (finished / LOCK_FILE).exists()
+
+
+def test_a_resumed_run_leaves_no_lock_file(finished, tmp_path):
+    folder = tmp_path / "b"
     shutil.copytree(finished, folder)
-    settings = json.loads((folder / "run.json").read_text())
-    (folder / "run.json").write_text(json.dumps({**settings, field: value}))
-    before = {path.name: path.read_bytes() for path in folder.iterdir()}
-    one_error_line(invoke("optimize", "--resume", folder, "--cycles", "4"),
-                   f"run.json is not the settings record of a run: '{field}' must be {expected}, got")
-    assert {path.name: path.read_bytes() for path in folder.iterdir()} == before
+    result = invoke("optimize", "--resume", folder, "--cycles", "3")
+    assert result.exit_code == 0, result.output
+    assert not (folder / LOCK_FILE).exists()
 
+
+# -- an interrupted or failed run --------------------------------------------------------------------------------
+OUTPUTS = ("cycles.csv", "summary.json", "gait.png", "progress.png", "path.png")
+
+
+def checkpoint_cycles(folder: Path) -> int:
+    """Cycles the run's checkpoint holds (0 before its first)."""
+    from geogait import GeogaitError
+    from geogait.optimize import read_checkpoint_metadata
+
+    try:
+        return read_checkpoint_metadata(folder / "checkpoint.npz")["state"]["cycle"]
+    except (GeogaitError, OSError):
+        return 0
+
+
+def written_for(folder: Path) -> int:
+    """The cycles the run's outputs cover (each output there, the CSV and summary.json agreeing)."""
+    assert all((folder / name).is_file() for name in OUTPUTS), sorted(p.name for p in folder.iterdir())
+    cycles = len(pd.read_csv(folder / "cycles.csv"))
+    assert json.loads((folder / "summary.json").read_text())["results"]["cycles_run"] == cycles
+    return cycles
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_run_writes_the_outputs_of_the_cycles_it_ran(tmp_path, signum):
+    folder = tmp_path / "run"
+    command = [sys.executable, "-c", "from geogait.cli import main; main()", "optimize", "--links", "3", "--cycles",
+               "1000", "--out", str(folder)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "MPLBACKEND": "Agg"})
+    try:
+        while checkpoint_cycles(folder) < 3:  # a few cycles run (the budget is far off)
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.2)
+        process.send_signal(signum)
+        _, stderr = process.communicate(timeout=600)
+    finally:
+        process.kill()
+    assert process.returncode == 1, stderr
+    assert 3 <= written_for(folder) < 1000
+    lines = stderr.strip().splitlines()
+    assert lines[-1].startswith(f"error: {'interrupted' if signum == signal.SIGINT else 'terminated'}")
+    assert f"continue with: geogait optimize --resume {folder}" in lines[-2]
+    if signum == signal.SIGINT:  # what the line says continues it
+        cycles = written_for(folder)
+        result = invoke("optimize", "--resume", folder, "--cycles", cycles + 1)
+        assert result.exit_code == 0, result.output
+        assert written_for(folder) == cycles + 1
+
+
+def test_a_run_whose_driver_fails_writes_the_outputs_of_the_cycles_it_ran(tmp_path):
+    driver = shlex.join([sys.executable, str(Path(__file__).parents[1] / "_fault_driver.py"),
+                         json.dumps({"fault": "string_numbers", "cycle": 3})])
+    result = invoke("optimize", "--robot", driver, "--cycles", "10", "--robot-timeout", "60", "--out", tmp_path / "r")
+    assert result.exit_code == 1, result.output
+    assert written_for(tmp_path / "r") == 3
+    assert f"continue with: geogait optimize --resume {tmp_path / 'r'}" in result.stderr
+    assert result.stderr.strip().splitlines()[-1].startswith("error: ")
+
+
+def test_a_run_stopped_before_its_first_cycle_writes_nothing(tmp_path):
+    result = invoke("optimize", "--robot", "no-such-driver-command", "--out", tmp_path / "r")
+    assert result.exit_code == 1 and "note:" not in result.stderr
+    assert not (tmp_path / "r").exists()

@@ -21,7 +21,7 @@ def test_simulate_writes_trajectory_png_and_manifest(tmp_path):
 
 def test_simulate_rejects_bad_options(tmp_path):
     result = CliRunner().invoke(app, ["simulate", "--links", "1", "--out", str(tmp_path)])
-    assert result.exit_code == 1 and "error: Invalid value for '--links'" in result.stderr
+    assert result.exit_code == 1 and "error: --links must be" in result.stderr
     result = CliRunner().invoke(app, ["simulate", "--drag-ratio", "2,x", "--out", str(tmp_path)])
     assert result.exit_code != 0 and "comma-separated" in result.output
 

@@ -173,7 +173,7 @@ def test_optimize_command_with_the_resistance_model(tmp_path):
 def test_bad_figure_options_are_reported(tmp_path):
     result = CliRunner().invoke(app, ["figure", "optimization", "--links", "3,5", "--cycles", "40", "--out",
                                       str(tmp_path)])
-    assert result.exit_code == 1 and "error: The '--cycles' option must be one budget per swimmer" in result.stderr
+    assert result.exit_code == 1 and "error: --cycles must be one budget per swimmer" in result.stderr
 
 
 def test_fig5_models_per_swimmer():

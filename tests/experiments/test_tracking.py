@@ -218,10 +218,10 @@ def test_track_command_follows_a_path_with_a_robot_behind_a_driver(tmp_path):
 
 @pytest.mark.parametrize(("options", "message"), [
     (["--controllers", "adaptive,true"], "The 'true' controller needs the built-in swimmer"),
-    (["--drag-ratio", "2,4"], "The '--drag-ratio' option changes the built-in swimmer"),
+    (["--drag-ratio", "2,4"], "--drag-ratio changes the built-in swimmer"),
     (["--exploration", "adaptive"], "Adaptive exploration needs a robot"),
-    (["--path", "circle"], "give '--step'"),
-    (["--path", "circle", "--step", "-1"], "The '--step' option"),
+    (["--path", "circle"], "give --step"),
+    (["--path", "circle", "--step", "-1"], "--step"),
 ])
 def test_track_command_robot_option_errors(tmp_path, options, message):
     result = CliRunner().invoke(app, ["track", "--robot", "no-such-driver-is-started", "--out", str(tmp_path / "x"),
@@ -239,20 +239,20 @@ def test_track_command_reports_a_driver_that_cannot_start(tmp_path):
 
 
 @pytest.mark.parametrize(("options", "message"), [
-    (["--path", "spiral"], "The '--path' option"),
+    (["--path", "spiral"], "--path"),
     (["--path", "missing.csv"], "does not exist"),
-    (["--drag-ratio", "2,x"], "The '--drag-ratio' option"),
-    (["--drag-ratio", "2,3,4"], "The '--drag-ratio' option"),
-    (["--controllers", "adaptive,psychic"], "The '--controllers' option"),
-    (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "The '--change-cycle' option"),
-    (["--links", "1"], "The '--links' option"),
-    (["--turn-limit", "0"], "The '--turn-limit' option"),
-    (["--exploration", "greedy"], "The '--exploration' option"),
-    (["--exploration", "adaptive", "--exploration-low", "0.3"], "The '--exploration-low' option"),
-    (["--exploration", "adaptive", "--exploration-high", "-1"], "The '--exploration-high' option"),
-    (["--perturbation", "nan"], "The '--perturbation' option"),
-    (["--model", "spline"], "The '--model' option"),
-    (["--change-forgetting", "0.5"], "The '--change-forgetting' option"),
+    (["--drag-ratio", "2,x"], "--drag-ratio"),
+    (["--drag-ratio", "2,3,4"], "--drag-ratio"),
+    (["--controllers", "adaptive,psychic"], "--controllers"),
+    (["--drag-ratio", "2,4", "--cycles", "5", "--change-cycle", "7"], "--change-cycle"),
+    (["--links", "1"], "--links"),
+    (["--turn-limit", "0"], "--turn-limit"),
+    (["--exploration", "greedy"], "--exploration"),
+    (["--exploration", "adaptive", "--exploration-low", "0.3"], "--exploration-low"),
+    (["--exploration", "adaptive", "--exploration-high", "-1"], "--exploration-high"),
+    (["--perturbation", "nan"], "--perturbation"),
+    (["--model", "spline"], "--model"),
+    (["--change-forgetting", "0.5"], "--change-forgetting"),
 ])
 def test_track_command_user_errors(tmp_path, options, message):
     result = CliRunner().invoke(app, ["track", "--quick", "--out", str(tmp_path / "x"), *options])

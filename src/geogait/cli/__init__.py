@@ -1,12 +1,19 @@
-"""Command-line interface: a thin layer over the library (``geogait --help``)."""
+"""Command-line interface: a thin layer over the library (``geogait --help``).
 
-import matplotlib
+Importing it imports none of the library's numerical modules: each command imports what it uses when it
+runs, so that ``geogait --help`` answers at once.
+"""
 
-matplotlib.use("Agg")  # the commands write files and never need a screen (the library leaves the backend alone)
+import os
+import sys
 
-from . import _fit, _optimize, _simulate, _stream, _track  # noqa: E402, F401  (registers the commands)
+if "matplotlib" in sys.modules:  # the commands write files and never need a screen (the library leaves the backend)
+    sys.modules["matplotlib"].use("Agg")
+else:  # (read by matplotlib when a command imports it)
+    os.environ["MPLBACKEND"] = "Agg"
+
+from . import _figures, _fit, _optimize, _simulate, _stream, _track  # noqa: E402, F401  (registers the commands)
 from ._app import app  # noqa: E402
-from ._figures import accuracy, environments  # noqa: F401, E402  (registers `geogait figure ...`)
 
 __all__ = ["app", "main"]
 

@@ -12,20 +12,23 @@ application.
 
 from __future__ import annotations
 
+import inspect
 import os
+import re
 import signal
 import sys
 import threading
 import warnings
+from collections.abc import Callable
 from contextlib import contextmanager
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 from typer.exceptions import TyperException
 
 from .._validation import GeogaitError
 
-__all__ = ["GeogaitGroup", "app", "error_message", "figure_app"]
+__all__ = ["GeogaitGroup", "app", "error_message", "figure_app", "help_from", "in_cli_words"]
 
 
 def _input_errors() -> tuple[type[BaseException], ...]:
@@ -40,15 +43,97 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
-def error_message(error: BaseException) -> str:
-    """The one-line message of ``error`` for the ``error: …`` line (no traceback)."""
-    if isinstance(error, TyperException) and hasattr(error, "format_message"):  # usage errors, bad values
+#: Library parameters that an option sets under another name (else the option of the parameter's name, if any).
+_OPTION_OF = {"random_state": "--seed", "n_links": "--links", "n_windows": "--windows", "window": "--smoothing-window",
+              "sensor_noise": "--noise", "n_trials": "--trials", "n_cycles": "--cycles", "drag_ratios": "--drag-ratio"}
+#: The library's message about a parameter (``_validation.fail``), or one about an option in its words.
+_PARAMETER_ERROR = re.compile(r"^The '(?P<name>[^']+)' (?:parameter of [\w. ]+?|option) must be (?P<expected>.+?)\. "
+                              r"Got (?P<got>.+?) instead\.(?P<rest>.*)$", re.S)
+#: An option named in the library's manner ("The '--x' option"), said the CLI's way ("--x").
+_OPTION_NAMED = re.compile(r"(?:The )?'(--[\w-]+)' option")
+#: What typer says of a bad option value, in the CLI's words ("must be …"); {given} is the value given.
+_TYPER_WORDS = tuple((re.compile(pattern, re.S), words) for pattern, words in (
+    (r"^expected (?P<expected>.+?),? got (?P<got>.+?)\.?$", "must be {expected}; got {got}."),
+    (r"^(?:Value error, )?(?P<got>.+) is not one of (?P<choices>.+?)\.?$", "must be one of {choices}; got {got}."),
+    (r"^Input should be greater than or equal to (?P<bound>\S+)$", "must be ≥ {bound}; got {given}."),
+    (r"^Input should be less than or equal to (?P<bound>\S+)$", "must be ≤ {bound}; got {given}."),
+    (r"^Input should be greater than (?P<bound>\S+)$", "must be > {bound}; got {given}."),
+    (r"^Input should be less than (?P<bound>\S+)$", "must be < {bound}; got {given}."),
+    (r"^Input should be a valid integer", "must be an integer; got {given}."),
+    (r"^Input should be a valid number", "must be a number; got {given}.")))
+
+
+def _command_of(group, args) -> tuple:
+    """The command that ``args`` run in ``group``, and the arguments left for it."""
+    command, rest = group, list(args)
+    while rest and rest[0] in getattr(command, "commands", {}):
+        command = command.commands[rest.pop(0)]
+    return command, rest
+
+
+def _given(option: str, args) -> str:
+    """The value given to ``option`` in ``args``, as typed (quoted unless a number)."""
+    value = ""
+    for position, token in enumerate(args):
+        name, equals, text = str(token).partition("=")
+        if name == option:
+            value = text if equals else (str(args[position + 1]) if position + 1 < len(args) else "")
+    try:
+        float(value)
+    except ValueError:
+        return repr(value)
+    return value
+
+
+def in_cli_words(text: str, options: dict[str, str]) -> str:
+    """A message about a library parameter that an option sets, said of the option: "--x must be …; got …."
+
+    ``options`` maps the running command's parameter names to their options; other messages stay as they are.
+    """
+    match = _PARAMETER_ERROR.match(text)
+    if match is None:
+        return _OPTION_NAMED.sub(r"\1", text)
+    name = match["name"]
+    option = name if name.startswith("--") else options.get(name)
+    if option is None and _OPTION_OF.get(name) in options.values():
+        option = _OPTION_OF[name]
+    if option is None:
+        return text
+    return _OPTION_NAMED.sub(r"\1", f"{option} must be {match['expected']}; got {match['got']}.{match['rest']}")
+
+
+def _bad_value(error, args) -> str:
+    """A bad option value (typer's or a command's BadParameter) as "--x must be …; got …."."""
+    hint = error.param_hint if error.param_hint is not None else error.param.opts[0]
+    hint = hint if isinstance(hint, str) else hint[0]
+    hint = hint.strip("'")
+    message = _one_line(error.message)
+    for pattern, words in _TYPER_WORDS:
+        match = pattern.match(message)
+        if match:
+            fields = match.groupdict()
+            if "choices" in fields:
+                fields["choices"] = fields["choices"].replace("'", "")
+            if "bound" in fields:
+                fields["bound"] = f"{float(fields['bound']):.4g}"
+            return f"{hint} {words.format(given=_given(hint, args), **fields)}"
+    return f"{hint}: {message}"
+
+
+def error_message(error: BaseException, command=None, args=()) -> str:
+    """The one-line message of ``error`` for the ``error: …`` line (no traceback), in the words of the options of
+    ``command`` (the running command, given ``args``)."""
+    is_bad_value = isinstance(error, typer.BadParameter) and type(error).__name__ == "BadParameter"
+    if is_bad_value and (error.param_hint is not None or error.param is not None):
+        return _bad_value(error, args)
+    if isinstance(error, TyperException) and hasattr(error, "format_message"):  # usage errors, missing values
         return _one_line(error.format_message())
     if isinstance(error, OSError) and error.strerror:
         names = [name for name in (error.filename, error.filename2) if name is not None]
         return _one_line(f"{error.strerror}: {' → '.join(str(n) for n in names)}" if names else error.strerror)
     if isinstance(error, GeogaitError):
-        return _one_line(str(error))
+        options = {param.name: param.opts[0] for param in getattr(command, "params", []) if param.opts}
+        return _one_line(in_cli_words(str(error), options))
     kind = type(error).__name__
     if kind == "SweepFailedError":  # trials of an experiment failed: their summary, without the tracebacks
         summary = str(error).split(" Traceback of trial")[0].split("\nTraceback")[0]
@@ -72,12 +157,15 @@ def _warnings_as_lines():
 
 
 def _escape_help(command) -> None:
-    """Escape ``[`` in help texts so that rich shows "[default: 3]" and "geogait[dask]" as written."""
+    """Escape ``[`` in help texts so that rich shows "[default: 3]" and "geogait[dask]" as written; a command's
+    paragraphs each on one line, wrapped to the terminal."""
     from rich.markup import escape
 
     if getattr(command, "_geogait_escaped", False):
         return
     command._geogait_escaped = True
+    if command.help:  # (one line per paragraph: rich keeps the docstring's line breaks after the first paragraph)
+        command.help = "\n\n".join(" ".join(part.split()) for part in inspect.cleandoc(command.help).split("\n\n"))
     for param in getattr(command, "params", []):
         if getattr(param, "help", None):
             param.help = escape(param.help)
@@ -91,9 +179,7 @@ _NON_FINITE = {"nan", "inf", "infinity"}
 def _refuse_non_finite(group, args) -> None:
     """Refuse nan or ±inf given to a number option with a range, naming the option: the range check
     itself would answer nan with the bound it happens to compare first."""
-    command, rest = group, list(args)
-    while rest and rest[0] in getattr(command, "commands", {}):
-        command = command.commands[rest.pop(0)]
+    command, rest = _command_of(group, args)
     ranged = {opt: param for param in getattr(command, "params", [])
               if getattr(param, "min", None) is not None or getattr(param, "max", None) is not None
               for opt in param.opts}
@@ -105,7 +191,31 @@ def _refuse_non_finite(group, args) -> None:
             param = ranged[name]
             bounds = " and ".join(f"{sign} {bound:g}" for sign, bound in (("≥", param.min), ("≤", param.max))
                                   if bound is not None)
-            raise GeogaitError(f"The '{name}' option must be a finite number {bounds}. Got {value} instead.")
+            raise GeogaitError(f"{name} must be a finite number {bounds}; got {value}.")
+
+
+class _HelpFromLibrary(TyperCommand):
+    """A command whose option help texts name the library's values as ``{placeholders}``: filled in when the command
+    is parsed (its ``--help`` included), not when :mod:`geogait.cli` is imported, so that ``geogait --help`` imports
+    none of the library (its modules import SciPy and pyplot)."""
+
+    values: Callable[[], dict]
+    _filled = False
+
+    def parse_args(self, ctx, args):
+        if not self._filled:
+            values = self.values()
+            for param in self.params:
+                if getattr(param, "help", None):
+                    param.help = param.help.format_map(values)
+            self._filled = True
+        return super().parse_args(ctx, args)
+
+
+def help_from(values: Callable[[], dict]) -> type[TyperCommand]:
+    """The command class (``@app.command(cls=...)``) that fills ``{name}`` in its option help texts from ``values()``
+    when the command runs or shows its help."""
+    return type("HelpFromLibrary", (_HelpFromLibrary,), {"values": staticmethod(values)})
 
 
 class Terminated(KeyboardInterrupt):
@@ -149,11 +259,12 @@ class GeogaitGroup(TyperGroup):
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         _escape_help(self)
+        args = sys.argv[1:] if args is None else list(args)
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
             with _warnings_as_lines(), _signals_as_interrupts():
-                _refuse_non_finite(self, sys.argv[1:] if args is None else args)
+                _refuse_non_finite(self, args)
                 code = super().main(args, prog_name, complete_var, False, **extra)
         except KeyboardInterrupt:
             typer.echo(_interrupted_line(), err=True)
@@ -167,7 +278,7 @@ class GeogaitGroup(TyperGroup):
                 sys.exit(0)
             if os.environ.get("GEOGAIT_TRACEBACK") and not isinstance(error, TyperException):
                 raise
-            typer.echo(f"error: {error_message(error)}", err=True)
+            typer.echo(f"error: {error_message(error, *_command_of(self, args))}", err=True)
             sys.exit(1)
         if code == 130 and _RECEIVED:  # typer turns an interrupt into exit code 130
             typer.echo(_interrupted_line(), err=True)
@@ -177,8 +288,10 @@ class GeogaitGroup(TyperGroup):
 
 app = typer.Typer(
     name="geogait",
-    help="Adaptive, data-driven gait modeling and in-situ gait optimisation of principally "
-    "kinematic locomotors.",
+    help="Adaptive, data-driven gait modeling and in-situ gait optimisation of principally kinematic locomotors."
+         "\n\nWords the commands use: r is the shape (joint angles), ξ the body velocity, a gait a periodic path "
+         "of r; Γ scores a model's prediction of ξ: 1 − its error / the error of the phase average (1 exact, 0 no "
+         "better).",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,

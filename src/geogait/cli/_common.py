@@ -6,6 +6,7 @@ import contextlib
 import dataclasses
 import json
 import platform
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -15,11 +16,13 @@ import numpy as np
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
 import geogait
 
-from .._files import LOCK_FILE, OutputLock, folder_entries, write_json
+from .._files import OutputLock, dumps_json, folder_entries, write_json
 from .._validation import GeogaitError
+from ._app import in_cli_words
 
 console = Console(stderr=True)
 
@@ -50,40 +53,34 @@ def configure(base, **changes):
     try:
         return dataclasses.replace(base, **given).validate()
     except GeogaitError as error:
-        text = str(error)
-        for field, (option, _) in changes.items():
-            prefix = f"The '{field}' parameter of {type(base).__name__}"
-            if text.startswith(prefix):
-                raise GeogaitError(f"The '{option}' option{text[len(prefix):]}") from None
-        raise
+        said = in_cli_words(str(error), {field: option for field, (option, _) in changes.items()})
+        if said == str(error):
+            raise
+        raise GeogaitError(said) from None
 
 
 @contextlib.contextmanager
-def locked_folder(path: Path, *, keep_lock_file: bool = True):
+def locked_folder(path: Path):
     """Create the output folder ``path`` (and its parents) and lock it for this run (a context manager giving the
     held :class:`~geogait._files.OutputLock`): a second run writing into it is refused until this one ends.
 
     A folder this call created (and each parent it created) is removed again when the run fails before writing
-    anything into it. Without ``keep_lock_file``, a lock file this call created is removed at the end (a folder
-    the run only adds files to, e.g. the current one, keeps no trace of the lock). Raises a
-    :class:`~geogait.GeogaitError` when the folder is another run's (locked), a file, or cannot be created.
+    anything into it; the lock file goes when the run ends. Raises a :class:`~geogait.GeogaitError` when the
+    folder is another run's (locked), a file, or cannot be created.
     """
     created = [level for level in (Path(path), *Path(path).parents) if not level.exists()]  # (innermost first)
     folder = output_folder(path)
-    had_lock_file = (folder / LOCK_FILE).exists()
     lock = OutputLock(folder)
     try:
         yield lock
     except BaseException:
         if created and not folder_entries(folder):  # (nothing of this run in it: leave no trace)
-            lock.remove()
+            lock.release()
             with contextlib.suppress(OSError):  # (a level holding anything else stays)
                 for level in created:
                     level.rmdir()
         raise
     finally:
-        if not keep_lock_file and not had_lock_file:
-            lock.remove()
         lock.release()
 
 
@@ -107,8 +104,37 @@ def claim_output(path: Path, *, overwrite: bool):
         yield lock
 
 
+#: The help's group of the options that say where and how a command writes (every command has one).
+RUN_PANEL = "Run and output"
+#: The help's group of a ``figure`` command's experiment settings.
+EXPERIMENT_PANEL = "Experiment"
 #: The --overwrite option of commands that write named files (fit, predict, the figures).
-Overwrite = Annotated[bool, typer.Option(help="Replace the files an earlier run wrote there (refused without it).")]
+Overwrite = Annotated[bool, typer.Option("--overwrite", rich_help_panel=RUN_PANEL,
+                                         help="Replace the files an earlier run wrote there (refused without it).")]
+
+
+#: The --json option of the commands that print their results (a table otherwise).
+Json = Annotated[bool, typer.Option("--json", rich_help_panel=RUN_PANEL, help=(
+    "Print the results on stdout as one JSON document, for programs (a table otherwise)."))]
+
+
+def print_results(results: dict, table: Callable[[], Table], *, as_json: bool) -> None:
+    """A run's results on stdout: the rich ``table()`` for a reader, or with ``as_json`` ``results`` as one strict
+    JSON document (UTF-8, written as is: no terminal wrapping, no escapes)."""
+    if as_json:
+        sys.stdout.write(dumps_json(results, indent=1, ensure_ascii=False) + "\n")
+        sys.stdout.flush()
+    else:
+        Console().print(table())
+
+
+def results_table(title: str, *columns: str) -> Table:
+    """An empty results table: the first column names a row, the others hold numbers (right-aligned)."""
+    table = Table(title=title, title_justify="left")
+    table.add_column(columns[0])
+    for column in columns[1:]:
+        table.add_column(column, justify="right")
+    return table
 
 
 def refuse_existing(paths, *, overwrite: bool) -> None:
@@ -158,6 +184,11 @@ def explain_nulls(value, reason: str = "not available for this run"):
         if item is None and not str(key).endswith("_null_reason") and f"{key}_null_reason" not in value:
             out[f"{key}_null_reason"] = reason
     return out
+
+
+def one_of(values) -> str:
+    """The metavar of an option with the choices ``values``: "a | b | c" (wrapped at the spaces in the help)."""
+    return " | ".join(values)
 
 
 def listed(values) -> str:
@@ -217,8 +248,8 @@ def _is_fresh_run_manifest(path: Path, command: str) -> bool:
 
 
 def write_manifest(path: Path, *, command: str, config: dict, results: dict, started: float) -> Path:
-    """JSON record of a run: config, seed, versions, wall time and headline numbers (strict JSON). (Where a
-    redraw's record goes, beside the run's, is :func:`claim_figure`'s.)
+    """The manifest of a run, the JSON file that records it: config, seed, versions, wall time and headline numbers
+    (strict JSON). (Where a redraw's manifest goes, beside the run's, is :func:`claim_figure`'s.)
 
     Returns
     -------

@@ -2,7 +2,7 @@
 
 Each command runs its experiment (or, with ``--from-csv``, reads earlier results back) and writes
 ``<name>.png``, ``<name>.csv`` (long format: one row per trial × model × checkpoint) and
-``<name>.json`` (config, seed, versions, run time, headline numbers) into ``--out``.
+the manifest ``<name>.json`` (config, seed, versions, run time, headline numbers) into ``--out``.
 """
 
 from __future__ import annotations
@@ -15,30 +15,56 @@ import typer
 from rich.table import Table
 
 from .._files import output_set
-from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
-from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
-from ._app import figure_app
-from ._common import Overwrite, claim_figure, comma_list, configure, console, listed, output_folder, write_manifest
+from ._app import figure_app, help_from
+from ._common import (
+    EXPERIMENT_PANEL,
+    RUN_PANEL,
+    Overwrite,
+    claim_figure,
+    comma_list,
+    configure,
+    console,
+    listed,
+    output_folder,
+    write_manifest,
+)
 
-_A, _E = AccuracyConfig(), EnvironmentConfig()
-_QA, _QE = AccuracyConfig.quick(), EnvironmentConfig.quick()
 
-Trials = Annotated[int | None, typer.Option(help="Number of trials (default: see the experiment's docs).", min=1)]
-Links = Annotated[int | None, typer.Option(help=f"Links of the Purcell swimmer [default: {_A.n_links}].")]
-Seed = Annotated[int | None, typer.Option(help=f"Root random seed [default: {_A.seed}].", min=0)]
-Jobs = Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")]
-Scheduler = Annotated[str | None, typer.Option(help="Address of a Dask scheduler to run the trials on "
+def _help_values() -> dict:
+    """The experiments' defaults the help texts show."""
+    from ..experiments.accuracy import AccuracyConfig
+    from ..experiments.environments import EnvironmentConfig
+
+    accuracy, environments = AccuracyConfig(), EnvironmentConfig()
+    return {"links": accuracy.n_links, "seed": accuracy.seed, "samples_per_cycle": accuracy.samples_per_cycle,
+            "perturbation": accuracy.perturbation, "chunk_size": accuracy.chunk_size, "cycles": accuracy.n_cycles,
+            "accuracy_noise": accuracy.sensor_noise, "environments_noise": environments.sensor_noise,
+            "cycles_per_environment": environments.cycles_per_environment,
+            "drag_ratios": listed(environments.drag_ratios),
+            "forgetting_factors": listed(environments.forgetting_factors)}
+
+Trials = Annotated[int | None, typer.Option(
+    rich_help_panel=EXPERIMENT_PANEL, help="Number of trials (default: see the experiment's docs).", min=1)]
+Links = Annotated[int | None, typer.Option(
+    rich_help_panel=EXPERIMENT_PANEL, help="Links of the Purcell swimmer [default: {links}].")]
+Seed = Annotated[int | None, typer.Option(rich_help_panel=RUN_PANEL, help="Root random seed [default: {seed}].", min=0)]
+Jobs = Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")]
+Scheduler = Annotated[str | None, typer.Option(
+    rich_help_panel=RUN_PANEL, help="Address of a Dask scheduler to run the trials on "
                                                     "(needs geogait[dask]; then --jobs must be 1).")]
-Quick = Annotated[bool, typer.Option(help="Few trials and cycles: finishes in seconds.")]
-Out = Annotated[Path, typer.Option(help="Output folder.")]
-FromCsv = Annotated[Path | None, typer.Option(help="Redraw the figure from this CSV instead of running.")]
-SamplesPerCycle = Annotated[int | None, typer.Option(help=f"Samples per gait cycle [default: {_A.samples_per_cycle}].",
+Quick = Annotated[bool, typer.Option("--quick", rich_help_panel=RUN_PANEL,
+                                     help="Few trials and cycles: finishes in seconds.")]
+Out = Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")]
+FromCsv = Annotated[Path | None, typer.Option(
+    rich_help_panel=RUN_PANEL, help="Redraw the figure from this CSV instead of running.")]
+SamplesPerCycle = Annotated[int | None, typer.Option(
+    rich_help_panel=EXPERIMENT_PANEL, help="Samples per gait cycle [default: {samples_per_cycle}].",
                                                      min=4, max=100_000)]
-Perturbation = Annotated[float | None, typer.Option(
-    help=f"Std (rad) of the shape perturbation δ [default: {_A.perturbation}].")]
-ChunkSize = Annotated[int | None, typer.Option(
-    help=f"Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
-         f"[default: {_A.chunk_size}].")]
+Perturbation = Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+    help="Std (rad) of the shape perturbation δ [default: {perturbation}].")]
+ChunkSize = Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+    help="Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
+         "[default: {chunk_size}].")]
 
 
 def _run_or_redraw(result_class, from_csv, run, extra: dict):
@@ -66,14 +92,14 @@ def _write(result, folder: Path, name: str, command: str, started: float, extra:
     return summary, written
 
 
-@figure_app.command("accuracy")
+@figure_app.command("accuracy", cls=help_from(_help_values))
 def accuracy(
     trials: Trials = None,
     links: Links = None,
-    cycles: Annotated[int | None, typer.Option(
-        help=f"Cycles per trial; checkpoints every 5 [default: {_A.n_cycles}].")] = None,
-    noise: Annotated[float | None, typer.Option(
-        help=f"Sensor noise on ξ as a fraction of its RMS [default: {_A.sensor_noise}].")] = None,
+    cycles: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Cycles per trial; checkpoints every 5 [default: {cycles}].")] = None,
+    noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Sensor noise on ξ as a fraction of its RMS [default: {accuracy_noise}].")] = None,
     perturbation: Perturbation = None,
     samples_per_cycle: SamplesPerCycle = None,
     chunk_size: ChunkSize = None,
@@ -90,9 +116,12 @@ def accuracy(
     Defaults: 200 trials (100 train/test pairs) × 40 cycles of the 3-link swimmer, sensor noise 0.3
     of RMS. --quick: 16 trials × 10 cycles.
     """
+    from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
+
     started = time.perf_counter()
     config = None if from_csv is not None else configure(
-        _QA if quick else _A, n_trials=("--trials", trials), n_links=("--links", links),
+        AccuracyConfig.quick() if quick else AccuracyConfig(), n_trials=("--trials", trials),
+        n_links=("--links", links),
         n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
         samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
         seed=("--seed", seed))
@@ -119,18 +148,18 @@ def _accuracy_table(summary: dict) -> Table:
     return table
 
 
-@figure_app.command("environments")
+@figure_app.command("environments", cls=help_from(_help_values))
 def environments(
     trials: Trials = None,
     links: Links = None,
-    cycles_per_environment: Annotated[int | None, typer.Option(
-        help=f"Cycles in each environment [default: {_E.cycles_per_environment}].")] = None,
-    drag_ratios: Annotated[str | None, typer.Option(
-        help=f"Comma-separated drag ratio of each environment [default: {listed(_E.drag_ratios)}].")] = None,
-    forgetting_factors: Annotated[str | None, typer.Option(
-        help=f"Comma-separated λ of the adaptive models [default: {listed(_E.forgetting_factors)}].")] = None,
-    noise: Annotated[float | None, typer.Option(
-        help=f"Sensor noise on ξ as a fraction of its RMS [default: {_E.sensor_noise}].")] = None,
+    cycles_per_environment: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Cycles in each environment [default: {cycles_per_environment}].")] = None,
+    drag_ratios: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Comma-separated drag ratio of each environment [default: {drag_ratios}].")] = None,
+    forgetting_factors: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Comma-separated λ of the adaptive models [default: {forgetting_factors}].")] = None,
+    noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Sensor noise on ξ as a fraction of its RMS [default: {environments_noise}].")] = None,
     perturbation: Perturbation = None,
     samples_per_cycle: SamplesPerCycle = None,
     chunk_size: ChunkSize = None,
@@ -147,9 +176,12 @@ def environments(
     Defaults: 100 trials, 40 cycles each at drag ratio 2, 3, 4, adaptive λ = 0.99 and 0.7, batch
     fit on environment 1 only, no sensor noise. --quick: 8 trials, 15 cycles per environment.
     """
+    from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
+
     started = time.perf_counter()
     config = None if from_csv is not None else configure(
-        _QE if quick else _E, n_trials=("--trials", trials), n_links=("--links", links),
+        EnvironmentConfig.quick() if quick else EnvironmentConfig(), n_trials=("--trials", trials),
+        n_links=("--links", links),
         cycles_per_environment=("--cycles-per-environment", cycles_per_environment),
         drag_ratios=("--drag-ratios", comma_list(drag_ratios, "--drag-ratios")),
         forgetting_factors=("--forgetting-factors", comma_list(forgetting_factors, "--forgetting-factors")),

@@ -11,7 +11,7 @@ import contextlib
 import os
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 import typer
@@ -19,26 +19,29 @@ import typer
 from .._defaults import DEFAULT_OUTLIER_LIMIT, DEFAULT_TEST_FRACTION, TIME_UNITS
 from .._files import check_outputs, default_summary_path, describe_path_kind
 from .._validation import GeogaitError
-from ..io import read_log, read_log_for_prediction, resolve_mapping
-from ..learn import LogFit, fit_log, predict_log
-from ..models import AdaptiveGaitModel
-from ..phase import Phaser
 from ._app import app
-from ._common import Overwrite, comma_list, locked_folder, refuse_existing, versions
+from ._common import RUN_PANEL, Overwrite, comma_list, locked_folder, one_of, refuse_existing, versions
 
-Columns = Annotated[str | None, typer.Option(help="Comma-separated column names.")]
-Mapping = Annotated[Path | None, typer.Option(help="Column mapping file (.json or .toml); options override it.")]
-Time = Annotated[str | None, typer.Option(help="Time column (default: time).")]
-Phase = Annotated[str | None, typer.Option(help="Phase column (rad); estimated with a Phaser when omitted.")]
-Degrees = Annotated[bool | None, typer.Option("--degrees/--radians",
+#: The help's option groups.
+_COLUMNS, _READING, _MODEL = "Log columns", "Reading the log", "Model"
+
+Columns = Annotated[str | None, typer.Option(rich_help_panel=_COLUMNS,
+                                             help="Shape (joint angle) columns, comma-separated.")]
+Mapping = Annotated[Path | None, typer.Option(
+    rich_help_panel=_COLUMNS, help="Column mapping file (.json or .toml); options override it.")]
+Time = Annotated[str | None, typer.Option(rich_help_panel=_COLUMNS, help="Time column (default: time).")]
+Phase = Annotated[str | None, typer.Option(
+    rich_help_panel=_COLUMNS, help="Phase column (rad); estimated with a Phaser when omitted.")]
+Degrees = Annotated[bool | None, typer.Option("--degrees/--radians", rich_help_panel=_COLUMNS,
                                               help="Angles of the log in degrees (default: radians).")]
-SmoothingWindow = Annotated[int | None, typer.Option(
+SmoothingWindow = Annotated[int | None, typer.Option(rich_help_panel=_READING,
     help="Savitzky–Golay window (samples) for shape velocities and pose smoothing (default: read_log's, 11).")]
-DropNan = Annotated[bool, typer.Option(help="Drop rows with NaN (splitting segments there) instead of failing.")]
-TimeUnit = Annotated[str | None, typer.Option(
-    help=f"Unit of the time column and of rate columns ({'|'.join(TIME_UNITS)}); converted to seconds. Default: "
-         "the log's own unit, assumed to be seconds when checking the phase rate.")]
-OutlierLimit = Annotated[float, typer.Option(
+DropNan = Annotated[bool, typer.Option(
+    "--drop-nan", rich_help_panel=_READING, help="Drop rows with NaN (splitting segments there) instead of failing.")]
+TimeUnit = Annotated[Literal[tuple(TIME_UNITS)] | None, typer.Option(rich_help_panel=_READING,
+    metavar=one_of(TIME_UNITS), help="Unit of the time column and of rate columns, converted to seconds [default: "
+                                     "the log's own unit, assumed to be seconds when checking the phase rate].")]
+OutlierLimit = Annotated[float, typer.Option(rich_help_panel=_READING,
     help="Plausibility bound in robust standard deviations (1.4826 × MAD) from each column's median; "
          "0 switches it off.", min=0)]
 
@@ -76,13 +79,15 @@ def _gait_order(text: str) -> int | None:
 @app.command()
 def fit(
     log: Annotated[Path, typer.Argument(help="Log file: .csv, .parquet or .pq.")],
-    out: Annotated[Path, typer.Option(help="Output folder.")],
     mapping: Mapping = None,
-    time_column: Annotated[str | None, typer.Option("--time", help="Time column (default: time).")] = None,
+    time_column: Annotated[str | None, typer.Option(
+        "--time", rich_help_panel=_COLUMNS, help="Time column (default: time).")] = None,
     shape: Columns = None,
-    pose: Annotated[str | None, typer.Option(help="Pose columns x,y,heading (world frame).")] = None,
-    body_velocity: Annotated[str | None, typer.Option(help="Body-velocity columns v_x,v_y,omega.")] = None,
-    shape_velocity: Annotated[str | None, typer.Option(
+    pose: Annotated[str | None, typer.Option(
+        rich_help_panel=_COLUMNS, help="Pose columns x,y,heading (world frame).")] = None,
+    body_velocity: Annotated[str | None, typer.Option(
+        rich_help_panel=_COLUMNS, help="Body-velocity columns v_x,v_y,omega.")] = None,
+    shape_velocity: Annotated[str | None, typer.Option(rich_help_panel=_COLUMNS,
         help="Shape-velocity columns; Savitzky–Golay derivative of the shapes when omitted.")] = None,
     phase: Phase = None,
     degrees: Degrees = None,
@@ -90,23 +95,27 @@ def fit(
     drop_nan: DropNan = False,
     time_unit: TimeUnit = None,
     outlier_limit: OutlierLimit = DEFAULT_OUTLIER_LIMIT,
-    forgetting_factor: Annotated[float | None, typer.Option(
+    forgetting_factor: Annotated[float | None, typer.Option(rich_help_panel=_MODEL,
         help="λ of the model's RLS filters (default: AdaptiveGaitModel's, 0.99).")] = None,
-    windows: Annotated[int | None, typer.Option(
+    windows: Annotated[int | None, typer.Option(rich_help_panel=_MODEL,
         help="Phase windows M of the model (default: AdaptiveGaitModel's, 20).")] = None,
-    gait_order: Annotated[str, typer.Option(
+    gait_order: Annotated[str, typer.Option(rich_help_panel=_MODEL,
         help="Fourier order of the nominal gait, or 'auto' (cross-validated held-out error).")] = "auto",
-    test_fraction: Annotated[float, typer.Option(
+    test_fraction: Annotated[float, typer.Option(rich_help_panel=_MODEL,
         help="Fraction of each segment's cycles held out (the last).")] = DEFAULT_TEST_FRACTION,
-    refit: Annotated[bool, typer.Option(
+    refit: Annotated[bool, typer.Option(rich_help_panel=_MODEL,
         help="Save a model refit on all data after scoring (else the scored training-cycles model).")] = True,
+    out: Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")] = ...,
     overwrite: Overwrite = False,
 ) -> None:
-    """Fit a local gait model to a log; write model.npz, phaser.npz, config.json, report.json and PNGs.
+    """Fit a local gait model to a log; write model.npz, phaser.npz, config.json, the manifest report.json and PNGs.
 
     Γ is scored on the held-out last cycles of every segment (report.json: Γ overall and per cycle, online Γ,
     gait order, phase rate). phaser.npz is written when the phase is estimated (no --phase column).
     """
+    from ..io import read_log, resolve_mapping
+    from ..learn import LogFit, fit_log
+
     started = time.perf_counter()
     order = _gait_order(gait_order)
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
@@ -145,22 +154,27 @@ def fit(
 def predict(
     model: Annotated[Path, typer.Argument(help="Saved model (.npz), e.g. from 'geogait fit'.")],
     log: Annotated[Path, typer.Argument(help="Log file: .csv, .parquet or .pq.")],
-    phaser: Annotated[Path | None, typer.Option(
+    phaser: Annotated[Path | None, typer.Option(rich_help_panel=_MODEL,
         help="Saved Phaser (phaser.npz of 'geogait fit'), for logs without a phase column.")] = None,
-    out: Annotated[Path, typer.Option(
+    out: Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL,
         help="Predictions CSV, a name ending in .csv (never one of the inputs).")] = Path("predictions.csv"),
-    summary: Annotated[Path | None, typer.Option(
-        help="Γ summary JSON [default: --out with suffix .json; <name>.summary.json for an --out ending in .json].")
+    summary: Annotated[Path | None, typer.Option(rich_help_panel=RUN_PANEL,
+        help="The manifest: Γ and the settings, JSON [default: --out with suffix .json; <name>.summary.json for an "
+             "--out ending in .json].")
     ] = None,
     mapping: Mapping = None,
-    time_column: Annotated[str | None, typer.Option("--time", help="Time column (default: time).")] = None,
+    time_column: Annotated[str | None, typer.Option(
+        "--time", rich_help_panel=_COLUMNS, help="Time column (default: time).")] = None,
     shape: Columns = None,
-    pose: Annotated[str | None, typer.Option(help="Pose columns x,y,heading, for measured ξ.")] = None,
-    body_velocity: Annotated[str | None, typer.Option(help="Measured body-velocity columns.")] = None,
-    shape_velocity: Annotated[str | None, typer.Option(help="Shape-velocity columns.")] = None,
+    pose: Annotated[str | None, typer.Option(
+        rich_help_panel=_COLUMNS, help="Pose columns x,y,heading, for measured ξ.")] = None,
+    body_velocity: Annotated[str | None, typer.Option(
+        rich_help_panel=_COLUMNS, help="Measured body-velocity columns.")] = None,
+    shape_velocity: Annotated[str | None, typer.Option(
+        rich_help_panel=_COLUMNS, help="Shape-velocity columns.")] = None,
     phase: Phase = None,
     degrees: Degrees = None,
-    measured: Annotated[bool, typer.Option(
+    measured: Annotated[bool, typer.Option(rich_help_panel=_COLUMNS,
         help="Read measured ξ (body-velocity or pose columns) when the mapping names them, for Γ.")] = True,
     smoothing_window: SmoothingWindow = None,
     drop_nan: DropNan = False,
@@ -169,6 +183,11 @@ def predict(
     overwrite: Overwrite = False,
 ) -> None:
     """Predict the body velocity of every sample of a log; write a CSV and Γ (if ξ was measured)."""
+    from ..io import read_log_for_prediction
+    from ..learn import predict_log
+    from ..models import AdaptiveGaitModel
+    from ..phase import Phaser
+
     started = time.perf_counter()
     _check_log(log)
     summary_path = default_summary_path(out) if summary is None else summary
@@ -180,7 +199,7 @@ def predict(
     log_options = _log_options(smoothing_window, time_unit, outlier_limit)
     with contextlib.ExitStack() as locks:  # (each folder written into, once; a second run is refused meanwhile)
         for folder in dict.fromkeys(Path(os.path.realpath(path)).parent for path in (out, summary_path)):
-            locks.enter_context(locked_folder(folder, keep_lock_file=False))
+            locks.enter_context(locked_folder(folder))
         refuse_existing([out, summary_path], overwrite=overwrite)
         fitted = AdaptiveGaitModel.load(model)
         estimator = None if phaser is None else Phaser.load(phaser)

@@ -8,7 +8,7 @@ import json
 import textwrap
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 import typer
@@ -20,52 +20,19 @@ from .._validation import (
     GeogaitError,
     chain_motion_bytes,
     check_bytes,
+    check_float,
     check_gait_size,
     check_int,
     gait_fits,
 )
-from ..experiments.optimization import (
-    OptimizationConfig,
-    OptimizationResult,
-    default_budget,
-    run_optimization,
-    shape_method_model,
-)
-from ..gaits import Perturbation, seed_gait
-from ..models import AdaptiveGaitModel, ResistanceModel
-from ..optimize import (
-    CLIMB_RULES,
-    OBJECTIVES,
-    Climb,
-    Exploration,
-    Gate,
-    InSituOptimizer,
-    ModelClassTest,
-    cached_ceiling,
-    default,
-    for_robot,
-    prior_work,
-    read_checkpoint_metadata,
-    smallest_budget,
-    structured,
-    symmetric_chain_model,
-)
-from ..plotting import (
-    plot_height_function,
-    plot_joint_angles,
-    plot_path,
-    plot_progress,
-    plot_shape_space,
-    plt,
-    save_figure,
-)
-from ..robots import ProcessRobot
-from ..robots._bridge import PERIOD_RANGE
-from ..simulate import SwimmerStream
-from ..simulate._stream import MAX_SENSOR_NOISE
-from ..systems import PurcellSwimmer
-from ._app import app, figure_app
+from ._app import app, figure_app, help_from
+
+if TYPE_CHECKING:
+    from ..optimize import InSituOptimizer
 from ._common import (
+    EXPERIMENT_PANEL,
+    RUN_PANEL,
+    Json,
     Overwrite,
     claim_figure,
     claim_output,
@@ -74,13 +41,26 @@ from ._common import (
     console,
     explain_nulls,
     listed,
+    one_of,
     output_folder,
+    print_results,
     progress_bar,
+    results_table,
     write_manifest,
 )
 
-_FIG5 = OptimizationConfig()  # the experiment's defaults, shown in the help
 _METHODS = ("auto", "adaptive", "shape", "resistance", "batch")
+#: The library's choices (geogait.optimize imports SciPy: spelled out here for a fast help; tests/cli check them).
+_OBJECTIVES = ("progress", "efficiency", "forward", "budget")
+_CLIMB_RULES = ("auto", "es", "cobyqa", "bayes")
+_FAMILIES = ("auto", "free", "symmetric", "mirror")
+_STEP_RULES = ("linear", "sqp")
+_DIRECTION_FRAMES = ("world", "body")
+#: --climb's values, as the Climb part's start spells them ("off": no climb).
+_CLIMB = {"on": "stalled", "off": None, "contradicted": "contradicted", "first": "first"}
+#: The help's option groups.
+_ROBOT, _GAIT, _MODEL, _CLIMB_PANEL, _SAFETY, _RUN = ("Robot", "Gait family and objective", "Model and steps",
+                                                      "Measured climb", "Safety limits", "Run and output")
 RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
@@ -89,90 +69,109 @@ RUN_FILES = ("summary.json", RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "gait.png"
 #: Settings that do not change what a run computes: left out of its identity (--cycles may extend a run).
 _NOT_IDENTITY = ("cycles", "robot_timeout", "run_id")
 #: Options a resume may be given (every other option is the run's own, read from run.json).
-_RESUME_OPTIONS = ("cycles", "robot_timeout", "resume")
+_RESUME_OPTIONS = ("cycles", "robot_timeout", "resume", "json_output")
 
 
-@app.command()
+def _help_values() -> dict:
+    """The library's values the help texts of ``optimize`` and ``figure optimization`` show."""
+    from ..experiments.optimization import OptimizationConfig, default_budget
+    from ..optimize import InSituOptimizer
+
+    fig5 = OptimizationConfig()
+    return {"budget_3": default_budget(3), "budget_5": default_budget(5),
+            "trials": fig5.n_trials, "links": listed(fig5.links), "budgets": listed(fig5.budgets),
+            "baseline_trials": fig5.baseline_trials, "baseline_iterations": fig5.baseline_iterations,
+            "batch_cycles": InSituOptimizer().cycles_per_iteration, "noise": fig5.sensor_noise, "seed": fig5.seed}
+
+
+@app.command(cls=help_from(_help_values))
 def optimize(
-    links: Annotated[int, typer.Option(min=3, max=200, help="Number of links N of the built-in Purcell swimmer "
-                                                            "(two links, one joint, cannot swim; a swimmer whose "
-                                                            "model or ceiling would need more than 4 GiB, or solver "
-                                                            "steps over a second, is refused, naming the most links "
-                                                            "that fit).")] = 3,
-    cycles: Annotated[int | None, typer.Option(
-        help=f"Cycle budget [default: {default_budget(3)} for 3 links, else {default_budget(5)}; 100 with --robot]. "
-             "With --resume: the new total.",
-    )] = None,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed: the optimiser's exploration and climb, and the "
-                                                  "built-in swimmer's sensor noise.")] = 0,
-    noise: Annotated[float, typer.Option(min=0, help="Sensor noise on ξ, fraction of its RMS.")] = 0.1,
-    perturbation: Annotated[float, typer.Option(min=0, help="Std (rad) of the shape perturbation δ.")] = 0.15,
-    period: Annotated[float, typer.Option(help="Seconds per cycle of the built-in swimmer.")] = 1.0,
-    gamma_threshold: Annotated[float, typer.Option(help="Γ* that gates a step.")] = 0.5,
-    forgetting_factor: Annotated[float | None, typer.Option(
-        help="λ of the RLS filters, in (0, 1], with --method adaptive or shape [default: 1 - 0.1/d for d "
-             "joints].")] = None,
-    order: Annotated[int, typer.Option(help="Fourier order of the optimised gait family (at most what fits in 4 GiB "
-                                            "with solver steps under a second: 21 for 2 joints, 5 for 8; 13 and 3 "
-                                            "with --max-joint-velocity).")] = 1,
-    objective: Annotated[str, typer.Option(
-        help=f"Objective: {', '.join(OBJECTIVES)} (forward: along the mean motion of the seed's measured "
-             "cycles).")] = "progress",
-    direction_frame: Annotated[str, typer.Option(
-        help="Frame of forward: world (a heading to keep) or body (the robot's own axis, immune to heading "
-             "drift).")] = "world",
-    max_joint_angle: Annotated[float | None, typer.Option(
-        help="Joint limit r_max (rad) [default: from the robot's declared joint ranges, else 2π/3].")] = None,
-    max_joint_velocity: Annotated[float | None, typer.Option(help="Joint speed limit (rad/s) [default: none].")] = None,
-    settle_cycles: Annotated[int, typer.Option(help="Cycles after a gait change not learned from.")] = 0,
-    max_tracking_error: Annotated[str, typer.Option(
-        help="Largest RMS realised - commanded shape (rad) of an accepted gait: a number, auto or off.")] = "auto",
-    method: Annotated[str, typer.Option(
-        help="Model: auto (the library's default: the resistance model on a --robot that declares a resistive "
-             "chain, else Fig. 5's symmetric shape-space model in the rotation-free "
-             "symmetric family, else the window model), adaptive (this paper's RLS window model), shape "
-             "(connection over shape space: Fig. 5's, degree 4 with the swimmer's mirror and front-back "
-             "symmetries; for --robot degree 3 without), resistance (the chain's drag coefficients learned on its "
-             "known geometry: the swimmer's, or the chain a --robot driver declares in its hello; SQP steps up to "
-             "0.5, the measured climb only when contradicted) or batch "
-             "(Bittner 2018).",
-    )] = "auto",
-    family: Annotated[str, typer.Option(
-        help="Gait family: auto (rotation-free: the front-back symmetric family on front-back symmetric chains, "
-             "else the half-wave symmetric family on mirror-symmetric bodies), free, symmetric or mirror.")] = "auto",
-    step_rule: Annotated[str | None, typer.Option(
-        help="Step rule: linear (linearised, constrained) or sqp [default: sqp for --method resistance, else "
-             "linear].")] = None,
-    climb: Annotated[str | None, typer.Option(
-        help="Measured climb (steps from measured outcomes when the model's do not deliver): on (when the model "
-             "is contradicted or levels off), contradicted (only when contradicted), first (from the first "
-             "decision, handing over to the model once it predicts) or off [default: contradicted for --method "
-             "resistance, else first].")] = None,
-    climb_rule: Annotated[str | None, typer.Option(
-        help="How the measured climb proposes candidates: cobyqa (SciPy's COBYQA: quadratic models of the "
-             "measured outcomes), bayes (trust-region Bayesian optimisation: a Gaussian process of every measured "
-             "outcome), auto (bayes where COBYQA's initial design would take more than 30 cycles, else cobyqa) or "
-             "es (a mirrored (1+1) evolution strategy) [default: es for --method resistance and a robot that "
-             "declares a resistive medium, else auto].")] = None,
-    model_class_cycles: Annotated[int, typer.Option(
-        min=0, help="Test first whether the robot is inside the model class: run the seed gait this many cycles "
-                    "at its period and at twice it (>= 3; the robot must offer set_cycle_period); outside, the "
-                    "model takes no step [default: 0, no test].")] = 0,
-    robot: Annotated[str | None, typer.Option(
-        help="Optimise the robot behind this driver command (JSON-lines bridge) instead of the swimmer.")] = None,
-    robot_timeout: Annotated[float, typer.Option(help="Seconds to wait for each line of the driver.")] = 30.0,
-    checkpoint_every: Annotated[int, typer.Option(help="Write OUT/checkpoint.npz every this many cycles.")] = 1,
-    resume: Annotated[Path | None, typer.Option(
-        help="Continue the run whose folder this is, with its own settings (run.json); only --cycles (the new "
-             "total) and --robot-timeout may be given with it.")] = None,
-    overwrite: Annotated[bool, typer.Option(
-        help="Replace the run in a non-empty --out folder (its files are removed once this run is under way: a run "
-             "refused at its start leaves them).")] = False,
-    out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
-        "out/optimize"),
+    links: Annotated[int, typer.Option(min=3, max=200, rich_help_panel=_ROBOT, help=(
+        "Links of the built-in Purcell swimmer (one that would need more than 4 GiB, or solver steps over a "
+        "second, is refused, naming the most links that fit)."))] = 3,
+    period: Annotated[float, typer.Option(
+        min=1e-3, max=1e4, rich_help_panel=_ROBOT, help="Seconds per gait cycle of the built-in swimmer.")] = 1.0,
+    noise: Annotated[float, typer.Option(min=0, rich_help_panel=_ROBOT, help=(
+        "Sensor noise on the built-in swimmer's body velocity ξ, a fraction of its RMS."))] = 0.1,
+    perturbation: Annotated[float, typer.Option(min=0, rich_help_panel=_ROBOT, help=(
+        "Std (rad) of the random shape perturbation δ on the built-in swimmer's joints (what the model learns "
+        "from)."))] = 0.15,
+    robot: Annotated[str | None, typer.Option(metavar="COMMAND", rich_help_panel=_ROBOT, help=(
+        "Optimise the robot behind this driver command (JSON-lines bridge, docs/robots.md)."))] = None,
+    robot_timeout: Annotated[float, typer.Option(rich_help_panel=_ROBOT, help=(
+        "Seconds to wait for each line of the --robot driver."))] = 30.0,
+    objective: Annotated[Literal[_OBJECTIVES], typer.Option(metavar=one_of(_OBJECTIVES), rich_help_panel=_GAIT, help=(
+        "Score of a gait, at zero net rotation: progress per cycle, efficiency (per shape-space path length), "
+        "forward (progress along the seed gait's mean motion), budget (per second at a fixed RMS joint "
+        "speed)."))] = "progress",
+    direction_frame: Annotated[Literal[_DIRECTION_FRAMES], typer.Option(
+        metavar=one_of(_DIRECTION_FRAMES), rich_help_panel=_GAIT, help=(
+        "Frame of --objective forward: world (a fixed heading) or body (the robot's axis)."))] = "world",
+    order: Annotated[int, typer.Option(rich_help_panel=_GAIT, help="Fourier order of the gaits searched.")] = 1,
+    family: Annotated[Literal[_FAMILIES], typer.Option(metavar=one_of(_FAMILIES), rich_help_panel=_GAIT, help=(
+        "Gaits searched: free (all of --order), symmetric (the same read from both ends), mirror (each "
+        "half-cycle mirrors the other: θ(φ + π) = −θ(φ)); auto: symmetric on a front-back symmetric chain, else "
+        "mirror on a mirror-symmetric body (neither then turns), else free."))] = "auto",
+    method: Annotated[Literal[_METHODS], typer.Option(metavar=one_of(_METHODS), rich_help_panel=_MODEL, help=(
+        "Model of ξ: adaptive (local, about the current gait), shape (over the whole shape space), resistance "
+        "(a chain's drag coefficients), batch (refit every block of cycles, Bittner 2018); auto: resistance "
+        "for a --robot chain in a resistive medium, else shape on the built-in swimmer, else adaptive."))
+    ] = "auto",
+    gamma_threshold: Annotated[float, typer.Option(rich_help_panel=_MODEL, help=(
+        "Γ*: the model steps once its Γ reaches this (Γ = 1 − its error predicting ξ / the phase average's: "
+        "1 exact, 0 no better)."))] = 0.5,
+    forgetting_factor: Annotated[float | None, typer.Option(rich_help_panel=_MODEL, help=(
+        "λ in (0, 1]: the weight older samples keep per update (--method adaptive or shape) [default: "
+        "1 − 0.1/d for d joints]."))] = None,
+    step_rule: Annotated[Literal[_STEP_RULES] | None, typer.Option(
+        metavar=one_of(_STEP_RULES), rich_help_panel=_MODEL, help=(
+        "The model's step: linear (on its linearisation) or sqp (sequential quadratic programming) [default: "
+        "sqp for --method resistance, else linear]."))] = None,
+    settle_cycles: Annotated[int, typer.Option(rich_help_panel=_MODEL, help=(
+        "Cycles after each gait change not learned from."))] = 0,
+    model_class_cycles: Annotated[int, typer.Option(min=0, rich_help_panel=_MODEL, help=(
+        "Test first whether the robot is principally kinematic (its motion set by its shape's path, not speed): "
+        "the seed gait this many cycles (≥ 3) at its period and at twice it. 0: no test."))] = 0,
+    climb: Annotated[Literal[tuple(_CLIMB)] | None, typer.Option(
+        metavar=one_of(tuple(_CLIMB)), rich_help_panel=_CLIMB_PANEL, help=(
+        "When to take steps from measured outcomes alone: first (until the model predicts them), on (once the "
+        "model is contradicted, its promised gain twice not measured, or levels off), contradicted (only "
+        "then), off [default: contradicted for --method resistance, else first]."))] = None,
+    climb_rule: Annotated[Literal[_CLIMB_RULES] | None, typer.Option(
+        metavar=one_of(_CLIMB_RULES), rich_help_panel=_CLIMB_PANEL, help=(
+        "How the climb proposes gaits: cobyqa (SciPy's quadratic models), bayes (a Gaussian process), es (a "
+        "(1+1) evolution strategy); auto: bayes where cobyqa's first design takes over 30 cycles, else cobyqa "
+        "[default: es for --method resistance in a resistive medium, else auto]."))] = None,
+    max_joint_angle: Annotated[float | None, typer.Option(metavar="RAD", rich_help_panel=_SAFETY, help=(
+        "Joint limit (rad) of every gait [default: the robot's declared joint ranges, else 2π/3]."))] = None,
+    max_joint_velocity: Annotated[float | None, typer.Option(metavar="RAD/S", rich_help_panel=_SAFETY, help=(
+        "Joint speed limit (rad/s) of every gait [default: none]."))] = None,
+    max_tracking_error: Annotated[str, typer.Option(metavar="RAD | auto | off", rich_help_panel=_SAFETY, help=(
+        "Largest RMS realised − commanded joint angle (rad) of a kept gait: a number, off, or auto (twice the "
+        "seed gait's)."))] = "auto",
+    cycles: Annotated[int | None, typer.Option(rich_help_panel=_RUN, help=(
+        "Cycle budget [default: {budget_3} for 3 links, else {budget_5}; 100 with --robot]. With --resume: the "
+        "new total."))] = None,
+    seed: Annotated[int, typer.Option(min=0, rich_help_panel=_RUN, help=(
+        "Random seed (exploration, climb, the built-in swimmer's noise)."))] = 0,
+    checkpoint_every: Annotated[int, typer.Option(rich_help_panel=_RUN, help=(
+        f"Cycles between checkpoints ({CHECKPOINT_FILE}, what --resume continues)."))] = 1,
+    resume: Annotated[Path | None, typer.Option(metavar="DIR", rich_help_panel=_RUN, help=(
+        f"Continue the run in this folder with its settings ({RUN_FILE}); only --cycles and --robot-timeout "
+        "may be given with it."))] = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", rich_help_panel=_RUN, help=(
+        "Replace the run in --out (once this run is under way)."))] = False,
+    out: Annotated[Path, typer.Option(metavar="DIR", rich_help_panel=_RUN, help=(
+        "Output folder (empty or new, unless --overwrite)."))] = Path("out/optimize"),
+    json_output: Json = False,
     ctx: typer.Context = None,
 ) -> None:
-    """Optimise a gait in situ (built-in swimmer or --robot); write PNGs, per-cycle CSV, JSON summary."""
+    """Optimise a gait in situ on the built-in swimmer or a --robot.
+
+    Cycle by cycle, geogait learns a model of the body velocity ξ from the shape r, steps to the gait the model
+    predicts to be better, and keeps what measures better. It writes cycles.csv, gait.png, progress.png, path.png
+    and the manifest summary.json, also for the cycles an interrupted run ran (--resume DIR continues it).
+    """
     started = time.perf_counter()
     if resume is not None:
         _refuse_options_with_resume(ctx)
@@ -209,28 +208,45 @@ def optimize(
         if resume is not None:
             _check_resume(folder, settings, run_id)
         summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
-    console.print(dumps_json(summary, indent=1))
+    print_results(summary, lambda: _results_table(summary), as_json=json_output)
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
 
 
 def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
-    """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set."""
+    """The run itself, in a folder this process holds: run.json, the checkpoints, then the outputs as one set. A run
+    that is interrupted or fails writes the outputs of the cycles its checkpoint holds before it ends."""
+    from ..optimize import cached_ceiling
+
     ceiling = None
     if system is not None:
         with console.status("computing the ceiling with the true connection (cached after the first run)"):
             ceiling = cached_ceiling(system, order=settings["order"], objective_kind=_ceiling_kind(settings),
                                      max_joint_angle=settings["max_joint_angle"] or MAX_JOINT_ANGLE)
-    with target() as robot_driver:
-        result, optimizer = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
-        quarantined = list(getattr(robot_driver, "quarantined", []))
-        declared = _declared(robot_driver, result)
+    run = dict(optimizer=optimizer, system=system, settings=settings, folder=folder, run_id=run_id, resumed=resumed,
+               started=started, ceiling=ceiling)
+    robot = None
+    try:
+        with target() as robot_driver:
+            robot = robot_driver
+            result, run["optimizer"] = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
+            return _write_outputs(result, robot_driver, **run)
+    except BaseException:  # Ctrl-C, SIGTERM, a driver that died, a failed cycle: the cycles run are not lost
+        if robot is not None:
+            _write_what_ran(target if system is not None else lambda: contextlib.nullcontext(_Stopped(robot)), run)
+        raise
+
+
+def _write_outputs(result, robot, *, optimizer, system, settings, folder, run_id, resumed, started, ceiling) -> dict:
+    """cycles.csv, the figures and summary.json of ``result``, as one set; returns the summary."""
     summary = result.summary(ceiling)
     summary["model_used"] = type(result.model).__name__  # (the default depends on what the robot declares)
+    summary["cycles_run"] = len(result.log)
     config = dict(settings)
     if settings["robot"] is not None:
+        quarantined = list(getattr(robot, "quarantined", []))
         summary["quarantined_cycles"] = len(quarantined)
         summary["quarantine_reasons"] = quarantined[:20]
-        summary["robot"] = declared
+        summary["robot"] = _declared(robot, result)
         for name in _SWIMMER_ONLY:  # the built-in swimmer's options say nothing about a robot's run
             config.pop(name, None)
     if summary["forward_direction"] is None:
@@ -243,6 +259,77 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
         write_manifest(staged / "summary.json", command="optimize", config={**config, "run_id": run_id,
                        "optimizer": optimizer.describe(), "resumed": resumed}, results=summary, started=started)
     return summary
+
+
+def _write_what_ran(target, run: dict) -> None:
+    """After an interrupted or failed run: the outputs of the cycles its checkpoint holds (read back on a fresh
+    built-in swimmer, or on the stopped robot's declarations) and one line on how to continue it. A failure here is
+    reported as a warning: the run's own error is the one to tell."""
+    from ..optimize import InSituOptimizer, read_checkpoint_metadata
+
+    folder, checkpoint = run["folder"], run["folder"] / CHECKPOINT_FILE
+    try:
+        metadata = read_checkpoint_metadata(checkpoint) if checkpoint.is_file() else {}
+        tag, state = metadata.get("tag") or {}, metadata.get("state") or {}
+        done = state.get("cycle") if isinstance(state, dict) else None
+        if not isinstance(tag, dict) or tag.get("run_id") != run["run_id"] or not isinstance(done, int) or done < 1:
+            return  # (stopped before this run's first checkpoint: nothing of it to write)
+        with target() as robot:
+            result = InSituOptimizer.resume(checkpoint, robot, n_cycles=done)
+            _write_outputs(result, robot, **run)
+    except Exception as failure:  # (see the docstring)
+        typer.echo(f"warning: the outputs of the cycles run could not be written: {failure}", err=True)
+        return
+    typer.echo(f"note: wrote cycles.csv, summary.json and the figures of the {done} cycles run to {folder}/; "
+               f"continue with: geogait optimize --resume {folder}", err=True)
+
+
+class _Stopped:
+    """A robot whose run stopped (its driver interrupted or dead), for reading the run's checkpoint back: what it
+    declared, and no motion (commands are dropped: it runs no further cycle)."""
+
+    def __init__(self, robot):
+        self._robot = robot
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def set_gait(self, gait) -> None:
+        pass
+
+    def set_excitation(self, shape, shape_velocity) -> None:
+        pass
+
+    def set_cycle_period(self, seconds) -> None:
+        pass
+
+    def next_cycle(self):
+        raise GeogaitError("the robot of a stopped run runs no further cycle")
+
+
+def _results_table(summary: dict):
+    """The headline numbers of a run (summary.json holds them all)."""
+    table = results_table("geogait optimize", "result", "value")
+
+    def change(seed, final):
+        return f"{seed:.4g} → {final:.4g} ({(final - seed) / abs(seed):+.0%})" if seed else f"{seed:.4g} → {final:.4g}"
+
+    table.add_row("cycles run", str(summary["cycles_run"]))
+    table.add_row("measured objective per cycle, seed → final gait",
+                  change(summary["seed_measured_objective"], summary["final_measured_objective"]))
+    if summary.get("final_displacement_per_cycle") is not None:  # (the built-in swimmer: its true motion)
+        table.add_row("true displacement per cycle, seed → final gait",
+                      change(summary["seed_displacement_per_cycle"], summary["final_displacement_per_cycle"]))
+    if summary.get("final_ceiling_fraction") is not None:
+        table.add_row("final gait, share of the ceiling", f"{summary['final_ceiling_fraction']:.1%}")
+        at_90 = summary.get("first_cycle_at_90_percent_of_ceiling")
+        table.add_row("first cycle at 90 % of the ceiling", "not reached" if at_90 is None else str(at_90))
+    table.add_row("steps taken, rejected, reverted to the best",
+                  f"{summary['steps']}, {summary['rejected_steps']}, {summary['reverted_to_best']}")
+    table.add_row("model, gait family", f"{summary['model_used']}, {summary['gait_family']}")
+    if "quarantined_cycles" in summary:
+        table.add_row("cycles quarantined (implausible data)", str(summary["quarantined_cycles"]))
+    return table
 
 
 #: Options of the built-in swimmer: refused with --robot, and left out of a --robot run's summary.
@@ -292,6 +379,8 @@ def _refuse_options_with_resume(ctx) -> None:
 
 def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
     """The checkpoint in ``folder`` is the run its run.json describes, and --cycles does not undo cycles run."""
+    from ..optimize import read_checkpoint_metadata
+
     checkpoint = folder / CHECKPOINT_FILE
     metadata = read_checkpoint_metadata(checkpoint)
     stored = settings.get("run_id")
@@ -312,6 +401,12 @@ def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
 
 
 def _optimizer(settings, robot=None) -> InSituOptimizer:
+    from ..gaits import seed_gait
+    from ..optimize import (
+        CLIMB_RULES,
+    )
+    from ..simulate._stream import MAX_SENSOR_NOISE
+
     if settings["method"] not in _METHODS:
         raise typer.BadParameter(f"expected one of {', '.join(_METHODS)}, got {settings['method']!r}",
                                  param_hint="--method")
@@ -333,6 +428,8 @@ def _optimizer(settings, robot=None) -> InSituOptimizer:
         raise typer.BadParameter(f"expected 0 (no test) or at least 3 cycles per period, got "
                                  f"{settings['model_class_cycles']}", param_hint="--model-class-cycles")
     _check_budget(settings)
+    from ..robots._bridge import PERIOD_RANGE
+
     low, high = PERIOD_RANGE
     if not (np.isfinite(settings["period"]) and low <= settings["period"] <= high):
         raise typer.BadParameter(f"expected seconds in [{low:g}, {high:g}] (1000 cycles a second to one a day), got "
@@ -371,6 +468,16 @@ def _optimizer(settings, robot=None) -> InSituOptimizer:
 def _preset(settings, robot) -> InSituOptimizer:
     """The preset ``--method`` names, with its model for this swimmer or robot (``robot``: None until a driver is
     connected, when its joints and chain are known)."""
+    from ..experiments.optimization import shape_method_model
+    from ..models import AdaptiveGaitModel, ResistanceModel
+    from ..optimize import (
+        default,
+        for_robot,
+        prior_work,
+        structured,
+    )
+    from ..systems import PurcellSwimmer
+
     method, links, forgetting = settings["method"], settings["links"], settings["forgetting_factor"]
     n_joints = robot.n_joints if robot is not None else links - 1
     if method == "batch":
@@ -393,6 +500,12 @@ def _preset(settings, robot) -> InSituOptimizer:
 
 def _composed(settings, robot=None) -> InSituOptimizer:
     """The optimiser a run's settings make: the preset ``--method`` names, then each option on its part."""
+    from ..optimize import (
+        Climb,
+        Exploration,
+        ModelClassTest,
+    )
+
     optimizer = _preset(settings, robot)
     tracking = settings["max_tracking_error"]
     params = {"gate__gamma_threshold": settings["gamma_threshold"], "order": settings["order"],
@@ -424,6 +537,8 @@ def _composed(settings, robot=None) -> InSituOptimizer:
 
 def _budget(settings) -> int:
     """The run's cycle budget: --cycles, else the default for the robot or the swimmer."""
+    from ..experiments.optimization import default_budget
+
     if settings["cycles"] is not None:
         return settings["cycles"]
     return 100 if settings["robot"] is not None else default_budget(settings["links"])
@@ -431,6 +546,10 @@ def _budget(settings) -> int:
 
 def _check_budget(settings) -> None:
     """A budget that holds no measured cycle is refused before the robot moves (``smallest_budget``)."""
+    from ..optimize import (
+        smallest_budget,
+    )
+
     settle, test = settings["settle_cycles"], settings.get("model_class_cycles", 0)
     smallest, budget = smallest_budget(settle, test), _budget(settings)
     if budget >= smallest:
@@ -448,9 +567,15 @@ def _ceiling_kind(settings) -> str:
 
 def _target(settings):
     """(system or None, context manager giving the robot): the built-in swimmer or a driver process."""
+    from ..gaits import Perturbation, seed_gait
+    from ..robots import ProcessRobot
+    from ..simulate import SwimmerStream
+    from ..systems import PurcellSwimmer
+
     if settings["robot"] is not None:
         return None, lambda: ProcessRobot(settings["robot"], timeout=settings["robot_timeout"])
     system = PurcellSwimmer(settings["links"])
+    check_float(settings["period"], "period", "geogait optimize", low=0, low_open=True)
     perturbation = Perturbation.from_std(settings["perturbation"], frequency=2.0 / settings["period"])
     stream = SwimmerStream(system, seed_gait(system.n_joints), perturbation=perturbation,
                            sensor_noise=settings["noise"], seed=settings["seed"], cycle_period=settings["period"])
@@ -458,6 +583,8 @@ def _target(settings):
 
 
 def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
+    from ..optimize import InSituOptimizer
+
     cycles = _budget(settings)
     name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
     started = [False]
@@ -497,6 +624,8 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
 def _check_memory(settings: dict, optimizer) -> None:
     """The built-in swimmer's gait family and model fit in memory and solver steps short enough for SIGTERM, checked
     before its ceiling is computed (a robot's joints are known once its driver says hello: checked then)."""
+    from ..models import AdaptiveGaitModel
+    from ..optimize import symmetric_chain_model
     if settings["robot"] is not None:
         return
     speed = settings["max_joint_velocity"] is not None
@@ -535,6 +664,8 @@ def _hello(robot) -> dict:
 def _check_resumed_hello(checkpoint: Path, hello: dict | None) -> None:
     """A resumed --robot run's driver declares what it declared when the run started: the held gait was kept within
     those joint limits and that region, and its speeds were set for that period."""
+    from ..optimize import read_checkpoint_metadata
+
     tag = read_checkpoint_metadata(checkpoint).get("tag")
     then = tag.get("hello") if isinstance(tag, dict) else None
     if hello is None or not isinstance(then, dict):  # (the built-in swimmer; a checkpoint that predates the hello)
@@ -554,8 +685,6 @@ def _write_settings(folder: Path, settings: dict, run_id: str) -> None:
     write_text(folder / RUN_FILE, dumps_json({**settings, "run_id": run_id}, indent=1) + "\n")
 
 
-#: --climb's values, as the Climb part's start spells them ("off": no climb).
-_CLIMB = {"on": "stalled", "off": None, "contradicted": "contradicted", "first": "first"}
 
 #: The settings a run.json must hold, with the JSON types each may take (None: null allowed).
 _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise": (int, float),
@@ -565,9 +694,6 @@ _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise
                   "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
                   "step_rule": (str, None), "robot": (str, None), "robot_timeout": (int, float),
                   "checkpoint_every": (int,)}
-#: Settings added since the first runs: absent from an older run.json (then their defaults), else of these types.
-_LATER_SETTING_TYPES = {"direction_frame": (str,), "climb": (str, None), "climb_rule": (str, None),
-                        "model_class_cycles": (int,)}
 
 
 def _read_settings(folder: Path) -> dict:
@@ -585,7 +711,7 @@ def _read_settings(folder: Path) -> dict:
         raise GeogaitError(f"{path} is not valid JSON: {error}") from None
     if not isinstance(settings, dict):
         raise GeogaitError(f"{path} is not the settings record of a run (a JSON object expected).")
-    for name, kinds in {**_SETTING_TYPES, **{k: v for k, v in _LATER_SETTING_TYPES.items() if k in settings}}.items():
+    for name, kinds in _SETTING_TYPES.items():
         value = settings.get(name, ...)
         ok = value is not ... and ((value is None and None in kinds) or (
             not isinstance(value, bool) and isinstance(value, tuple(k for k in kinds if k is not None))))
@@ -599,6 +725,16 @@ def _read_settings(folder: Path) -> dict:
 
 
 def _figures(folder, system, result, ceiling) -> None:
+    from ..plotting import (
+        plot_height_function,
+        plot_joint_angles,
+        plot_path,
+        plot_progress,
+        plot_shape_space,
+        plt,
+        save_figure,
+    )
+
     gaits = {"seed": result.initial_gait, "final": result.final_gait}
     if ceiling is not None:
         gaits["ceiling"] = ceiling.gait
@@ -625,30 +761,54 @@ def _figures(folder, system, result, ceiling) -> None:
     save_figure(fig, folder / "path.png")
 
 
-@figure_app.command("optimization")
+def _fig5_table(summary: dict):
+    """Fig. 5's headline numbers per swimmer (optimization.json holds them all)."""
+    table = results_table("Improvement of the displacement per cycle over the seed gait", "swimmer", "trials",
+                          "cycles", "median [25–75 %]", "share of the ceiling", "batch method")
+    for swimmer, numbers in summary.items():
+        if not isinstance(numbers, dict) or "improvement_percentiles" not in numbers:
+            continue
+        spread = numbers["improvement_percentiles"]
+        batch = numbers.get("batch") or {}
+        table.add_row(swimmer, str(numbers["trials"]), str(numbers["budget_cycles"]),
+                      f"{spread['p50']:+.0%} [{spread['p25']:+.0%}, {spread['p75']:+.0%}]",
+                      f"{numbers['median_ceiling_fraction']:.0%}",
+                      "" if batch.get("final_median_improvement") is None
+                      else f"{batch['final_median_improvement']:+.0%} in {batch['cycles_budget']} cycles")
+    return table
+
+
+@figure_app.command("optimization", cls=help_from(_help_values))
 def figure_optimization(
-    trials: Annotated[int | None, typer.Option(
-        min=1, help=f"In-situ trials per swimmer [default: {_FIG5.n_trials}].")] = None,
-    links: Annotated[str | None, typer.Option(
-        help=f"Swimmers, comma-separated [default: {listed(_FIG5.links)}].")] = None,
-    cycles: Annotated[str | None, typer.Option(
-        help=f"Cycle budgets per swimmer [default: {listed(_FIG5.budgets)}].")] = None,
-    baseline_trials: Annotated[int | None, typer.Option(
-        min=0, help=f"Batch-method trials per swimmer [default: {_FIG5.baseline_trials}].")] = None,
-    baseline_iterations: Annotated[int | None, typer.Option(
-        min=1, help=f"Batch iterations of {Gate().cycles} cycles "
-             f"[default: {_FIG5.baseline_iterations}].")] = None,
-    noise: Annotated[float | None, typer.Option(
-        min=0, help=f"Sensor noise on ξ, fraction of RMS [default: {_FIG5.sensor_noise}].")] = None,
-    seed: Annotated[int | None, typer.Option(min=0, help=f"Root random seed [default: {_FIG5.seed}].")] = None,
-    jobs: Annotated[int, typer.Option(help="joblib worker processes (-1: all cores).")] = 1,
-    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address (needs geogait[dask]).")] = None,
-    quick: Annotated[bool, typer.Option(help="3-link only, a few short trials: seconds.")] = False,
-    from_csv: Annotated[Path | None, typer.Option(help="Redraw from this CSV instead of running.")] = None,
-    out: Annotated[Path, typer.Option(help="Output folder.")] = Path("out/figure-optimization"),
+    trials: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        min=1, help="In-situ trials per swimmer [default: {trials}].")] = None,
+    links: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Swimmers, comma-separated [default: {links}].")] = None,
+    cycles: Annotated[str | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        help="Cycle budgets per swimmer [default: {budgets}].")] = None,
+    baseline_trials: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        min=0, help="Batch-method trials per swimmer [default: {baseline_trials}].")] = None,
+    baseline_iterations: Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        min=1, help="Batch iterations of {batch_cycles} cycles [default: {baseline_iterations}].")] = None,
+    noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
+        min=0, help="Sensor noise on ξ, fraction of RMS [default: {noise}].")] = None,
+    seed: Annotated[int | None, typer.Option(
+        rich_help_panel=RUN_PANEL, min=0, help="Root random seed [default: {seed}].")] = None,
+    jobs: Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")] = 1,
+    scheduler: Annotated[str | None, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Dask scheduler address (needs geogait[dask]).")] = None,
+    quick: Annotated[bool, typer.Option(
+        "--quick", rich_help_panel=RUN_PANEL, help="3-link only, a few short trials: seconds.")] = False,
+    from_csv: Annotated[Path | None, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Redraw from this CSV instead of running.")] = None,
+    out: Annotated[Path, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Output folder.")] = Path("out/figure-optimization"),
     overwrite: Overwrite = False,
+    json_output: Json = False,
 ) -> None:
     """Paper Fig. 5: in-situ optimisation of the 3-, 5-, 9-link swimmers, ceiling and batch baseline."""
+    from ..experiments.optimization import OptimizationConfig, OptimizationResult, default_budget, run_optimization
+
     started = time.perf_counter()
     members, manifest = claim_figure(out, "optimization", from_csv, "figure optimization", overwrite=overwrite)
     if from_csv is not None:
@@ -675,7 +835,7 @@ def figure_optimization(
                        config=result.config_dict() or {"from_csv": str(from_csv)},
                        results={"wall_time_s_sweeps": result.wall_time_s, "workers": result.n_workers, **summary},
                        started=started)
-    console.print(dumps_json(summary, indent=1, default=str))
+    print_results(summary, lambda: _fig5_table(summary), as_json=json_output)
     written = ["optimization.png", *([] if from_csv is not None else ["optimization.csv"]), manifest]
     console.print(f"wrote {folder}/ ({', '.join(written)})")
 

@@ -4,22 +4,23 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 import typer
 
 from .._files import output_set
 from .._validation import GeogaitError
-from ..gaits import Perturbation, seed_gait
-from ..plotting import plot_path, plot_shape_space, plt, save_figure
-from ..simulate import DragRatioSchedule, SwimmerStream, Trajectory
-from ..systems import BODY_FRAMES, PurcellSwimmer
 from ._app import app
-from ._common import claim_output, comma_list, console, progress_bar, write_manifest
+from ._common import RUN_PANEL, claim_output, comma_list, console, one_of, progress_bar, write_manifest
 
 #: Every file a simulation writes into its folder (replaced as one set with --overwrite).
 RUN_FILES = ("trajectory.parquet", "trajectory.csv", "trajectory.png", "manifest.json")
+
+#: The built-in swimmer's body frames (geogait.systems imports SciPy: spelled out for a fast help; tests/cli check it).
+_BODY_FRAMES = ("middle", "center_of_mass", "tail")
+#: The help's option groups.
+_SWIMMER, _GAIT = "Swimmer", "Gait and sensors"
 
 #: At most this many samples in one simulation (cycles × samples per cycle): about 1 GB of output.
 MAX_SAMPLES = 10_000_000
@@ -27,27 +28,43 @@ MAX_SAMPLES = 10_000_000
 
 @app.command()
 def simulate(
-    links: Annotated[int, typer.Option(help="Number of links N of the Purcell swimmer (one joint cannot move).",
+    links: Annotated[int, typer.Option(
+        rich_help_panel=_SWIMMER, help="Number of links N of the Purcell swimmer (one joint cannot move).",
                                        min=3)] = 3,
-    cycles: Annotated[int, typer.Option(help="Number of gait cycles.", min=1)] = 40,
-    drag_ratio: Annotated[str, typer.Option(
+    cycles: Annotated[int, typer.Option(rich_help_panel=_GAIT, help="Number of gait cycles.", min=1)] = 40,
+    drag_ratio: Annotated[str, typer.Option(rich_help_panel=_SWIMMER,
         help="Drag ratio k, or comma-separated ratios for an environment schedule (e.g. 2,3,4).")] = "2",
-    cycles_per_environment: Annotated[int, typer.Option(help="Cycles per drag ratio of a schedule.", min=1)] = 40,
-    samples_per_cycle: Annotated[int, typer.Option(help="Samples per gait cycle.", min=4, max=100_000)] = 100,
-    amplitude: Annotated[float, typer.Option(help="Amplitude (rad) of the seed gait.", min=0, max=2 * np.pi)] = 1.0,
-    perturbation: Annotated[float, typer.Option(help="Std (rad) of the shape perturbation δ.", min=0,
+    cycles_per_environment: Annotated[int, typer.Option(
+        rich_help_panel=_SWIMMER, help="Cycles per drag ratio of a schedule.", min=1)] = 40,
+    samples_per_cycle: Annotated[int, typer.Option(
+        rich_help_panel=_GAIT, help="Samples per gait cycle.", min=4, max=100_000)] = 100,
+    amplitude: Annotated[float, typer.Option(
+        rich_help_panel=_GAIT, help="Amplitude (rad) of the seed gait.", min=0, max=2 * np.pi)] = 1.0,
+    perturbation: Annotated[float, typer.Option(
+        rich_help_panel=_GAIT, help="Std (rad) of the shape perturbation δ.", min=0,
                                                 max=2 * np.pi)] = 0.15,
-    noise: Annotated[float, typer.Option(help="Sensor noise on ξ, as a fraction of its RMS.", min=0, max=100)] = 0.0,
-    shape_noise: Annotated[float, typer.Option(help="Sensor noise on r, ṙ, as a fraction of RMS.", min=0,
+    noise: Annotated[float, typer.Option(
+        rich_help_panel=_GAIT, help="Sensor noise on ξ, as a fraction of its RMS.", min=0, max=100)] = 0.0,
+    shape_noise: Annotated[float, typer.Option(
+        rich_help_panel=_GAIT, help="Sensor noise on r, ṙ, as a fraction of RMS.", min=0,
                                                max=100)] = 0.0,
-    body_frame: Annotated[str, typer.Option(help=f"Body frame: {', '.join(BODY_FRAMES)}.")] = "middle",
-    seed: Annotated[int, typer.Option(help="Root random seed.", min=0)] = 0,
+    body_frame: Annotated[Literal[_BODY_FRAMES], typer.Option(
+        metavar=one_of(_BODY_FRAMES), rich_help_panel=_SWIMMER,
+        help="Body frame whose velocity ξ is: the middle link's, the centre of mass's or the tail link's.")
+    ] = "middle",
+    seed: Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="Root random seed.", min=0)] = 0,
     overwrite: Annotated[bool, typer.Option(
-        help="Replace the simulation an existing --out folder holds.")] = False,
-    out: Annotated[Path, typer.Option(help="Output folder (must be empty or new, unless --overwrite).")] = Path(
+        "--overwrite", rich_help_panel=RUN_PANEL, help="Replace the simulation --out holds.")] = False,
+    out: Annotated[Path, typer.Option(
+        rich_help_panel=RUN_PANEL, help="Output folder (must be empty or new, unless --overwrite).")] = Path(
         "out/simulate"),
 ) -> None:
     """Simulate the seed gait with perturbations; write Parquet + CSV + a PNG."""
+    from ..gaits import Perturbation, seed_gait
+    from ..plotting import plot_path, plot_shape_space, plt, save_figure
+    from ..simulate import DragRatioSchedule, SwimmerStream, Trajectory
+    from ..systems import PurcellSwimmer
+
     started = time.perf_counter()
     ratios = comma_list(drag_ratio, "--drag-ratio")
     if cycles * samples_per_cycle > MAX_SAMPLES:

@@ -13,18 +13,17 @@ import signal
 import sys
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import bounded_lines, check_outputs
-from .._kernels import fast_path_note
-from ..io import CsvReader, JsonLinesReader
-from ..learn import StreamLearner, load_stream_model, run_stream
-from ..phase import Phaser
 from ._app import app
-from ._common import Overwrite, _is_fresh_run_manifest, refuse_existing, write_manifest
+from ._common import RUN_PANEL, Overwrite, _is_fresh_run_manifest, one_of, refuse_existing, write_manifest
+
+#: The help's option groups.
+_INPUT = "Input"
 
 _EXIT = {"eof": 0, "output closed": 0, "error": 1, "SIGINT": 128 + signal.SIGINT, "SIGTERM": 128 + signal.SIGTERM}
 
@@ -41,25 +40,27 @@ def stream(
     model_or_config: Annotated[Path, typer.Argument(
         help="Saved model (.npz) to keep learning, or a JSON config (hyper-parameters + nominal gait) to start "
              "a fresh one; 'geogait fit' writes both.")],
-    phaser: Annotated[Path | None, typer.Option(
+    phaser: Annotated[Path | None, typer.Option(rich_help_panel=_INPUT,
         help="Saved Phaser: estimate each sample's phase online (input phases are then ignored).")] = None,
-    fmt: Annotated[str, typer.Option("--format", help="Input: jsonl (one JSON object per line) or csv (header "
-                                     "line first); the output uses the same format.")] = "jsonl",
-    save_every: Annotated[int | None, typer.Option(
+    fmt: Annotated[Literal["jsonl", "csv"], typer.Option(
+        "--format", metavar=one_of(("jsonl", "csv")), rich_help_panel=_INPUT,
+        help="Input: jsonl (one JSON object per line) or csv (header line first); the output uses the same "
+             "format.")] = "jsonl",
+    save_every: Annotated[int | None, typer.Option(rich_help_panel=RUN_PANEL,
         help="Also save after every N learned samples [default: only at the end].", min=1)] = None,
-    out: Annotated[Path | None, typer.Option(
+    out: Annotated[Path | None, typer.Option(rich_help_panel=RUN_PANEL,
         help="Where to save the model (default: the model file itself; for a config, <config>.npz). Another "
              "existing file is replaced only with --overwrite.")] = None,
-    phase_window: Annotated[int | None, typer.Option(
+    phase_window: Annotated[int | None, typer.Option(rich_help_panel=_INPUT,
         help="Memory of the online phase tracker in samples (time constant: a quarter of it) [default: two "
              "training cycles].", min=4)] = None,
-    derivative_window: Annotated[int, typer.Option(
+    derivative_window: Annotated[int, typer.Option(rich_help_panel=_INPUT,
         help="Samples of the causal differentiator used when samples have no shape_velocity.", min=2,
         max=1000)] = 5,
-    time_unit: Annotated[str | None, typer.Option(
-        help=f"Unit of the time stamps and rates ({'|'.join(TIME_UNITS)}), converted to seconds; use the unit "
-             "'geogait fit --time-unit' was given. Default: the stream's own unit.")] = None,
-    outlier_limit: Annotated[float, typer.Option(
+    time_unit: Annotated[Literal[tuple(TIME_UNITS)] | None, typer.Option(rich_help_panel=_INPUT,
+        metavar=one_of(TIME_UNITS), help="Unit of the time stamps and rates, converted to seconds; use the unit "
+             "'geogait fit --time-unit' was given [default: the stream's own unit].")] = None,
+    outlier_limit: Annotated[float, typer.Option(rich_help_panel=_INPUT,
         help="Quarantine samples further than this many robust standard deviations from the median of the last "
              "1000 accepted ones (0: off; values beyond ±1e12 are always quarantined).", min=0)
     ] = DEFAULT_OUTLIER_LIMIT,
@@ -72,6 +73,11 @@ def stream(
 
     The model is saved atomically at the end of the input, on Ctrl-C or SIGTERM, and every --save-every samples.
     """
+    from .._kernels import fast_path_note
+    from ..io import CsvReader, JsonLinesReader
+    from ..learn import StreamLearner, load_stream_model, run_stream
+    from ..phase import Phaser
+
     started = time.perf_counter()
     if fmt not in ("jsonl", "csv"):
         raise typer.BadParameter(f"expected 'jsonl' or 'csv', got {fmt!r}", param_hint="--format")
