@@ -75,13 +75,13 @@ _RESUME_OPTIONS = ("cycles", "robot_timeout", "resume", "json_output")
 def _help_values() -> dict:
     """The library's values the help texts of ``optimize`` and ``figure optimization`` show."""
     from ..experiments.optimization import OptimizationConfig, default_budget
-    from ..optimize import InSituOptimizer
+    from ..optimize import Gate
 
     fig5 = OptimizationConfig()
     return {"budget_3": default_budget(3), "budget_5": default_budget(5),
             "trials": fig5.n_trials, "links": listed(fig5.links), "budgets": listed(fig5.budgets),
             "baseline_trials": fig5.baseline_trials, "baseline_iterations": fig5.baseline_iterations,
-            "batch_cycles": InSituOptimizer().cycles_per_iteration, "noise": fig5.sensor_noise, "seed": fig5.seed}
+            "batch_cycles": Gate().cycles, "noise": fig5.sensor_noise, "seed": fig5.seed}
 
 
 @app.command(cls=help_from(_help_values))
