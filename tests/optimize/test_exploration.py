@@ -45,7 +45,8 @@ def test_excitation_at_interpolates_periodically_and_check_names_fields():
 
 
 def test_the_optimiser_explores_a_robot_that_does_not_and_sizes_it_in_shape_units():
-    result = InSituOptimizer(climb=Climb(start="stalled")).run(_quiet_stream(), 16)  # model steps first: the model explores
+    # model steps first: the model explores
+    result = InSituOptimizer(climb=Climb(start="stalled")).run(_quiet_stream(), 16)
     log = result.log
     assert log["excitation"].mean() == pytest.approx(0.15, rel=0.35) and result.n_steps >= 3
     big = FourierGait(1.5 * seed_gait(2).coefficients)  # shape_scale "auto": the seed's amplitude, 1.5

@@ -42,7 +42,8 @@ def test_the_swimmer_passes_and_is_optimised_after_the_test():
 def test_a_coasting_body_fails_and_the_model_takes_no_step():
     with pytest.warns(GeogaitWarning, match="outside the model class.*gate stays shut: steps come from the "
                                             "measured climb only"):
-        result = InSituOptimizer(climb=Climb(start="stalled"), checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(), 30)
+        result = InSituOptimizer(climb=Climb(start="stalled"),
+                                 checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(), 30)
     verdict = result.model_class
     assert verdict.principally_kinematic is False
     short, long = verdict.progress  # (this lag makes it move farther per cycle at the short period)
@@ -100,7 +101,8 @@ def test_resume_during_the_test_is_bit_identical(tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(seed=2), 14, checkpoint=path, callback=stop)
+        InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(CoastingSwimmer(seed=2), 14, checkpoint=path,
+                                                               callback=stop)
     with pytest.warns(GeogaitWarning, match="outside the model class"):  # the verdict comes after the resume
         resumed = InSituOptimizer.resume(path, CoastingSwimmer(seed=2))
     assert resumed.model_class == whole.model_class

@@ -95,7 +95,8 @@ def test_joint_limit_constraints_imply_the_continuous_limit(rng, order):
 @pytest.fixture(scope="module")
 def noise_free_run():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=0)
-    return InSituOptimizer(climb=Climb(start="stalled")).run(stream, 25, record=True)  # the model steps first: the paper's loop
+    # the model steps first: the paper's loop
+    return InSituOptimizer(climb=Climb(start="stalled")).run(stream, 25, record=True)
 
 
 def test_optimiser_improves_the_seed_gait_on_a_noise_free_swimmer(noise_free_run):
@@ -363,7 +364,8 @@ def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhil
     assert guarded.log["reverted"].any()
     assert guarded.summary()["reverted_to_best"] == int(guarded.log["reverted"].sum())
     assert measured.iloc[-1] >= 0.8 * measured.max()  # it ends on (or back near) the best gait measured
-    climbing, _ = run(climb=Climb(start="stalled"))  # the reverts count as broken promises: the climb takes over, and hands over its best
+    # the reverts count as broken promises: the climb takes over, and hands over its best
+    climbing, _ = run(climb=Climb(start="stalled"))
     log = climbing.log
     final = np.all(np.isclose(log.filter(like="param_").to_numpy(), climbing.final_gait.params), axis=1)
     assert log["reverted"].any() and log["climb"].any()
@@ -377,7 +379,8 @@ def test_the_climb_takes_over_from_a_model_that_leads_downhill_and_keeps_the_lim
     """Without the revert, the model's unconfirmed promises hand the steps to the measured climb, which
     keeps the best gait measured (the robot's motion shrinks away from the seed gait)."""
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=6)
-    result = InSituOptimizer(safety=Safety(revert_tolerance=None), limits=Limits(max_joint_angle=1.2), family="free").run(
+    result = InSituOptimizer(safety=Safety(revert_tolerance=None), limits=Limits(max_joint_angle=1.2),
+                             family="free").run(
         _MisleadingPoses(stream, seed_gait(2)), 40)
     log = result.log
     assert log["climb"].sum() >= 3 and not (log["climb"] & log["period_change"]).any()
@@ -387,7 +390,8 @@ def test_the_climb_takes_over_from_a_model_that_leads_downhill_and_keeps_the_lim
     assert result.summary()["final_measured_objective"] >= 0.8 * measured.max()
     assert max(gait.joint_limit().max() for gait in result.gaits) <= 1.2 + 1e-9
     # the same seed repeats the run exactly; another seed draws other directions
-    again = InSituOptimizer(safety=Safety(revert_tolerance=None), limits=Limits(max_joint_angle=1.2), family="free").run(
+    again = InSituOptimizer(safety=Safety(revert_tolerance=None), limits=Limits(max_joint_angle=1.2),
+                            family="free").run(
         _MisleadingPoses(SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=6), seed_gait(2)), 40)
     pd.testing.assert_frame_equal(again.log, log)
 
@@ -433,7 +437,8 @@ def test_the_climb_carries_on_where_the_model_levels_off():
     from geogait.optimize import cached_ceiling
 
     swimmer = PurcellSwimmer(5)
-    result = InSituOptimizer(climb=Climb(start="stalled")).run(SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1, seed=1), 60)
+    result = InSituOptimizer(climb=Climb(start="stalled")).run(SwimmerStream(swimmer, seed_gait(4), sensor_noise=0.1,
+                                                                             seed=1), 60)
     log = result.log
     first = log.index[log["climb"]][0]
     ceiling = cached_ceiling(swimmer, family="symmetric").value

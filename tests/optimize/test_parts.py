@@ -92,7 +92,8 @@ def test_bad_parts_are_named_before_the_robot_moves():
     robot = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)
     for optimizer, match in ((InSituOptimizer(step=Gate()), "'step' parameter of InSituOptimizer must be a ModelStep"),
                              (InSituOptimizer(step=ModelStep(trust_radius=-1)), "'trust_radius'"),
-                             (InSituOptimizer(gate=Gate(kind="gamma"), model=BatchGaitModel()), "Gate\\(kind='gamma'\\)"),
+                             (InSituOptimizer(gate=Gate(kind="gamma"), model=BatchGaitModel()),
+                              "Gate\\(kind='gamma'\\)"),
                              (InSituOptimizer(period=PeriodSearch(period_range=(2, 1))), "'period_range'")):
         with pytest.raises(ValueError, match=match):
             optimizer.run(robot, 3)

@@ -112,8 +112,9 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
 
 
 def test_a_first_climb_searches_the_period_as_its_coordinate_without_a_trial_before_it():
-    """With Climb(start="first") the period is one of the climb's coordinates from its start: no period trial (a change of
-    period on the same gait) comes before the climb's first candidate, and its candidates move the period."""
+    """With Climb(start="first") the period is one of the climb's coordinates from its start: no period trial (a
+    change of period on the same gait) comes before the climb's first candidate, and its candidates move the
+    period."""
     settings = dict(period=PeriodSearch(period_range=(0.25, 2.0)))
     result = InSituOptimizer(**settings, climb=Climb(start="first")).run(LaggingRobot(seed=3), 40)
     log = result.log

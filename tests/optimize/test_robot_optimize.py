@@ -173,7 +173,8 @@ def test_saturated_actuators_are_detected_and_their_steps_rejected():
     assert reverts >= result.n_rejected
     assert log.loc[~log["rejected"], "tracking_error"].max() <= 1.1 * limit
     # without the check the optimiser drives the joints far past what they can follow
-    unchecked = InSituOptimizer(**options, safety=Safety(max_tracking_error=None)).run(SaturatingRobot(limit=1.1), 40).log
+    unchecked = InSituOptimizer(**options, safety=Safety(max_tracking_error=None)).run(SaturatingRobot(limit=1.1),
+                                                                                       40).log
     assert not unchecked["rejected"].any() and unchecked["tracking_error"].max() > 2 * limit
 
 
@@ -181,7 +182,8 @@ def test_the_climb_judges_gaits_the_actuators_follow_badly_by_their_measured_out
     """With the automatic tracking limit the climb's gaits are judged by what they measure, not refused for their
     tracking error (twice the seed's would have refused 17 of this run's candidates); the run ends well above the
     seed, and the limit for the model's steps follows the gait the climb kept last: twice what its cycles track."""
-    result = InSituOptimizer(safety=Safety(settle_cycles=1)).run(SaturatingRobot(limit=1.05), 60, checkpoint=tmp_path / "run.npz")
+    result = InSituOptimizer(safety=Safety(settle_cycles=1)).run(SaturatingRobot(limit=1.05), 60,
+                                                                 checkpoint=tmp_path / "run.npz")
     log = result.log
     measured = ~log["settling"]
     seed = log.loc[measured & (log["iteration"] == 0), ["tracking_error", "measured_objective"]].mean()
@@ -308,7 +310,8 @@ def test_checkpoint_options_are_validated_before_the_robot_moves(tmp_path):
 
 def test_joint_speed_limit_holds_for_every_commanded_gait():
     limit = 1.3 * 2 * np.pi / 1.5  # rad/s at a period of 1.5 s; the seed needs 2π/1.5 · 1.0
-    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), limits=Limits(max_joint_velocity=limit)).run(_stream(seed=6, cycle_period=1.5), 20)
+    result = InSituOptimizer(step=ModelStep(trust_radius=0.15),
+                             limits=Limits(max_joint_velocity=limit)).run(_stream(seed=6, cycle_period=1.5), 20)
     assert result.n_steps >= 3
     phase = np.linspace(0, 2 * np.pi, 512)
     for gait in result.gaits:

@@ -94,7 +94,8 @@ def test_optimizer_runs_on_perfect_information_and_on_the_shape_space_model():
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
     perfect = InSituOptimizer(model=PerfectInformationModel(system=swimmer),
                               step=ModelStep(rule="sqp", max_trust_radius=0.5),
-                              climb=Climb(start="stalled", sigma=0.5, first_sigma=2 * 0.5, max_sigma=4 * 0.5)).run(stream, 12, ceiling=ceiling)
+                              climb=Climb(start="stalled", sigma=0.5, first_sigma=2 * 0.5,
+                                          max_sigma=4 * 0.5)).run(stream, 12, ceiling=ceiling)
     assert perfect.log["gamma"].dropna().eq(1.0).all() and perfect.log["ceiling_fraction"].iloc[-1] > 0.99
     stream = SwimmerStream(swimmer, seed_gait(2), sensor_noise=0.1, seed=1)
     learned = InSituOptimizer(model=ShapeSpaceModel(degree=3), step=ModelStep(rule="sqp"),

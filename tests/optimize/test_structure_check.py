@@ -62,7 +62,8 @@ def test_the_structured_preset_declares_the_check_only_for_a_model_that_reports_
 
 
 def test_the_check_switches_to_what_it_declares_and_keeps_what_it_does_not_name():
-    step = ModelStep(rule="sqp", trust_radius=0.25, min_trust_radius=0.25, max_trust_radius=0.5, rotation_tolerance=0.01)
+    step = ModelStep(rule="sqp", trust_radius=0.25, min_trust_radius=0.25, max_trust_radius=0.5,
+                     rotation_tolerance=0.01)
     climb = Climb(start="contradicted", rule="es", sigma=0.5, rotation_tolerance=0.01)
     new_step, new_climb = StructureCheck().fallback(step, climb)
     assert new_step == ModelStep(rotation_tolerance=0.01)  # the data-driven rule and trust region, the rest kept

@@ -184,7 +184,8 @@ def test_the_optimisers_model_class_test_finds_the_snake_outside():
     needs_elastica()
     snake = elastica_snake(seed=0)
     optimizer = InSituOptimizer(safety=Safety(settle_cycles=1), limits=Limits(max_joint_angle=snake.max_joint_angle),
-                                objective=Objective(kind="forward", frame="body"), checks=[ModelClassTest(cycles=3)])  # (the warm-up's transient settles first)
+                                # (the warm-up's transient settles first)
+                                objective=Objective(kind="forward", frame="body"), checks=[ModelClassTest(cycles=3)])
     with pytest.warns(GeogaitWarning, match="outside the model class"):
         result = optimizer.run(snake, 10)
     verdict = result.model_class

@@ -471,7 +471,8 @@ def test_optimiser_rejects_steps_the_saturated_actuators_cannot_follow():
     # prediction check keeps closing the gate.
     # (the measured-outcome revert and climb, which also pull such a run back, are off to show the runaway)
     unchecked = InSituOptimizer(**{**options, "climb": False},
-                                safety=Safety(max_tracking_error=None, revert_tolerance=None)).run(_saturating_swimmer(), 30)
+                                safety=Safety(max_tracking_error=None,
+                                              revert_tolerance=None)).run(_saturating_swimmer(), 30)
     assert unchecked.n_rejected == 0
     assert unchecked.final_gait.joint_limit().max() > 1.5  # far beyond the seed's 1 rad
     assert unchecked.log["tracking_error"].iloc[-10:].mean() > 3 * 0.1
@@ -482,7 +483,8 @@ def test_the_structured_default_shortens_its_steps_after_gaits_the_actuators_can
     """The resistance model (the default on this RFT chain) steps with a trust radius of at least 0.25; a gait the
     saturated motors cannot follow halves it even below that floor (a rejection is measured, not a noisy ratio)."""
 
-    result = InSituOptimizer(safety=Safety(max_tracking_error=0.1), objective=Objective(kind="forward", frame="body")).run(
+    result = InSituOptimizer(safety=Safety(max_tracking_error=0.1), objective=Objective(kind="forward",
+                                                                                        frame="body")).run(
         _saturating_swimmer(), 12)
     log = result.log
     assert type(result.model).__name__ == "ResistanceModel" and log["trust_radius"].iloc[0] == 0.25
