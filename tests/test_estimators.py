@@ -135,8 +135,9 @@ def test_get_set_params_round_trip_and_repr(named):
 def test_nested_parameters_reach_the_model():
     optimizer = InSituOptimizer(model=AdaptiveGaitModel())
     assert optimizer.get_params()["model__forgetting_factor"] == 0.99
-    optimizer.set_params(model__forgetting_factor=0.9, gamma_threshold=0.4)
-    assert optimizer.model.forgetting_factor == 0.9 and optimizer.gamma_threshold == 0.4
+    optimizer.set_params(model__forgetting_factor=0.9, gate=Gate(), gate__gamma_threshold=0.4)
+    assert optimizer.model.forgetting_factor == 0.9 and optimizer.gate.gamma_threshold == 0.4
+    assert optimizer.get_params()["gate__gamma_threshold"] == 0.4
     with pytest.raises(GeogaitError, match="'forgetting_factor' parameter of AdaptiveGaitModel"):
         optimizer.set_params(model__forgetting_factor=1.5)
 
@@ -195,8 +196,7 @@ def test_bad_parameter_raises_the_template_before_any_change(name, parameter):
 def test_every_parameter_of_every_estimator_is_constrained(named):
     """Each hyper-parameter is declared, or checked with the others (then validate names it)."""
     _, estimator, _ = named
-    checked_together = {"InSituOptimizer": {"model", "direction", "max_tracking_error", "max_joint_angle",
-                                              "shape_scale", "exploration", "period_range"},
+    checked_together = {"InSituOptimizer": {"model", "climb", "exploration", "checks"},
                         "PathTracker": {"model", "exploration"}}
     declared = set(estimator._parameter_constraints) | checked_together.get(type(estimator).__name__, set())
     assert declared == set(estimator.get_params(deep=False))
