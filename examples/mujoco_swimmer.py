@@ -16,7 +16,7 @@ through :class:`geogait.robots.MujocoRobot`:
    backwards along the direction, tracking rejections.
 
 ``--saturation`` adds the feasibility demonstration: the 3-link swimmer with a 0.05 N·m torque limit,
-optimised with and without ``max_tracking_error``.
+optimised with and without ``Safety(max_tracking_error=...)``.
 
 Run::
 
@@ -73,7 +73,7 @@ def optimise(make, n_cycles: int, seed: int, warmup: int = 2, **options) -> dict
     The robot first runs ``warmup`` cycles of the seed gait: it starts at rest, and a body with
     momentum (Gymnasium's heavy swimmer) moves differently until it is up to speed, while the
     ``"forward"`` objective takes its direction from the first cycle it measures. The direction is
-    body-fixed (``direction_frame="body"``): a swimmer whose heading wanders under exploration is
+    body-fixed (``Objective(frame="body")``): a swimmer whose heading wanders under exploration is
     judged by progress along its own axis, not along a world heading it cannot steer back to.
     """
     robot = make(seed=seed)

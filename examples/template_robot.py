@@ -22,7 +22,7 @@ import numpy as np
 
 from geogait import se2
 from geogait.gaits import FourierGait, check_excitation, excitation_at, seed_gait
-from geogait.optimize import InSituOptimizer
+from geogait.optimize import for_robot
 from geogait.robots import check_robot
 from geogait.simulate import Trajectory
 from geogait.systems import PurcellSwimmer
@@ -140,8 +140,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     robot = MyRobot()
-    check_robot(robot)  # a clear error naming what the robot lacks, before the first cycle runs
-    result = InSituOptimizer(random_state=0).run(robot, args.cycles)
+    check_robot(robot)  # runs one cycle: a clear error naming what is wrong, before the optimiser drives it
+    optimizer = for_robot(robot, random_state=0)  # the optimiser for what the robot declares; print it to see
+    result = optimizer.run(robot, args.cycles)
     print(result.log[["cycle", "gamma", "step", "measured_progress"]].tail(5).to_string(index=False))
     summary = result.summary()
     print(f"net motion per cycle: {summary['seed_measured_objective']:.4f} body lengths with the seed gait, "
