@@ -30,13 +30,13 @@ def test_the_top_level_help_imports_no_numerical_module(args):
 def test_the_choices_optimize_offers_are_the_librarys():
     """The CLI spells the optimiser's choices out (importing them would import SciPy for the help)."""
     from geogait.cli import _optimize
-    from geogait.optimize import InSituOptimizer
+    from geogait.optimize import Climb, InSituOptimizer, ModelStep, Objective
 
-    constraints = InSituOptimizer._parameter_constraints
-    for option, parameter in (("_OBJECTIVES", "objective"), ("_DIRECTION_FRAMES", "direction_frame"),
-                              ("_FAMILIES", "family"), ("_STEP_RULES", "step_rule"), ("_CLIMB_RULES", "climb_rule")):
-        assert set(getattr(_optimize, option)) == set(constraints[parameter].choices), option
-    assert set(_optimize._CLIMB.values()) == set(constraints["climb"].choices)
+    for option, part, parameter in (("_OBJECTIVES", Objective, "kind"), ("_DIRECTION_FRAMES", Objective, "frame"),
+                                    ("_FAMILIES", InSituOptimizer, "family"), ("_STEP_RULES", ModelStep, "rule"),
+                                    ("_CLIMB_RULES", Climb, "rule")):
+        assert set(getattr(_optimize, option)) == set(part._parameter_constraints[parameter].choices), option
+    assert set(_optimize._CLIMB.values()) - {None} == set(Climb._parameter_constraints["start"].choices)
 
 
 def test_the_choices_of_simulate_and_track_are_the_librarys():
