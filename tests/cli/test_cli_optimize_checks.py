@@ -50,7 +50,7 @@ def test_a_robot_is_not_started_for_a_budget_that_holds_no_measured_cycle(tmp_pa
 def test_a_period_the_swimmer_cannot_run_is_an_option_error(tmp_path, period):
     """Issue 58, finding 8: --period 1e-300 ended in an OverflowError (1e-100: a model error after the start)."""
     one_error_line(invoke("optimize", "--period", period, "--out", tmp_path / "run"),
-                   "Invalid value for --period: expected seconds in [0.001, 86400]")
+                   "--period must be")
     assert not (tmp_path / "run").exists()
 
 

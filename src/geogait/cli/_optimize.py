@@ -626,6 +626,7 @@ def _check_memory(settings: dict, optimizer) -> None:
     before its ceiling is computed (a robot's joints are known once its driver says hello: checked then)."""
     from ..models import AdaptiveGaitModel
     from ..optimize import symmetric_chain_model
+
     if settings["robot"] is not None:
         return
     speed = settings["max_joint_velocity"] is not None
@@ -634,7 +635,8 @@ def _check_memory(settings: dict, optimizer) -> None:
 
     def run_bytes(links: int) -> float:  # the ceiling's chain motion, or the model run_model picks for the swimmer
         symmetric = settings.get("family", "auto") in ("auto", "symmetric") and links >= 3
-        model = optimizer.model or (symmetric_chain_model(links - 1) if symmetric else AdaptiveGaitModel())
+        model = _preset({**settings, "links": links}, None).model  # (the swimmer's own: a resistance model's chain)
+        model = model or (symmetric_chain_model(links - 1) if symmetric else AdaptiveGaitModel())
         return max(model.memory_bytes(links - 1) if hasattr(model, "memory_bytes") else 0.0,
                    chain_motion_bytes(links - 1))
 
@@ -694,6 +696,9 @@ _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise
                   "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
                   "step_rule": (str, None), "robot": (str, None), "robot_timeout": (int, float),
                   "checkpoint_every": (int,)}
+#: Settings added since the first runs: absent from an older run.json (then their defaults), else of these types.
+_LATER_SETTING_TYPES = {"direction_frame": (str,), "climb": (str, None), "climb_rule": (str, None),
+                        "model_class_cycles": (int,)}
 
 
 def _read_settings(folder: Path) -> dict:
@@ -711,7 +716,7 @@ def _read_settings(folder: Path) -> dict:
         raise GeogaitError(f"{path} is not valid JSON: {error}") from None
     if not isinstance(settings, dict):
         raise GeogaitError(f"{path} is not the settings record of a run (a JSON object expected).")
-    for name, kinds in _SETTING_TYPES.items():
+    for name, kinds in {**_SETTING_TYPES, **{k: v for k, v in _LATER_SETTING_TYPES.items() if k in settings}}.items():
         value = settings.get(name, ...)
         ok = value is not ... and ((value is None and None in kinds) or (
             not isinstance(value, bool) and isinstance(value, tuple(k for k in kinds if k is not None))))
