@@ -93,7 +93,7 @@ def test_optimize_command_takes_model_family_and_step_rule(tmp_path):
     assert model["class"] == "ShapeSpaceModel" and model["params"]["degree"] == 4  # Fig. 5's model
     assert model["params"]["degree_shrinkage"] == 30 and model["params"]["forgetting_factor"] == 0.999
     assert model["params"]["symmetry"] == "mirror+reversal"  # the built-in swimmer's symmetries
-    assert optimizer["family"] == "free" and optimizer["step_rule"] == "sqp"
+    assert optimizer["family"] == "free" and optimizer["step"]["params"]["rule"] == "sqp"
     log = pd.read_csv(tmp_path / "cycles.csv")
     assert log["step"].any() and log["param_0"].notna().all()  # it moved, in the free family's parameters
     resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "12"])
@@ -114,12 +114,12 @@ def test_optimize_command_takes_the_climb(tmp_path):
     one line."""
     result = _optimize("--links", 3, "--cycles", 8, "--climb", "first", "--out", tmp_path)
     assert result.exit_code == 0, result.output
-    assert _optimizer_config(tmp_path)["climb"] == "first"
+    assert _optimizer_config(tmp_path)["climb"]["params"]["start"] == "first"
     log = pd.read_csv(tmp_path / "cycles.csv")
     assert log["climb"].any() and not (log["step"] & ~log["climb"]).any()  # only climb moves in 8 cycles
     resumed = _optimize("--resume", tmp_path, "--cycles", 10)
     assert resumed.exit_code == 0, resumed.output
-    assert _optimizer_config(tmp_path)["climb"] == "first"
+    assert _optimizer_config(tmp_path)["climb"]["params"]["start"] == "first"
     bad = _optimize("--links", 3, "--cycles", 2, "--climb", "sometimes", "--out", tmp_path / "bad")
     assert bad.exit_code == 1 and "--climb must be one of on, off, contradicted, first" in bad.output
     assert bad.output.count("\n") == 1
@@ -130,12 +130,12 @@ def test_optimize_command_takes_the_climb_rule(tmp_path):
     on resume); a bad value is refused in one line."""
     result = _optimize("--links", 3, "--cycles", 10, "--climb", "first", "--climb-rule", "cobyqa", "--out", tmp_path)
     assert result.exit_code == 0, result.output
-    assert _optimizer_config(tmp_path)["climb_rule"] == "cobyqa"
+    assert _optimizer_config(tmp_path)["climb"]["params"]["rule"] == "cobyqa"
     assert json.loads((tmp_path / "run.json").read_text())["climb_rule"] == "cobyqa"
     assert pd.read_csv(tmp_path / "cycles.csv")["climb"].sum() >= 2
     resumed = _optimize("--resume", tmp_path, "--cycles", 12)
     assert resumed.exit_code == 0, resumed.output
-    assert _optimizer_config(tmp_path)["climb_rule"] == "cobyqa"
+    assert _optimizer_config(tmp_path)["climb"]["params"]["rule"] == "cobyqa"
     bad = _optimize("--links", 3, "--cycles", 2, "--climb-rule", "bobyqa", "--out", tmp_path / "bad")
     assert bad.exit_code == 1 and "--climb-rule must be one of auto, es, cobyqa, bayes; got 'bobyqa'" in bad.output
     assert bad.output.count("\n") == 1
@@ -150,7 +150,8 @@ def test_optimize_command_with_the_resistance_model(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     optimizer = summary["config"]["optimizer"]
     assert optimizer["model"]["class"] == "ResistanceModel" and len(optimizer["model"]["params"]["link_lengths"]) == 5
-    assert (optimizer["step_rule"], optimizer["max_trust_radius"], optimizer["climb"]) == ("sqp", 0.5, "contradicted")
+    step, climb = optimizer["step"]["params"], optimizer["climb"]["params"]
+    assert (step["rule"], step["max_trust_radius"], climb["start"]) == ("sqp", 0.5, "contradicted")
     assert summary["results"]["final_ceiling_fraction"] > 0.9  # 5 links from 42 % in 14 cycles
     resumed = CliRunner().invoke(app, ["optimize", "--resume", str(tmp_path), "--cycles", "16"])
     assert resumed.exit_code == 0, resumed.output
@@ -158,8 +159,8 @@ def test_optimize_command_with_the_resistance_model(tmp_path):
     linear = CliRunner().invoke(app, ["optimize", "--links", "3", "--cycles", "2", "--method", "resistance",
                                       "--step-rule", "linear", "--out", str(tmp_path / "linear")])
     assert linear.exit_code == 0, linear.output
-    assert json.loads((tmp_path / "linear" / "summary.json").read_text())["config"]["optimizer"]["step_rule"] == \
-        "linear"
+    assert json.loads((tmp_path / "linear" / "summary.json").read_text())["config"]["optimizer"]["step"][
+        "params"]["rule"] == "linear"
     hello = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
              "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}}  # no "chain"
     script = tmp_path / "driver.py"
@@ -207,7 +208,7 @@ def test_fig5_runs_the_papers_loop_steps_from_the_model_alone():
     log = paper.run(stream(), 24).log
     assert not log["reverted"].any() and not log["climb"].any() and log["step"].sum() >= 5
     assert log["excitation"].max() > 0.05  # the swimmer's own exploration (eq. 8), not commanded
-    assert paper.set_params(revert_tolerance=2.0).run(stream(), 24).log["reverted"].sum() == 1
+    assert paper.set_params(safety__revert_tolerance=2.0).run(stream(), 24).log["reverted"].sum() == 1
 
 
 def test_shape_method_model_for_swimmer_and_robot():
