@@ -1,4 +1,4 @@
-"""Robot benchmark: geogait against CMA-ES, Bayesian optimisation (TPE) and random search.
+"""Robot benchmark: geogait against CMA-ES, TPE, COBYQA, nevergrad's NGOpt, GP Bayesian optimisation and random search.
 
 Every method on the same robots, gait family, joint limits and measured objective, charged for every
 cycle the robot runs, over paired seeds; each method's gait after 30, 60 and 100 cycles re-run clean

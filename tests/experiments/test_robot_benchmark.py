@@ -442,3 +442,41 @@ def test_evaluate_gait_refuses_a_gait_or_period_the_case_does_not_allow():
         evaluate_gait(case, seed_gait(2, amplitude=3.0))
     with pytest.raises(GeogaitError, match="'period' parameter of evaluate_gait must be None for case 'swimmer3'"):
         evaluate_gait(case, seed_gait(2), period=1.5)
+
+
+@pytest.mark.parametrize("method, module", [("ngopt", "nevergrad"), ("gp-bayes", "bayes_opt")])
+def test_the_stronger_anchors_start_from_the_seed_in_the_box_and_hand_over_their_gait(monkeypatch, method, module):
+    """NGOpt and the Gaussian-process optimiser search the box [−r_max, r_max]ⁿ of the shared family, the seed gait
+    their first candidate; what they hand over is a gait of the family they measured (NGOpt: its recommendation;
+    the GP: its best measured candidate); without their package they are skipped in one line."""
+    pytest.importorskip(module)
+    case = bench.CASES["swimmer5"]
+    robot = bench._CountingRobot(case.make_robot(np.random.SeedSequence(1), explore=False, noise=True))
+    family = bench._Family(case, seed_gait(4), 1.0)
+    objective = bench._Objective(case, robot, family, budget=8, held=False, seed_value=0.05)
+    asked, values = [], []
+    measure = bench._Objective.__call__
+
+    def recording(self, params):
+        asked.append(np.array(params, copy=True))
+        values.append(measure(self, params))
+        return values[-1]
+
+    monkeypatch.setattr(bench._Objective, "__call__", recording)
+    trace = bench._Trace(robot, seed_gait(4))
+    bench.BLACK_BOX[method](objective, trace, np.random.default_rng(0))
+    assert len(asked) == robot.cycles == 8
+    np.testing.assert_allclose(asked[0], family.seed_params)
+    assert all(np.abs(a).max() <= case.max_joint_angle for a in asked)
+    held = trace.at(8)[0]
+    assert family.family.residual(held) < 1e-9 and held.joint_limit().max() <= case.max_joint_angle + 1e-9
+    if method == "gp-bayes":
+        np.testing.assert_allclose(held.params, family.gait(asked[int(np.argmax(values))]).params)
+    find_spec = bench.importlib.util.find_spec
+    monkeypatch.setattr(bench.importlib.util, "find_spec", lambda name, *a: None if name == module
+                        else find_spec(name, *a))
+    lines = []
+    result = bench.run_robot_benchmark(["swimmer3"], [method, "random"], n_seeds=1, budget=2, progress=False,
+                                       log=lines.append)
+    assert lines == [f"skipped method {method}: needs {module} (pip install 'geogait[baselines]')"]
+    assert set(result["records"]["method"]) == {"random"}

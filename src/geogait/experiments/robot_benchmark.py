@@ -24,6 +24,11 @@ robot run** — settling cycles included. Methods:
 * ``cobyqa`` — SciPy's COBYQA (``scipy.optimize.minimize(method="COBYQA")``: a derivative-free
   trust-region method on quadratic models interpolated from the values it has seen) from the seed gait,
   initial trust radius r_max / 8 (restarted from its best point if it converges within the budget);
+* ``ngopt`` — nevergrad's ``NGOpt``, the portfolio that black-box benchmarks recommend as a default (it picks
+  its algorithm from the dimension, the budget in evaluations and the bounds), on the box [−r_max, r_max]ⁿ from
+  the seed gait; it hands over its own recommendation;
+* ``gp-bayes`` — Gaussian-process Bayesian optimisation (the ``bayesian-optimization`` package: a Matérn GP,
+  the upper confidence bound κ = 2.576) on the box [−r_max, r_max]ⁿ, the seed gait its first point;
 * ``random`` — random search in [−r_max, r_max]ⁿ after the seed gait (the floor).
 
 A black-box method runs the robot **without exploration** (what a user of CMA-ES would do; sensor
@@ -65,6 +70,7 @@ import importlib.util
 import json
 import platform
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import partial
@@ -552,6 +558,46 @@ def _cobyqa(objective: _Objective, trace: _Trace, rng, tuned: bool):
         start = result.x
 
 
+def _ngopt(objective: _Objective, trace: _Trace, rng, tuned: bool):
+    import nevergrad as ng
+    with warnings.catch_warnings():  # the portfolio's members warn about settings of their own (bounds, COBYLA's ρ)
+        warnings.simplefilter("ignore")
+        _ngopt_loop(ng, objective, trace, rng)
+
+
+def _ngopt_loop(ng, objective: _Objective, trace: _Trace, rng):
+    family = objective.family
+    box = family.r_max
+    parametrization = ng.p.Array(init=np.clip(family.seed_params, -box, box)).set_bounds(-box, box)
+    parametrization.random_state = np.random.RandomState(int(rng.integers(2**31 - 1)))
+    evaluations = max(objective.budget // (objective.case.settle_cycles + 1), 1)
+    optimizer = ng.optimizers.NGOpt(parametrization=parametrization, budget=evaluations, num_workers=1)
+    while objective.affordable():
+        candidate = optimizer.ask()
+        optimizer.tell(candidate, -objective(candidate.value))
+        held = optimizer.provide_recommendation().value
+        trace.recommend(family.gait(held), family.period(held))
+
+
+def _gp_bayes(objective: _Objective, trace: _Trace, rng, tuned: bool):
+    from bayes_opt import BayesianOptimization, UtilityFunction
+    family = objective.family
+    names = [f"p{i}" for i in range(family.seed_params.size)]
+    bounds = {name: (-family.r_max, family.r_max) for name in names}
+    optimizer = BayesianOptimization(f=None, pbounds=bounds, random_state=int(rng.integers(2**31 - 1)), verbose=0,
+                                     allow_duplicate_points=True)
+    utility = UtilityFunction(kind="ucb", kappa=2.576, xi=0.0)
+    params, best = np.clip(family.seed_params, -family.r_max, family.r_max), -np.inf
+    while objective.affordable():
+        value = objective(params)
+        optimizer.register(params=dict(zip(names, params, strict=True)), target=value)
+        if value > best:
+            best = value
+            trace.recommend(family.gait(params), family.period(params))
+        suggested = optimizer.suggest(utility)
+        params = np.array([suggested[name] for name in names])
+
+
 def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
     family = objective.family
     best, params = -np.inf, family.seed_params
@@ -565,9 +611,10 @@ def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
 
 BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmaes, tuned=True),
              "tpe": partial(_tpe, tuned=False), "tpe-tuned": partial(_tpe, tuned=True),
-             "cobyqa": partial(_cobyqa, tuned=False), "random": partial(_random, tuned=False)}
+             "cobyqa": partial(_cobyqa, tuned=False), "ngopt": partial(_ngopt, tuned=False),
+             "gp-bayes": partial(_gp_bayes, tuned=False), "random": partial(_random, tuned=False)}
 #: Optional module each black-box method needs (``pip install 'geogait[baselines]'``).
-_METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna"}
+_METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna", "ngopt": "nevergrad", "gp-bayes": "bayes_opt"}
 #: Method names: geogait (its default model, the resistance model on a chain whose geometry the robot gives, the
 #: prior work's batch model) and each black-box method free and held to the rotation limit.
 METHODS = ("geogait", "geogait-resistance", "geogait-hybrid", "geogait-batch",
@@ -975,8 +1022,8 @@ def manifest(result: dict, command: str, wall_time: float) -> dict:
     records = result["records"]
     return {"benchmark": "geogait robot benchmark", "command": command, "wall_time_s": round(wall_time, 1),
             "versions": {"geogait": __version__, "numpy": np.__version__, "python": platform.python_version(),
-                         **{name: version(name) for name in ("cma", "optuna", "mujoco", "gymnasium", "dm_control",
-                                                             "pyelastica")}},
+                         **{name: version(name) for name in ("cma", "optuna", "nevergrad", "bayesian-optimization",
+                                                             "mujoco", "gymnasium", "dm_control", "pyelastica")}},
             "config": result["config"], "cases": result["cases"], "skipped": result["skipped"],
             "records": json.loads(records.to_json(orient="records")) if not records.empty else []}
 
