@@ -480,3 +480,32 @@ def test_the_stronger_anchors_start_from_the_seed_in_the_box_and_hand_over_their
                                        log=lines.append)
     assert lines == [f"skipped method {method}: needs {module} (pip install 'geogait[baselines]')"]
     assert set(result["records"]["method"]) == {"random"}
+
+
+def test_the_climb_alone_takes_no_model_step_and_every_method_counts_its_steps():
+    """geogait-climb is geogait's measured climb from the first decision on, never handing a step to its model;
+    geogait's own steps split into model and measured ones as its log records them; a black-box method's steps are
+    its candidates. The table reports both counts."""
+    result = bench.run_robot_benchmark(["swimmer3"], ["geogait", "geogait-climb", "cobyqa"], n_seeds=1, budget=40,
+                                       checkpoints=[20, 40], progress=False)
+    records = result["records"].set_index(["method", "cycles"])
+    assert records.loc[("geogait-climb", 40), "model_steps"] == 0
+    assert records.loc[("geogait-climb", 40), "measured_steps"] >= 5
+    assert records.loc[("cobyqa", 40), "measured_steps"] == records.loc[("cobyqa", 40), "cycles_run"] == 40
+    assert records.loc[("cobyqa", 20), "measured_steps"] == 20 and records.loc[("cobyqa", 20), "model_steps"] == 0
+    ours = records.loc[("geogait", 40)]
+    assert 0 < ours["model_steps"] + ours["measured_steps"] < 40
+    assert ours["model_steps"] + ours["measured_steps"] >= records.loc[("geogait", 20), "model_steps"] + \
+        records.loc[("geogait", 20), "measured_steps"]
+    table = bench.benchmark_table(result, (20, 40))
+    assert "steps in 40 cycles: model · measured" in table
+    climb_row = next(line for line in table.splitlines() if line.startswith("| geogait-climb |"))
+    assert climb_row.endswith(f"| 0 · {records.loc[('geogait-climb', 40), 'measured_steps']:.0f} |")
+
+
+def test_the_motionless_model_predicts_no_motion_and_its_jacobian_has_the_gaits_shape():
+    gait = seed_gait(3)
+    model = bench._MotionlessModel()
+    np.testing.assert_array_equal(model.predict_displacement(gait), np.zeros(3))
+    pose, jacobian = model.predict_displacement(gait, jacobian=True)
+    assert jacobian.shape == (3, gait.params.size) and not jacobian.any() and not pose.any()

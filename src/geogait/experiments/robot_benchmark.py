@@ -8,6 +8,10 @@ robot run** — settling cycles included. Methods:
 * ``geogait`` — :class:`~geogait.optimize.InSituOptimizer` with its defaults (the case only declares
   what a user must: objective, joint limit, settling cycles); the robot explores with its own
   perturbation (eq. 8), which is how geogait learns;
+* ``geogait-climb`` — the same optimiser whose model predicts no motion (``_MotionlessModel``), so its
+  measured climb (COBYQA, or its trust-region Bayesian search where COBYQA's design is long), which runs first,
+  never hands the steps to the model: geogait's climb alone, everything else the same. Against ``geogait`` it
+  says what the model's steps add;
 * ``geogait-resistance`` — the same with :class:`~geogait.models.ResistanceModel` on the chain geometry the
   robot gives (``chain_geometry()``: the built-in and MuJoCo chains), SQP steps over a trust radius up to 0.5
   and the measured climb only when contradicted (:data:`RESISTANCE_OPTIONS`); ``geogait-hybrid`` the same with a
@@ -84,7 +88,7 @@ from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE, STRUCTURED_MODEL
 from .._files import write_text
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, Perturbation, SymmetricGaitFamily, seed_gait
-from ..models import BatchGaitModel, ResistanceModel
+from ..models import AdaptiveGaitModel, BatchGaitModel, ResistanceModel
 from ..optimize import InSituOptimizer, cached_ceiling, measure_cycle, robot_feasibility
 from ..optimize._search import onto_joint_limit
 from ..plotting import plt, save_figure
@@ -440,11 +444,18 @@ class _Family:
 
 # -- methods ------------------------------------------------------------------------------------
 class _Trace:
-    """The gait a method would hand over after each number of cycles used."""
+    """The gait a method would hand over after each number of cycles used, and the steps it took: ``steps`` lists
+    (cycles used when the step was decided, ``"model"`` or ``"measured"``)."""
 
     def __init__(self, robot: _CountingRobot, gait: FourierGait, period: float | None = None):
         self.robot = robot
         self.events = [(0, gait, period)]
+        self.steps = []
+
+    def step_counts(self, cycles: int) -> dict:
+        """Steps decided within the first ``cycles`` cycles: by the model and on measured outcomes."""
+        return {f"{kind}_steps": sum(1 for used, k in self.steps if k == kind and used <= cycles)
+                for kind in ("model", "measured")}
 
     def recommend(self, gait: FourierGait, period: float | None = None):
         self.events.append((self.robot.cycles, gait, period))
@@ -472,6 +483,7 @@ class _Objective:
         self.weight = 2 * abs(seed_value) / case.rotation_limit if held else 0.0
         self.region = robot_feasibility(robot, family.family.n_joints, family.family.order)
         self.worst, self.refused = seed_value, 0
+        self.runs = []  # cycles used after each candidate that ran
 
     def affordable(self) -> bool:
         return (self.robot.cycles + self.case.settle_cycles + 1 <= self.budget
@@ -487,6 +499,7 @@ class _Objective:
         rate = 1 / self.robot.cycle_period if period is not None else 1.0
         value = _value(self.case, net) * rate - self.weight * excess
         self.worst = min(self.worst, value)
+        self.runs.append(self.robot.cycles)
         return value
 
 
@@ -615,16 +628,31 @@ BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmae
              "gp-bayes": partial(_gp_bayes, tuned=False), "random": partial(_random, tuned=False)}
 #: Optional module each black-box method needs (``pip install 'geogait[baselines]'``).
 _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna", "ngopt": "nevergrad", "gp-bayes": "bayes_opt"}
-#: Method names: geogait (its default model, the resistance model on a chain whose geometry the robot gives, the
-#: prior work's batch model) and each black-box method free and held to the rotation limit.
-METHODS = ("geogait", "geogait-resistance", "geogait-hybrid", "geogait-batch",
+#: Method names: geogait (its default model, its measured climb alone, the resistance model on a chain whose geometry
+#: the robot gives, the prior work's batch model) and each black-box method free and held to the rotation limit.
+METHODS = ("geogait", "geogait-climb", "geogait-resistance", "geogait-hybrid", "geogait-batch",
            *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
 #: What geogait-resistance changes besides the model (``geogait.optimize.STRUCTURED_MODEL_STEPS``).
 RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
 
 
+class _MotionlessModel(AdaptiveGaitModel):
+    """An :class:`~geogait.models.AdaptiveGaitModel` that predicts no net motion for any gait.
+
+    The measured climb hands the steps back to the model once the model predicts the measured gains of three of
+    the climb's steps in a row; a model that predicts none never does, so with ``climb="first"`` every step of
+    the run is a climb step (``geogait-climb``: geogait's climb alone, everything else the same).
+    """
+
+    def predict_displacement(self, gait: FourierGait | None = None, *, jacobian: bool = False):
+        zero = np.zeros(3)
+        return (zero, np.zeros((3, gait.params.size))) if jacobian else zero
+
+
 def _variant_options(robot, variant: str) -> dict | None:
     """InSituOptimizer options of a geogait variant; None when the robot cannot run it (no chain geometry)."""
+    if variant == "climb":  # its measured climb from the first decision to the last, never a model step
+        return {"model": _MotionlessModel(), "climb": "first"}
     if variant == "batch":  # the prior work's loop (Bittner et al. 2018): a batch model, steps from it alone
         return {"model": BatchGaitModel(), "gate": "cycles", "climb": False, "revert_tolerance": None}
     if variant in ("resistance", "hybrid"):
@@ -685,6 +713,9 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: s
     trace.events += [(c, FourierGait.from_params(params[c], seed.n_joints),
                       None if fixed else float(log["cycle_period"].iloc[c])) for c in range(1, len(params)) if kept[c]]
     trace.events.append((budget, result.final_gait, None if fixed else result.cycle_period))
+    kinds = np.where(log["climb"].to_numpy(dtype=bool), "measured", "model")
+    changed = log["step"].to_numpy(dtype=bool) & ~log["period_change"].to_numpy(dtype=bool)  # (a period trial: neither)
+    trace.steps = [(c + 1, str(kinds[c])) for c in np.flatnonzero(changed)]
     return trace
 
 
@@ -705,6 +736,7 @@ def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value:
     objective = _Objective(case, robot, family, budget, held, seed_value)
     rng = np.random.default_rng(own)
     BLACK_BOX[method.removesuffix("-held")](objective, trace, rng)
+    trace.steps = [(used, "measured") for used in objective.runs]
     return trace, robot.cycles
 
 
@@ -732,7 +764,7 @@ def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds:
                          "objective": result["objective"], "rotation": result["rotation"],
                          "improvement": result["objective"] / seed_value - 1,
                          "ceiling_fraction": result["objective"] / ceiling_value if ceiling_value else np.nan,
-                         "score": result.get("score", np.nan)})
+                         "score": result.get("score", np.nan), **trace.step_counts(cycles)})
     return pd.DataFrame(rows)
 
 
@@ -835,8 +867,13 @@ def _summary(records: pd.DataFrame, budgets: Sequence[int]) -> pd.DataFrame:
     summary = grouped.agg(objective=("objective", "median"), q25=("objective", lambda v: v.quantile(0.25)),
                           q75=("objective", lambda v: v.quantile(0.75)), improvement=("improvement", "median"),
                           ceiling=("ceiling_fraction", "median"), rotation=("abs_rotation", "median"),
-                          score=("score", "median"), charged=("cycles_run", "max"), seeds=("seed", "nunique"))
+                          score=("score", "median"), charged=("cycles_run", "max"), seeds=("seed", "nunique"),
+                          **{c: (c, "median") for c in _STEP_COLUMNS if c in records})
     return summary.reset_index()
+
+
+#: Steps per method (a manifest from before they were counted has none).
+_STEP_COLUMNS = ("model_steps", "measured_steps")
 
 
 def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), method: str = "geogait") -> pd.DataFrame:
@@ -922,8 +959,9 @@ def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str
 
     Each cell is ``median share of the ceiling`` (or median improvement over the seed when no
     ceiling is known), the case's score where it has one, and the median |net rotation| per cycle
-    (rad) of those gaits; under each case's table, geogait against the best black-box method, paired by
-    seed (:func:`paired_comparison`).
+    (rad) of those gaits; the last column the median steps each method took within the last budget, from its model
+    and on measured outcomes (a black-box method's candidates; geogait's climb); under each case's table, geogait
+    against the best black-box method, paired by seed (:func:`paired_comparison`).
     """
     records = result["records"]
     if records.empty:
@@ -937,12 +975,14 @@ def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str
         has_ceiling = info["ceiling"] is not None
         has_score = info["score"] is not None
         unit = "share of ceiling" if has_ceiling else ("improvement over seed")
+        steps = all(c in block for c in _STEP_COLUMNS)
         lines += [f"**{case}** — {info['description']}; seed objective {info['seed']['objective']:.4g} per cycle"
                   + (f", ceiling {info['ceiling']['objective']:.4g}" if has_ceiling else "")
                   + (f", seed {info['score']} {info['seed']['score']:.1f}" if has_score else "") + ".", "",
                   "| method | " + " | ".join(f"{b} cycles: {unit}" + (f" · {info['score']}" if has_score else "")
-                                            + " · rotation" for b in budgets) + " |",
-                  "|---" * (len(budgets) + 1) + "|"]
+                                            + " · rotation" for b in budgets)
+                  + (f" | steps in {budgets[-1]} cycles: model · measured" if steps else "") + " |",
+                  "|---" * (len(budgets) + 1 + steps) + "|"]
         for method, rows in block.groupby("method", sort=False):
             cells = []
             for budget in budgets:
@@ -956,6 +996,10 @@ def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str
                 if has_score:
                     cell += f" · {row['score']:.1f}"
                 cells.append(cell + f" · {row['rotation']:.3f}")
+            if steps:
+                last = rows[rows["cycles"] == budgets[-1]]
+                cells.append("—" if last.empty else f"{last['model_steps'].iloc[0]:.0f} · "
+                             f"{last['measured_steps'].iloc[0]:.0f}")
             lines.append(f"| {method} | " + " | ".join(cells) + " |")
         lines.append("")
         lines += _paired_lines(comparison, case, has_ceiling)
@@ -1028,7 +1072,8 @@ def manifest(result: dict, command: str, wall_time: float) -> dict:
             "records": json.loads(records.to_json(orient="records")) if not records.empty else []}
 
 
-_NUMERIC = ("cycles", "cycles_run", "seconds", "objective", "rotation", "improvement", "ceiling_fraction", "score")
+_NUMERIC = ("cycles", "cycles_run", "seconds", "objective", "rotation", "improvement", "ceiling_fraction", "score",
+            "model_steps", "measured_steps")
 
 
 def _numeric(records: pd.DataFrame) -> pd.DataFrame:
