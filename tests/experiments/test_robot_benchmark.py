@@ -509,3 +509,53 @@ def test_the_motionless_model_predicts_no_motion_and_its_jacobian_has_the_gaits_
     np.testing.assert_array_equal(model.predict_displacement(gait), np.zeros(3))
     pose, jacobian = model.predict_displacement(gait, jacobian=True)
     assert jacobian.shape == (3, gait.params.size) and not jacobian.any() and not pose.any()
+
+
+def test_a_change_case_is_judged_after_the_change_on_the_changed_robot(monkeypatch):
+    """A change case runs its change cycle plus the budget; every gait is judged on the changed robot against its
+    ceiling, every 5 cycles; the table reports the shares after the change, the recovery and the offline error."""
+    from geogait.experiments.changes import swimmer_link_drag
+    from geogait.simulate import cycle_displacement
+    from geogait.systems import PurcellSwimmer
+
+    ends = ((1.0, 0.3), (1.0, 1.0), (1.0, 0.3))
+    case = bench._change_case(bench.CASES["swimmer3"], "swimmer3-ends", "ends lose drag", swimmer_link_drag(ends),
+                              at_cycle=10, ceiling=lambda: seed_gait(2, amplitude=1.0))
+    monkeypatch.setitem(bench.CASES, "swimmer3-ends", case)
+    result = bench.run_robot_benchmark(["swimmer3-ends"], ["cobyqa"], n_seeds=2, budget=10, progress=False)
+    records = result["records"]
+    assert sorted(set(records["cycles"])) == [0, 5, 10, 15, 20] and (records["cycles_run"] == 20).all()
+    exact = {scale: np.hypot(*cycle_displacement(PurcellSwimmer(3, link_drag_scale=scale), seed_gait(2))[:2])
+             for scale in (ends, None)}
+    assert result["cases"]["swimmer3-ends"]["seed"]["objective"] == pytest.approx(exact[ends], rel=0.03)
+    assert abs(exact[ends] - exact[None]) > 0.1 * exact[None]
+    seed = records[records["seed"] == 0].set_index("cycles")
+    assert seed.loc[0, "objective"] == pytest.approx(exact[ends], rel=0.03)  # the seed gait, judged changed
+    assert seed["offline_error"].iloc[0] == pytest.approx(1 - seed["ceiling_fraction"].loc[[15, 20]].mean())
+    table = bench.benchmark_table(result)
+    assert "| method | +10 | cycles to 90 % (seeds) | offline error | rotation at +10 |" in table
+    assert "the changed robot's ceiling" in table
+
+
+def test_recovery_and_offline_error_are_read_from_the_checkpoints_after_the_change():
+    rows = [{"cycles": c, "ceiling_fraction": v} for c, v in ((50, 1.0), (60, 0.95), (65, 0.2), (70, 0.6), (75, 0.92),
+                                                              (80, 0.97))]
+    assert bench.after_change(rows, 60) == {"offline_error": pytest.approx(1 - np.mean([0.2, 0.6, 0.92, 0.97])),
+                                            "recovery_cycles": 15.0}
+    never = bench.after_change(rows[:4], 60)
+    assert np.isnan(never["recovery_cycles"]) and never["offline_error"] == pytest.approx(0.6)
+
+
+def test_every_change_case_changes_its_robot_before_its_change_cycle():
+    """The change cases the benchmark lists: each one's robot is its base case's robot until the change cycle,
+    and is judged on the robot changed from the start."""
+    names = set(bench.CHANGE_CASES)
+    assert {"swimmer5-ends-drag", "swimmer5-head-drag", "mujoco-purcell5-damaged", "gymnasium-swimmer-weak-joint",
+            "elastica-snake-new-floor"} <= names
+    for name in bench.CHANGE_CASES:
+        case = bench.CASES[name]
+        if case.missing():
+            continue
+        robot = case.make_robot(None, explore=False, noise=False)
+        judged = case.judged_robot()
+        assert robot.at_cycle == bench.CHANGE_AT and judged.at_cycle == 0 and not robot.changed

@@ -164,7 +164,8 @@ class BenchmarkCase:
         enough for a body with momentum to reach the gait's steady speed, which one settling cycle after
         another gait (the methods' own measurements) need not be from rest.
     ceiling : callable, optional
-        ``() -> FourierGait``: the gait whose clean objective on this robot is the ceiling.
+        ``() -> FourierGait`` (or ``(gait, period)`` on a case with a ``period_range``): the gait whose clean
+        objective on this robot is the ceiling (of a change case: on the changed robot).
     score : callable, optional
         ``(gait) -> float``: the case's own judgement of a gait (e.g. an episode return).
     score_name : str
@@ -176,6 +177,15 @@ class BenchmarkCase:
         (shortest, longest) cycle period (s) every method may choose: the objective is then per
         second and the period a decision variable (geogait's ``optimize_period``; one more
         coordinate, r_max · log(T / T₀), for the black-box methods). None: the robot's period.
+    change_at : int, optional
+        A change case: the robot (``make_robot``, a :class:`~geogait.experiments.changes.ChangingRobot`) changes
+        before this cycle, unannounced; every gait is judged on ``make_changed_robot`` (the same robot changed
+        from its first cycle), against that robot's ceiling. Its runs last ``change_at`` + the benchmark's budget.
+    make_changed_robot : callable, optional
+        As ``make_robot``, the robot after the change (a change case's judge).
+    rotation_free_after_change : bool
+        Whether the case's rotation-free family stays rotation-free after the change (False: a change that
+        breaks the body's symmetry; the black-box methods then also run held to the rotation limit).
     """
 
     name: str
@@ -195,6 +205,9 @@ class BenchmarkCase:
     requires: tuple = field(default_factory=tuple)
     checkpoints: tuple | None = None
     period_range: tuple | None = None
+    change_at: int | None = None
+    make_changed_robot: Callable | None = None
+    rotation_free_after_change: bool = True
 
     def __post_init__(self):
         owner = f"BenchmarkCase {self.name!r}"
@@ -204,6 +217,16 @@ class BenchmarkCase:
         check_int(self.eval_cycles, "eval_cycles", owner, minimum=1)
         if self.eval_settle_cycles is not None:
             check_int(self.eval_settle_cycles, "eval_settle_cycles", owner, minimum=0)
+        if self.change_at is not None:
+            check_int(self.change_at, "change_at", owner, minimum=1)
+            if self.make_changed_robot is None:
+                raise fail("make_changed_robot", owner, "the changed robot's factory of a change case", None)
+
+    def judged_robot(self, seed=None, gait=None):
+        """A clean robot (no exploration, no sensor noise) on which gaits are judged: of a change case, the
+        changed one."""
+        make = self.make_robot if self.change_at is None else self.make_changed_robot
+        return make(seed, explore=False, noise=False, gait=gait)
 
     def missing(self) -> list[str]:
         """Optional modules this case needs that are not installed."""
@@ -327,8 +350,86 @@ def _cases() -> dict[str, BenchmarkCase]:
     return cases
 
 
+#: Cycle before which a change case's robot changes.
+CHANGE_AT = 60
+#: Drag multipliers (longitudinal, lateral) of the built-in 5-link swimmer's links, tail first: both end links lose
+#: 70 % of their lateral drag (front–back symmetry kept), or the head link alone does (symmetry broken).
+ENDS_DRAG = ((1.0, 0.3), (1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (1.0, 0.3))
+HEAD_DRAG = ((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (1.0, 0.3))
+#: The unequal MuJoCo chain's damaged link: its longest (the tail link, 0.3) loses 70 % of its lateral drag.
+DAMAGED_LINK, DAMAGED_LATERAL = 0, 0.3
+#: Gymnasium's swimmer's weakened joint: the first joint's gear (torque per control and largest torque) halved.
+WEAK_GEAR = 0.5
+#: The PyElastica snake's new floor: kinetic friction (forward, backward, lateral), lateral halved from (1, 1.5, 2).
+NEW_FLOOR = (1.0, 1.5, 1.0)
+#: Cycles of the long clean search whose held gait is a change case's ceiling where none is known.
+LONG_SEARCH_CYCLES = 300
+
+
+def _changing_robot(make_robot, change, at_cycle, seed, explore, noise, gait=None):
+    from .changes import ChangingRobot
+    return ChangingRobot(make_robot(seed, explore, noise, gait=gait), at_cycle, change)
+
+
+def _change_case(base: BenchmarkCase, name: str, description: str, change, at_cycle: int = CHANGE_AT,
+                 **fields) -> BenchmarkCase:
+    """``base`` whose robot changes by ``change`` before cycle ``at_cycle``."""
+    return dataclasses.replace(
+        base, name=name, description=f"{base.description}; {description} before cycle {at_cycle}",
+        make_robot=partial(_changing_robot, base.make_robot, change, at_cycle), change_at=at_cycle,
+        make_changed_robot=partial(_changing_robot, base.make_robot, change, 0), **fields)
+
+
+def _drag_ceiling(n_links: int, scale, family: str, link_lengths=None):
+    return cached_ceiling(PurcellSwimmer(n_links, link_lengths=link_lengths, link_drag_scale=scale),
+                          family=family).gait
+
+
+def long_search_ceiling(name: str, cycles: int = LONG_SEARCH_CYCLES) -> tuple:
+    """The ``(gait, period)`` that CMA-ES (σ₀ = r_max / 8, population 5, from the seed gait) holds after a long
+    clean search (no exploration, no sensor noise) of ``cycles`` cycles on case ``name``'s judged robot, in the
+    case's family: the reference of a case whose ceiling is not known otherwise."""
+    case = directed(CASES[name])
+    robot = _CountingRobot(case.judged_robot())
+    family = _Family(case, robot.gait, robot.cycle_period)
+    trace = _Trace(robot, family.gait(family.seed_params), family.period(family.seed_params))
+    objective = _Objective(case, robot, family, cycles, held=False, seed_value=0.0)
+    _cmaes(objective, trace, np.random.default_rng(0), tuned=True)
+    return trace.at(cycles)
+
+
+def _change_cases(cases: dict) -> dict:
+    from .changes import elastica_friction, mujoco_joint_gear, mujoco_link_drag, swimmer_link_drag
+
+    changed = [
+        _change_case(cases["swimmer5"], "swimmer5-ends-drag", "both end links lose 70 % of their lateral drag",
+                     swimmer_link_drag(ENDS_DRAG), ceiling=partial(_drag_ceiling, 5, ENDS_DRAG, "symmetric")),
+        _change_case(cases["swimmer5"], "swimmer5-head-drag", "the head link loses 70 % of its lateral drag "
+                     "(front–back symmetry broken; judged against the rotation-free ceiling of the free family)",
+                     swimmer_link_drag(HEAD_DRAG), ceiling=partial(_drag_ceiling, 5, HEAD_DRAG, "free"),
+                     rotation_free_after_change=False),
+        _change_case(cases["mujoco-purcell5-unequal"], "mujoco-purcell5-damaged",
+                     f"link {DAMAGED_LINK} loses {100 * (1 - DAMAGED_LATERAL):.0f} % of its lateral drag",
+                     mujoco_link_drag(DAMAGED_LINK, lateral=DAMAGED_LATERAL),
+                     ceiling=partial(_drag_ceiling, 5, tuple((1.0, DAMAGED_LATERAL if i == DAMAGED_LINK else 1.0)
+                                                            for i in range(5)), "free", UNEQUAL_LINKS)),
+        _change_case(cases["gymnasium-swimmer"], "gymnasium-swimmer-weak-joint",
+                     f"the first joint's gear falls to {100 * WEAK_GEAR:.0f} %",
+                     mujoco_joint_gear("motor1_rot", WEAK_GEAR),
+                     ceiling=partial(long_search_ceiling, "gymnasium-swimmer-weak-joint"), score=None, score_name=""),
+        _change_case(cases["elastica-snake"], "elastica-snake-new-floor",
+                     f"the ground's kinetic friction becomes {NEW_FLOOR} (lateral halved)",
+                     elastica_friction(NEW_FLOOR), ceiling=partial(long_search_ceiling, "elastica-snake-new-floor"),
+                     checkpoints=None),
+    ]
+    return {case.name: case for case in changed}
+
+
 #: Every case, by name.
 CASES = _cases()
+CASES.update(_change_cases(CASES))
+#: The change cases' names.
+CHANGE_CASES = tuple(name for name, case in CASES.items() if case.change_at is not None)
 
 
 def available_cases(names: Sequence[str]) -> tuple[list[str], dict[str, str]]:
@@ -386,7 +487,8 @@ def _eval_settle(case: BenchmarkCase) -> int:
 
 
 def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None = None) -> dict:
-    """A gait re-run clean (no exploration, no sensor noise) on a fresh robot of ``case``, from rest: its
+    """A gait re-run clean (no exploration, no sensor noise) on a fresh robot of ``case`` (of a change case: the
+    changed robot), from rest: its
     evaluation settling cycles (``eval_settle_cycles``), then ``eval_cycles`` measured ones.
 
     Returns
@@ -405,7 +507,7 @@ def evaluate_gait(case: BenchmarkCase, gait: FourierGait, period: float | None =
             raise fail("period", owner, f"None for case {case.name!r}, which runs at its robot's period", period)
         low, high = case.period_range
         check_float(period, "period", owner, low=low * (1 - 1e-6), high=high * (1 + 1e-6))
-    robot = case.make_robot(None, explore=False, noise=False, gait=gait)
+    robot = case.judged_robot(gait=gait)
     nets = _run_measured(robot, case, gait, case.eval_cycles, period, settle=_eval_settle(case))
     rate = 1 / robot.cycle_period if case.period_range is not None else 1.0
     result = {"objective": float(np.mean([_value(case, net) for net in nets])) * rate,
@@ -757,15 +859,60 @@ def benchmark_trials(trial_indices, seeds, *, case: str, methods: list, n_seeds:
         start = time.perf_counter()
         trace, used = _run_method(spec, method, children[seed_index], budget, seed_value, geogait_options)
         elapsed = time.perf_counter() - start
+        trial_rows = []
         for cycles in checkpoints:
             result = evaluate_gait(spec, *trace.at(cycles))
-            rows.append({"trial": int(trial), "case": case, "method": method, "seed": seed_index,
-                         "cycles": cycles, "cycles_run": used, "seconds": elapsed, "period": result["period"],
-                         "objective": result["objective"], "rotation": result["rotation"],
-                         "improvement": result["objective"] / seed_value - 1,
-                         "ceiling_fraction": result["objective"] / ceiling_value if ceiling_value else np.nan,
-                         "score": result.get("score", np.nan), **trace.step_counts(cycles)})
+            trial_rows.append({"trial": int(trial), "case": case, "method": method, "seed": seed_index,
+                               "cycles": cycles, "cycles_run": used, "seconds": elapsed, "period": result["period"],
+                               "objective": result["objective"], "rotation": result["rotation"],
+                               "improvement": result["objective"] / seed_value - 1,
+                               "ceiling_fraction": result["objective"] / ceiling_value if ceiling_value else np.nan,
+                               "score": result.get("score", np.nan), **trace.step_counts(cycles)})
+        if spec.change_at is not None:
+            recovery = after_change(trial_rows, spec.change_at)
+            for row in trial_rows:
+                row.update(recovery)
+        rows += trial_rows
     return pd.DataFrame(rows)
+
+
+#: Share of the post-change ceiling that counts as recovered.
+RECOVERED = 0.9
+
+
+def after_change(rows: Sequence[dict], change_at: int) -> dict:
+    """A change case's trial judged after the change, from its checkpoints past ``change_at`` (``cycles`` and
+    ``ceiling_fraction``: the held gait's share of the changed robot's ceiling).
+
+    Returns
+    -------
+    dict
+        ``offline_error``: the mean shortfall 1 − share of the held gait over those checkpoints (the moving-peaks
+        benchmarks' offline error, sampled at the checkpoints; negative where a gait beats the ceiling), and
+        ``recovery_cycles``: cycles after the change to the first checkpoint holding :data:`RECOVERED` of the
+        ceiling (NaN: never within the run).
+    """
+    after = sorted((row["cycles"], row["ceiling_fraction"]) for row in rows if row["cycles"] > change_at)
+    shares = np.array([share for _, share in after], dtype=float)
+    reached = [cycles - change_at for cycles, share in after if share >= RECOVERED]
+    return {"offline_error": float(np.mean(1 - shares)) if shares.size else np.nan,
+            "recovery_cycles": float(reached[0]) if reached else np.nan}
+
+
+#: Cycles between a change case's checkpoints.
+CHANGE_GRID = 5
+#: Cycles after the change at which a change case's table reports the held gaits.
+SINCE_CHANGE = (10, 30, 60, 100)
+
+
+def _case_schedule(case: BenchmarkCase, budget: int, checkpoints: Sequence[int]) -> tuple[int, list]:
+    """A case's cycles and checkpoints: a change case runs ``change_at`` + ``budget`` cycles, judged every
+    :data:`CHANGE_GRID` cycles (and at :data:`SINCE_CHANGE` after the change)."""
+    if case.change_at is None:
+        return budget, [c for c in (case.checkpoints or checkpoints) if c <= budget] or [budget]
+    total = case.change_at + budget
+    grid = {*range(0, total + 1, CHANGE_GRID), *(case.change_at + c for c in SINCE_CHANGE if c <= budget), total}
+    return total, sorted(grid)
 
 
 def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, *, n_seeds: int = 8,
@@ -783,7 +930,7 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         Names in :data:`METHODS`.
     n_seeds : int
     budget : int
-        Cycles each method may make the robot run.
+        Cycles each method may make the robot run (on a change case: after the change).
     checkpoints : sequence of int, optional
         Cycles used at which each method's gait is evaluated clean; default every 10 up to the
         budget and 30, 60 (those within it).
@@ -829,7 +976,8 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         case = directed(CASES[name])
         # the built-in swimmers are principally kinematic: in their symmetric family nothing turns, and the held
         # variants would repeat the free runs exactly (a body with inertia may settle slowly, or not symmetrically)
-        case_methods = [m for m in methods if not (case.family == "symmetric" and m.endswith("-held"))]
+        case_methods = [m for m in methods if not (case.family == "symmetric" and case.rotation_free_after_change
+                                                   and m.endswith("-held"))]
         probe = case.make_robot(None, explore=False, noise=False)
         for method in ("geogait-resistance", "geogait-hybrid"):
             if method in case_methods and _variant_options(probe, "resistance") is None:
@@ -837,15 +985,18 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
                 case_methods.remove(method)
         seed_gait_ = probe.gait
         seed_result = evaluate_gait(case, seed_gait_)
-        ceiling = evaluate_gait(case, case.ceiling()) if case.ceiling is not None else None
+        ceiling = None
+        if case.ceiling is not None:
+            reference = case.ceiling()
+            ceiling = evaluate_gait(case, *(reference if isinstance(reference, tuple) else (reference,)))
         described[name] = {"description": case.description, "objective": case.objective,
                            "seed": seed_result, "ceiling": ceiling, "settle_cycles": case.settle_cycles,
                            "eval_settle_cycles": _eval_settle(case), "eval_cycles": case.eval_cycles,
                            "max_joint_angle": case.max_joint_angle, "rotation_limit": case.rotation_limit,
                            "family": case.family, "score": case.score_name or None,
-                           "direction": list(case.direction)}
-        case_checkpoints = [c for c in (case.checkpoints or checkpoints) if c <= budget] or [budget]
-        config = {"case": name, "methods": case_methods, "n_seeds": n_seeds, "root_seed": seed, "budget": budget,
+                           "direction": list(case.direction), "change_at": case.change_at}
+        case_budget, case_checkpoints = _case_schedule(case, budget, checkpoints)
+        config = {"case": name, "methods": case_methods, "n_seeds": n_seeds, "root_seed": seed, "budget": case_budget,
                   "checkpoints": case_checkpoints, "seed_value": seed_result["objective"],
                   "ceiling_value": None if ceiling is None else ceiling["objective"],
                   "direction": list(case.direction), "geogait_options": geogait_options}
@@ -902,7 +1053,8 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
     if records.empty:
         return pd.DataFrame(rows)
     black_box = {f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")}
-    summary = _summary(records, [b for b in budgets if b in set(records["cycles"])])
+    summary = pd.concat([_summary(records[records["case"] == case], _judged_cycles(result["cases"][case], budgets))
+                         for case in dict.fromkeys(records["case"])], ignore_index=True)
     for (case, cycles), block in summary.groupby(["case", "cycles"], sort=False):
         info = result["cases"][case]
         # the summary's median column, and the per-seed column it is the median of
@@ -937,19 +1089,33 @@ def paired_test(ours: pd.Series, theirs: pd.Series) -> dict:
             "p_value": float(wilcoxon(nonzero).pvalue) if nonzero.size else 1.0}
 
 
-def _paired_lines(comparison: pd.DataFrame, case: str, has_ceiling: bool) -> list:
+def _judged_cycles(info: dict, budgets: Sequence[int]) -> list:
+    """The checkpoints a case is compared at: ``budgets``, or of a change case :data:`SINCE_CHANGE` after it."""
+    change_at = info.get("change_at")
+    return list(budgets) if change_at is None else [change_at + c for c in SINCE_CHANGE]
+
+
+def _cycles_label(info: dict, cycles) -> str:
+    change_at = info.get("change_at")
+    return f"{cycles:.0f}" if change_at is None else f"+{cycles - change_at:.0f}"
+
+
+def _paired_lines(comparison: pd.DataFrame, case: str, info: dict) -> list:
     rows = comparison[comparison["case"] == case] if not comparison.empty else comparison
     if rows.empty:
         return []
+    has_ceiling = info["ceiling"] is not None
     unit = "pt" if has_ceiling else "pt of the seed"
     share = (lambda v: f"{100 * v:.1f} %") if has_ceiling else (lambda v: f"{100 * v:+.1f} %")
     method = rows["method"].iloc[0]
+    cycles = "cycles" if info.get("change_at") is None else "cycles after the change"
     lines = [f"{method} against the best black-box method whose median gait keeps the rotation limit, paired by "
-             "seed:", "", f"| cycles | best black-box (median) | {method} ahead in | median paired difference | "
+             "seed:", "", f"| {cycles} | best black-box (median) | {method} ahead in | median paired difference | "
              "Wilcoxon p |",
              "|---|---|---|---|---|"]
     for row in rows.itertuples():
-        lines.append(f"| {row.cycles} | {row.rival} ({share(row.rival_median)}) | {row.ahead} of {row.seeds} | "
+        lines.append(f"| {_cycles_label(info, row.cycles)} | {row.rival} ({share(row.rival_median)}) | "
+                     f"{row.ahead} of {row.seeds} | "
                      f"{100 * row.median_difference:+.1f} {unit} | {row.p_value:.2g} |")
     return lines + [""]
 
@@ -966,49 +1132,95 @@ def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str
     records = result["records"]
     if records.empty:
         return "No case ran.\n"
-    budgets = [b for b in budgets if b in set(records["cycles"])]
-    summary = _summary(records, budgets)
     comparison = paired_comparison(result, budgets)
     lines = []
-    for case, block in summary.groupby("case", sort=False):
+    for case in dict.fromkeys(records["case"]):
         info = result["cases"][case]
-        has_ceiling = info["ceiling"] is not None
-        has_score = info["score"] is not None
-        unit = "share of ceiling" if has_ceiling else ("improvement over seed")
-        steps = all(c in block for c in _STEP_COLUMNS)
-        lines += [f"**{case}** — {info['description']}; seed objective {info['seed']['objective']:.4g} per cycle"
-                  + (f", ceiling {info['ceiling']['objective']:.4g}" if has_ceiling else "")
-                  + (f", seed {info['score']} {info['seed']['score']:.1f}" if has_score else "") + ".", "",
-                  "| method | " + " | ".join(f"{b} cycles: {unit}" + (f" · {info['score']}" if has_score else "")
-                                            + " · rotation" for b in budgets)
-                  + (f" | steps in {budgets[-1]} cycles: model · measured" if steps else "") + " |",
-                  "|---" * (len(budgets) + 1 + steps) + "|"]
-        for method, rows in block.groupby("method", sort=False):
-            cells = []
-            for budget in budgets:
-                row = rows[rows["cycles"] == budget]
-                if row.empty:
-                    cells.append("—")
-                    continue
-                row = row.iloc[0]
-                value = row["ceiling"] if has_ceiling else row["improvement"]
-                cell = f"{100 * value:.1f} %" if has_ceiling else f"{100 * value:+.1f} %"
-                if has_score:
-                    cell += f" · {row['score']:.1f}"
-                cells.append(cell + f" · {row['rotation']:.3f}")
-            if steps:
-                last = rows[rows["cycles"] == budgets[-1]]
-                cells.append("—" if last.empty else f"{last['model_steps'].iloc[0]:.0f} · "
-                             f"{last['measured_steps'].iloc[0]:.0f}")
-            lines.append(f"| {method} | " + " | ".join(cells) + " |")
-        lines.append("")
-        lines += _paired_lines(comparison, case, has_ceiling)
+        lines += _change_lines(result, case) if info.get("change_at") is not None else \
+            _stationary_lines(result, case, budgets)
+        lines += _paired_lines(comparison, case, info)
     return "\n".join(lines)
+
+
+def _stationary_lines(result: dict, case: str, budgets: Sequence[int]) -> list:
+    records = result["records"][result["records"]["case"] == case]
+    budgets = [b for b in budgets if b in set(records["cycles"])]
+    block = _summary(records, budgets)
+    info = result["cases"][case]
+    has_ceiling = info["ceiling"] is not None
+    has_score = info["score"] is not None
+    unit = "share of ceiling" if has_ceiling else ("improvement over seed")
+    steps = all(c in block for c in _STEP_COLUMNS)
+    lines = [f"**{case}** — {info['description']}; seed objective {info['seed']['objective']:.4g} per cycle"
+              + (f", ceiling {info['ceiling']['objective']:.4g}" if has_ceiling else "")
+              + (f", seed {info['score']} {info['seed']['score']:.1f}" if has_score else "") + ".", "",
+              "| method | " + " | ".join(f"{b} cycles: {unit}" + (f" · {info['score']}" if has_score else "")
+                                        + " · rotation" for b in budgets)
+              + (f" | steps in {budgets[-1]} cycles: model · measured" if steps else "") + " |",
+              "|---" * (len(budgets) + 1 + steps) + "|"]
+    for method, rows in block.groupby("method", sort=False):
+        cells = []
+        for budget in budgets:
+            row = rows[rows["cycles"] == budget]
+            if row.empty:
+                cells.append("—")
+                continue
+            row = row.iloc[0]
+            value = row["ceiling"] if has_ceiling else row["improvement"]
+            cell = f"{100 * value:.1f} %" if has_ceiling else f"{100 * value:+.1f} %"
+            if has_score:
+                cell += f" · {row['score']:.1f}"
+            cells.append(cell + f" · {row['rotation']:.3f}")
+        if steps:
+            last = rows[rows["cycles"] == budgets[-1]]
+            cells.append("—" if last.empty else f"{last['model_steps'].iloc[0]:.0f} · "
+                         f"{last['measured_steps'].iloc[0]:.0f}")
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    lines.append("")
+    return lines
+
+
+def _change_lines(result: dict, case: str) -> list:
+    """A change case's table: per method, the held gait's median share of the changed robot's ceiling at
+    :data:`SINCE_CHANGE` cycles after the change, the cycles to :data:`RECOVERED` of it, the offline error,
+    the rotation at the end and the steps taken after the change."""
+    records = result["records"][result["records"]["case"] == case]
+    info, change_at = result["cases"][case], result["cases"][case]["change_at"]
+    end = int(records["cycles"].max())
+    since = [c for c in SINCE_CHANGE if change_at + c <= end]
+    lines = [f"**{case}** — {info['description']}; the changed robot's ceiling {info['ceiling']['objective']:.4g} "
+             f"per cycle, the seed's {info['seed']['objective']:.4g}.", "",
+             "| method | " + " | ".join(f"+{c}" for c in since) + f" | cycles to {100 * RECOVERED:.0f} % (seeds) | "
+             f"offline error | rotation at +{end - change_at} | steps after the change: model · measured |",
+             "|---" * (len(since) + 5) + "|"]
+    for method, rows in records.groupby("method", sort=False):
+        seeds = rows.groupby("seed")
+        share = rows.groupby("cycles")["ceiling_fraction"].median()
+        recovery = seeds["recovery_cycles"].first().fillna(np.inf)
+        reached = int(np.isfinite(recovery).sum())
+        median = float(np.median(recovery))
+        steps = {kind: float(np.median(seeds.apply(lambda r, k=kind: _steps_between(r, k, change_at, end))))
+                 for kind in _STEP_COLUMNS}
+        cells = [f"{100 * share.get(change_at + c, np.nan):.1f} %" for c in since]
+        recovered = f"{median:.0f}" if np.isfinite(median) else f"> {end - change_at}"
+        cells += [f"{recovered} ({reached} of {len(recovery)})",
+                  f"{100 * seeds['offline_error'].first().median():.1f} %",
+                  f"{rows.loc[rows['cycles'] == end, 'rotation'].abs().median():.3f}",
+                  f"{steps['model_steps']:.0f} · {steps['measured_steps']:.0f}"]
+        lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    return lines + ["", "Shares of the changed robot's ceiling; the offline error is the mean shortfall of the held "
+                    f"gait from it over the checkpoints after the change (every {CHANGE_GRID} cycles).", ""]
+
+
+def _steps_between(rows: pd.DataFrame, column: str, start: int, end: int) -> float:
+    counts = rows.set_index("cycles")[column]
+    return float(counts.get(end, np.nan) - counts.get(start, np.nan))
 
 
 def plot_benchmark(result: dict, path) -> Path:
     """Clean objective of each method's gait against cycles used: median and interquartile band per
-    method, one panel per case (share of the ceiling where known, else relative to the seed).
+    method, one panel per case (share of the ceiling where known, else relative to the seed; a change case's
+    gaits judged on the changed robot, the change marked).
 
     One colour per method; geogait solid, black-box methods dotted when free and dashed when held to
     the rotation limit.
@@ -1039,9 +1251,15 @@ def plot_benchmark(result: dict, path) -> Path:
             ax.fill_between(median.index, q25.to_numpy(), q75.to_numpy(), color=colour, alpha=0.1)
             handles.setdefault(method, line)
         ax.axhline(1.0 if has_ceiling else 0.0, color="0.3", lw=0.8)
+        change_at = result["cases"][case].get("change_at")
+        if change_at is not None:
+            ax.axvline(change_at, color="crimson", lw=1.0, ls="-.")
+            ax.annotate("change", (change_at, 1.0), xytext=(3, -12), textcoords="offset points", color="crimson",
+                        fontsize=8, xycoords=("data", "axes fraction"))
         ax.set_title(case, fontsize=10)
         ax.set_xlabel("cycles used (all charged)")
-        ax.set_ylabel("share of the ceiling" if has_ceiling else "improvement over the seed")
+        ax.set_ylabel(("share of the changed robot's ceiling" if change_at is not None else "share of the ceiling")
+                      if has_ceiling else "improvement over the seed")
         ax.grid(alpha=0.3)
     for ax in axes[len(names):]:
         ax.axis("off")
@@ -1073,7 +1291,7 @@ def manifest(result: dict, command: str, wall_time: float) -> dict:
 
 
 _NUMERIC = ("cycles", "cycles_run", "seconds", "objective", "rotation", "improvement", "ceiling_fraction", "score",
-            "model_steps", "measured_steps")
+            "model_steps", "measured_steps", "offline_error", "recovery_cycles")
 
 
 def _numeric(records: pd.DataFrame) -> pd.DataFrame:
