@@ -559,3 +559,45 @@ def test_every_change_case_changes_its_robot_before_its_change_cycle():
         robot = case.make_robot(None, explore=False, noise=False)
         judged = case.judged_robot()
         assert robot.at_cycle == bench.CHANGE_AT and judged.at_cycle == 0 and not robot.changed
+
+
+def test_detect_and_restart_restarts_from_the_held_gait_when_two_cycles_fall_beyond_noise():
+    """Every tenth candidate, the held gait runs two measured cycles; both below the record (the best pair's
+    mean) by more than 3 pooled standard deviations of a cycle restart the method from that gait; a pair within
+    the noise does not, and the first pair (no noise known yet) never does."""
+    case = bench.CASES["swimmer3"]
+    family = bench._Family(case, seed_gait(2), 1.0)
+
+    class Scripted:
+        def __init__(self, pairs):
+            self.pairs, self.case, self.budget = list(pairs), case, 1000
+            self.robot = type("R", (), {"cycles": 0})()
+
+        def measure(self, gait, period, n):
+            assert n == 2
+            return np.array(self.pairs.pop(0))
+
+    trace = bench._Trace(type("R", (), {"cycles": 0})(), family.gait(family.seed_params * 0.9))
+    watch = bench._Watch(trace, family)
+    objective = Scripted([(1.0, 1.2), (1.1, 0.9), (1.0, 0.95), (0.5, 0.6)])  # σ ≈ 0.12: 0.5 and 0.6 beyond 3σ
+    for _ in range(39):
+        watch.before_candidate(objective)
+    assert len(watch.pairs) == 3 and watch.record == pytest.approx(1.1) and not trace.restarts
+    with pytest.raises(bench._Restart) as restart:
+        watch.before_candidate(objective)
+    np.testing.assert_allclose(restart.value.params, family.seed_params * 0.9)
+    assert watch.record == -np.inf and trace.restarts == [0]
+
+
+def test_a_restart_variant_restarts_after_the_change_and_runs_within_the_budget():
+    """COBYQA converges before the change; its held gait falls with the change and it restarts, charged for its
+    checks within the budget."""
+    from geogait.experiments.changes import swimmer_link_drag
+
+    ends = ((1.0, 0.3), (1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (1.0, 0.3))
+    case = bench._change_case(bench.CASES["swimmer5"], "swimmer5-ends-soon", "ends lose drag",
+                              swimmer_link_drag(ends), at_cycle=40)
+    child = np.random.SeedSequence(0).spawn(1)[0]
+    trace, used = bench._run_method(case, "cobyqa-restart", child, 80, seed_value=0.08)
+    assert used <= 80 and trace.restarts and min(trace.restarts) > 40
+    assert "cobyqa-restart" in bench.METHODS and "cmaes-tuned-restart" in bench.METHODS

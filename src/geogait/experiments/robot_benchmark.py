@@ -63,6 +63,18 @@ ahead, the median of the paired differences and the two-sided Wilcoxon signed-ra
 dropped). Medians over seeds can flip on a difference no larger than the seeds' spread; the paired test says
 whether a gap is one.
 
+**Change cases** (:data:`CHANGE_CASES`): the robot changes before cycle :data:`CHANGE_AT`, unannounced
+(:class:`~geogait.experiments.changes.ChangingRobot`); a run lasts that many cycles plus the budget, and every
+gait is judged every :data:`CHANGE_GRID` cycles on the changed robot, against its ceiling (or, where none is
+known, the gait :func:`long_search_ceiling` holds). Reported after the change: the held gait's share at
+:data:`SINCE_CHANGE` cycles, the cycles to :data:`RECOVERED` of the ceiling and the offline error
+(:func:`after_change`).
+A black-box method that holds its best candidate never measures again and cannot see a change; each also runs with
+**detect-and-restart** (``-restart``, change cases only; :class:`_Watch`): every 10th candidate its held gait runs
+two measured cycles, and when both fall below its record (the best such pair's mean since it last started) by more
+than 3 pooled standard deviations of a cycle, it restarts from that gait. ``cmaes`` itself never stops (no
+tolerance ends it): it runs on continuously, sampling around its mean.
+
 Seeds are paired: trial ``s`` of every method drives a robot seeded with ``SeedSequence(seed).spawn(n_seeds)[s]``
 (same perturbation stream, same sensor noise); a black-box method's own random numbers come from the same child.
 """
@@ -536,6 +548,13 @@ class _Family:
         """The gait of ``params``, scaled back onto the joint limit when beyond it."""
         return onto_joint_limit(self.family, np.asarray(params, dtype=float)[:self.family.n_params], self.r_max)
 
+    def params(self, gait: FourierGait, period: float | None) -> np.ndarray:
+        """The parameters of a gait of the family (and its period): the inverse of :meth:`gait` and :meth:`period`."""
+        params = self.family.params_of(gait, tolerance=1e-8)
+        if self.period_range is None:
+            return params
+        return np.append(params, self.r_max * np.log(period / self.seed_period))
+
     def period(self, params) -> float | None:
         """The period of ``params`` (None for a case at the robot's period), clipped to its range."""
         if self.period_range is None:
@@ -552,12 +571,13 @@ class _Trace:
     def __init__(self, robot: _CountingRobot, gait: FourierGait, period: float | None = None):
         self.robot = robot
         self.events = [(0, gait, period)]
-        self.steps = []
+        self.steps, self.restarts = [], []
 
     def step_counts(self, cycles: int) -> dict:
         """Steps decided within the first ``cycles`` cycles: by the model and on measured outcomes."""
-        return {f"{kind}_steps": sum(1 for used, k in self.steps if k == kind and used <= cycles)
-                for kind in ("model", "measured")}
+        counts = {f"{kind}_steps": sum(1 for used, k in self.steps if k == kind and used <= cycles)
+                  for kind in ("model", "measured")}
+        return {**counts, "restarts": sum(1 for used in self.restarts if used <= cycles)}
 
     def recommend(self, gait: FourierGait, period: float | None = None):
         self.events.append((self.robot.cycles, gait, period))
@@ -580,8 +600,8 @@ class _Objective:
     MAX_REFUSALS_PER_CYCLE = 20
 
     def __init__(self, case: BenchmarkCase, robot: _CountingRobot, family: _Family, budget: int,
-                 held: bool, seed_value: float):
-        self.case, self.robot, self.family, self.budget = case, robot, family, budget
+                 held: bool, seed_value: float, watch: _Watch | None = None):
+        self.case, self.robot, self.family, self.budget, self.watch = case, robot, family, budget, watch
         self.weight = 2 * abs(seed_value) / case.rotation_limit if held else 0.0
         self.region = robot_feasibility(robot, family.family.n_joints, family.family.order)
         self.worst, self.refused = seed_value, 0
@@ -596,18 +616,67 @@ class _Objective:
         if self.region is not None and self.region(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
             self.refused += 1
             return self.worst
-        net = _run_measured(self.robot, self.case, gait, 1, period)[0]
-        excess = max(0.0, abs(net[2]) - self.case.rotation_limit)
-        rate = 1 / self.robot.cycle_period if period is not None else 1.0
-        value = _value(self.case, net) * rate - self.weight * excess
+        if self.watch is not None:
+            self.watch.before_candidate(self)
+        value = self.measure(gait, period, 1)[0]
         self.worst = min(self.worst, value)
         self.runs.append(self.robot.cycles)
         return value
 
+    def measure(self, gait: FourierGait, period: float | None, n_measured: int) -> np.ndarray:
+        """The (penalised) value of each of ``n_measured`` cycles of ``gait`` after the settling ones."""
+        nets = _run_measured(self.robot, self.case, gait, n_measured, period)
+        excess = np.maximum(0.0, np.abs(nets[:, 2]) - self.case.rotation_limit)
+        rate = 1 / self.robot.cycle_period if period is not None else 1.0
+        return np.array([_value(self.case, net) for net in nets]) * rate - self.weight * excess
+
+
+class _Spent(Exception):
+    """The budget cannot pay for another candidate."""
+
+
+class _Restart(Exception):
+    """A black-box method's held gait has fallen (:class:`_Watch`): the method starts afresh from ``params``."""
+
+    def __init__(self, params: np.ndarray):
+        super().__init__()
+        self.params = params
+
+
+class _Watch:
+    """Detect-and-restart of a black-box method (its ``-restart`` variant).
+
+    Before every ``RECHECK``-th candidate, the gait the method holds runs two measured cycles (after the case's
+    settling ones, charged as any). When both fall below its record — the best mean of such a pair since the
+    method last started — by more than ``NOISE`` standard deviations of a cycle's value (pooled over every pair
+    measured, σ² = mean((a − b)²) / 2; from the second pair on), the method restarts from the gait it holds.
+    """
+
+    RECHECK, NOISE = 10, 3.0
+
+    def __init__(self, trace: _Trace, family: _Family):
+        self.trace, self.family = trace, family
+        self.candidates, self.record, self.pairs = 0, -np.inf, []
+
+    def before_candidate(self, objective: _Objective) -> None:
+        self.candidates += 1
+        settle = objective.case.settle_cycles
+        if self.candidates % self.RECHECK or objective.robot.cycles + (settle + 2) + (settle + 1) > objective.budget:
+            return  # (not its turn, or no room for the pair and the candidate after it)
+        gait, period = self.trace.events[-1][1:]
+        pair = objective.measure(gait, period, 2)
+        self.pairs.append(pair)
+        noise = np.sqrt(np.mean([(a - b) ** 2 for a, b in self.pairs]) / 2) if len(self.pairs) >= 2 else np.nan
+        if np.isfinite(noise) and pair.max() < self.record - self.NOISE * noise:
+            self.record = -np.inf
+            self.trace.restarts.append(objective.robot.cycles)
+            raise _Restart(self.family.params(gait, period))
+        self.record = max(self.record, float(pair.mean()))
 
 
 
-def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):
+
+def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool, start=None):
     import cma
     family = objective.family
     options = {"seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9, "tolfun": 0, "tolx": 0,
@@ -615,7 +684,7 @@ def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):
     if tuned:
         options["popsize"] = 5
     sigma = family.r_max / (8 if tuned else 3)
-    strategy = cma.CMAEvolutionStrategy(family.seed_params, sigma, options)
+    strategy = cma.CMAEvolutionStrategy(family.seed_params if start is None else start, sigma, options)
     while objective.affordable():
         candidates = strategy.ask()
         values = []
@@ -627,11 +696,11 @@ def _cmaes(objective: _Objective, trace: _Trace, rng, tuned: bool):
         trace.recommend(family.gait(strategy.mean), family.period(strategy.mean))
 
 
-def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
+def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool, start=None):
     import optuna
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     family = objective.family
-    seed = family.seed_params
+    seed = family.seed_params if start is None else start
     half = family.r_max / 2 if tuned else family.r_max
     low, high = (seed - half, seed + half) if tuned else (np.full(seed.size, -half), np.full(seed.size, half))
     distributions = {f"p{i}": optuna.distributions.FloatDistribution(float(lo), float(hi))
@@ -639,8 +708,9 @@ def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
     options = {"multivariate": True, "n_startup_trials": 5} if tuned else {}
     sampler = optuna.samplers.TPESampler(seed=int(rng.integers(2**31 - 1)), **options)
     study = optuna.create_study(direction="maximize", sampler=sampler)
-    if tuned:
-        study.enqueue_trial({f"p{i}": float(v) for i, v in enumerate(seed)})
+    if tuned or start is not None:  # (a restart: from the gait it held, clipped into the box)
+        study.enqueue_trial({f"p{i}": float(np.clip(v, lo, hi)) for i, (v, lo, hi) in enumerate(zip(seed, low, high,
+                                                                                                      strict=True))})
     best = -np.inf
     while objective.affordable():
         trial = study.ask(distributions)
@@ -652,38 +722,48 @@ def _tpe(objective: _Objective, trace: _Trace, rng, tuned: bool):
             trace.recommend(family.gait(params), family.period(params))
 
 
-def _cobyqa(objective: _Objective, trace: _Trace, rng, tuned: bool):
+def _cobyqa(objective: _Objective, trace: _Trace, rng, tuned: bool, start=None):
     from scipy.optimize import minimize
     family = objective.family
     best = [-np.inf]
 
     def loss(params):
+        if not objective.affordable():  # (detect-and-restart's pairs took cycles its maxfev counted on)
+            raise _Spent
         value = objective(params)
         if value > best[0]:
             best[0] = value
             trace.recommend(family.gait(params), family.period(params))
         return -value
 
-    start = family.seed_params
+    start = family.seed_params if start is None else start
     while objective.affordable():  # (afresh from the best candidate if it converges within the budget)
         left = (objective.budget - objective.robot.cycles) // (objective.case.settle_cycles + 1)
-        result = minimize(loss, start, method="COBYQA",
-                          options={"initial_tr_radius": family.r_max / 8, "final_tr_radius": 1e-3 * family.r_max,
-                                   "maxfev": max(left, 1)})
+        try:
+            result = minimize(loss, start, method="COBYQA",
+                              options={"initial_tr_radius": family.r_max / 8, "final_tr_radius": 1e-3 * family.r_max,
+                                       "maxfev": max(left, 1)})
+        except _Spent:
+            return
         start = result.x
 
 
-def _ngopt(objective: _Objective, trace: _Trace, rng, tuned: bool):
+def _ngopt(objective: _Objective, trace: _Trace, rng, tuned: bool, start=None):
     import nevergrad as ng
     with warnings.catch_warnings():  # the portfolio's members warn about settings of their own (bounds, COBYLA's ρ)
         warnings.simplefilter("ignore")
-        _ngopt_loop(ng, objective, trace, rng)
+        _ngopt_loop(ng, objective, trace, rng, _box_start(objective.family, start))
 
 
-def _ngopt_loop(ng, objective: _Objective, trace: _Trace, rng):
+def _box_start(family: _Family, start) -> np.ndarray:
+    """A method's first point: the seed's parameters, or a restart's, clipped into the box [−r_max, r_max]ⁿ."""
+    return np.clip(family.seed_params if start is None else start, -family.r_max, family.r_max)
+
+
+def _ngopt_loop(ng, objective: _Objective, trace: _Trace, rng, start: np.ndarray):
     family = objective.family
     box = family.r_max
-    parametrization = ng.p.Array(init=np.clip(family.seed_params, -box, box)).set_bounds(-box, box)
+    parametrization = ng.p.Array(init=start).set_bounds(-box, box)
     parametrization.random_state = np.random.RandomState(int(rng.integers(2**31 - 1)))
     evaluations = max(objective.budget // (objective.case.settle_cycles + 1), 1)
     optimizer = ng.optimizers.NGOpt(parametrization=parametrization, budget=evaluations, num_workers=1)
@@ -694,7 +774,7 @@ def _ngopt_loop(ng, objective: _Objective, trace: _Trace, rng):
         trace.recommend(family.gait(held), family.period(held))
 
 
-def _gp_bayes(objective: _Objective, trace: _Trace, rng, tuned: bool):
+def _gp_bayes(objective: _Objective, trace: _Trace, rng, tuned: bool, start=None):
     from bayes_opt import BayesianOptimization, UtilityFunction
     family = objective.family
     names = [f"p{i}" for i in range(family.seed_params.size)]
@@ -702,7 +782,7 @@ def _gp_bayes(objective: _Objective, trace: _Trace, rng, tuned: bool):
     optimizer = BayesianOptimization(f=None, pbounds=bounds, random_state=int(rng.integers(2**31 - 1)), verbose=0,
                                      allow_duplicate_points=True)
     utility = UtilityFunction(kind="ucb", kappa=2.576, xi=0.0)
-    params, best = np.clip(family.seed_params, -family.r_max, family.r_max), -np.inf
+    params, best = _box_start(family, start), -np.inf
     while objective.affordable():
         value = objective(params)
         optimizer.register(params=dict(zip(names, params, strict=True)), target=value)
@@ -713,9 +793,9 @@ def _gp_bayes(objective: _Objective, trace: _Trace, rng, tuned: bool):
         params = np.array([suggested[name] for name in names])
 
 
-def _random(objective: _Objective, trace: _Trace, rng, tuned: bool):
+def _random(objective: _Objective, trace: _Trace, rng, tuned: bool, start=None):
     family = objective.family
-    best, params = -np.inf, family.seed_params
+    best, params = -np.inf, family.seed_params if start is None else start
     while objective.affordable():
         value = objective(params)
         if value > best:
@@ -731,9 +811,11 @@ BLACK_BOX = {"cmaes": partial(_cmaes, tuned=False), "cmaes-tuned": partial(_cmae
 #: Optional module each black-box method needs (``pip install 'geogait[baselines]'``).
 _METHOD_REQUIRES = {"cmaes": "cma", "tpe": "optuna", "ngopt": "nevergrad", "gp-bayes": "bayes_opt"}
 #: Method names: geogait (its default model, its measured climb alone, the resistance model on a chain whose geometry
-#: the robot gives, the prior work's batch model) and each black-box method free and held to the rotation limit.
+#: the robot gives, the prior work's batch model) and each black-box method free and held to the rotation limit, and
+#: with detect-and-restart (``-restart``: on change cases only).
 METHODS = ("geogait", "geogait-climb", "geogait-resistance", "geogait-hybrid", "geogait-batch",
-           *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")))
+           *(f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")),
+           *(f"{name}-restart" for name in BLACK_BOX))
 #: What geogait-resistance changes besides the model (``geogait.optimize.STRUCTURED_MODEL_STEPS``).
 RESISTANCE_OPTIONS = STRUCTURED_MODEL_STEPS
 
@@ -835,9 +917,16 @@ def _run_method(case: BenchmarkCase, method: str, seed, budget: int, seed_value:
     robot = _CountingRobot(case.make_robot(seed, explore=False, noise=True))
     family = _Family(case, robot.gait, robot.cycle_period)
     trace = _Trace(robot, family.gait(family.seed_params), family.period(family.seed_params))
-    objective = _Objective(case, robot, family, budget, held, seed_value)
+    watch = _Watch(trace, family) if method.endswith("-restart") else None
+    objective = _Objective(case, robot, family, budget, held, seed_value, watch)
     rng = np.random.default_rng(own)
-    BLACK_BOX[method.removesuffix("-held")](objective, trace, rng)
+    start = None
+    while True:
+        try:
+            BLACK_BOX[method.removesuffix("-held").removesuffix("-restart")](objective, trace, rng, start=start)
+            break
+        except _Restart as restart:
+            start = restart.params
     trace.steps = [(used, "measured") for used in objective.runs]
     return trace, robot.cycles
 
@@ -977,7 +1066,8 @@ def run_robot_benchmark(cases: Sequence[str], methods: Sequence[str] = METHODS, 
         # the built-in swimmers are principally kinematic: in their symmetric family nothing turns, and the held
         # variants would repeat the free runs exactly (a body with inertia may settle slowly, or not symmetrically)
         case_methods = [m for m in methods if not (case.family == "symmetric" and case.rotation_free_after_change
-                                                   and m.endswith("-held"))]
+                                                   and m.endswith("-held"))
+                        and not (case.change_at is None and m.endswith("-restart"))]  # (nothing to detect)
         probe = case.make_robot(None, explore=False, noise=False)
         for method in ("geogait-resistance", "geogait-hybrid"):
             if method in case_methods and _variant_options(probe, "resistance") is None:
@@ -1291,7 +1381,7 @@ def manifest(result: dict, command: str, wall_time: float) -> dict:
 
 
 _NUMERIC = ("cycles", "cycles_run", "seconds", "objective", "rotation", "improvement", "ceiling_fraction", "score",
-            "model_steps", "measured_steps", "offline_error", "recovery_cycles")
+            "model_steps", "measured_steps", "restarts", "offline_error", "recovery_cycles")
 
 
 def _numeric(records: pd.DataFrame) -> pd.DataFrame:
