@@ -43,9 +43,9 @@ def _names(text: str) -> list[str]:
 
 
 def _case_names(text: str) -> list[str]:
-    """Case names, the groups ``stationary`` and ``changes`` expanded."""
-    groups = {"stationary": [n for n in bench.CASES if n not in bench.CHANGE_CASES],
-              "changes": list(bench.CHANGE_CASES)}
+    """Case names, the groups ``stationary``, ``undeclared`` and ``changes`` expanded."""
+    declared = [n for n in bench.CASES if n not in bench.CHANGE_CASES + bench.UNDECLARED_CASES]
+    groups = {"stationary": declared, "undeclared": list(bench.UNDECLARED_CASES), "changes": list(bench.CHANGE_CASES)}
     return [case for name in _names(text) for case in groups.get(name, [name])]
 
 
@@ -66,7 +66,8 @@ def _options(text: str | None) -> dict | None:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cases", default="stationary", help="comma-separated case names, or the groups "
-                        "'stationary' (default) and 'changes' (the change cases); --list-cases names them")
+                        "'stationary' (default), 'undeclared' (each robot declaring only its joints, period and "
+                        "objective) and 'changes' (the change cases); --list-cases names them")
     parser.add_argument("--list-cases", action="store_true", help="print every case (change cases marked) and exit")
     parser.add_argument("--methods", default=",".join(bench.METHODS), help="comma-separated method names")
     parser.add_argument("--seeds", type=int, default=8, help="paired seeds per case")

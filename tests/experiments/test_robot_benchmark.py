@@ -601,3 +601,32 @@ def test_a_restart_variant_restarts_after_the_change_and_runs_within_the_budget(
     trace, used = bench._run_method(case, "cobyqa-restart", child, 80, seed_value=0.08)
     assert used <= 80 and trace.restarts and min(trace.restarts) > 40
     assert "cobyqa-restart" in bench.METHODS and "cmaes-tuned-restart" in bench.METHODS
+
+
+def test_an_undeclared_case_declares_only_joints_period_and_objective():
+    """Each stationary robot also comes as a user brings it: no resistive medium, chain geometry, symmetry,
+    settling or truth; geogait then searches the free family with its data-driven defaults, as every black-box
+    method does, and the chain's resistance model is skipped in one line."""
+    from geogait.gaits import FreeGaitFamily
+    from geogait.optimize import InSituOptimizer
+
+    assert set(bench.UNDECLARED_CASES) == {f"{n}-undeclared" for n in bench.CASES
+                                           if n not in bench.CHANGE_CASES + bench.UNDECLARED_CASES}
+    case = bench.CASES["swimmer5-undeclared"]
+    assert (case.family, case.settle_cycles, case.ceiling) == ("free", 0, bench.CASES["swimmer5"].ceiling)
+    robot = case.make_robot(None, explore=False, noise=False)
+    for hidden in ("chain_geometry", "front_back_symmetric", "mirror_symmetric", "resistive_medium",
+                   "current_system", "robot_state"):
+        assert not hasattr(robot, hidden), hidden
+    assert robot.n_joints == 4 and robot.cycle_period == 1.0 and callable(robot.set_excitation)
+    assert isinstance(InSituOptimizer()._family(robot, robot.gait), FreeGaitFamily)
+    lines = []
+    result = bench.run_robot_benchmark(["swimmer3-undeclared"], ["geogait", "geogait-resistance", "random-held"],
+                                       n_seeds=1, budget=4, checkpoints=[4], progress=False, log=lines.append)
+    assert lines == ["skipped method geogait-resistance on swimmer3-undeclared: its robot gives no chain geometry"]
+    assert set(result["records"]["method"]) == {"geogait", "random-held"}
+    mujoco = bench.CASES["mujoco-purcell5-unequal-undeclared"]
+    if not mujoco.missing():
+        chain = mujoco.make_robot(None, explore=False, noise=False)
+        assert not hasattr(chain, "resistive_medium") and chain.joint_ranges.shape == (4, 2)
+        assert mujoco.eval_settle_cycles == bench.CASES["mujoco-purcell5-unequal"].settle_cycles == 1

@@ -437,11 +437,56 @@ def _change_cases(cases: dict) -> dict:
     return {case.name: case for case in changed}
 
 
+class _UndeclaredRobot:
+    """A robot as a user brings it: its joints (count, ranges and, where some shapes are out of reach, the region it
+    may take), its period and what may be commanded (gait, period, excitation), and nothing else — no resistive
+    medium, chain geometry, symmetry or simulator's truth."""
+
+    MEMBERS = frozenset({"n_joints", "cycle_period", "gait", "set_gait", "next_cycle", "next_cycles", "joint_ranges",
+                         "feasibility", "set_cycle_period", "set_excitation", "accepts_excitation", "close"})
+
+    def __init__(self, robot):
+        self.robot = robot
+
+    def __getattr__(self, name):
+        if name == "robot" or name not in self.MEMBERS:
+            raise AttributeError(name)
+        return getattr(self.robot, name)
+
+    @property
+    def gait(self) -> FourierGait:
+        return self.robot.gait
+
+    def set_gait(self, gait: FourierGait) -> None:
+        self.robot.set_gait(gait)
+
+    def next_cycle(self):
+        return self.robot.next_cycle()
+
+
+def _undeclared_robot(make_robot, seed, explore, noise, gait=None):
+    return _UndeclaredRobot(make_robot(seed, explore, noise, gait=gait))
+
+
+def _undeclared_cases(cases: dict) -> dict:
+    """Every stationary case also as a user brings it (``<name>-undeclared``): the robot declares only its joints,
+    period and objective (:class:`_UndeclaredRobot`); no settling cycles, so every method searches the free family
+    and measures a candidate's first cycle. Gaits are judged as in the case itself (its evaluation settling)."""
+    return {f"{name}-undeclared": dataclasses.replace(
+        case, name=f"{name}-undeclared", description=f"{case.description}; declaring only its joints, period and "
+        "objective", make_robot=partial(_undeclared_robot, case.make_robot), settle_cycles=0, family="free",
+        eval_settle_cycles=case.settle_cycles if case.eval_settle_cycles is None else case.eval_settle_cycles)
+        for name, case in cases.items()}
+
+
 #: Every case, by name.
 CASES = _cases()
+CASES.update(_undeclared_cases(CASES))
 CASES.update(_change_cases(CASES))
 #: The change cases' names.
 CHANGE_CASES = tuple(name for name, case in CASES.items() if case.change_at is not None)
+#: The undeclared cases' names.
+UNDECLARED_CASES = tuple(name for name in CASES if name.endswith("-undeclared"))
 
 
 def available_cases(names: Sequence[str]) -> tuple[list[str], dict[str, str]]:
