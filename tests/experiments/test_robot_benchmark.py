@@ -416,7 +416,8 @@ def test_the_paired_comparison_takes_the_best_method_within_the_rotation_limit_s
     assert comparison.loc[30, "p_value"] == pytest.approx(2 / 2**6)
     assert comparison.loc[60, "ahead"] == 0 and comparison.loc[60, "p_value"] == 1.0
     table = bench.benchmark_table(result, (30, 60))
-    assert "| 30 | cobyqa (89.0 %) | 6 of 6 | +3.5 pt | 0.031 |" in table
+    assert "| swimmer3 | 30 | best black-box | cobyqa (89.0 %) | 92.5 % | 6 of 6 | +3.5 pt | 0.031 | 0.062 | " \
+        "**level** |" in table  # (Holm over the two cells: 2 × 0.031)
     # a run against its manifest's ten decimals ties; seeds in only one of the two are left out
     tie = bench.paired_test(pd.Series([0.5, 0.6123456789012, 0.7], index=[0, 1, 2]),
                             pd.Series([0.5, 0.6123456789, 0.1], index=[0, 1, 5]))
@@ -630,3 +631,43 @@ def test_an_undeclared_case_declares_only_joints_period_and_objective():
         chain = mujoco.make_robot(None, explore=False, noise=False)
         assert not hasattr(chain, "resistive_medium") and chain.joint_ranges.shape == (4, 2)
         assert mujoco.eval_settle_cycles == bench.CASES["mujoco-purcell5-unequal"].settle_cycles == 1
+
+
+def test_holm_adjusts_the_ith_smallest_p_value_by_the_cells_left_and_keeps_the_order():
+    np.testing.assert_allclose(bench.holm(np.array([0.01, 0.04, 0.03, 0.5])), [0.04, 0.09, 0.09, 0.5])
+    np.testing.assert_allclose(bench.holm(np.array([0.2, 0.9])), [0.4, 0.9])
+    assert bench.holm(np.array([0.6, 0.7])).max() == 1.0
+
+
+def test_a_cell_is_ahead_or_behind_only_past_the_holm_corrected_wilcoxon_test():
+    """Twelve seeds all ahead (p = 2 / 2¹² ≈ 0.0005) stay ahead after Holm over the four cells, and all behind stay
+    behind; a gap in three seeds, the rest tied, is level."""
+    import pandas as pd
+
+    rows = []
+    for s in range(12):
+        for cycles in (30, 60):
+            rows += [("geogait", s, cycles, 0.9 + 0.001 * s), ("cobyqa", s, cycles, 0.8 + 0.001 * s),
+                     ("geogait-climb", s, cycles, 0.95 + 0.001 * s if cycles == 30 or s < 3 else 0.9 + 0.001 * s)]
+    records = pd.DataFrame([{"case": "swimmer3", "method": m, "seed": s, "cycles": c, "objective": v,
+                             "ceiling_fraction": v, "improvement": v, "rotation": 0.0, "score": np.nan,
+                             "cycles_run": c} for m, s, c, v in rows])
+    info = {"description": "test", "objective": "progress", "seed": {"objective": 1.0}, "ceiling": {"objective": 2.0},
+            "rotation_limit": 0.02, "score": None}
+    table = bench.verdicts({"records": records, "cases": {"swimmer3": info}}, (30, 60)).set_index(["versus", "cycles"])
+    assert len(table) == 4
+    assert (table.loc["best black-box", "verdict"] == "ahead").all()
+    assert table.loc[("climb alone", 30), "verdict"] == "behind"
+    assert table.loc[("climb alone", 60), "verdict"] == "level"  # nine of twelve seeds tie: p = 2 / 2³
+    assert table.loc[("best black-box", 30), "holm_p"] == pytest.approx(4 * 2 / 2**12)
+
+
+def test_the_long_search_holds_a_gait_of_the_family_better_than_the_seed():
+    """Where no ceiling is known (Gymnasium's swimmer, the changed swimmer and snake), the reference is the gait a
+    long clean CMA-ES search holds: a gait of the case's family and period range that beats the seed."""
+    assert bench.CASES["gymnasium-swimmer"].ceiling.func is bench.long_search_ceiling
+    case = bench.CASES["swimmer3"]
+    gait, period = bench.long_search_ceiling("swimmer3", cycles=40)
+    family = bench._Family(case, seed_gait(2), 1.0)
+    assert period is None and family.family.residual(gait) < 1e-9
+    assert bench.evaluate_gait(case, gait)["objective"] > 1.2 * bench.evaluate_gait(case, seed_gait(2))["objective"]

@@ -56,12 +56,17 @@ clean robot from rest (no exploration, no sensor noise: the case's ``eval_settle
 (Gymnasium Swimmer-v5: the episode return). One run per method and seed serves every budget: a
 method's state after ``c`` cycles does not depend on the budget beyond ``c``.
 
-**Paired comparison** (:func:`paired_comparison`): at each checkpoint, geogait against the black-box method
-with the best median among those whose median gait keeps the case's rotation limit (median |net rotation| per
-cycle ≤ ``rotation_limit``; single seeds may turn more), seed by seed: in how many seeds geogait's gait is
-ahead, the median of the paired differences and the two-sided Wilcoxon signed-rank test's p-value (ties
-dropped). Medians over seeds can flip on a difference no larger than the seeds' spread; the paired test says
-whether a gap is one.
+**Paired verdict** (:func:`verdicts`): at each checkpoint, geogait against the black-box method with the best
+median among those whose median gait keeps the case's rotation limit (median |net rotation| per cycle ≤
+``rotation_limit``; single seeds may turn more), and against its climb alone (``geogait-climb``: what the model's
+steps add), seed by seed (:func:`paired_comparison`): in how many seeds geogait's gait is ahead, the median of the
+paired differences and the two-sided Wilcoxon signed-rank test's p-value (ties dropped). A cell is *ahead* or
+*behind* when that p-value, Holm-corrected over every cell of the table, is below 0.05, else *level*: medians over
+seeds can flip on a difference no larger than the seeds' spread, and many cells tested at 0.05 each find some gaps
+by chance. With n paired seeds the smallest p-value is 2¹⁻ⁿ, so a table of m cells needs m · 2¹⁻ⁿ < 0.05 to say
+anything (16 seeds for up to about 1600 cells; 8 seeds for none). Gymnasium's swimmer is judged by its steady
+forward speed against the gait a long search of the same family holds (:func:`long_search_ceiling`); its episode
+return stays a reported column.
 
 **Change cases** (:data:`CHANGE_CASES`): the robot changes before cycle :data:`CHANGE_AT`, unannounced
 (:class:`~geogait.experiments.changes.ChangingRobot`); a run lasts that many cycles plus the budget, and every
@@ -348,6 +353,7 @@ def _cases() -> dict[str, BenchmarkCase]:
         name="gymnasium-swimmer", description="Gymnasium Swimmer-v5 model (quadratic drag, inertia), PD joints, 2 s",
         make_robot=_gymnasium_robot, objective="forward", direction=(1.0, 0.0), max_joint_angle=1.745,
         settle_cycles=1, eval_cycles=2, eval_settle_cycles=4, score=swimmer_v5_return, score_name="episode return",
+        ceiling=partial(long_search_ceiling, "gymnasium-swimmer"),
         family="mirror",
         requires=("mujoco", "gymnasium"), period_range=(0.5, 4.0))
     cases["dm-control-swimmer"] = BenchmarkCase(
@@ -1162,8 +1168,10 @@ def _summary(records: pd.DataFrame, budgets: Sequence[int]) -> pd.DataFrame:
 _STEP_COLUMNS = ("model_steps", "measured_steps")
 
 
-def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), method: str = "geogait") -> pd.DataFrame:
-    """``method`` against the best black-box method at each checkpoint, paired by seed (module docstring).
+def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), method: str = "geogait",
+                      rival: str | None = None) -> pd.DataFrame:
+    """``method`` against the best black-box method (or ``rival``) at each checkpoint, paired by seed (module
+    docstring).
 
     Parameters
     ----------
@@ -1173,6 +1181,9 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
         Checkpoints (cycles used) compared; those not recorded are left out.
     method : str
         The method compared (a geogait row).
+    rival : str, optional
+        The method it is compared with at every checkpoint (e.g. ``"geogait-climb"``: what the model adds); default
+        the best black-box method there.
 
     Returns
     -------
@@ -1187,25 +1198,88 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
     rows = []
     if records.empty:
         return pd.DataFrame(rows)
-    black_box = {f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held")}
+    black_box = {f"{name}{variant}" for name in BLACK_BOX for variant in ("", "-held", "-restart")}
+    if rival is not None:
+        black_box = {rival}
     summary = pd.concat([_summary(records[records["case"] == case], _judged_cycles(result["cases"][case], budgets))
                          for case in dict.fromkeys(records["case"])], ignore_index=True)
     for (case, cycles), block in summary.groupby(["case", "cycles"], sort=False):
         info = result["cases"][case]
         # the summary's median column, and the per-seed column it is the median of
         column, value = ("ceiling", "ceiling_fraction") if info["ceiling"] is not None else ("improvement",) * 2
-        kept = block[block["method"].isin(black_box) & (block["rotation"] <= info["rotation_limit"])
-                     & block[column].notna()]
+        kept = block[block["method"].isin(black_box) & block[column].notna()
+                     & ((block["rotation"] <= info["rotation_limit"]) | (rival is not None))]
         if kept.empty or method not in set(block["method"]):
             continue
-        rival = kept.loc[kept[column].idxmax()]
+        best = kept.loc[kept[column].idxmax()]
         at = records[(records["case"] == case) & (records["cycles"] == cycles)]
         ours = at[at["method"] == method].set_index("seed")[value]
-        theirs = at[at["method"] == rival["method"]].set_index("seed")[value]
+        theirs = at[at["method"] == best["method"]].set_index("seed")[value]
         rows.append({"case": case, "cycles": int(cycles), "method": method,
                      "median": float(block.loc[block["method"] == method, column].iloc[0]),
-                     "rival": rival["method"], "rival_median": float(rival[column]), **paired_test(ours, theirs)})
+                     "rival": best["method"], "rival_median": float(best[column]), **paired_test(ours, theirs)})
     return pd.DataFrame(rows)
+
+
+#: Family-wise error rate of the verdict table (Holm's correction over its cells).
+VERDICT_ALPHA = 0.05
+#: What each verdict row compares geogait with: the best black-box method, and its climb alone.
+VERSUS = {"best black-box": None, "climb alone": "geogait-climb"}
+
+
+def verdicts(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> pd.DataFrame:
+    """The paired verdict table: geogait against the best black-box method and against its climb alone
+    (``geogait-climb``), at every case's compared checkpoints (:func:`paired_comparison`), each cell *ahead* or
+    *behind* where the two-sided Wilcoxon signed-rank test's p-value, Holm-corrected over every cell of the table,
+    is below :data:`VERDICT_ALPHA` (the sign of the median paired difference says which), else *level*.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :func:`paired_comparison`'s columns, ``versus`` (a key of :data:`VERSUS`), ``holm_p`` and ``verdict``.
+    """
+    frames = [paired_comparison(result, budgets, rival=rival).assign(versus=versus)
+              for versus, rival in VERSUS.items()]
+    table = pd.concat([f for f in frames if not f.empty], ignore_index=True) if any(not f.empty for f in frames) \
+        else pd.DataFrame()
+    if table.empty:
+        return table
+    table["holm_p"] = holm(table["p_value"].to_numpy())
+    significant = table["holm_p"] < VERDICT_ALPHA
+    table["verdict"] = np.where(significant & (table["median_difference"] > 0), "ahead",
+                                np.where(significant & (table["median_difference"] < 0), "behind", "level"))
+    return table
+
+
+def holm(p_values: np.ndarray) -> np.ndarray:
+    """Holm's step-down adjusted p-values: the i-th smallest of m times (m − i + 1), made non-decreasing, at most 1."""
+    p_values = np.asarray(p_values, dtype=float)
+    order = np.argsort(p_values, kind="stable")
+    scaled = p_values[order] * (p_values.size - np.arange(p_values.size))
+    adjusted = np.empty_like(p_values)
+    adjusted[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    return adjusted
+
+
+def verdict_lines(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> list:
+    """The verdict table (:func:`verdicts`) as markdown."""
+    table = verdicts(result, budgets)
+    if table.empty:
+        return []
+    lines = [f"geogait, paired by seed: a cell is ahead or behind where the two-sided Wilcoxon signed-rank test, "
+             f"Holm-corrected over the table's {len(table)} cells, gives p < {VERDICT_ALPHA:g}; else level. Shares of "
+             "the ceiling (improvement over the seed without one); the best black-box method is the one with the best "
+             "median among those whose median gait keeps the rotation limit.", "",
+             "| case | cycles | versus | rival (median) | geogait (median) | geogait ahead in | median paired "
+             "difference | p | Holm p | verdict |", "|---" * 10 + "|"]
+    for row in table.itertuples():
+        info = result["cases"][row.case]
+        share = (lambda v: f"{100 * v:.1f} %") if info["ceiling"] is not None else (lambda v: f"{100 * v:+.1f} %")
+        lines.append(f"| {row.case} | {_cycles_label(info, row.cycles)} | {row.versus} | {row.rival} "
+                     f"({share(row.rival_median)}) | {share(row.median)} | {row.ahead} of {row.seeds} | "
+                     f"{100 * row.median_difference:+.1f} pt | {row.p_value:.2g} | {row.holm_p:.2g} | "
+                     f"**{row.verdict}** |")
+    return lines + [""]
 
 
 def paired_test(ours: pd.Series, theirs: pd.Series) -> dict:
@@ -1235,45 +1309,23 @@ def _cycles_label(info: dict, cycles) -> str:
     return f"{cycles:.0f}" if change_at is None else f"+{cycles - change_at:.0f}"
 
 
-def _paired_lines(comparison: pd.DataFrame, case: str, info: dict) -> list:
-    rows = comparison[comparison["case"] == case] if not comparison.empty else comparison
-    if rows.empty:
-        return []
-    has_ceiling = info["ceiling"] is not None
-    unit = "pt" if has_ceiling else "pt of the seed"
-    share = (lambda v: f"{100 * v:.1f} %") if has_ceiling else (lambda v: f"{100 * v:+.1f} %")
-    method = rows["method"].iloc[0]
-    cycles = "cycles" if info.get("change_at") is None else "cycles after the change"
-    lines = [f"{method} against the best black-box method whose median gait keeps the rotation limit, paired by "
-             "seed:", "", f"| {cycles} | best black-box (median) | {method} ahead in | median paired difference | "
-             "Wilcoxon p |",
-             "|---|---|---|---|---|"]
-    for row in rows.itertuples():
-        lines.append(f"| {_cycles_label(info, row.cycles)} | {row.rival} ({share(row.rival_median)}) | "
-                     f"{row.ahead} of {row.seeds} | "
-                     f"{100 * row.median_difference:+.1f} {unit} | {row.p_value:.2g} |")
-    return lines + [""]
-
-
 def benchmark_table(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> str:
     """Markdown table: per case and method, the median clean objective of the gait after each budget.
 
     Each cell is ``median share of the ceiling`` (or median improvement over the seed when no
     ceiling is known), the case's score where it has one, and the median |net rotation| per cycle
     (rad) of those gaits; the last column the median steps each method took within the last budget, from its model
-    and on measured outcomes (a black-box method's candidates; geogait's climb); under each case's table, geogait
-    against the best black-box method, paired by seed (:func:`paired_comparison`).
+    and on measured outcomes (a black-box method's candidates; geogait's climb). Above them, the paired verdict
+    table (:func:`verdicts`).
     """
     records = result["records"]
     if records.empty:
         return "No case ran.\n"
-    comparison = paired_comparison(result, budgets)
-    lines = []
+    lines = verdict_lines(result, budgets)
     for case in dict.fromkeys(records["case"]):
         info = result["cases"][case]
         lines += _change_lines(result, case) if info.get("change_at") is not None else \
             _stationary_lines(result, case, budgets)
-        lines += _paired_lines(comparison, case, info)
     return "\n".join(lines)
 
 
