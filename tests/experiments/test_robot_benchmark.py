@@ -671,3 +671,24 @@ def test_the_long_search_holds_a_gait_of_the_family_better_than_the_seed():
     family = bench._Family(case, seed_gait(2), 1.0)
     assert period is None and family.family.residual(gait) < 1e-9
     assert bench.evaluate_gait(case, gait)["objective"] > 1.2 * bench.evaluate_gait(case, seed_gait(2))["objective"]
+
+
+def test_the_figure_gives_every_method_a_line_and_marks_the_change(monkeypatch, tmp_path):
+    """More methods than a ten-colour palette (the free and restart variants of every black box) each get a line, a
+    variant sharing its method's colour; a change case's panel marks the change."""
+    import pandas as pd
+
+    methods = [m for m in bench.METHODS if not m.endswith("-held")]
+    records = pd.DataFrame([{"case": "c", "method": m, "seed": s, "cycles": c, "ceiling_fraction": 0.5 + 0.01 * i,
+                             "improvement": 0.0, "rotation": 0.0} for i, m in enumerate(methods)
+                            for s in range(2) for c in (0, 5, 10)])
+    figures = []
+    monkeypatch.setattr(bench, "save_figure", lambda figure, path: figures.append(figure) or path)
+    bench.plot_benchmark({"records": records, "cases": {"c": {"ceiling": {"objective": 1.0}, "change_at": 5}}},
+                         tmp_path / "f.png")
+    lines = figures[0].axes[0].get_lines()
+    colours = {line.get_label(): line.get_color() for line in lines}
+    assert set(methods) <= set(colours)
+    assert colours["cmaes"] == colours["cmaes-restart"] != colours["ngopt"] != colours["geogait"]
+    assert any(list(line.get_xdata()) == [5, 5] for line in lines)  # the change, a vertical line at its cycle
+    bench.plt.close(figures[0])

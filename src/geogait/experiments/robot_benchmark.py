@@ -1421,8 +1421,9 @@ def plot_benchmark(result: dict, path) -> Path:
     axes = np.array([figure.add_subplot(grid[r, c]) for r in range(rows) for c in range(columns)])
     legend_axis = figure.add_subplot(grid[rows, :])  # a row of its own, across every column
     legend_axis.axis("off")
-    bases = list(dict.fromkeys(m.removesuffix("-held") for m in records["method"]))
-    colours = dict(zip(bases, plt.get_cmap("tab10").colors, strict=False))
+    bases = list(dict.fromkeys(_base(m) for m in records["method"]))
+    palette = plt.get_cmap("tab10" if len(bases) <= 10 else "tab20").colors
+    colours = {base: palette[i % len(palette)] for i, base in enumerate(bases)}
     handles = {}
     for ax, case in zip(axes, names, strict=False):
         block = records[records["case"] == case]
@@ -1431,8 +1432,9 @@ def plot_benchmark(result: dict, path) -> Path:
         for method in dict.fromkeys(block["method"]):
             data = block[block["method"] == method].groupby("cycles")[column]
             median, q25, q75 = data.median(), data.quantile(0.25), data.quantile(0.75)
-            style = "-" if method.startswith("geogait") else ("--" if method.endswith("-held") else ":")
-            colour = colours[method.removesuffix("-held")]
+            style = "-" if method.startswith("geogait") else \
+                {"-held": "--", "-restart": "-."}.get(method[len(_base(method)):], ":")
+            colour = colours[_base(method)]
             (line,) = ax.plot(median.index, median.to_numpy(), style, color=colour,
                               lw=2.4 if method == "geogait" else 1.3, label=method)
             ax.fill_between(median.index, q25.to_numpy(), q75.to_numpy(), color=colour, alpha=0.1)
@@ -1452,10 +1454,16 @@ def plot_benchmark(result: dict, path) -> Path:
         ax.axis("off")
     order = [m for m in METHODS if m in handles]
     legend_axis.legend([handles[m] for m in order], order, loc="center", ncol=6, fontsize=9,
-                       title="geogait solid · black-box dotted: free, dashed: held to the rotation limit")
+                       title="geogait solid · black-box dotted: free, dashed: held to the rotation limit, "
+                       "dash-dotted: with detect-and-restart")
     figure.suptitle("Each method's gait re-run clean: median and interquartile band over paired seeds "
                     "(free black-box gaits may turn: see the rotation in the table)", fontsize=10)
     return save_figure(figure, path)
+
+
+def _base(method: str) -> str:
+    """A method's name without its variant (``-held``, ``-restart``): one colour per base method."""
+    return method.removesuffix("-held").removesuffix("-restart")
 
 
 def manifest(result: dict, command: str, wall_time: float) -> dict:
