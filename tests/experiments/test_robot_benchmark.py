@@ -243,7 +243,11 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     assert merged["records"]["objective"].tolist() == [9.0, 3.0, 2.0]
     assert command == "first && second"
     with pytest.raises(GeogaitError, match="n_seeds"):
-        bench.merge_results(old, result([], ["geogait"], n_seeds=3), "third")
+        bench.merge_results(old, result([("swimmer3", "cmaes", 0, 1.0)], ["cmaes"], n_seeds=3), "third")
+    other = result([("swimmer5", "cmaes", 2, 1.0)], ["cmaes"], n_seeds=3)  # a case of its own: seeds stay paired
+    other["config"]["cases"] = ["swimmer5"]
+    merged, _ = bench.merge_results(old, other, "third")
+    assert merged["config"]["seeds_per_case"] == {"swimmer3": 2, "swimmer5": 3} and merged["config"]["n_seeds"] == 3
     # a case searched in another family since: its old records (the held variants too) are not comparable
     old["cases"]["swimmer3"] = {"family": "free"}
     old["records"] = pd.concat([old["records"], result([("swimmer3", "random-held", 0, 4.0)], [])["records"]])

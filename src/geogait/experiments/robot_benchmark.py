@@ -1529,12 +1529,15 @@ def _comparable(old: dict, new: dict) -> bool:
 def merge_results(old: dict, new: dict, command: str, log: Callable = print) -> tuple[dict, str]:
     """``old``'s records with those of ``new``'s cases and methods replaced by ``new``'s.
 
-    Both runs must share seeds, budget and root seed (so the seeds stay paired); the returned command
-    names both runs. A case whose gait family or evaluation (settling and measured cycles) differs between the
+    Both runs must share budget and root seed, and the number of seeds unless ``new`` runs only cases ``old`` does
+    not have (seed s is the same child of the root seed whatever their number, so the seeds stay paired; the
+    merged ``config`` then lists each case's seeds in ``seeds_per_case``); the returned command names both runs.
+    A case whose gait family or evaluation (settling and measured cycles) differs between the
     runs, or whose seed gait evaluates otherwise (the robot changed), is replaced whole: its records are not
     comparable.
     """
-    keys = ("n_seeds", "budget", "seed")
+    only_new = not set(new["records"]["case"] if not new["records"].empty else []) & set(old["records"]["case"])
+    keys = ("budget", "seed") if only_new else ("n_seeds", "budget", "seed")
     if any(old["config"][k] != new["config"][k] for k in keys):
         raise GeogaitError("--merge: the runs differ in " + ", ".join(
             f"{k} ({old['config'][k]} vs {new['config'][k]})" for k in keys if old["config"][k] != new["config"][k]))
@@ -1554,6 +1557,10 @@ def merge_results(old: dict, new: dict, command: str, log: Callable = print) -> 
         records = records.iloc[np.argsort(order.to_numpy(), kind="stable")].reset_index(drop=True)
     config = {**old["config"], "cases": list(dict.fromkeys(old["config"]["cases"] + new["config"]["cases"])),
               "methods": list(dict.fromkeys(old["config"]["methods"] + new["config"]["methods"]))}
+    if old["config"]["n_seeds"] != new["config"]["n_seeds"] or "seeds_per_case" in old["config"]:
+        seeds = old["config"].get("seeds_per_case") or {c: old["config"]["n_seeds"] for c in old["config"]["cases"]}
+        config["seeds_per_case"] = {**seeds, **{c: new["config"]["n_seeds"] for c in new["config"]["cases"]}}
+        config["n_seeds"] = max(config["seeds_per_case"].values())
     merged = {"records": records, "cases": {**old["cases"], **new["cases"]},
               "skipped": {**old["skipped"], **new["skipped"]}, "config": config}
     return merged, f"{old.get('command', '')} && {command}"
