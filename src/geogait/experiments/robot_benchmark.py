@@ -1416,8 +1416,11 @@ def plot_benchmark(result: dict, path) -> Path:
     names = list(dict.fromkeys(records["case"]))
     columns = min(3, len(names))
     rows = -(-len(names) // columns)
-    figure = plt.figure(figsize=(5.2 * columns, 3.6 * rows + 1.1))
-    grid = figure.add_gridspec(rows + 1, columns, height_ratios=[1] * rows + [0.28])
+    entries = records["method"].nunique()
+    legend_columns = min(6, 3 * columns)  # (as many as a row of panels is wide for)
+    legend_rows = -(-entries // legend_columns) + 2  # (and its two-line title)
+    figure = plt.figure(figsize=(5.2 * columns, 3.6 * rows + 0.3 * legend_rows + 0.8))
+    grid = figure.add_gridspec(rows + 1, columns, height_ratios=[3.6] * rows + [0.3 * legend_rows])
     axes = np.array([figure.add_subplot(grid[r, c]) for r in range(rows) for c in range(columns)])
     legend_axis = figure.add_subplot(grid[rows, :])  # a row of its own, across every column
     legend_axis.axis("off")
@@ -1453,10 +1456,10 @@ def plot_benchmark(result: dict, path) -> Path:
     for ax in axes[len(names):]:
         ax.axis("off")
     order = [m for m in METHODS if m in handles]
-    legend_axis.legend([handles[m] for m in order], order, loc="center", ncol=6, fontsize=9,
-                       title="geogait solid · black-box dotted: free, dashed: held to the rotation limit, "
+    legend_axis.legend([handles[m] for m in order], order, loc="center", ncol=legend_columns, fontsize=9,
+                       title="geogait solid · black-box dotted: free,\ndashed: held to the rotation limit, "
                        "dash-dotted: with detect-and-restart")
-    figure.suptitle("Each method's gait re-run clean: median and interquartile band over paired seeds "
+    figure.suptitle("Each method's gait re-run clean: median and interquartile band over paired seeds\n"
                     "(free black-box gaits may turn: see the rotation in the table)", fontsize=10)
     return save_figure(figure, path)
 
