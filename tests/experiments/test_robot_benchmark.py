@@ -664,6 +664,9 @@ def test_a_cell_is_ahead_or_behind_only_past_the_holm_corrected_wilcoxon_test():
     assert table.loc[("climb alone", 30), "verdict"] == "behind"
     assert table.loc[("climb alone", 60), "verdict"] == "level"  # nine of twelve seeds tie: p = 2 / 2³
     assert table.loc[("best black-box", 30), "holm_p"] == pytest.approx(4 * 2 / 2**12)
+    records.loc[records["method"] == "geogait", "rotation"] = 0.05  # beyond the limit: said in its cell
+    lines = bench.verdict_lines({"records": records, "cases": {"swimmer3": info}}, (30,))
+    assert "| 90.5 % (turns 0.050 rad per cycle) | 12 of 12 |" in "\n".join(lines)
 
 
 def test_the_long_search_holds_a_gait_of_the_family_better_than_the_seed():

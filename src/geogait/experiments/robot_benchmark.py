@@ -1189,10 +1189,10 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
     -------
     pandas.DataFrame
         One row per case and checkpoint with a black-box method keeping the rotation limit: ``case``,
-        ``cycles``, ``method`` and its ``median``, ``rival`` and its ``rival_median`` (share of the ceiling, or
-        improvement over the seed without one), ``ahead`` (seeds where ``method``'s value is larger), ``seeds``
-        (paired), ``median_difference`` and ``p_value`` (Wilcoxon signed-rank, two-sided; 1 when every pair
-        ties).
+        ``cycles``, ``method`` and its ``median`` and median |net rotation| per cycle (``rotation``), ``rival``
+        and its ``rival_median`` (share of the ceiling, or improvement over the seed without one), ``ahead``
+        (seeds where ``method``'s value is larger), ``seeds`` (paired), ``median_difference`` and ``p_value``
+        (Wilcoxon signed-rank, two-sided; 1 when every pair ties).
     """
     records = result["records"]
     rows = []
@@ -1215,8 +1215,9 @@ def paired_comparison(result: dict, budgets: Sequence[int] = (30, 60, 100), meth
         at = records[(records["case"] == case) & (records["cycles"] == cycles)]
         ours = at[at["method"] == method].set_index("seed")[value]
         theirs = at[at["method"] == best["method"]].set_index("seed")[value]
-        rows.append({"case": case, "cycles": int(cycles), "method": method,
-                     "median": float(block.loc[block["method"] == method, column].iloc[0]),
+        ours_row = block.loc[block["method"] == method].iloc[0]
+        rows.append({"case": case, "cycles": int(cycles), "method": method, "median": float(ours_row[column]),
+                     "rotation": float(ours_row["rotation"]),
                      "rival": best["method"], "rival_median": float(best[column]), **paired_test(ours, theirs)})
     return pd.DataFrame(rows)
 
@@ -1269,14 +1270,16 @@ def verdict_lines(result: dict, budgets: Sequence[int] = (30, 60, 100)) -> list:
     lines = [f"geogait, paired by seed: a cell is ahead or behind where the two-sided Wilcoxon signed-rank test, "
              f"Holm-corrected over the table's {len(table)} cells, gives p < {VERDICT_ALPHA:g}; else level. Shares of "
              "the ceiling (improvement over the seed without one); the best black-box method is the one with the best "
-             "median among those whose median gait keeps the rotation limit.", "",
+             "median among those whose median gait keeps the rotation limit; geogait's median gait is marked where it "
+             "turns beyond it.", "",
              "| case | cycles | versus | rival (median) | geogait (median) | geogait ahead in | median paired "
              "difference | p | Holm p | verdict |", "|---" * 10 + "|"]
     for row in table.itertuples():
         info = result["cases"][row.case]
         share = (lambda v: f"{100 * v:.1f} %") if info["ceiling"] is not None else (lambda v: f"{100 * v:+.1f} %")
+        turns = f" (turns {row.rotation:.3f} rad per cycle)" if row.rotation > info["rotation_limit"] else ""
         lines.append(f"| {row.case} | {_cycles_label(info, row.cycles)} | {row.versus} | {row.rival} "
-                     f"({share(row.rival_median)}) | {share(row.median)} | {row.ahead} of {row.seeds} | "
+                     f"({share(row.rival_median)}) | {share(row.median)}{turns} | {row.ahead} of {row.seeds} | "
                      f"{100 * row.median_difference:+.1f} pt | {row.p_value:.2g} | {row.holm_p:.2g} | "
                      f"**{row.verdict}** |")
     return lines + [""]
