@@ -1,4 +1,4 @@
-"""Robot benchmark: geogait against CMA-ES, Bayesian optimisation (TPE) and random search.
+"""Robot benchmark: geogait against CMA-ES, TPE, COBYQA, nevergrad's NGOpt, GP Bayesian optimisation and random search.
 
 Every method on the same robots, gait family, joint limits and measured objective, charged for every
 cycle the robot runs, over paired seeds; each method's gait after 30, 60 and 100 cycles re-run clean
@@ -11,6 +11,8 @@ Usage::
     python benchmarks/robots.py                       # every case, 8 seeds, 100 cycles (make bench-robots)
     python benchmarks/robots.py --quick               # built-in 3-link + MuJoCo case, 2 seeds, 20 cycles
     python benchmarks/robots.py --cases swimmer5 --seeds 12 --jobs 2 --out out/robots
+    python benchmarks/robots.py --list-cases                                        # every case, change cases marked
+    python benchmarks/robots.py --cases changes --seeds 8 --out out/changes         # robots that change mid-run
     python benchmarks/robots.py --cases elastica-snake --methods geogait --geogait-options '{"min_trust_radius": 0.075}'
     python benchmarks/robots.py --from-json docs/results/robots/robots.json --out out/redraw   # redraw only
 
@@ -40,6 +42,18 @@ def _names(text: str) -> list[str]:
     return [name.strip() for name in text.split(",") if name.strip()]
 
 
+def _case_names(text: str) -> list[str]:
+    """Case names, the groups ``stationary``, ``undeclared`` and ``changes`` expanded."""
+    declared = [n for n in bench.CASES if n not in bench.CHANGE_CASES + bench.UNDECLARED_CASES]
+    groups = {"stationary": declared, "undeclared": list(bench.UNDECLARED_CASES), "changes": list(bench.CHANGE_CASES)}
+    return [case for name in _names(text) for case in groups.get(name, [name])]
+
+
+def _case_list() -> str:
+    return "\n".join(f"{name}{' (change)' if name in bench.CHANGE_CASES else ''}: {case.description}"
+                      for name, case in bench.CASES.items())
+
+
 def _options(text: str | None) -> dict | None:
     if text is None:
         return None
@@ -51,7 +65,10 @@ def _options(text: str | None) -> dict | None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cases", default=",".join(bench.CASES), help="comma-separated case names")
+    parser.add_argument("--cases", default="stationary", help="comma-separated case names, or the groups "
+                        "'stationary' (default), 'undeclared' (each robot declaring only its joints, period and "
+                        "objective) and 'changes' (the change cases); --list-cases names them")
+    parser.add_argument("--list-cases", action="store_true", help="print every case (change cases marked) and exit")
     parser.add_argument("--methods", default=",".join(bench.METHODS), help="comma-separated method names")
     parser.add_argument("--seeds", type=int, default=8, help="paired seeds per case")
     parser.add_argument("--budget", type=int, default=100, help="cycles each method may run")
@@ -68,12 +85,15 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     arguments = sys.argv[1:] if argv is None else argv
     command = "python benchmarks/robots.py " + " ".join(shlex.quote(a) for a in arguments)
+    if args.list_cases:
+        print(_case_list())
+        return 0
     try:
         if args.from_json:
             result = bench.from_manifest(args.from_json)
             command, wall = result["command"], None
         else:
-            cases, seeds, budget = _names(args.cases), args.seeds, args.budget
+            cases, seeds, budget = _case_names(args.cases), args.seeds, args.budget
             if args.quick:
                 cases, seeds, budget = QUICK["cases"], QUICK["seeds"], QUICK["budget"]
             options = _options(args.geogait_options)

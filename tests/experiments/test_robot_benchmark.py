@@ -243,7 +243,11 @@ def test_merge_replaces_the_rerun_methods_and_keeps_the_rest():
     assert merged["records"]["objective"].tolist() == [9.0, 3.0, 2.0]
     assert command == "first && second"
     with pytest.raises(GeogaitError, match="n_seeds"):
-        bench.merge_results(old, result([], ["geogait"], n_seeds=3), "third")
+        bench.merge_results(old, result([("swimmer3", "cmaes", 0, 1.0)], ["cmaes"], n_seeds=3), "third")
+    other = result([("swimmer5", "cmaes", 2, 1.0)], ["cmaes"], n_seeds=3)  # a case of its own: seeds stay paired
+    other["config"]["cases"] = ["swimmer5"]
+    merged, _ = bench.merge_results(old, other, "third")
+    assert merged["config"]["seeds_per_case"] == {"swimmer3": 2, "swimmer5": 3} and merged["config"]["n_seeds"] == 3
     # a case searched in another family since: its old records (the held variants too) are not comparable
     old["cases"]["swimmer3"] = {"family": "free"}
     old["records"] = pd.concat([old["records"], result([("swimmer3", "random-held", 0, 4.0)], [])["records"]])
@@ -416,7 +420,8 @@ def test_the_paired_comparison_takes_the_best_method_within_the_rotation_limit_s
     assert comparison.loc[30, "p_value"] == pytest.approx(2 / 2**6)
     assert comparison.loc[60, "ahead"] == 0 and comparison.loc[60, "p_value"] == 1.0
     table = bench.benchmark_table(result, (30, 60))
-    assert "| 30 | cobyqa (89.0 %) | 6 of 6 | +3.5 pt | 0.031 |" in table
+    assert "| swimmer3 | 30 | best black-box | cobyqa (89.0 %) | 92.5 % | 6 of 6 | +3.5 pt | 0.031 | 0.062 | " \
+        "**level** |" in table  # (Holm over the two cells: 2 × 0.031)
     # a run against its manifest's ten decimals ties; seeds in only one of the two are left out
     tie = bench.paired_test(pd.Series([0.5, 0.6123456789012, 0.7], index=[0, 1, 2]),
                             pd.Series([0.5, 0.6123456789, 0.1], index=[0, 1, 5]))
@@ -442,3 +447,255 @@ def test_evaluate_gait_refuses_a_gait_or_period_the_case_does_not_allow():
         evaluate_gait(case, seed_gait(2, amplitude=3.0))
     with pytest.raises(GeogaitError, match="'period' parameter of evaluate_gait must be None for case 'swimmer3'"):
         evaluate_gait(case, seed_gait(2), period=1.5)
+
+
+@pytest.mark.parametrize("method, module", [("ngopt", "nevergrad"), ("gp-bayes", "bayes_opt")])
+def test_the_stronger_anchors_start_from_the_seed_in_the_box_and_hand_over_their_gait(monkeypatch, method, module):
+    """NGOpt and the Gaussian-process optimiser search the box [−r_max, r_max]ⁿ of the shared family, the seed gait
+    their first candidate; what they hand over is a gait of the family they measured (NGOpt: its recommendation;
+    the GP: its best measured candidate); without their package they are skipped in one line."""
+    pytest.importorskip(module)
+    case = bench.CASES["swimmer5"]
+    robot = bench._CountingRobot(case.make_robot(np.random.SeedSequence(1), explore=False, noise=True))
+    family = bench._Family(case, seed_gait(4), 1.0)
+    objective = bench._Objective(case, robot, family, budget=8, held=False, seed_value=0.05)
+    asked, values = [], []
+    measure = bench._Objective.__call__
+
+    def recording(self, params):
+        asked.append(np.array(params, copy=True))
+        values.append(measure(self, params))
+        return values[-1]
+
+    monkeypatch.setattr(bench._Objective, "__call__", recording)
+    trace = bench._Trace(robot, seed_gait(4))
+    bench.BLACK_BOX[method](objective, trace, np.random.default_rng(0))
+    assert len(asked) == robot.cycles == 8
+    np.testing.assert_allclose(asked[0], family.seed_params)
+    assert all(np.abs(a).max() <= case.max_joint_angle for a in asked)
+    held = trace.at(8)[0]
+    assert family.family.residual(held) < 1e-9 and held.joint_limit().max() <= case.max_joint_angle + 1e-9
+    if method == "gp-bayes":
+        np.testing.assert_allclose(held.params, family.gait(asked[int(np.argmax(values))]).params)
+    find_spec = bench.importlib.util.find_spec
+    monkeypatch.setattr(bench.importlib.util, "find_spec", lambda name, *a: None if name == module
+                        else find_spec(name, *a))
+    lines = []
+    result = bench.run_robot_benchmark(["swimmer3"], [method, "random"], n_seeds=1, budget=2, progress=False,
+                                       log=lines.append)
+    assert lines == [f"skipped method {method}: needs {module} (pip install 'geogait[baselines]')"]
+    assert set(result["records"]["method"]) == {"random"}
+
+
+def test_the_climb_alone_takes_no_model_step_and_every_method_counts_its_steps():
+    """geogait-climb is geogait's measured climb from the first decision on, never handing a step to its model;
+    geogait's own steps split into model and measured ones as its log records them; a black-box method's steps are
+    its candidates. The table reports both counts."""
+    result = bench.run_robot_benchmark(["swimmer3"], ["geogait", "geogait-climb", "cobyqa"], n_seeds=1, budget=40,
+                                       checkpoints=[20, 40], progress=False)
+    records = result["records"].set_index(["method", "cycles"])
+    assert records.loc[("geogait-climb", 40), "model_steps"] == 0
+    assert records.loc[("geogait-climb", 40), "measured_steps"] >= 5
+    assert records.loc[("cobyqa", 40), "measured_steps"] == records.loc[("cobyqa", 40), "cycles_run"] == 40
+    assert records.loc[("cobyqa", 20), "measured_steps"] == 20 and records.loc[("cobyqa", 20), "model_steps"] == 0
+    ours = records.loc[("geogait", 40)]
+    assert 0 < ours["model_steps"] + ours["measured_steps"] < 40
+    assert ours["model_steps"] + ours["measured_steps"] >= records.loc[("geogait", 20), "model_steps"] + \
+        records.loc[("geogait", 20), "measured_steps"]
+    table = bench.benchmark_table(result, (20, 40))
+    assert "steps in 40 cycles: model · measured" in table
+    climb_row = next(line for line in table.splitlines() if line.startswith("| geogait-climb |"))
+    assert climb_row.endswith(f"| 0 · {records.loc[('geogait-climb', 40), 'measured_steps']:.0f} |")
+
+
+def test_the_motionless_model_predicts_no_motion_and_its_jacobian_has_the_gaits_shape():
+    gait = seed_gait(3)
+    model = bench._MotionlessModel()
+    np.testing.assert_array_equal(model.predict_displacement(gait), np.zeros(3))
+    pose, jacobian = model.predict_displacement(gait, jacobian=True)
+    assert jacobian.shape == (3, gait.params.size) and not jacobian.any() and not pose.any()
+
+
+def test_a_change_case_is_judged_after_the_change_on_the_changed_robot(monkeypatch):
+    """A change case runs its change cycle plus the budget; every gait is judged on the changed robot against its
+    ceiling, every 5 cycles; the table reports the shares after the change, the recovery and the offline error."""
+    from geogait.experiments.changes import swimmer_link_drag
+    from geogait.simulate import cycle_displacement
+    from geogait.systems import PurcellSwimmer
+
+    ends = ((1.0, 0.3), (1.0, 1.0), (1.0, 0.3))
+    case = bench._change_case(bench.CASES["swimmer3"], "swimmer3-ends", "ends lose drag", swimmer_link_drag(ends),
+                              at_cycle=10, ceiling=lambda: seed_gait(2, amplitude=1.0))
+    monkeypatch.setitem(bench.CASES, "swimmer3-ends", case)
+    result = bench.run_robot_benchmark(["swimmer3-ends"], ["cobyqa"], n_seeds=2, budget=10, progress=False)
+    records = result["records"]
+    assert sorted(set(records["cycles"])) == [0, 5, 10, 15, 20] and (records["cycles_run"] == 20).all()
+    exact = {scale: np.hypot(*cycle_displacement(PurcellSwimmer(3, link_drag_scale=scale), seed_gait(2))[:2])
+             for scale in (ends, None)}
+    assert result["cases"]["swimmer3-ends"]["seed"]["objective"] == pytest.approx(exact[ends], rel=0.03)
+    assert abs(exact[ends] - exact[None]) > 0.1 * exact[None]
+    seed = records[records["seed"] == 0].set_index("cycles")
+    assert seed.loc[0, "objective"] == pytest.approx(exact[ends], rel=0.03)  # the seed gait, judged changed
+    assert seed["offline_error"].iloc[0] == pytest.approx(1 - seed["ceiling_fraction"].loc[[15, 20]].mean())
+    table = bench.benchmark_table(result)
+    assert "| method | +10 | cycles to 90 % (seeds) | offline error | rotation at +10 |" in table
+    assert "the changed robot's ceiling" in table
+
+
+def test_recovery_and_offline_error_are_read_from_the_checkpoints_after_the_change():
+    rows = [{"cycles": c, "ceiling_fraction": v} for c, v in ((50, 1.0), (60, 0.95), (65, 0.2), (70, 0.6), (75, 0.92),
+                                                              (80, 0.97))]
+    assert bench.after_change(rows, 60) == {"offline_error": pytest.approx(1 - np.mean([0.2, 0.6, 0.92, 0.97])),
+                                            "recovery_cycles": 15.0}
+    never = bench.after_change(rows[:4], 60)
+    assert np.isnan(never["recovery_cycles"]) and never["offline_error"] == pytest.approx(0.6)
+
+
+def test_every_change_case_changes_its_robot_before_its_change_cycle():
+    """The change cases the benchmark lists: each one's robot is its base case's robot until the change cycle,
+    and is judged on the robot changed from the start."""
+    names = set(bench.CHANGE_CASES)
+    assert {"swimmer5-ends-drag", "swimmer5-head-drag", "mujoco-purcell5-damaged", "gymnasium-swimmer-weak-joint",
+            "elastica-snake-new-floor"} <= names
+    for name in bench.CHANGE_CASES:
+        case = bench.CASES[name]
+        if case.missing():
+            continue
+        robot = case.make_robot(None, explore=False, noise=False)
+        judged = case.judged_robot()
+        assert robot.at_cycle == bench.CHANGE_AT and judged.at_cycle == 0 and not robot.changed
+
+
+def test_detect_and_restart_restarts_from_the_held_gait_when_two_cycles_fall_beyond_noise():
+    """Every tenth candidate, the held gait runs two measured cycles; both below the record (the best pair's
+    mean) by more than 3 pooled standard deviations of a cycle restart the method from that gait; a pair within
+    the noise does not, and the first pair (no noise known yet) never does."""
+    case = bench.CASES["swimmer3"]
+    family = bench._Family(case, seed_gait(2), 1.0)
+
+    class Scripted:
+        def __init__(self, pairs):
+            self.pairs, self.case, self.budget = list(pairs), case, 1000
+            self.robot = type("R", (), {"cycles": 0})()
+
+        def measure(self, gait, period, n):
+            assert n == 2
+            return np.array(self.pairs.pop(0))
+
+    trace = bench._Trace(type("R", (), {"cycles": 0})(), family.gait(family.seed_params * 0.9))
+    watch = bench._Watch(trace, family)
+    objective = Scripted([(1.0, 1.2), (1.1, 0.9), (1.0, 0.95), (0.5, 0.6)])  # σ ≈ 0.12: 0.5 and 0.6 beyond 3σ
+    for _ in range(39):
+        watch.before_candidate(objective)
+    assert len(watch.pairs) == 3 and watch.record == pytest.approx(1.1) and not trace.restarts
+    with pytest.raises(bench._Restart) as restart:
+        watch.before_candidate(objective)
+    np.testing.assert_allclose(restart.value.params, family.seed_params * 0.9)
+    assert watch.record == -np.inf and trace.restarts == [0]
+
+
+def test_a_restart_variant_restarts_after_the_change_and_runs_within_the_budget():
+    """COBYQA converges before the change; its held gait falls with the change and it restarts, charged for its
+    checks within the budget."""
+    from geogait.experiments.changes import swimmer_link_drag
+
+    ends = ((1.0, 0.3), (1.0, 1.0), (1.0, 1.0), (1.0, 1.0), (1.0, 0.3))
+    case = bench._change_case(bench.CASES["swimmer5"], "swimmer5-ends-soon", "ends lose drag",
+                              swimmer_link_drag(ends), at_cycle=40)
+    child = np.random.SeedSequence(0).spawn(1)[0]
+    trace, used = bench._run_method(case, "cobyqa-restart", child, 80, seed_value=0.08)
+    assert used <= 80 and trace.restarts and min(trace.restarts) > 40
+    assert "cobyqa-restart" in bench.METHODS and "cmaes-tuned-restart" in bench.METHODS
+
+
+def test_an_undeclared_case_declares_only_joints_period_and_objective():
+    """Each stationary robot also comes as a user brings it: no resistive medium, chain geometry, symmetry,
+    settling or truth; geogait then searches the free family with its data-driven defaults, as every black-box
+    method does, and the chain's resistance model is skipped in one line."""
+    from geogait.gaits import FreeGaitFamily
+    from geogait.optimize import InSituOptimizer
+
+    assert set(bench.UNDECLARED_CASES) == {f"{n}-undeclared" for n in bench.CASES
+                                           if n not in bench.CHANGE_CASES + bench.UNDECLARED_CASES}
+    case = bench.CASES["swimmer5-undeclared"]
+    assert (case.family, case.settle_cycles, case.ceiling) == ("free", 0, bench.CASES["swimmer5"].ceiling)
+    robot = case.make_robot(None, explore=False, noise=False)
+    for hidden in ("chain_geometry", "front_back_symmetric", "mirror_symmetric", "resistive_medium",
+                   "current_system", "robot_state"):
+        assert not hasattr(robot, hidden), hidden
+    assert robot.n_joints == 4 and robot.cycle_period == 1.0 and callable(robot.set_excitation)
+    assert isinstance(InSituOptimizer()._family(robot, robot.gait), FreeGaitFamily)
+    lines = []
+    result = bench.run_robot_benchmark(["swimmer3-undeclared"], ["geogait", "geogait-resistance", "random-held"],
+                                       n_seeds=1, budget=4, checkpoints=[4], progress=False, log=lines.append)
+    assert lines == ["skipped method geogait-resistance on swimmer3-undeclared: its robot gives no chain geometry"]
+    assert set(result["records"]["method"]) == {"geogait", "random-held"}
+    mujoco = bench.CASES["mujoco-purcell5-unequal-undeclared"]
+    if not mujoco.missing():
+        chain = mujoco.make_robot(None, explore=False, noise=False)
+        assert not hasattr(chain, "resistive_medium") and chain.joint_ranges.shape == (4, 2)
+        assert mujoco.eval_settle_cycles == bench.CASES["mujoco-purcell5-unequal"].settle_cycles == 1
+
+
+def test_holm_adjusts_the_ith_smallest_p_value_by_the_cells_left_and_keeps_the_order():
+    np.testing.assert_allclose(bench.holm(np.array([0.01, 0.04, 0.03, 0.5])), [0.04, 0.09, 0.09, 0.5])
+    np.testing.assert_allclose(bench.holm(np.array([0.2, 0.9])), [0.4, 0.9])
+    assert bench.holm(np.array([0.6, 0.7])).max() == 1.0
+
+
+def test_a_cell_is_ahead_or_behind_only_past_the_holm_corrected_wilcoxon_test():
+    """Twelve seeds all ahead (p = 2 / 2¹² ≈ 0.0005) stay ahead after Holm over the four cells, and all behind stay
+    behind; a gap in three seeds, the rest tied, is level."""
+    import pandas as pd
+
+    rows = []
+    for s in range(12):
+        for cycles in (30, 60):
+            rows += [("geogait", s, cycles, 0.9 + 0.001 * s), ("cobyqa", s, cycles, 0.8 + 0.001 * s),
+                     ("geogait-climb", s, cycles, 0.95 + 0.001 * s if cycles == 30 or s < 3 else 0.9 + 0.001 * s)]
+    records = pd.DataFrame([{"case": "swimmer3", "method": m, "seed": s, "cycles": c, "objective": v,
+                             "ceiling_fraction": v, "improvement": v, "rotation": 0.0, "score": np.nan,
+                             "cycles_run": c} for m, s, c, v in rows])
+    info = {"description": "test", "objective": "progress", "seed": {"objective": 1.0}, "ceiling": {"objective": 2.0},
+            "rotation_limit": 0.02, "score": None}
+    table = bench.verdicts({"records": records, "cases": {"swimmer3": info}}, (30, 60)).set_index(["versus", "cycles"])
+    assert len(table) == 4
+    assert (table.loc["best black-box", "verdict"] == "ahead").all()
+    assert table.loc[("climb alone", 30), "verdict"] == "behind"
+    assert table.loc[("climb alone", 60), "verdict"] == "level"  # nine of twelve seeds tie: p = 2 / 2³
+    assert table.loc[("best black-box", 30), "holm_p"] == pytest.approx(4 * 2 / 2**12)
+    records.loc[records["method"] == "geogait", "rotation"] = 0.05  # beyond the limit: said in its cell
+    lines = bench.verdict_lines({"records": records, "cases": {"swimmer3": info}}, (30,))
+    assert "| 90.5 % (turns 0.050 rad per cycle) | 12 of 12 |" in "\n".join(lines)
+
+
+def test_the_long_search_holds_a_gait_of_the_family_better_than_the_seed():
+    """Where no ceiling is known (Gymnasium's swimmer, the changed swimmer and snake), the reference is the gait a
+    long clean CMA-ES search holds: a gait of the case's family and period range that beats the seed."""
+    assert bench.CASES["gymnasium-swimmer"].ceiling.func is bench.long_search_ceiling
+    case = bench.CASES["swimmer3"]
+    gait, period = bench.long_search_ceiling("swimmer3", cycles=40)
+    family = bench._Family(case, seed_gait(2), 1.0)
+    assert period is None and family.family.residual(gait) < 1e-9
+    assert bench.evaluate_gait(case, gait)["objective"] > 1.2 * bench.evaluate_gait(case, seed_gait(2))["objective"]
+
+
+def test_the_figure_gives_every_method_a_line_and_marks_the_change(monkeypatch, tmp_path):
+    """More methods than a ten-colour palette (the free and restart variants of every black box) each get a line, a
+    variant sharing its method's colour; a change case's panel marks the change."""
+    import pandas as pd
+
+    methods = [m for m in bench.METHODS if not m.endswith("-held")]
+    records = pd.DataFrame([{"case": "c", "method": m, "seed": s, "cycles": c, "ceiling_fraction": 0.5 + 0.01 * i,
+                             "improvement": 0.0, "rotation": 0.0} for i, m in enumerate(methods)
+                            for s in range(2) for c in (0, 5, 10)])
+    figures = []
+    monkeypatch.setattr(bench, "save_figure", lambda figure, path: figures.append(figure) or path)
+    bench.plot_benchmark({"records": records, "cases": {"c": {"ceiling": {"objective": 1.0}, "change_at": 5}}},
+                         tmp_path / "f.png")
+    lines = figures[0].axes[0].get_lines()
+    colours = {line.get_label(): line.get_color() for line in lines}
+    assert set(methods) <= set(colours)
+    assert colours["cmaes"] == colours["cmaes-restart"] != colours["ngopt"] != colours["geogait"]
+    assert any(list(line.get_xdata()) == [5, 5] for line in lines)  # the change, a vertical line at its cycle
+    bench.plt.close(figures[0])

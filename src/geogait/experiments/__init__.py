@@ -4,6 +4,7 @@ also importable from here)."""
 from ..sweep import SweepFailedError, SweepResult, TrialFailure, run_trials
 from ._common import PERCENTILES
 from .accuracy import AccuracyConfig, AccuracyResult, accuracy_summary, accuracy_trials, plot_accuracy, run_accuracy
+from .changes import ChangingRobot, elastica_friction, mujoco_joint_gear, mujoco_link_drag, swimmer_link_drag
 from .environments import (
     EnvironmentConfig,
     EnvironmentResult,
@@ -36,6 +37,11 @@ __all__ = [
     "TrialFailure",
     "SweepFailedError",
     "PERCENTILES",
+    "ChangingRobot",
+    "swimmer_link_drag",
+    "mujoco_link_drag",
+    "mujoco_joint_gear",
+    "elastica_friction",
     "AccuracyConfig",
     "AccuracyResult",
     "accuracy_summary",
