@@ -178,8 +178,8 @@ def test_an_offset_beyond_the_bound_is_refused_before_the_run(tmp_path, offset):
     """Issue 58, finding 7: --offset 1e300 ran and reported a cross-track error of 1e300."""
     result = _run("track", "--quick", "--offset", offset, "--out", tmp_path / "x")
     assert result.exit_code == 1 and not (tmp_path / "x").exists()
-    assert result.stderr.splitlines() == [f"error: The '--offset' option must be a finite number of body lengths "
-                                          f"within ±1e+12. Got {float(offset)} instead."]
+    assert result.stderr.splitlines() == [f"error: --offset must be a finite number of body lengths within ±1e+12; "
+                                          f"got {float(offset)}."]
 
 
 # -- per-trial statistics and the drag-change windows -----------------------------------------

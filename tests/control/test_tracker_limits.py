@@ -27,6 +27,6 @@ def test_a_horizon_whose_plans_would_not_fit_is_refused_naming_the_longest(tmp_p
     result = CliRunner().invoke(app, ["track", "--quick", "--horizon", "9000", "--out", str(tmp_path / "t")])
     assert result.exit_code == 1, result.output
     errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
-    assert len(errors) == 1 and "the '--horizon' option can be at most 8114" in errors[0], result.stderr
+    assert len(errors) == 1 and "the --horizon can be at most 8114" in errors[0], result.stderr
     with pytest.raises(GeogaitError, match="the horizon can be at most"):
         PathTracker(horizon=10**6).validate()

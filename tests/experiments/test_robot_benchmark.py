@@ -13,6 +13,8 @@ import pytest
 
 from geogait.experiments import robot_benchmark as bench
 from geogait.gaits import seed_gait
+from geogait.optimize import InSituOptimizer, ModelStep
+from geogait.robots import read_robot_spec
 
 ROOT = Path(__file__).resolve().parents[2]
 pytest.importorskip("cma", reason="the robot benchmark's baselines need cma (pip install 'geogait[baselines]')")
@@ -174,24 +176,25 @@ def test_bad_arguments_are_refused_with_the_field_named():
 def test_geogait_options_replace_the_optimisers_own_and_leave_black_box_methods_alone(monkeypatch):
     """Options given to the benchmark reach every geogait run (the batch variant's too) and are recorded;
     the black-box runs are the same with or without them."""
-    from geogait.optimize import InSituOptimizer
+
 
     seen = []
     original = InSituOptimizer.run
 
     def run(self, robot, n_cycles, **kwargs):
-        seen.append(self.get_params(deep=False))
+        seen.append(self.get_params(deep=True))
         return original(self, robot, n_cycles, **kwargs)
 
     monkeypatch.setattr(InSituOptimizer, "run", run)
-    options = {"min_trust_radius": 0.05, "max_trust_radius": 0.2}
+    options = {"step__min_trust_radius": 0.05, "step__max_trust_radius": 0.2}
     runs = [bench.run_robot_benchmark(["swimmer3"], ["geogait", "geogait-batch", "random"], n_seeds=1, budget=6,
                                       checkpoints=[6], progress=False, geogait_options=given)
             for given in (options, None)]
     assert [{k: p[k] for k in options} for p in seen[:2]] == [options, options]
     # the batch variant is the prior work's loop: steps from its model alone, no revert to the best gait measured
-    assert (seen[1]["climb"], seen[1]["revert_tolerance"]) == (False, None) and seen[0]["revert_tolerance"] == 2.0
-    assert [p["min_trust_radius"] for p in seen[2:]] == [InSituOptimizer().min_trust_radius] * 2
+    assert (seen[1]["climb"], seen[1]["safety__revert_tolerance"]) == (False, None)
+    assert seen[0]["safety__revert_tolerance"] == 2.0
+    assert [p["step__min_trust_radius"] for p in seen[2:]] == [ModelStep().min_trust_radius] * 2
     assert runs[0]["config"]["geogait_options"] == options and runs[1]["config"]["geogait_options"] is None
     random = [r["records"].query("method == 'random'")["objective"].to_numpy() for r in runs]
     np.testing.assert_array_equal(*random)
@@ -309,14 +312,15 @@ def test_a_manifest_with_cases_without_ceiling_or_score_redraws(tmp_path):
 def test_geogait_defaults_search_the_family_every_black_box_method_searches(name):
     """The rules' "same gait family": a case with a rotation-free family gets it for the black-box methods from the
     case, and geogait (family="auto") finds the same one from what the robot declares."""
-    from geogait.optimize import InSituOptimizer
+
 
     case = bench.CASES[name]
     if case.missing():
         pytest.skip(f"needs {', '.join(case.missing())}")
     robot = case.make_robot(None, explore=False, noise=False)
     shared = bench._Family(case, robot.gait, robot.cycle_period).family
-    own = InSituOptimizer(family="free" if case.family == "free" else "auto")._family(robot, robot.gait)
+    optimizer = InSituOptimizer(family="free" if case.family == "free" else "auto")
+    own = optimizer._family(read_robot_spec(robot), robot.gait)
     assert type(own) is type(shared)
     assert np.allclose(own.matrix, shared.matrix)
 
@@ -613,7 +617,7 @@ def test_an_undeclared_case_declares_only_joints_period_and_objective():
     settling or truth; geogait then searches the free family with its data-driven defaults, as every black-box
     method does, and the chain's resistance model is skipped in one line."""
     from geogait.gaits import FreeGaitFamily
-    from geogait.optimize import InSituOptimizer
+
 
     assert set(bench.UNDECLARED_CASES) == {f"{n}-undeclared" for n in bench.CASES
                                            if n not in bench.CHANGE_CASES + bench.UNDECLARED_CASES}
@@ -624,7 +628,7 @@ def test_an_undeclared_case_declares_only_joints_period_and_objective():
                    "current_system", "robot_state"):
         assert not hasattr(robot, hidden), hidden
     assert robot.n_joints == 4 and robot.cycle_period == 1.0 and callable(robot.set_excitation)
-    assert isinstance(InSituOptimizer()._family(robot, robot.gait), FreeGaitFamily)
+    assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), FreeGaitFamily)
     lines = []
     result = bench.run_robot_benchmark(["swimmer3-undeclared"], ["geogait", "geogait-resistance", "random-held"],
                                        n_seeds=1, budget=4, checkpoints=[4], progress=False, log=lines.append)

@@ -280,7 +280,8 @@ def test_docs_steering_example_runs(monkeypatch, tmp_path):
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[2] / "docs" / "steering.md").read_text()
-    block = re.search(r"## The tracker and its parts.*?```python\n(.*?)```", text, re.S).group(1)
+    section = re.search(r"## The tracker and its parts(.*?)(?:\n## |\Z)", text, re.S).group(1)
+    block = "\n".join(re.findall(r"```python\n(.*?)```", section, re.S))  # (its blocks run in order)
     monkeypatch.chdir(tmp_path)
     namespace = {}
     exec(compile(block, "README steering example", "exec"), namespace)

@@ -74,7 +74,7 @@ def test_the_second_period_respects_the_period_range_and_joint_speed():
     result = InSituOptimizer(period=PeriodSearch(period_range=(0.25, 1.5)), checks=test).run(robot, 10)
     assert result.log["cycle_period"].iloc[N + 1] == 0.5  # twice is beyond the range: half
     with pytest.raises(ValueError, match="'checks'.*period range and joint-velocity limit"):
-        InSituOptimizer(period=PeriodSearch(period_range=(0.8, 1.5)), checks=test).run(LaggingRobot(), 3)
+        InSituOptimizer(period=PeriodSearch(period_range=(0.8, 1.5)), checks=test).run(LaggingRobot(), 20)
 
 
 def test_bad_settings_are_named_before_the_robot_moves():
@@ -87,7 +87,7 @@ def test_bad_settings_are_named_before_the_robot_moves():
         set_cycle_period = None
 
     with pytest.raises(ValueError, match="set_cycle_period.*ModelClassTest"):
-        InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(FixedPeriod(), 3)
+        InSituOptimizer(checks=[ModelClassTest(cycles=N)]).run(FixedPeriod(), 20)
     assert robot.periods == [] and robot.pose.tolist() == [0, 0, 0]
 
 

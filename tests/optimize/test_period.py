@@ -100,6 +100,7 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
     from geogait.models import AdaptiveGaitModel
     from geogait.optimize._loop import CycleLoop
     from geogait.optimize._state import RunState
+    from geogait.robots import read_robot_spec
 
     optimizer = InSituOptimizer()
     gait = seed_gait(2)
@@ -107,7 +108,9 @@ def test_a_gait_change_before_the_fresh_model_learned_anything_starts_a_new_mode
     state = RunState(gait=gait, radius=0.1, model=fresh, n_cycles=10, ceiling=None, period=1.0)
     other = FourierGait(0.9 * gait.coefficients)
     robot = SwimmerStream(PurcellSwimmer(3), gait, seed=0)
-    CycleLoop(optimizer, optimizer.composition(), robot, state, checkpoint=None, checkpoint_every=1)._change_gait(other)
+    loop = CycleLoop(optimizer, optimizer.composition(), robot, read_robot_spec(robot), state, checkpoint=None,
+                     checkpoint_every=1)
+    loop._change_gait(other)
     assert state.model is not fresh and state.gait == other and state.previous_gait == gait
 
 

@@ -58,7 +58,11 @@ def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
              "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}, "joint_ranges": [[-1.5, 1.5], [-1.2, 1.4]]}
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
         np.testing.assert_array_equal(robot.joint_ranges, [[-1.5, 1.5], [-1.2, 1.4]])
-        assert InSituOptimizer()._joint_limit(robot, "test") == 1.2
+        from geogait.optimize import Limits
+        from geogait.optimize._insitu import _joint_limit
+        from geogait.robots import read_robot_spec
+
+        assert _joint_limit(Limits(), read_robot_spec(robot)) == 1.2
     for bad in ([[-1.5, 1.5]], [[0.5, 1.5], [-1, 1]], [[-1, "1"], [-1, 1]]):
         wrong = dict(hello, joint_ranges=bad)
         with pytest.raises(ValueError, match="'joint_ranges'"):

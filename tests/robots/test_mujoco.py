@@ -483,9 +483,9 @@ def test_the_structured_default_shortens_its_steps_after_gaits_the_actuators_can
     """The resistance model (the default on this RFT chain) steps with a trust radius of at least 0.25; a gait the
     saturated motors cannot follow halves it even below that floor (a rejection is measured, not a noisy ratio)."""
 
-    result = InSituOptimizer(safety=Safety(max_tracking_error=0.1), objective=Objective(kind="forward",
-                                                                                        frame="body")).run(
-        _saturating_swimmer(), 12)
+    robot = _saturating_swimmer()
+    result = for_robot(robot, safety=Safety(max_tracking_error=0.1),
+                       objective=Objective(kind="forward", frame="body")).run(robot, 12)
     log = result.log
     assert type(result.model).__name__ == "ResistanceModel" and log["trust_radius"].iloc[0] == 0.25
     assert log["rejected"].sum() >= 2 and np.all(log.loc[log["rejected"], "tracking_error"] > 0.1)
