@@ -28,7 +28,7 @@ import pandas as pd
 from geogait.experiments.robot_benchmark import CASES, available_cases, case_optimizer
 from geogait.io import read_log
 from geogait.learn import fit_log
-from geogait.optimize import ModelClassTest
+from geogait.optimize import ModelClassTest, smallest_budget
 from geogait.simulate import Trajectory
 
 COLUMNS = ("body_velocity_x", "body_velocity_y", "body_velocity_theta")
@@ -82,7 +82,8 @@ def in_run_rows(name: str, seeds: int, cycles: int = 3) -> list[dict]:
         optimizer = case_optimizer(case, checks=[ModelClassTest(cycles=cycles)], random_state=seed)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # (the verdict is recorded, not printed)
-            result = optimizer.run(case.make_robot(seed, True, True), case.settle_cycles + 2 * cycles + 2)
+            # (the test's plan, and the one measured cycle a run holds at least)
+            result = optimizer.run(case.make_robot(seed, True, True), smallest_budget(case.settle_cycles, cycles))
         rows.append({"system": name, "seed": seed, **result.model_class.to_dict()})
     return rows
 

@@ -1,14 +1,15 @@
 """Optimiser settings judged on the robot benchmark's robots, side by side with the black-box methods.
 
-Runs geogait with each named set of InSituOptimizer parameters on the benchmark's cases, paired seeds
-and clean re-runs (``geogait.experiments.robot_benchmark``), and prints per case the median clean
-objective after 30, 60 and 100 cycles for each setting, next to the stored black-box rows of the same
-seeds (the best black-box method at each budget, from the results manifests), and each setting paired seed by
+Runs geogait with each named set of InSituOptimizer parameters (nested names, e.g. ``step__trust_radius``) on
+the benchmark's cases, paired seeds and clean re-runs (``geogait.experiments.robot_benchmark``), and prints per
+case the median clean objective after 30, 60 and 100 cycles for each setting, next to the stored black-box rows of
+the same seeds (the best black-box method at each budget, from the results manifests), and each setting paired seed by
 seed with the stored default (``robot_benchmark.paired_test``: seeds ahead, Wilcoxon signed-rank p). Writes one
 JSON file with every record.
 
     python studies/optimizer_robots.py --cases elastica-snake,swimmer5 --seeds 8 --jobs 2 \\
-        --variants '{"default": {}, "floor 0.075": {"min_trust_radius": 0.075}}' --out docs/results/optimizer-robots
+        --variants '{"default": {}, "floor 0.075": {"step__min_trust_radius": 0.075}}' \\
+        --out docs/results/optimizer-robots
 """
 
 from __future__ import annotations

@@ -8,10 +8,11 @@ is judged as on the benchmark: the gait it would hand over after 30, 60 and 100 
 as an improvement of forward speed over the seed gait's.
 
 Methods: the benchmark's (``geogait``, ``cobyqa-held``, ``cmaes-tuned-held`` …) and, for each entry of
-``--variants`` (a JSON object: name → InSituOptimizer parameters), ``geogait-<name>``: geogait with those settings.
+``--variants`` (a JSON object: name → InSituOptimizer parameters, nested names such as ``step__trust_radius``),
+``geogait-<name>``: geogait with those settings.
 
     python studies/snake_variants.py --seeds 12 --methods geogait,geogait-wide,cobyqa-held,cmaes-tuned-held \\
-        --variants '{"wide": {"max_trust_radius": 0.3}}' --jobs 2 \\
+        --variants '{"wide": {"step__max_trust_radius": 0.3}}' --jobs 2 \\
         --out docs/results/optimizer-robots/snake-variants/snake_variants.json
 """
 

@@ -72,7 +72,7 @@ def test_optimizer_robots_study_runs_each_setting_on_the_benchmark_robot(tmp_pat
     import json
 
     pytest.importorskip("cma", reason="the stored black-box rows come from a benchmark that needs cma")
-    variants = {"default": {}, "held radius": {"trust_radius": 0.15, "min_trust_radius": 0.15},
+    variants = {"default": {}, "held radius": {"step__trust_radius": 0.15, "step__min_trust_radius": 0.15},
                 "batch": {"method": "geogait-batch"}}
     output = subprocess.run([sys.executable, str(STUDIES / "optimizer_robots.py"), "--cases", "swimmer3", "--seeds",
                              "2", "--budget", "30", "--jobs", "1", "--variants", json.dumps(variants), "--out",
@@ -168,7 +168,7 @@ def test_snake_variants_study_runs_each_method_on_a_different_snake_per_seed(tmp
     unknown = subprocess.run([*study, "--methods", "geogait-wide"], capture_output=True, text=True, timeout=300)
     assert unknown.returncode == 2 and "geogait-wide not among --variants" in unknown.stderr
     output = subprocess.run([*study, "--methods", "geogait-wide,random-held", "--variants",
-                             '{"wide": {"max_trust_radius": 0.3}}'],
+                             '{"wide": {"step__max_trust_radius": 0.3}}'],
                             capture_output=True, text=True, check=True, timeout=300).stdout
     assert "geogait-wide" in output and "random-held" in output
     records = json.loads(out.read_text())["records"]

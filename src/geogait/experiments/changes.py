@@ -80,6 +80,12 @@ class ChangingRobot:
         return self.robot.gait
 
     def set_gait(self, gait: FourierGait) -> None:
+        """Command ``gait`` from the next cycle on (the wrapped robot's).
+
+        Parameters
+        ----------
+        gait : FourierGait
+        """
         self.robot.set_gait(gait)
 
     def next_cycle(self) -> Trajectory:

@@ -56,11 +56,24 @@ class GaitModel(Protocol):
     :data:`CAPABILITIES` and read by :func:`model_capabilities`."""
 
     def get_params(self, deep: bool = True) -> dict:
-        """Hyper-parameters (scikit-learn's contract)."""
+        """Hyper-parameters (scikit-learn's contract).
+
+        Parameters
+        ----------
+        deep : bool
+            Also those of nested estimators.
+        """
         ...
 
     def predict_displacement(self, gait, jacobian: bool = False):
-        """Net (x, y, heading) per cycle of ``gait`` (and its Jacobian in the gait's parameters)."""
+        """Net (x, y, heading) per cycle of ``gait`` (and its Jacobian in the gait's parameters).
+
+        Parameters
+        ----------
+        gait : FourierGait
+        jacobian : bool
+            Also return the derivative with respect to the gait's flat parameters.
+        """
         ...
 
 

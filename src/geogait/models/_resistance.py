@@ -359,7 +359,13 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     # -- fitting ------------------------------------------------------------------------------
     def memory_bytes(self, n_joints: int) -> float:
         """Bytes this model's predicted cycle takes at its peak with its derivative (the chain's connection perturbed
-        in each joint at every Magnus node: :func:`~geogait._validation.chain_motion_bytes`)."""
+        in each joint at every Magnus node).
+
+        Parameters
+        ----------
+        n_joints : int
+            The robot's joints (this model's chain fixes its own).
+        """
         return chain_motion_bytes(self._n_links - 1, self.resolution)
 
     def _reset(self, n_joints: int):

@@ -44,7 +44,22 @@ class Exploration(Part):
         self.frequency = frequency
 
     def signal(self, scale: float, n_joints: int, rng: np.random.Generator, initial_state=None) -> ExcitationSignal:
-        """The excitation of a run: δ std ``std × scale`` shape units."""
+        """The excitation of a run: δ std ``std × scale`` shape units.
+
+        Parameters
+        ----------
+        scale : float
+            The robot's unit of shape (``shape_scale``).
+        n_joints : int
+        rng : numpy.random.Generator
+            The run's generator (its draws are the run's).
+        initial_state : ndarray of shape (d, 2), optional
+            (δ, δ̇) to start from (a checkpoint's).
+
+        Returns
+        -------
+        ExcitationSignal
+        """
         return ExcitationSignal(self.std * scale, n_joints, rng, self.frequency, initial_state)
 
 

@@ -60,7 +60,28 @@ DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 
 @dataclass
 class Composition:
-    """The parts a run uses: the optimiser's, with every ``None`` resolved to a fresh default part."""
+    """The parts a run uses: the optimiser's, with every ``None`` resolved to a fresh default part.
+
+    Parameters
+    ----------
+    model : estimator or None
+        The model template (None: the default for the family searched).
+    gate : Gate
+    gate_kind : {"gamma", "cycles"}
+        The gate resolved for the model.
+    step : ModelStep
+    climb : Climb or None
+        None: no climb.
+    safety : Safety
+    limits : Limits
+    objective : Objective
+    order : int
+    period : PeriodSearch or None
+    exploration : Exploration or None
+        None: never commanded (``"auto"`` resolves to ``Exploration()``, commanded where the robot takes it).
+    model_class : ModelClassTest or None
+    structure : StructureCheck or None
+    """
 
     model: object
     gate: Gate
@@ -119,10 +140,11 @@ class InSituOptimizer(Estimator):
 
     Examples
     --------
+    >>> from geogait.gaits import seed_gait
     >>> from geogait.optimize import Climb, InSituOptimizer, ModelStep
     >>> from geogait.simulate import SwimmerStream
     >>> from geogait.systems import PurcellSwimmer
-    >>> robot = SwimmerStream(PurcellSwimmer(3), sensor_noise=0.1, seed=0)
+    >>> robot = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=0)
     >>> optimizer = InSituOptimizer(step=ModelStep(trust_radius=0.05), climb=Climb(start="stalled"))
     >>> optimizer
     InSituOptimizer(step=ModelStep(trust_radius=0.05), climb=Climb(start='stalled'))

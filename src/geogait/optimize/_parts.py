@@ -166,7 +166,17 @@ class ModelStep(Part):
 
     def breaks(self, before: float, promised: float, seen: float) -> bool:
         """A promise worth checking (a change of at least ``significant_gain``) of which under ``broken_promise``
-        was seen."""
+        was seen.
+
+        Parameters
+        ----------
+        before, promised, seen : float
+            The objective before the step, the one the step promised, and the one seen after it.
+
+        Returns
+        -------
+        bool
+        """
         if promised == before or abs(promised - before) < self.significant_gain * abs(before):
             return False
         return (seen - before) / (promised - before) < self.broken_promise
