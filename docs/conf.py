@@ -32,6 +32,8 @@ suppress_warnings = ["myst.header"]
 TABLE_TITLES = {
     "results/robots/robots": "Robot benchmark: every case and method",
     "results/robots-elastica/robots": "Robot benchmark: the continuum snake",
+    "results/change-benchmark/robots": "Change benchmark: every method",
+    "results/change-benchmark-gp/robots": "Change benchmark: the Gaussian-process optimiser",
 }
 
 
