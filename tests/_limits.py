@@ -27,10 +27,17 @@ def within_memory(code: str, timeout: float = 300) -> subprocess.CompletedProces
                           preexec_fn=limit, env=_environment())
 
 
+def interruptible() -> None:
+    """Give a child process Ctrl-C back: a test worker (pytest-xdist) may run with SIGINT ignored, which children
+    inherit, and Python then installs no KeyboardInterrupt handler (as a shell's background job)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def seconds_to_stop(argv: list[str], after: float, sig=signal.SIGTERM, limit: float = 60) -> tuple[float, int, str]:
     """Start ``argv``, send ``sig`` ``after`` seconds, and return (seconds it took to exit, exit code, stderr)."""
     with tempfile.TemporaryFile("w+") as stderr:  # (a pipe nobody reads would block a chatty process)
-        process = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=stderr, text=True, env=_environment())
+        process = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=stderr, text=True, env=_environment(),
+                                   preexec_fn=interruptible)
         try:
             process.wait(timeout=after)
             raise AssertionError(f"{argv} ended before the signal (exit code {process.returncode}): nothing tested")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from _limits import interruptible
 from typer.testing import CliRunner
 
 from geogait._files import LOCK_FILE
@@ -94,7 +95,7 @@ def test_an_interrupted_run_writes_the_outputs_of_the_cycles_it_ran(tmp_path, si
     command = [sys.executable, "-c", "from geogait.cli import main; main()", "optimize", "--links", "3", "--cycles",
                "1000", "--out", str(folder)]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env={**os.environ, "MPLBACKEND": "Agg"})
+                               env={**os.environ, "MPLBACKEND": "Agg"}, preexec_fn=interruptible)
     try:
         while checkpoint_cycles(folder) < 3:  # a few cycles run (the budget is far off)
             assert process.poll() is None, process.communicate()
