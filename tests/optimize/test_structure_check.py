@@ -8,7 +8,7 @@ import pytest
 
 from geogait.gaits import seed_gait
 from geogait.models import ResistanceModel
-from geogait.optimize import Climb, Gate, InSituOptimizer, ModelStep, StructureCheck, structured
+from geogait.optimize import Adaptation, Climb, Gate, InSituOptimizer, ModelStep, StructureCheck, structured
 from geogait.simulate import SwimmerStream
 from geogait.systems import FunctionSystem, PurcellSwimmer
 
@@ -57,8 +57,8 @@ def test_the_structure_is_checked_before_the_model_is_confident():
 
 
 def test_the_structured_preset_declares_the_check_only_for_a_model_that_reports_its_residual():
-    assert hybrid_optimizer().checks == [StructureCheck()]
-    assert structured(ResistanceModel.from_swimmer(SWIMMER)).checks == []
+    assert hybrid_optimizer().checks == [Adaptation(), StructureCheck()]
+    assert structured(ResistanceModel.from_swimmer(SWIMMER)).checks == [Adaptation()]
 
 
 def test_the_check_switches_to_what_it_declares_and_keeps_what_it_does_not_name():

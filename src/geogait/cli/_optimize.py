@@ -65,6 +65,8 @@ RUN_FILE = "run.json"  # the settings of a run, read back by --resume
 MAX_CYCLES = 10_000_000  # a cycle budget beyond is a typo, not a run
 CHECKPOINT_FILE = "checkpoint.npz"
 #: Every file a run writes into its folder (removed at the start of a run with --overwrite).
+#: A file of this name in a run's folder ends the run after the cycle under way (as its budget would).
+STOP_FILE = "STOP"
 RUN_FILES = ("summary.json", RUN_FILE, CHECKPOINT_FILE, "cycles.csv", "gait.png", "progress.png", "path.png")
 #: Settings that do not change what a run computes: left out of its identity (--cycles may extend a run).
 _NOT_IDENTITY = ("cycles", "robot_timeout", "run_id")
@@ -150,8 +152,8 @@ def optimize(
         "Largest RMS realised − commanded joint angle (rad) of a kept gait: a number, off, or auto (twice the "
         "seed gait's)."))] = "auto",
     cycles: Annotated[int | None, typer.Option(rich_help_panel=_RUN, help=(
-        "Cycle budget [default: {budget_3} for 3 links, else {budget_5}; 100 with --robot]. With --resume: the "
-        "new total."))] = None,
+        "Cycle budget [default: {budget_3} for 3 links, else {budget_5}; with --robot none: the run goes on until "
+        "Ctrl-C, SIGTERM or a file named STOP in --out]. With --resume: the new total."))] = None,
     seed: Annotated[int, typer.Option(min=0, rich_help_panel=_RUN, help=(
         "Random seed (exploration, climb, the built-in swimmer's noise)."))] = 0,
     checkpoint_every: Annotated[int, typer.Option(rich_help_panel=_RUN, help=(
@@ -326,6 +328,10 @@ def _results_table(summary: dict):
         table.add_row("first cycle at 90 % of the ceiling", "not reached" if at_90 is None else str(at_90))
     table.add_row("steps taken, rejected, reverted to the best",
                   f"{summary['steps']}, {summary['rejected_steps']}, {summary['reverted_to_best']}")
+    table.add_row("steps by the model, by the climb", f"{summary['steps_by_model']}, {summary['steps_by_climb']}")
+    if summary.get("changes_detected"):
+        table.add_row("changes detected (cycle: evidence)", ", ".join(f"{c['cycle']}: {c['evidence']}"
+                                                                     for c in summary["changes_detected"]))
     table.add_row("model, gait family", f"{summary['model_used']}, {summary['gait_family']}")
     if "quarantined_cycles" in summary:
         table.add_row("cycles quarantined (implausible data)", str(summary["quarantined_cycles"]))
@@ -535,13 +541,14 @@ def _composed(settings, robot=None) -> InSituOptimizer:
     return optimizer.set_params(**params)
 
 
-def _budget(settings) -> int:
-    """The run's cycle budget: --cycles, else the default for the robot or the swimmer."""
+def _budget(settings) -> int | None:
+    """The run's cycle budget: --cycles, else the swimmer's default; a --robot run without --cycles has none (it goes
+    on until it is stopped)."""
     from ..experiments.optimization import default_budget
 
-    if settings["cycles"] is not None:
+    if settings["cycles"] is not None or settings["robot"] is not None:
         return settings["cycles"]
-    return 100 if settings["robot"] is not None else default_budget(settings["links"])
+    return default_budget(settings["links"])
 
 
 def _check_budget(settings) -> None:
@@ -552,7 +559,7 @@ def _check_budget(settings) -> None:
 
     settle, test = settings["settle_cycles"], settings.get("model_class_cycles", 0)
     smallest, budget = smallest_budget(settle, test), _budget(settings)
-    if budget >= smallest:
+    if budget is None or budget >= smallest:
         return
     spent = [f"--settle-cycles {settle}"] * bool(settle) + [f"--model-class-cycles {test}"] * bool(test)
     given = f"--cycles {budget}" if settings["cycles"] is not None else f"the default budget of {budget} cycles"
@@ -603,10 +610,13 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             value = row.get("true_objective", row["measured_objective"])
             share = f"  {100 * row['ceiling_fraction']:.0f}% of ceiling" if "ceiling_fraction" in row else ""
             trial = "  (a trial)" if row.get("candidate", False) else ""
-            status = f"Γ {gamma}  this cycle {value:.4f}{share}{trial}  gait no. {row['iteration']}"
+            steps = f"  model/climb steps {row['steps_by_model']}/{row['steps_by_climb']}"
+            change = f"  change detected ({row['change']})" if row.get("change") else ""
+            status = f"Γ {gamma}  this cycle {value:.4f}{share}{trial}{steps}{change}"
             progress.update(task, completed=row["cycle"] + 1, status=status)
 
         checkpoint = folder / CHECKPOINT_FILE
+        (folder / STOP_FILE).unlink(missing_ok=True)  # (a STOP left by the run this one continues or replaces)
         if settings["robot"] is not None:  # a driver's joints, chain and medium are known once it is connected
             optimizer = _optimizer(settings, robot)
         hello = _hello(robot) if settings["robot"] is not None else None
@@ -614,11 +624,12 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
                         speed_limit=settings["max_joint_velocity"] is not None)
         if resumed:
             _check_resumed_hello(checkpoint, hello)
-            return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles), optimizer
+            return InSituOptimizer.resume(checkpoint, robot, callback=show, record=True, n_cycles=cycles,
+                                          stop=folder / STOP_FILE), optimizer
         tag = {"run_id": run_id, **({} if hello is None else {"hello": hello})}
         return optimizer.run(robot, cycles, ceiling=None if ceiling is None else ceiling.value, callback=show,
                              record=True, checkpoint=checkpoint, checkpoint_every=settings["checkpoint_every"],
-                             checkpoint_tag=tag), optimizer
+                             checkpoint_tag=tag, stop=folder / STOP_FILE), optimizer
 
 
 def _check_memory(settings: dict, optimizer) -> None:

@@ -960,9 +960,11 @@ def _geogait(case: BenchmarkCase, robot: _CountingRobot, budget: int, variant: s
     trace.events += [(c, FourierGait.from_params(params[c], seed.n_joints),
                       None if fixed else float(log["cycle_period"].iloc[c])) for c in range(1, len(params)) if kept[c]]
     trace.events.append((budget, result.final_gait, None if fixed else result.cycle_period))
-    kinds = np.where(log["climb"].to_numpy(dtype=bool), "measured", "model")
-    changed = log["step"].to_numpy(dtype=bool) & ~log["period_change"].to_numpy(dtype=bool)  # (a period trial: neither)
-    trace.steps = [(c + 1, str(kinds[c])) for c in np.flatnonzero(changed)]
+    # the steps as the run counts them (a period trial, a re-measured base and a change check are neither)
+    by_model = np.diff(log["steps_by_model"].to_numpy(), prepend=0) > 0
+    by_climb = np.diff(log["steps_by_climb"].to_numpy(), prepend=0) > 0
+    trace.steps = [(c + 1, "model" if by_model[c] else "measured") for c in np.flatnonzero(by_model | by_climb)]
+    trace.restarts = [event["cycle"] + 1 for event in result.changes]  # (detections, before the change too)
     return trace
 
 

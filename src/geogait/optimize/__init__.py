@@ -1,6 +1,7 @@
 """Gait optimisation: the in-situ optimiser (paper Fig. 4) composed from parts, its presets, the model-based
 ceiling and the trust-region step rules."""
 
+from ._adaptation import Adaptation
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._checks import ModelClassTest, StructureCheck
 from ._climb import BAYES_DESIGN_CYCLES, CLIMB_RULES, climb_rule_for
@@ -27,6 +28,7 @@ from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
 __all__ = [
+    "Adaptation",
     "BAYES_DESIGN_CYCLES",
     "CLIMB_RULES",
     "OBJECTIVES",

@@ -23,6 +23,8 @@ class ClimbSteps:
         one of the climb's coordinates."""
         state = self.state
         best = self._best_key() if base is None else base
+        if sigma is None and np.isfinite(state.watch.reopen):  # the first climb after a change: sized by it
+            sigma, state.watch.reopen = state.watch.reopen, np.nan
         state.climb.start(best, self.parts.climb.sigma * state.scale if sigma is None else sigma)
         if self.parts.climb.rule != "es":
             state.climb.search = self._new_search(best, state.climb.sigma)
@@ -49,15 +51,18 @@ class ClimbSteps:
         keys = [k for k, v in state.measured.items() if len(v) >= 2 or k == current]
         return max(keys, key=lambda k: float(np.mean(state.measured[k]))) if keys else current
 
-    def _climb_move(self) -> bool:
+    def _climb_move(self) -> str | None:
         """The climb's turn at a gate decision (:class:`MeasuredClimb`): judge the candidate just measured,
-        go back to the base to measure it again after three failures, or command the next candidate;
-        returns whether the gait changed."""
+        go back to the base to measure it again after three failures or for the
+        :class:`~geogait.optimize.Adaptation`'s check, or command the next candidate; returns ``"climb"`` or
+        ``"check"`` when the gait changed, else None."""
         state, parts, climb = self.state, self.parts, self.state.climb
         key = (state.gait, state.period)
         measured = climb.measured
         if np.isnan(climb.rotation_limit) and climb.base in measured:  # the start base, measured as the climb
             rotation = abs(float(np.mean(climb.rotations[climb.base])))  # measures (clean, when it can)
+            if state.watch.rotation_free:  # (a change made the body turn: back to none)
+                rotation = 0.0
             climb.rotation_limit = max(rotation, parts.climb.rotation_tolerance)
         if climb.candidate is not None:
             if climb.candidate == key and climb.base in measured:
@@ -66,6 +71,7 @@ class ClimbSteps:
                 kept = climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
                                    self._rotation_holds(key, climb.base),
                                    tests_model=climb.search is None or not climb.search.designing)
+                state.watch.since_check += 1
                 if kept:
                     self._follow_tracking()
                 # back to model steps (unless outside its class), from the best gait, on a fresh record
@@ -77,14 +83,18 @@ class ClimbSteps:
                     self._change_gait(*climb.base)
                     state.previous_gait = None  # (the base was accepted: never refused back to a failed candidate)
                     state.tracking_follows = True  # the model's steps are held to what the base tracks
-                    return True
+                    return "climb"
             climb.candidate = None  # a candidate left early (rejected) is not judged
+        if self._check_due() and key != climb.base:
+            state.watch.since_check = 0
+            self._change_gait(*climb.base)
+            return "check"
         remeasure = climb.search is None and key != climb.base and climb.failures >= 3  # (COBYQA: its own model)
         if climb.base not in measured or remeasure:
             climb.failures = 0  # measure the base (again: it may have been lucky)
             self._change_gait(*climb.base)
-            return True
-        return self._climb_candidate()
+            return "climb"
+        return "climb" if self._climb_candidate() else None
 
     def _climb_candidate(self) -> bool:
         """Command the climb's next candidate: σ from the base in its next direction, shortened until it

@@ -19,6 +19,7 @@ Every commanded gait of those has exactly zero net rotation, so the rotation con
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +33,7 @@ from .._validation import GeogaitError, check_bytes, check_callback, check_float
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import check_gait_model, model_capabilities
 from ..robots import RobotSpec, read_robot_spec
+from ._adaptation import Adaptation
 from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
 from ._loop import CycleLoop, new_climb
@@ -56,6 +58,8 @@ __all__ = ["Composition", "InSituOptimizer", "symmetric_chain_model"]
 
 #: r_max of a robot that declares no joint ranges (the design's 2π/3).
 DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
+#: The parts ``checks`` takes (one of each at most).
+CHECKS = (Adaptation, ModelClassTest, StructureCheck)
 
 
 @dataclass
@@ -81,6 +85,8 @@ class Composition:
         None: never commanded (``"auto"`` resolves to ``Exploration()``, commanded where the robot takes it).
     model_class : ModelClassTest or None
     structure : StructureCheck or None
+    adaptation : Adaptation or None
+        None: no change is watched for.
     """
 
     model: object
@@ -96,6 +102,7 @@ class Composition:
     exploration: object
     model_class: ModelClassTest | None
     structure: StructureCheck | None
+    adaptation: Adaptation | None = None
 
 
 class InSituOptimizer(Estimator):
@@ -133,8 +140,10 @@ class InSituOptimizer(Estimator):
         ``"auto"``: ``Exploration()`` commanded to robots that offer ``set_excitation``, none to others (they
         explore on their own). An ``Exploration``: commanded (the robot must offer ``set_excitation``). None:
         never commanded (the robot's own perturbation, as the paper's simulated swimmer).
-    checks : sequence of ModelClassTest and StructureCheck, optional
-        Run-time checks (module :mod:`geogait.optimize._checks`); none by default.
+    checks : sequence of Adaptation, ModelClassTest and StructureCheck, optional
+        Run-time checks (module :mod:`geogait.optimize._checks`). Default (None): ``[Adaptation()]``, which notices
+        a change of the robot or its world, forgets the records it made stale and leads the recovery
+        (:mod:`geogait.optimize._adaptation`); ``[]``: none, records are kept for the whole run.
     random_state : int or None
         Seed of the exploration and the climb (default 0: runs repeat exactly; None draws fresh entropy).
 
@@ -195,10 +204,9 @@ class InSituOptimizer(Estimator):
         if not (self.exploration in ("auto", None) or isinstance(self.exploration, Exploration)):
             raise fail("exploration", owner, "'auto', an Exploration or None", self.exploration)
         checks = () if self.checks is None else self.checks
-        if not isinstance(checks, list | tuple) or not all(isinstance(c, ModelClassTest | StructureCheck)
-                                                            for c in checks):
-            raise fail("checks", owner, "a list of ModelClassTest and StructureCheck parts", self.checks)
-        for kind in (ModelClassTest, StructureCheck):
+        if not isinstance(checks, list | tuple) or not all(isinstance(c, CHECKS) for c in checks):
+            raise fail("checks", owner, "a list of Adaptation, ModelClassTest and StructureCheck parts", self.checks)
+        for kind in CHECKS:
             if sum(isinstance(c, kind) for c in checks) > 1:
                 raise fail("checks", owner, f"at most one {kind.__name__}", self.checks)
         for name in ("gate", "step", "safety", "limits", "objective", "period"):
@@ -209,6 +217,7 @@ class InSituOptimizer(Estimator):
             part.validate()
         if isinstance(self.climb, Climb):
             self.climb.validate()
+
         if isinstance(self.exploration, Exploration):
             self.exploration.validate()
         gate = self.gate or Gate()
@@ -223,20 +232,22 @@ class InSituOptimizer(Estimator):
         """The parts a run uses, every ``None`` resolved to a fresh default part (validated first)."""
         self.validate()
         gate = self.gate or Gate()
-        checks = () if self.checks is None else self.checks
+        checks = [Adaptation()] if self.checks is None else self.checks
         return Composition(
             model=self.model, gate=gate, gate_kind=gate_kind(gate.kind, self.model), step=self.step or ModelStep(),
             climb=None if self.climb is False else (self.climb or Climb()), safety=self.safety or Safety(),
             limits=self.limits or Limits(), objective=self.objective or Objective(), order=self.order,
             period=self.period, exploration=Exploration() if self.exploration == "auto" else self.exploration,
             model_class=next((c for c in checks if isinstance(c, ModelClassTest)), None),
-            structure=next((c for c in checks if isinstance(c, StructureCheck)), None))
+            structure=next((c for c in checks if isinstance(c, StructureCheck)), None),
+            adaptation=next((c for c in checks if isinstance(c, Adaptation)), None))
 
     # -- running ------------------------------------------------------------------------------
-    def run(self, robot, n_cycles: int, *, ceiling: float | None = None,
+    def run(self, robot, n_cycles: int | None, *, ceiling: float | None = None,
             callback: Callable[[dict], None] | None = None, record: bool = False,
-            checkpoint=None, checkpoint_every: int = 1, checkpoint_tag: dict | None = None) -> InSituResult:
-        """Optimise in situ for ``n_cycles`` cycles of ``robot``.
+            checkpoint=None, checkpoint_every: int = 1, checkpoint_tag: dict | None = None,
+            stop=None) -> InSituResult:
+        """Optimise in situ for ``n_cycles`` cycles of ``robot``, or until ``stop``.
 
         Parameters
         ----------
@@ -244,7 +255,9 @@ class InSituOptimizer(Estimator):
             Anything implementing :class:`geogait.robots.Robot` (``SwimmerStream``, ``MujocoRobot``,
             ``ProcessRobot``, your own driver). With ``current_system()`` the log also holds the true displacement
             per cycle.
-        n_cycles : int
+        n_cycles : int or None
+            The cycle budget; None: no budget (continuous operation), the run goes on until ``stop`` says so or
+            the process is interrupted (the checkpoint then holds every cycle run).
         ceiling : float, optional
             Ceiling objective value; adds ``ceiling_fraction`` to the log.
         callback : callable, optional
@@ -257,11 +270,15 @@ class InSituOptimizer(Estimator):
         checkpoint_every : int
         checkpoint_tag : dict, optional
             JSON values stored in the checkpoint as ``tag`` and kept by :meth:`resume`.
+        stop : callable or path-like, optional
+            Asked after every cycle: a callable ``stop() -> bool``, or a file whose existence ends the run. The
+            run then ends as at its budget (its checkpoint written, its result returned).
         """
         parts = self.composition()
         owner = "InSituOptimizer.run"
         check_callback(callback, record, owner)
         n_cycles = _check_budget(n_cycles, parts, owner)
+        stop = stop_rule(stop, owner)
         checkpoint_every = check_int(checkpoint_every, "checkpoint_every", owner, minimum=1)
         if ceiling is not None:
             ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
@@ -318,11 +335,11 @@ class InSituOptimizer(Estimator):
         if state.check is not None:  # the test's plan runs the start's settle cycles
             state.settle_left = 0
         loop = CycleLoop(self, parts, robot, spec, state, checkpoint, checkpoint_every, checkpoint_tag)
-        return loop.run(callback, record)
+        return loop.run(callback, record, stop)
 
     @classmethod
     def resume(cls, checkpoint, robot, *, callback: Callable[[dict], None] | None = None,
-               record: bool = False, n_cycles: int | None = None) -> InSituResult:
+               record: bool = False, n_cycles: int | None = None, stop=None) -> InSituResult:
         """Continue a run from its checkpoint file (written by :meth:`run`) to its cycle budget.
 
         A robot offering ``restore_robot_state`` (simulators: ``SwimmerStream``, ``MujocoRobot``) is put back
@@ -340,9 +357,13 @@ class InSituOptimizer(Estimator):
         record : bool, default False
             Keep every sample of the resumed part (``result.trajectory``).
         n_cycles : int, optional
-            New total cycle budget (counting the cycles already run); the checkpoint's by default.
+            New total cycle budget (counting the cycles already run); the checkpoint's by default (a run without a
+            budget goes on without one).
+        stop : callable or path-like, optional
+            As in :meth:`run`.
         """
         check_callback(callback, record, "InSituOptimizer.resume")
+        stop = stop_rule(stop, "InSituOptimizer.resume")
         path = Path(checkpoint)
         metadata, arrays = read_state(path, "checkpoint", CHECKPOINT_FORMAT, CHECKPOINT_VERSION)
         try:
@@ -376,7 +397,7 @@ class InSituOptimizer(Estimator):
             if state.period_search is not None and robot.cycle_period != state.robot_period:
                 robot.set_cycle_period(state.robot_period)
         loop = CycleLoop(optimizer, parts, robot, spec, state, path, metadata["checkpoint_every"], metadata.get("tag"))
-        return loop.run(callback, record)
+        return loop.run(callback, record, stop)
 
     # -- gait family --------------------------------------------------------------------------
     def _family(self, spec: RobotSpec, gait: FourierGait):
@@ -405,8 +426,20 @@ class InSituOptimizer(Estimator):
         return FreeGaitFamily(gait.n_joints, self.order)
 
 
-def _check_budget(n_cycles, parts: Composition, owner: str) -> int:
-    """A cycle budget that holds at least one measured cycle (:func:`smallest_budget`)."""
+def stop_rule(stop, owner: str) -> Callable[[], bool] | None:
+    """The ``stop`` argument as a callable: itself, or whether a file exists (None: never)."""
+    if stop is None or callable(stop):
+        return stop
+    if isinstance(stop, str | os.PathLike):
+        path = Path(stop)
+        return path.exists
+    raise fail("stop", owner, "None, a callable stop() -> bool or the path of a stop file", type(stop).__name__)
+
+
+def _check_budget(n_cycles, parts: Composition, owner: str) -> int | None:
+    """A cycle budget that holds at least one measured cycle (:func:`smallest_budget`); None: no budget."""
+    if n_cycles is None:
+        return None
     test = 0 if parts.model_class is None else parts.model_class.cycles
     smallest = smallest_budget(parts.safety.settle_cycles, test)
     return check_int(n_cycles, "n_cycles", owner, minimum=smallest)

@@ -12,6 +12,7 @@ from .._validation import GeogaitWarning
 from ..learn import shape_amplitude
 from ..models import model_capabilities
 from ..simulate import Trajectory
+from ._change_steps import ChangeSteps
 from ._climb import MeasuredClimb
 from ._climb_steps import ClimbSteps
 from ._measure import measure_cycle
@@ -25,7 +26,7 @@ from ._state import (
 )
 
 
-class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
+class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
     """One optimisation run: the per-cycle loop over a robot, with checkpoints."""
 
     def __init__(self, optimizer, parts, robot, spec, state, checkpoint, checkpoint_every, tag=None):
@@ -45,14 +46,14 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
                 direction = np.asarray(parts.objective.direction, dtype=float)
                 state.direction, state.direction_fixed = direction / np.hypot(*direction), True
 
-    def run(self, callback, record) -> InSituResult:
+    def run(self, callback, record, stop=None) -> InSituResult:
         state, chunks = self.state, []
         if state.exploration is not None:  # the first cycle's, or the one a checkpoint had commanded
             if state.excitation_next is None:
                 self._command_excitation()
             else:
                 self.robot.set_excitation(*state.excitation_next)
-        while state.cycle < state.n_cycles:
+        while state.n_cycles is None or state.cycle < state.n_cycles:
             chunk = self.robot.next_cycle()
             if record:
                 chunks.append(chunk)
@@ -63,8 +64,11 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
                 callback(row)
             # (and after a run's first cycle: a run that replaces another holds a checkpoint of its own at once)
             due = state.cycle % self.checkpoint_every == 0 or state.cycle in (1, state.n_cycles)
-            if self.checkpoint is not None and due:
+            stopped = stop is not None and bool(stop())
+            if self.checkpoint is not None and (due or stopped):
                 self._save()
+            if stopped:
+                break
         # a climb candidate not yet judged is not a result: the base it was drawn from is
         final, period = state.gait, state.period
         if state.climb.active and state.climb.candidate is not None:
@@ -76,6 +80,7 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
                             gaits=list(state.gaits), model=state.model, max_joint_angle=state.max_joint_angle,
                             shape_scale=state.scale, direction=state.direction, family=family_kind(state.family),
                             model_class=None if state.check is None else state.check.verdict,
+                            changes=list(state.watch.events),
                             trajectory=Trajectory.concatenate(chunks) if record and chunks else None)
 
     def _cycle(self, chunk) -> dict:
@@ -90,6 +95,7 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
         state.world_heading = float(measured.start[2])
         settling = state.settle_left > 0
         rejected = reverted = False
+        change = None
         kind, prediction_ok = None, np.nan
         value = np.nan
         if settling:
@@ -105,30 +111,40 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
                 self._follow_tracking()
             rejected = self._tracking_rejects(measured, value)
             if not rejected:
+                change = self._watch((state.gait, state.period), value * state.rate(state.period),
+                                     float(measured.net[2]))
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
                 state.iteration_excitation.append(measured.excitation)
                 key = (state.gait, state.period)
-                if state.climb.active:
+                if change not in (None, "hold"):  # (the Adaptation recorded the cycles since the change itself)
+                    pass
+                elif state.climb.active:
                     state.climb.record(key, value * state.rate(state.period), float(measured.net[2]))
                 else:
                     state.measured.setdefault(key, []).append(value * state.rate(state.period))
                     state.rotations.setdefault(key, []).append(float(measured.net[2]))
                 seed = state.climb.base is None and state.gait == state.gaits[0]
-                if seed and state.cycles_in_iteration >= parts.gate.min_cycles:
+                if change is not None:  # a cycle held for a second look, or a change answered: no decision
+                    pass
+                elif seed and state.cycles_in_iteration >= parts.gate.min_cycles:
                     self._check_structure()  # (before the gate: a wrong structure need not wait for Γ)
-                if not state.climb.active and state.cycles_in_iteration >= parts.gate.min_cycles \
+                if change is None and not state.climb.active and state.cycles_in_iteration >= parts.gate.min_cycles \
                         and self._unexcited() and self.parts.climb is not None:  # (Γ cannot rise without exploration)
                     self._start_climb()
-                if self._gate_open():
+                if change is None and self._gate_open():
                     self._fix_direction()
                     reverted = self._measured_reverts()
-                if self._gate_open() and not reverted:
+                if change is None and self._gate_open() and not reverted:
                     kind, prediction_ok = self._decide()
         step = kind is not None
         row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
                         prediction_ok, measured, value, reverted, ran_period)
-        row.update(climb=kind == "climb", period_change=kind == "period",
+        state.steps_by_model += kind == "model"
+        state.steps_by_climb += kind == "climb"
+        row.update(climb=kind == "climb", period_change=kind == "period", change_check=kind == "check",
+                   change=change if change not in (None, "hold") else "",
+                   steps_by_model=state.steps_by_model, steps_by_climb=state.steps_by_climb,
                    candidate=bool(was_candidate and state.climb.base != (ran, ran_period)
                                   or was_trial and not (search.trial_from is None and state.period == ran_period)))
         if state.check is not None:
@@ -154,7 +170,9 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
                              else "no step is taken (climb=False)."), GeogaitWarning, stacklevel=5)
         state.world_heading = float(measured.start[2])
         row = self._row(gait, np.nan, False, False, True, np.nan, measured, np.nan, False, period)
-        row.update(climb=False, period_change=False, candidate=False, model_class_check=True)
+        row.update(climb=False, period_change=False, change_check=False, change="",
+                   steps_by_model=state.steps_by_model, steps_by_climb=state.steps_by_climb, candidate=False,
+                   model_class_check=True)
         following = check.next_period()
         if following != state.robot_period:
             self.robot.set_cycle_period(following)
@@ -229,8 +247,8 @@ class CycleLoop(ModelSteps, ClimbSteps, SafetySteps, RunRecords):
                 state.stall = state.stall + 1 if small else 0
             if kind is None and climb is not None and (state.distrust >= 2 or state.prediction_failures >= 2):
                 self._start_climb()
-        if kind is None and state.climb.active and self._climb_move():
-            kind = "climb"
+        if kind is None and state.climb.active:
+            kind = self._climb_move()
         if state.period_search is not None:
             state.period_search.turn = True
             if kind is not None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from .. import models
 from ..robots import read_robot_spec
+from ._adaptation import Adaptation
 from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
 from ._insitu import InSituOptimizer
@@ -51,13 +52,14 @@ def default(**params) -> InSituOptimizer:
     InSituOptimizer
     """
     optimizer = InSituOptimizer(gate=Gate(), step=ModelStep(), climb=Climb(), safety=Safety(), limits=Limits(),
-                                objective=Objective(), checks=[])
+                                objective=Objective(), checks=[Adaptation()])
     return optimizer.set_params(**params)
 
 
 def paper_loop(**params) -> InSituOptimizer:
     """The paper's loop (Fig. 5): Γ-gated trust-region steps from the model alone — no measured climb, no revert
-    to the best gait measured, and no exploration commanded (the robot perturbs itself, as the paper's swimmer).
+    to the best gait measured, no change watched for (the RLS model's forgetting is the paper's adaptation), and
+    no exploration commanded (the robot perturbs itself, as the paper's swimmer).
 
     Parameters
     ----------
@@ -68,12 +70,13 @@ def paper_loop(**params) -> InSituOptimizer:
     -------
     InSituOptimizer
     """
-    return default(climb=False, safety=Safety(revert_tolerance=None), exploration=None).set_params(**params)
+    return default(climb=False, safety=Safety(revert_tolerance=None), exploration=None,
+                   checks=[]).set_params(**params)
 
 
 def prior_work(**params) -> InSituOptimizer:
     """The prior work (Bittner et al. 2018): a batch model fitted to every block of 30 cycles, a step from it
-    after each block; no measured climb, no revert.
+    after each block; no measured climb, no revert, no change watched for.
 
     Parameters
     ----------
@@ -85,7 +88,7 @@ def prior_work(**params) -> InSituOptimizer:
     InSituOptimizer
     """
     return default(model=models.BatchGaitModel(), gate=Gate(kind="cycles"), climb=False,
-                   safety=Safety(revert_tolerance=None)).set_params(**params)
+                   safety=Safety(revert_tolerance=None), checks=[]).set_params(**params)
 
 
 def structured(model, **params) -> InSituOptimizer:
@@ -104,7 +107,7 @@ def structured(model, **params) -> InSituOptimizer:
     -------
     InSituOptimizer
     """
-    checks = [StructureCheck()] if getattr(model, "residual_degree", None) is not None else []
+    checks = [Adaptation()] + ([StructureCheck()] if getattr(model, "residual_degree", None) is not None else [])
     return default(model=model, step=ModelStep(**STRUCTURED_STEP), climb=Climb(**STRUCTURED_CLIMB),
                    checks=checks).set_params(**params)
 

@@ -65,6 +65,11 @@ class InSituResult:
         The run's model-class test (``model_class_cycles``; None without one, or when the run ended
         before it did): ``principally_kinematic`` False when the robot was found outside the model
         class (the model then took no step).
+    changes : list of dict
+        Every change of the robot or its world the run's :class:`~geogait.optimize.Adaptation` detected:
+        ``cycle``, ``evidence`` (``"objective"`` or ``"rotation"``), the held gait's ``measured`` objective after
+        it and its ``reference`` before, the cycle-to-cycle ``noise``, the measured ``rotation`` and the gait
+        ``family`` searched from then on.
     """
 
     log: pd.DataFrame
@@ -79,6 +84,7 @@ class InSituResult:
     cycle_period: float | None = None
     family: str | None = None
     model_class: ModelClassVerdict | None = None
+    changes: list = field(default_factory=list)
 
     @property
     def n_steps(self) -> int:
@@ -119,6 +125,9 @@ class InSituResult:
             "steps": self.n_steps,
             "rejected_steps": self.n_rejected,
             "reverted_to_best": int(self.log["reverted"].sum()) if "reverted" in self.log else 0,
+            "steps_by_model": int(log["steps_by_model"].iloc[-1]) if "steps_by_model" in log else None,
+            "steps_by_climb": int(log["steps_by_climb"].iloc[-1]) if "steps_by_climb" in log else None,
+            "changes_detected": self.changes,
             "max_tracking_error_rad": _finite(log["tracking_error"].max()),
             "max_joint_angle": _finite(self.max_joint_angle),
             "shape_scale": _finite(self.shape_scale),

@@ -14,6 +14,7 @@ from .._files import read_state
 from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import model_capabilities, model_from_state
+from ._adaptation import ChangeWatch
 from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb
 from ._exploration import ExcitationSignal
@@ -58,7 +59,7 @@ class RunState:
     gait: FourierGait
     radius: float
     model: object
-    n_cycles: int
+    n_cycles: int | None
     ceiling: float | None
     period: float
     cycle: int = 0
@@ -105,6 +106,9 @@ class RunState:
     warned_no_excitation: bool = False
     structure_switched: bool = False  # the StructureCheck found the structure contradicted: its step and climb run
     check: ModelClassCheck | None = None  # the model-class test (model_class_cycles; None: none)
+    watch: ChangeWatch = field(default_factory=ChangeWatch)  # the Adaptation's (changes detected, checks due)
+    steps_by_model: int = 0
+    steps_by_climb: int = 0
 
     def rate(self, period: float) -> float:
         """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
@@ -173,11 +177,13 @@ class RunState:
                 "seed_value")
     _PERIOD_SCALARS = ("robot_period", "previous_period", "seed_period")  # newer than the checkpoint format
     _COUNTERS = ("distrust", "prediction_failures", "stall")
+    _STEP_COUNTERS = ("steps_by_model", "steps_by_climb")  # newer than the checkpoint format
 
     def to_checkpoint(self) -> tuple[dict, dict]:
         metadata = {name: _json_float(getattr(self, name)) for name in self._SCALARS + self._PERIOD_SCALARS}
         metadata["period_search"] = None if self.period_search is None else self.period_search.to_json()
-        metadata.update({name: int(getattr(self, name)) for name in self._COUNTERS})
+        metadata.update({name: int(getattr(self, name)) for name in self._COUNTERS + self._STEP_COUNTERS})
+        metadata["watch"] = self.watch.to_json()
         metadata["tracking_follows"] = bool(self.tracking_follows)
         metadata["rng"] = self.rng.bit_generator.state
         climb = self.climb
@@ -234,7 +240,8 @@ class RunState:
                 arrays[f"iteration_data/{k}/{name}"] = value
         frame = pd.DataFrame(self.rows)
         for column in frame.columns:
-            arrays[f"log/{column}"] = frame[column].to_numpy()
+            values = frame[column].to_numpy()
+            arrays[f"log/{column}"] = values.astype(str) if values.dtype == object else values  # (no pickles)
         metadata["log_columns"] = list(frame.columns)
         metadata["iteration_data"] = len(self.iteration_data)
         return metadata, arrays
@@ -246,7 +253,7 @@ class RunState:
                     period=1.0)
         for name in cls._SCALARS:
             value = scalars[name]
-            setattr(state, name, np.nan if value is None and name not in ("ceiling",) else value)
+            setattr(state, name, np.nan if value is None and name not in ("ceiling", "n_cycles") else value)
         for name in cls._PERIOD_SCALARS:  # checkpoints before the period could change: the one period
             value = scalars.get(name, state.period)
             setattr(state, name, np.nan if value is None else value)
@@ -254,6 +261,7 @@ class RunState:
         state.period_search = None if search is None else PeriodLineSearch.from_json(search)
         for name in cls._COUNTERS:
             setattr(state, name, int(scalars.get(name, 0)))
+        state.watch = ChangeWatch.from_json(scalars.get("watch"))
         # (older checkpoints: the limit followed the seed's cycles only)
         state.tracking_follows = bool(scalars.get("tracking_follows", state.iteration == 0))
         state.rng = np.random.default_rng()
@@ -275,7 +283,8 @@ class RunState:
             if climb.get("search") is not None:
                 rule = BayesianSearch if climb["search"].get("rule") == BayesianSearch.rule else QuadraticSearch
                 state.climb.search = rule.from_checkpoint(climb["search"], arrays, "climb/search")
-        state.n_cycles, state.cycle = int(state.n_cycles), int(state.cycle)
+        state.n_cycles = None if state.n_cycles is None else int(state.n_cycles)  # (None: a run without a budget)
+        state.cycle = int(state.cycle)
         promised = scalars["promised"]
         state.promised = None if promised is None else (*promised[:2], bool(promised[2]))
         state.robot_gait = FourierGait(arrays["robot_gait"])
@@ -316,7 +325,14 @@ class RunState:
         state.iteration_data = [tuple(arrays[f"iteration_data/{k}/{n}"] for n in names)
                                 for k in range(scalars["iteration_data"])]
         columns = scalars["log_columns"]
-        state.rows = pd.DataFrame({c: arrays[f"log/{c}"] for c in columns}).to_dict("records")
+        state.rows = pd.DataFrame({c: arrays[f"log/{c}"].tolist() if arrays[f"log/{c}"].dtype.kind == "U"
+                                   else arrays[f"log/{c}"] for c in columns}).to_dict("records")
+        # (checkpoints before the counts: the steps of the log so far)
+        model_steps = sum(bool(r["step"] and not r["climb"] and not r.get("period_change", False)
+                               and not r["rejected"] and not r["reverted"]) for r in state.rows)
+        counted = {"steps_by_model": model_steps, "steps_by_climb": sum(bool(r["climb"]) for r in state.rows)}
+        for name in cls._STEP_COUNTERS:
+            setattr(state, name, int(scalars.get(name, counted[name])))
         if metadata["model"] is not None:
             state.model = model_from_state(metadata["model"]["metadata"], prefixed_arrays(arrays, "model/"))
         return state
@@ -387,9 +403,9 @@ def _built(value):
         return [_built(v) for v in value]
     if not (isinstance(value, dict) and set(value) == {"class", "params"}):
         return value
-    from . import _checks, _exploration, _objective, _parts  # (the part classes, by name)
+    from . import _adaptation, _checks, _exploration, _objective, _parts  # (the part classes, by name)
 
-    classes = {name: getattr(module, name) for module in (_parts, _checks, _objective, _exploration)
+    classes = {name: getattr(module, name) for module in (_parts, _checks, _objective, _exploration, _adaptation)
                for name in module.__all__ if isinstance(getattr(module, name), type)}
     name = value["class"]
     if name in models.__all__:

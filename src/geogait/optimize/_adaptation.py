@@ -1,0 +1,161 @@
+r"""Adapting to a change of the robot or its world that nobody announces: the :class:`Adaptation` part.
+
+A black-box search keeps records; a model can notice that they are stale. The part watches the one gait the run
+holds (the climb's base, or the gait a revert goes back to) each time it is measured again:
+
+**Notice.** A cycle of a gait that has a record from an earlier visit is compared with that record. Let
+:math:`m` be the record's mean, :math:`n` its cycles and :math:`\sigma` the pooled cycle-to-cycle standard
+deviation within the run's gaits (of :math:`\nu` degrees of freedom). The cycle is *out of band* when
+
+.. math::  |v - m| > t_\nu \, \sigma \sqrt{1 + 1/n} \quad\text{and}\quad |v - m| > \text{min\_change}\,|m|,
+
+with :math:`t_\nu` Student's quantile of the two-sided level that ``threshold`` standard deviations have for a
+normal noise (3: p = 0.0027). An out-of-band cycle holds the gait one more cycle; a change is detected when the
+two cycles' mean is out of band on the same side (:math:`\sqrt{1/2 + 1/n}` in place of :math:`\sqrt{1 + 1/n}`).
+In a family that promises no net rotation (symmetric, mirror), the cycles' net rotation is tested the same way:
+rotation that appears beyond its band and beyond the climb's rotation tolerance is a change too. While the climb
+runs, the held gait is measured again after every ``check_every`` of its candidates: a check costs one cycle,
+two when the first is out of band.
+
+**Forget.** On a detection the records made before it are dropped — every gait's measured mean, the climb's
+history and its search, the revert's reference, the trust radius's ratio test — and the model forgets its
+evidence (``model.forget(forget)``, a covariance reset that keeps its weights as the starting point).
+
+**Widen.** A rotation detected holds every later climb's candidates to the climb's rotation tolerance (not to
+what its base measures). With ``widen_family``, rotation detected in the symmetric family moves the run to the
+mirror family where the robot declares mirror symmetry (the held gait projected into it: its offsets and even
+harmonics dropped), else to the free family; rotation detected in the mirror family moves it to the free family.
+The model is rebuilt for the wider family.
+
+**Lead.** With ``lead="model"`` the paper's loop carries the recovery: the re-learning model steps when Γ opens
+its gate and its prediction agrees with what is measured; where it does not, the climb starts again from the held
+gait. With ``lead="climb"`` the climb starts again at once. Either way a climb after a change starts at a step
+length set by the change's size :math:`s = |\bar v - m| / |m|`: :math:`\sigma + (\sigma_\text{first} - \sigma)
+\min(1, s)` (the :class:`~geogait.optimize.Climb`'s ``sigma`` and ``first_sigma``).
+
+Every detection is a row of the run's log (column ``change``: its evidence) and an entry of
+``InSituResult.changes`` (cycle, evidence, measured, reference, noise).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from .._estimator import Integer, Options, Real
+from ._part import Part
+
+__all__ = ["Adaptation", "ChangeWatch"]
+
+#: The evidence a detection names.
+EVIDENCE = ("objective", "rotation")
+
+
+class Adaptation(Part):
+    """Notice a change of the robot or its world, forget the records it made stale, and lead the recovery
+    (module :mod:`geogait.optimize._adaptation`).
+
+    Parameters
+    ----------
+    threshold : float
+        Standard deviations of the cycle-to-cycle noise (normal-equivalent; Student's t for the noise's degrees of
+        freedom) beyond which a measured cycle of the held gait is out of its band.
+    min_change : float
+        Smallest relative change of the held gait's measured objective that counts (a change below it is not
+        worth forgetting what was learned; it also bounds a noiseless robot's alarms).
+    check_every : int
+        Candidates of the climb between two checks of the held gait.
+    forget : float
+        The factor by which the model discounts its evidence on a detection (``model.forget``: each direction of
+        its covariance back towards the prior's, its weights kept as the starting point; 1: keep the evidence).
+    widen_family : bool
+        On rotation detected in a family that promises none, search the next wider family.
+    lead : {"model", "climb"}
+        Who takes the steps after a detection: the re-learning model where it predicts (the climb where it does
+        not), or the climb at once.
+    """
+
+    _parameter_constraints = {
+        "threshold": Real(low=0, low_open=True),
+        "min_change": Real(low=0),
+        "check_every": Integer(minimum=1),
+        "forget": Real(low=1),
+        "widen_family": Options((True, False)),
+        "lead": Options(("model", "climb")),
+    }
+
+    def __init__(self, *, threshold: float = 3.0, min_change: float = 0.05, check_every: int = 10,
+                 forget: float = 1e6, widen_family: bool = True, lead: str = "climb"):
+        self.threshold = threshold
+        self.min_change = min_change
+        self.check_every = check_every
+        self.forget = forget
+        self.widen_family = widen_family
+        self.lead = lead
+
+    def band(self, dof: int) -> float:
+        """The out-of-band factor for a noise estimate of ``dof`` degrees of freedom (Student's quantile at the
+        two-sided level of ``threshold`` normal standard deviations; infinite without any)."""
+        if dof < 1:
+            return np.inf
+        level = 2 * stats.norm.sf(self.threshold)
+        return float(stats.t.isf(level / 2, dof))
+
+    def reopen_sigma(self, sigma: float, first_sigma: float, size: float) -> float:
+        """The climb's step length after a change of relative size ``size`` (module docstring)."""
+        return sigma + (first_sigma - sigma) * min(1.0, size)
+
+
+@dataclass
+class ChangeWatch:
+    """The run state of an :class:`Adaptation`.
+
+    Parameters
+    ----------
+    since_check : int
+        Climb candidates measured since the held gait was last measured.
+    suspect : list
+        ``[value, rotation, side, evidence]`` of an out-of-band first cycle awaiting its second (empty: none).
+    reopen : float
+        The step length of the next climb after a detection (NaN: the Climb's own).
+    events : list of dict
+        Every detection: ``cycle``, ``evidence``, ``measured``, ``reference``, ``noise``, ``family``.
+    rotation_free : bool
+        A rotation was detected: every later climb holds its candidates to the Climb's ``rotation_tolerance``, not
+        to the rotation its base measures.
+    """
+
+    since_check: int = 0
+    suspect: list = field(default_factory=list)
+    reopen: float = np.nan
+    events: list = field(default_factory=list)
+    rotation_free: bool = False
+
+    def to_json(self) -> dict:
+        return {"since_check": self.since_check, "suspect": [_plain(v) for v in self.suspect],
+                "reopen": None if np.isnan(self.reopen) else float(self.reopen), "events": self.events,
+                "rotation_free": self.rotation_free}
+
+    @classmethod
+    def from_json(cls, data: dict | None) -> ChangeWatch:
+        if data is None:  # (a checkpoint of a run without adaptation)
+            return cls()
+        return cls(since_check=int(data["since_check"]), suspect=list(data["suspect"]),
+                   reopen=np.nan if data["reopen"] is None else float(data["reopen"]), events=list(data["events"]),
+                   rotation_free=bool(data["rotation_free"]))
+
+
+def _plain(value):
+    return value if isinstance(value, str) else float(value)
+
+
+def pooled_noise(*records: dict) -> tuple[float, int]:
+    """The pooled within-gait standard deviation of the records ({key: [value per cycle]}) and its degrees of
+    freedom (0 when no gait was measured twice)."""
+    groups = [np.asarray(v, dtype=float) for record in records for v in record.values() if len(v) >= 2]
+    dof = sum(g.size - 1 for g in groups)
+    if dof == 0:
+        return np.nan, 0
+    return float(np.sqrt(sum(np.sum((g - g.mean()) ** 2) for g in groups) / dof)), dof

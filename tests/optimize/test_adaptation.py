@@ -1,0 +1,148 @@
+"""The Adaptation part: a change nobody announces is noticed, stale records are forgotten, a family the change
+contradicts is widened; runs without a budget stop on request."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from geogait._validation import GeogaitError
+from geogait.experiments.changes import ChangingRobot, swimmer_link_drag
+from geogait.gaits import FourierGait, seed_gait
+from geogait.optimize import Adaptation, InSituOptimizer, cached_ceiling, default, paper_loop
+from geogait.simulate import SwimmerStream, TrueMotion
+from geogait.systems import PurcellSwimmer
+
+CHANGE_AT = 30
+ENDS = [(1, 0.3), (1, 1), (1, 0.3)]  # both end links lose 70 % of their lateral drag: still front-back symmetric
+TAIL = [(1, 0.3), (1, 1), (1, 1)]  # the tail alone: the symmetry breaks
+
+
+def progress(pose):
+    return float(np.hypot(pose[0], pose[1]))
+
+
+def swimmer(seed, change=None):
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.1, seed=seed)
+    return stream if change is None else ChangingRobot(stream, CHANGE_AT, swimmer_link_drag(change))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_an_unchanged_swimmer_raises_no_alarm(seed):
+    result = InSituOptimizer(random_state=seed).run(swimmer(seed), 70)
+    assert result.changes == []
+    assert not result.log["change"].astype(bool).any()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_change_is_noticed_after_it_and_the_climb_recovers_from_the_held_gait(seed):
+    result = InSituOptimizer(random_state=seed).run(swimmer(seed, ENDS), 70)
+    assert len(result.changes) == 1
+    event = result.changes[0]
+    assert CHANGE_AT <= event["cycle"] <= CHANGE_AT + 12  # a check every 10 candidates, then one more cycle
+    assert event["evidence"] == "objective" and event["measured"] < 0.7 * event["reference"]
+    assert result.log.loc[event["cycle"], "change"] == "objective"
+    # every gait kept after the detection is judged on the changed body's cycles: the held gait improves
+    motion = TrueMotion(PurcellSwimmer(3, link_drag_scale=ENDS))
+    held = FourierGait.from_params(result.log.filter(regex=r"^param_\d+$").iloc[event["cycle"]].to_numpy(), 2)
+    assert progress(motion(result.final_gait)) > 1.15 * progress(motion(held))
+    assert result.summary()["changes_detected"] == result.changes
+
+
+def test_without_adaptation_the_records_go_stale_and_the_gait_is_held():
+    """The round-3 behaviour the part fixes: candidates compared with records from before the change."""
+    kept = InSituOptimizer(checks=[], random_state=0).run(swimmer(0, ENDS), 70)
+    adapted = InSituOptimizer(random_state=0).run(swimmer(0, ENDS), 70)
+    changed = PurcellSwimmer(3, link_drag_scale=ENDS)
+    ceiling = cached_ceiling(changed, family="symmetric").value
+    motion = TrueMotion(changed)
+    assert progress(motion(adapted.final_gait)) / ceiling > progress(motion(kept.final_gait)) / ceiling + 0.1
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_rotation_in_the_symmetric_family_widens_it_to_the_mirror_family(seed):
+    result = InSituOptimizer(random_state=seed).run(swimmer(seed, TAIL), 70)
+    assert result.family == "mirror"
+    assert any("rotation" in e["evidence"] for e in result.changes)
+    # a half-wave gait on a body that is still mirror symmetric turns by exactly nothing
+    assert abs(TrueMotion(PurcellSwimmer(3, link_drag_scale=TAIL))(result.final_gait)[2]) < 1e-9
+
+
+def test_a_run_resumed_across_a_detection_is_bit_identical(tmp_path):
+    path = tmp_path / "run.npz"
+    whole = InSituOptimizer().run(swimmer(0, ENDS), 50)
+    assert whole.changes
+
+    def interrupt(row):
+        if row["cycle"] == whole.changes[0]["cycle"] - 1:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        InSituOptimizer().run(swimmer(0, ENDS), 50, checkpoint=path, callback=interrupt)
+    # (the robot is restored from the checkpoint: a fresh changing wrapper counts from there)
+    robot = swimmer(0, ENDS)
+    robot.cycles_run = whole.changes[0]["cycle"]
+    resumed = InSituOptimizer.resume(path, robot)
+    pd.testing.assert_frame_equal(resumed.log, whole.log, check_dtype=False)
+    assert resumed.changes == whole.changes
+
+
+def test_steps_are_counted_by_who_took_them():
+    log = InSituOptimizer().run(swimmer(0), 30).log
+    model, climb = log["steps_by_model"].to_numpy(), log["steps_by_climb"].to_numpy()
+    assert np.all(np.diff(model) >= 0) and np.all(np.diff(climb) >= 0)
+    assert climb[-1] == log["climb"].sum()
+    paper = paper_loop().run(swimmer(0), 30).log  # the paper's loop: every step is the model's
+    assert paper["steps_by_climb"].iloc[-1] == 0
+    assert paper["steps_by_model"].iloc[-1] == paper["step"].sum() - paper["rejected"].sum() > 0
+
+
+def test_the_presets_say_whether_they_adapt():
+    assert default().checks == [Adaptation()]
+    assert InSituOptimizer().composition().adaptation == Adaptation()
+    assert paper_loop().composition().adaptation is None
+    assert InSituOptimizer(checks=[]).composition().adaptation is None
+
+
+@pytest.mark.parametrize("params, field", [({"threshold": 0}, "threshold"), ({"check_every": 0}, "check_every"),
+                                           ({"forget": 0.5}, "forget"), ({"lead": "robot"}, "lead"),
+                                           ({"min_change": -1}, "min_change")])
+def test_bad_adaptation_settings_are_refused_by_name(params, field):
+    with pytest.raises(GeogaitError, match=field):
+        InSituOptimizer(checks=[Adaptation(**params)]).run(swimmer(0), 5)
+    with pytest.raises(GeogaitError, match="at most one Adaptation"):
+        InSituOptimizer(checks=[Adaptation(), Adaptation()]).validate()
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0.5, 5), st.integers(1, 200))
+def test_the_band_is_students_quantile_and_narrows_with_more_noise_samples(threshold, dof):
+    adaptation = Adaptation(threshold=threshold)
+    assert adaptation.band(dof) >= adaptation.band(dof + 1) >= threshold * (1 - 1e-9)
+    assert adaptation.band(10**7) == pytest.approx(threshold, rel=1e-4)
+    assert adaptation.band(0) == np.inf
+
+
+# -- continuous operation -------------------------------------------------------------------------
+def test_a_run_without_a_budget_stops_when_asked_and_keeps_its_checkpoint(tmp_path):
+    path = tmp_path / "run.npz"
+    rows = []
+    result = InSituOptimizer().run(swimmer(0), None, checkpoint=path, checkpoint_every=50, callback=rows.append,
+                                   stop=lambda: len(rows) >= 12)
+    assert len(result.log) == 12
+    more = InSituOptimizer.resume(path, swimmer(0), stop=lambda: True)  # still without a budget: one more cycle
+    assert len(more.log) == 13
+    assert InSituOptimizer.resume(path, swimmer(0), n_cycles=15).log["cycle"].iloc[-1] == 14
+
+
+def test_a_stop_file_ends_a_run(tmp_path):
+    stop = tmp_path / "STOP"
+
+    def touch(row):
+        if row["cycle"] == 4:
+            stop.touch()
+
+    assert len(InSituOptimizer().run(swimmer(0), None, callback=touch, stop=stop).log) == 5
+    with pytest.raises(GeogaitError, match="'stop' parameter"):
+        InSituOptimizer().run(swimmer(0), None, stop=3)
