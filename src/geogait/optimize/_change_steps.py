@@ -79,13 +79,15 @@ class ChangeSteps:
 
     def _turns(self, rotations: dict, cycles) -> bool:
         """In a family that promises no net rotation (and ``widen_family``): the mean of ``cycles`` (measured net
-        rotations of one gait) is beyond its noise band (the pooled spread of ``rotations``) and the rotation
-        tolerance."""
+        rotations of one gait) is beyond its noise band and the rotation tolerance. Every gait of such a family
+        turns the body it was chosen for by exactly nothing, so every rotation recorded (``rotations``) is noise:
+        the band's σ is their root mean square."""
         state, adaptation = self.state, self.parts.adaptation
         if isinstance(state.family, FreeGaitFamily) or not adaptation.widen_family:
             return False
         cycles = np.asarray(cycles, dtype=float)
-        sigma, dof = pooled_noise(rotations)
+        recorded = np.concatenate([np.asarray(v, dtype=float) for v in rotations.values()] or [np.zeros(0)])
+        sigma, dof = float(np.sqrt(np.mean(recorded ** 2))) if recorded.size else np.nan, recorded.size
         limit = self.parts.climb.rotation_tolerance if self.parts.climb is not None \
             else self.parts.step.rotation_tolerance
         mean = abs(float(cycles.mean()))
@@ -121,6 +123,7 @@ class ChangeSteps:
         state.distrust = state.prediction_failures = state.stall = 0
         state.promised, state.previous_gait = None, None
         state.tracking_follows = True
+        state.settle_due = parts.safety.settle_cycles == "auto"  # (the changed robot may settle differently)
         climb = parts.climb
         if climb is not None:
             watch.reopen = adaptation.reopen_sigma(climb.sigma, climb.first_sigma, size) * state.scale

@@ -40,7 +40,7 @@ class ClimbSteps:
             origin = np.append(origin, 0.0)
         settings = dict(origin=origin, radius=radius, period=base[1],
                         final_radius=self.parts.climb.min_sigma * state.scale)
-        if climb_rule_for(self.parts.climb.rule, origin.size, self.parts.safety.settle_cycles) == "bayes":
+        if climb_rule_for(self.parts.climb.rule, origin.size, state.settle_cycles) == "bayes":
             return BayesianSearch(**settings, seed=int(state.rng.integers(2**31 - 1)))
         return QuadraticSearch(**settings)
 

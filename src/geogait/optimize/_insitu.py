@@ -325,7 +325,9 @@ class InSituOptimizer(Estimator):
         robot.set_gait(gait)  # (every check passed: a refused run leaves the robot as it was)
         state = RunState(gait=gait, radius=parts.step.trust_radius * scale, model=model,
                          n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
-                         settle_left=parts.safety.settle_cycles, max_joint_angle=r_max, scale=scale,
+                         settle_left=parts.safety.declared_settle_cycles, max_joint_angle=r_max, scale=scale,
+                         settle_cycles=parts.safety.declared_settle_cycles,
+                         settle_due=parts.safety.settle_cycles == "auto",
                          feasibility=feasibility, robot_period=period, seed_period=period,
                          period_search=PeriodLineSearch(*period_range) if period_range is not None else None,
                          climb=new_climb(parts.climb, scale), rng=np.random.default_rng(self.random_state))
@@ -386,6 +388,8 @@ class InSituOptimizer(Estimator):
         if "rng" not in metadata["state"]:
             state.rng = np.random.default_rng(optimizer.random_state)
         state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order)
+        if "settle" not in metadata["state"]:  # (checkpoints before "auto")
+            state.settle_cycles = parts.safety.declared_settle_cycles
         if n_cycles is not None:
             n_cycles = _check_budget(n_cycles, parts, "InSituOptimizer.resume")
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
@@ -441,7 +445,7 @@ def _check_budget(n_cycles, parts: Composition, owner: str) -> int | None:
     if n_cycles is None:
         return None
     test = 0 if parts.model_class is None else parts.model_class.cycles
-    smallest = smallest_budget(parts.safety.settle_cycles, test)
+    smallest = smallest_budget(parts.safety.declared_settle_cycles, test)
     return check_int(n_cycles, "n_cycles", owner, minimum=smallest)
 
 
@@ -485,7 +489,7 @@ def _model_class_check(parts: Composition, spec: RobotSpec, gait: FourierGait, p
     if other is None:
         raise fail("checks", owner, f"no ModelClassTest, or a period range and joint-velocity limit that allow "
                    f"{PERIOD_RATIO:g} x or 1/{PERIOD_RATIO:g} x the robot's period ({period:g} s)", test)
-    return ModelClassCheck(period, other, test.cycles, settle_cycles=parts.safety.settle_cycles)
+    return ModelClassCheck(period, other, test.cycles, settle_cycles=parts.safety.declared_settle_cycles)
 
 
 def _joint_limit(limits: Limits, spec: RobotSpec) -> float:

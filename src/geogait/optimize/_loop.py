@@ -111,13 +111,14 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
                 self._follow_tracking()
             rejected = self._tracking_rejects(measured, value)
             if not rejected:
-                change = self._watch((state.gait, state.period), value * state.rate(state.period),
-                                     float(measured.net[2]))
+                key = (state.gait, state.period)
+                change = self._settle_probe(key, value * state.rate(state.period), float(measured.net[2])) \
+                    or self._watch(key, value * state.rate(state.period), float(measured.net[2]))
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
                 state.iteration_excitation.append(measured.excitation)
                 key = (state.gait, state.period)
-                if change not in (None, "hold"):  # (the Adaptation recorded the cycles since the change itself)
+                if change not in (None, "hold"):  # (the probe and the Adaptation record what they measured)
                     pass
                 elif state.climb.active:
                     state.climb.record(key, value * state.rate(state.period), float(measured.net[2]))
@@ -125,17 +126,18 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
                     state.measured.setdefault(key, []).append(value * state.rate(state.period))
                     state.rotations.setdefault(key, []).append(float(measured.net[2]))
                 seed = state.climb.base is None and state.gait == state.gaits[0]
-                if change is not None:  # a cycle held for a second look, or a change answered: no decision
+                if change not in (None, "probed"):  # held for another look, or a change answered: no decision
                     pass
                 elif seed and state.cycles_in_iteration >= parts.gate.min_cycles:
                     self._check_structure()  # (before the gate: a wrong structure need not wait for Γ)
-                if change is None and not state.climb.active and state.cycles_in_iteration >= parts.gate.min_cycles \
+                decide = change in (None, "probed")
+                if decide and not state.climb.active and state.cycles_in_iteration >= parts.gate.min_cycles \
                         and self._unexcited() and self.parts.climb is not None:  # (Γ cannot rise without exploration)
                     self._start_climb()
-                if change is None and self._gate_open():
+                if decide and self._gate_open():
                     self._fix_direction()
                     reverted = self._measured_reverts()
-                if change is None and self._gate_open() and not reverted:
+                if decide and self._gate_open() and not reverted:
                     kind, prediction_ok = self._decide()
         step = kind is not None
         row = self._row(ran, state.gamma if not (settling or rejected) else np.nan, step, rejected, settling,
@@ -143,7 +145,8 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
         state.steps_by_model += kind == "model"
         state.steps_by_climb += kind == "climb"
         row.update(climb=kind == "climb", period_change=kind == "period", change_check=kind == "check",
-                   change=change if change not in (None, "hold") else "",
+                   change=change if change not in (None, "hold", "probe", "probed") else "",
+                   settle_cycles=state.settle_cycles,
                    steps_by_model=state.steps_by_model, steps_by_climb=state.steps_by_climb,
                    candidate=bool(was_candidate and state.climb.base != (ran, ran_period)
                                   or was_trial and not (search.trial_from is None and state.period == ran_period)))
@@ -170,7 +173,7 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
                              else "no step is taken (climb=False)."), GeogaitWarning, stacklevel=5)
         state.world_heading = float(measured.start[2])
         row = self._row(gait, np.nan, False, False, True, np.nan, measured, np.nan, False, period)
-        row.update(climb=False, period_change=False, change_check=False, change="",
+        row.update(climb=False, period_change=False, change_check=False, change="", settle_cycles=state.settle_cycles,
                    steps_by_model=state.steps_by_model, steps_by_climb=state.steps_by_climb, candidate=False,
                    model_class_check=True)
         following = check.next_period()

@@ -161,9 +161,14 @@ class ModelSteps:
             state.model.rebase(gait, terms=parts.step.rebase, covariance_inflation=parts.step.covariance_inflation,
                                constant_variance=parts.step.constant_variance)
             state.model.reset_gamma()
+        moved = (gait, period) != (state.gait, state.period)
         state.previous_gait, state.gait = state.gait, gait
         state.previous_period, state.period = state.period, period
         state.iteration += 1
         state.restart_iteration()
-        state.settle_left = parts.safety.settle_cycles
+        state.settle_left = state.settle_cycles
+        if state.settle_probe is not None:  # (a probe left before its end: the next change probes)
+            state.settle_due, state.settle_probe = True, None
+        if state.settle_due and moved:  # ("auto") this change's first cycles measure how long a change settles
+            state.settle_due, state.settle_probe, state.settle_left = False, [], 0
         state.tracking_follows = False

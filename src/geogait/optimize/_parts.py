@@ -29,9 +29,10 @@ The objective (:class:`~geogait.optimize.Objective`), the optimiser's own explor
 from __future__ import annotations
 
 import numpy as np
+from scipy import stats
 
 from .._estimator import Integer, Options, Real
-from .._validation import check_float, fail
+from .._validation import check_float, check_int, fail
 from ._climb import CLIMB_RULES
 from ._part import Part
 from ._steps import STEP_RULES
@@ -52,6 +53,9 @@ DATA_DRIVEN_CLIMB = {"start": "first", "rule": "auto", "sigma": 0.15, "first_sig
 STRUCTURED_STEP = {"rule": "sqp", "trust_radius": 0.25, "min_trust_radius": 0.25, "max_trust_radius": 0.5}
 STRUCTURED_CLIMB = {"start": "contradicted", "rule": "es", "sigma": 0.5, "first_sigma": 1.0, "min_sigma": 0.25,
                     "max_sigma": 2.0}
+
+#: The two-sided level of :meth:`Safety.settle_count`'s test (a cycle that may still carry the last change).
+SETTLE_LEVEL = 0.05
 
 #: When the measured climb takes the steps (:class:`Climb`'s ``start``).
 CLIMB_STARTS = ("first", "stalled", "contradicted")
@@ -237,8 +241,13 @@ class Safety(Part):
 
     Parameters
     ----------
-    settle_cycles : int
-        Cycles after each gait change (and at the start) that are run but neither learned from nor measured.
+    settle_cycles : int or "auto"
+        Cycles after each gait change (and at the start) that are run but neither measured nor judged. ``"auto"``
+        (default): measured, for a robot that does not declare them. The first gait change of a run (and the first
+        after a change of the robot is detected) holds its new gait for three cycles; its first cycle is a settling
+        cycle when it differs from the mean of the next two beyond noise (:data:`SETTLE_LEVEL`, at least 5 %), and
+        so is its second when it differs from the third. The count found (0 to 2) holds for every later gait
+        change; none is run at the start.
     max_tracking_error : float, "auto" or None
         Largest RMS realised − commanded shape error of an accepted gait; a gait beyond it is rejected and the
         run goes back to the gait before it. ``"auto"``: twice the mean tracking error of the seed's measured
@@ -250,11 +259,10 @@ class Safety(Part):
     """
 
     _parameter_constraints = {
-        "settle_cycles": Integer(minimum=0),
         "revert_tolerance": Real(low=0, low_open=True, none=True),
     }
 
-    def __init__(self, *, settle_cycles: int = 0, max_tracking_error="auto", revert_tolerance: float | None = 2.0):
+    def __init__(self, *, settle_cycles="auto", max_tracking_error="auto", revert_tolerance: float | None = 2.0):
         self.settle_cycles = settle_cycles
         self.max_tracking_error = max_tracking_error
         self.revert_tolerance = revert_tolerance
@@ -262,6 +270,27 @@ class Safety(Part):
     def _check_param_combinations(self) -> None:
         if self.max_tracking_error not in (None, "auto"):
             check_float(self.max_tracking_error, "max_tracking_error", type(self).__name__, low=0, low_open=True)
+        if self.settle_cycles != "auto":
+            check_int(self.settle_cycles, "settle_cycles", type(self).__name__, minimum=0)
+
+    @property
+    def declared_settle_cycles(self) -> int:
+        """The settling cycles fixed before the run: ``settle_cycles``, or 0 for ``"auto"`` (measured in the
+        run)."""
+        return 0 if self.settle_cycles == "auto" else int(self.settle_cycles)
+
+    def settle_count(self, values, noise: float, dof: int) -> int:
+        """Settling cycles of a gait change whose first cycles measured ``values`` (three), with cycle-to-cycle
+        ``noise`` of ``dof`` degrees of freedom: the leading cycles that differ from the mean of the cycles after
+        them beyond Student's two-sided :data:`SETTLE_LEVEL` band (at least 5 % of that mean)."""
+        values = np.asarray(values, dtype=float)
+        for count in range(values.size - 1):
+            later = values[count + 1:]
+            band = stats.t.isf(SETTLE_LEVEL / 2, dof) * noise * np.sqrt(1 + 1 / later.size) if dof > 0 else np.inf
+            shift = abs(values[count] - later.mean())
+            if not shift > max(band if np.isfinite(band) else 0.0, 0.05 * abs(later.mean())):
+                return count
+        return values.size - 1
 
 
 class Limits(Part):

@@ -6,12 +6,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._adaptation import pooled_noise
 from ._measure import peak_phase_speed
 from ._models import run_model
 from ._state import (
     REJECTION_FLOOR,
     TRACKING_FLOOR,
 )
+
+#: Cycles of the gait change that ``settle_cycles="auto"`` probes.
+PROBE_CYCLES = 3
 
 
 class SafetySteps:
@@ -46,6 +50,25 @@ class SafetySteps:
             search.turn = False
         state.previous_gait = None  # the gait we fall back to was accepted; nothing further back to try
         return True
+
+    def _settle_probe(self, key, value: float, rotation: float) -> str | None:
+        """``Safety(settle_cycles="auto")``: a cycle of the gait change being probed. Returns ``"probe"`` for its
+        first two cycles (held, not recorded), ``"probed"`` for its third, after which the settling count is set and
+        the settled cycles recorded; None when no probe is under way."""
+        state = self.state
+        if state.settle_probe is None:
+            return None
+        state.settle_probe.append((value, rotation))
+        if len(state.settle_probe) < PROBE_CYCLES:
+            return "probe"
+        values, rotations = (list(v) for v in zip(*state.settle_probe, strict=True))
+        noise, dof = pooled_noise(state.measured, state.climb.measured, {"probe": values[1:]})
+        state.settle_cycles = self.parts.safety.settle_count(values, noise, dof)
+        state.settle_probe = None
+        records = self._records()
+        records[0].setdefault(key, []).extend(values[state.settle_cycles:])
+        records[1].setdefault(key, []).extend(rotations[state.settle_cycles:])
+        return "probed"
 
     def _tracking_limit(self) -> float:
         """The tracking limit the model's steps are held to now (NaN: none)."""

@@ -109,6 +109,9 @@ class RunState:
     watch: ChangeWatch = field(default_factory=ChangeWatch)  # the Adaptation's (changes detected, checks due)
     steps_by_model: int = 0
     steps_by_climb: int = 0
+    settle_cycles: int = 0  # settling cycles after a gait change in force: declared, or measured ("auto")
+    settle_due: bool = False  # ("auto") the next gait change measures its settling
+    settle_probe: list | None = None  # ("auto") the measured values of the gait change being probed
 
     def rate(self, period: float) -> float:
         """Factor from an objective per cycle to the one compared across gaits: 1/T when the period is
@@ -184,6 +187,8 @@ class RunState:
         metadata["period_search"] = None if self.period_search is None else self.period_search.to_json()
         metadata.update({name: int(getattr(self, name)) for name in self._COUNTERS + self._STEP_COUNTERS})
         metadata["watch"] = self.watch.to_json()
+        probe = None if self.settle_probe is None else [[float(v), float(r)] for v, r in self.settle_probe]
+        metadata["settle"] = {"cycles": int(self.settle_cycles), "due": bool(self.settle_due), "probe": probe}
         metadata["tracking_follows"] = bool(self.tracking_follows)
         metadata["rng"] = self.rng.bit_generator.state
         climb = self.climb
@@ -262,6 +267,10 @@ class RunState:
         for name in cls._COUNTERS:
             setattr(state, name, int(scalars.get(name, 0)))
         state.watch = ChangeWatch.from_json(scalars.get("watch"))
+        settle = scalars.get("settle")  # (checkpoints before "auto": the declared count, set by resume)
+        if settle is not None:
+            state.settle_cycles, state.settle_due = int(settle["cycles"]), bool(settle["due"])
+            state.settle_probe = None if settle["probe"] is None else [tuple(p) for p in settle["probe"]]
         # (older checkpoints: the limit followed the seed's cycles only)
         state.tracking_follows = bool(scalars.get("tracking_follows", state.iteration == 0))
         state.rng = np.random.default_rng()
