@@ -213,7 +213,8 @@ def test_a_climb_handing_back_holds_the_models_steps_to_what_its_base_tracks(mon
         return trusted(climb)
 
     monkeypatch.setattr(MeasuredClimb, "model_trusted_again", property(spy))
-    log = InSituOptimizer(climb=Climb(rule="es"), random_state=7).run(LaggingRobot(), 80, callback=rows.append).log
+    log = InSituOptimizer(climb=Climb(rule="es"), safety=Safety(settle_cycles=0),  # (declared: no settling probe)
+                          random_state=7).run(LaggingRobot(), 80, callback=rows.append).log
     assert handed_back
     params = log.filter(like="param_").to_numpy()
     seed_limit = max(0.05, 2 * log.loc[log["iteration"] == 0, "tracking_error"].mean())
@@ -368,7 +369,8 @@ def test_model_steps_the_robot_cannot_follow_hand_the_steps_to_the_measured_clim
     the robot cannot follow and which do not gain what the model promised. Two such rejections without a kept
     promise between them are two broken promises: the climb takes over (before they counted, none had by cycle
     30)."""
-    log = InSituOptimizer(climb=Climb(start=start)).run(LaggingRobot(cycle_period=20.0, joint_stop=1.1, seed=1), 30).log
+    log = InSituOptimizer(climb=Climb(start=start), safety=Safety(settle_cycles=0)).run(  # (no settling probe)
+        LaggingRobot(cycle_period=20.0, joint_stop=1.1, seed=1), 30).log
     assert log["climb"].any()
     first = int(np.flatnonzero(log["climb"])[0])
     assert log["rejected"][:first].sum() >= 2

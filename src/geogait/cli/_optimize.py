@@ -129,8 +129,9 @@ def optimize(
         metavar=one_of(_STEP_RULES), rich_help_panel=_MODEL, help=(
         "The model's step: linear (on its linearisation) or sqp (sequential quadratic programming) [default: "
         "sqp for --method resistance, else linear]."))] = None,
-    settle_cycles: Annotated[int, typer.Option(rich_help_panel=_MODEL, help=(
-        "Cycles after each gait change not learned from."))] = 0,
+    settle_cycles: Annotated[str, typer.Option(metavar="N|auto", rich_help_panel=_MODEL, help=(
+        "Cycles after each gait change not measured: a count, or auto (measured at the first gait change: the "
+        "cycles that differ from the ones after them beyond noise)."))] = "auto",
     model_class_cycles: Annotated[int, typer.Option(min=0, rich_help_panel=_MODEL, help=(
         "Test first whether the robot is principally kinematic (its motion set by its shape's path, not speed): "
         "the seed gait this many cycles (≥ 3) at its period and at twice it. 0: no test."))] = 0,
@@ -406,6 +407,20 @@ def _check_resume(folder: Path, settings: dict, run_id: str) -> None:
                            f"already run; give a total of at least {done}.")
 
 
+def _settle_cycles(value) -> int | str:
+    """--settle-cycles: ``"auto"`` or a count ≥ 0."""
+    if value == "auto" or isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+        return value
+    try:
+        count = int(value)
+    except (TypeError, ValueError):
+        count = -1
+    if count < 0 or str(count) != str(value).strip():
+        raise typer.BadParameter(f"expected a count of cycles (0 or more) or 'auto', got {value!r}",
+                                 param_hint="--settle-cycles")
+    return count
+
+
 def _optimizer(settings, robot=None) -> InSituOptimizer:
     from ..gaits import seed_gait
     from ..optimize import (
@@ -423,6 +438,7 @@ def _optimizer(settings, robot=None) -> InSituOptimizer:
         except ValueError:
             raise typer.BadParameter(f"expected a number, 'auto' or 'off', got {tracking!r}",
                                      param_hint="--max-tracking-error") from None
+    settings["settle_cycles"] = _settle_cycles(settings["settle_cycles"])
     if settings["cycles"] is not None:
         check_int(settings["cycles"], "cycles", "geogait optimize", minimum=1)
         if settings["cycles"] > MAX_CYCLES:
@@ -558,6 +574,7 @@ def _check_budget(settings) -> None:
     )
 
     settle, test = settings["settle_cycles"], settings.get("model_class_cycles", 0)
+    settle = 0 if settle == "auto" else settle  # (measured: none at the start)
     smallest, budget = smallest_budget(settle, test), _budget(settings)
     if budget is None or budget >= smallest:
         return
@@ -704,7 +721,7 @@ _SETTING_TYPES = {"links": (int,), "cycles": (int, None), "seed": (int,), "noise
                   "perturbation": (int, float), "period": (int, float), "gamma_threshold": (int, float),
                   "forgetting_factor": (int, float, None), "order": (int,), "objective": (str,),
                   "max_joint_angle": (int, float, None), "max_joint_velocity": (int, float, None),
-                  "settle_cycles": (int,), "max_tracking_error": (str,), "method": (str,), "family": (str,),
+                  "settle_cycles": (int, str), "max_tracking_error": (str,), "method": (str,), "family": (str,),
                   "step_rule": (str, None), "robot": (str, None), "robot_timeout": (int, float),
                   "checkpoint_every": (int,)}
 #: Settings added since the first runs: absent from an older run.json (then their defaults), else of these types.

@@ -123,7 +123,8 @@ class ChangeSteps:
         state.distrust = state.prediction_failures = state.stall = 0
         state.promised, state.previous_gait = None, None
         state.tracking_follows = True
-        state.settle_due = parts.safety.settle_cycles == "auto"  # (the changed robot may settle differently)
+        # (the changed robot may settle differently: measured again where it is not declared)
+        state.settle_due = parts.safety.settle_cycles == "auto" and self.spec.settle_cycles is None
         climb = parts.climb
         if climb is not None:
             watch.reopen = adaptation.reopen_sigma(climb.sigma, climb.first_sigma, size) * state.scale

@@ -325,9 +325,9 @@ class InSituOptimizer(Estimator):
         robot.set_gait(gait)  # (every check passed: a refused run leaves the robot as it was)
         state = RunState(gait=gait, radius=parts.step.trust_radius * scale, model=model,
                          n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
-                         settle_left=parts.safety.declared_settle_cycles, max_joint_angle=r_max, scale=scale,
-                         settle_cycles=parts.safety.declared_settle_cycles,
-                         settle_due=parts.safety.settle_cycles == "auto",
+                         settle_left=_settle_cycles(parts.safety, spec), max_joint_angle=r_max, scale=scale,
+                         settle_cycles=_settle_cycles(parts.safety, spec),
+                         settle_due=parts.safety.settle_cycles == "auto" and spec.settle_cycles is None,
                          feasibility=feasibility, robot_period=period, seed_period=period,
                          period_search=PeriodLineSearch(*period_range) if period_range is not None else None,
                          climb=new_climb(parts.climb, scale), rng=np.random.default_rng(self.random_state))
@@ -389,7 +389,7 @@ class InSituOptimizer(Estimator):
             state.rng = np.random.default_rng(optimizer.random_state)
         state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order)
         if "settle" not in metadata["state"]:  # (checkpoints before "auto")
-            state.settle_cycles = parts.safety.declared_settle_cycles
+            state.settle_cycles = _settle_cycles(parts.safety, spec)
         if n_cycles is not None:
             n_cycles = _check_budget(n_cycles, parts, "InSituOptimizer.resume")
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
@@ -428,6 +428,14 @@ class InSituOptimizer(Estimator):
         if self.family == "mirror" or (member and spec.mirror_symmetric):
             return mirror
         return FreeGaitFamily(gait.n_joints, self.order)
+
+
+def _settle_cycles(safety: Safety, spec: RobotSpec) -> int:
+    """The settling cycles a run starts with: the Safety's count, or for ``"auto"`` what the robot declares (0 where it
+    declares nothing: they are measured at the first gait change)."""
+    if safety.settle_cycles != "auto":
+        return int(safety.settle_cycles)
+    return spec.settle_cycles or 0
 
 
 def stop_rule(stop, owner: str) -> Callable[[], bool] | None:

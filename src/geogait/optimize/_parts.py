@@ -243,7 +243,8 @@ class Safety(Part):
     ----------
     settle_cycles : int or "auto"
         Cycles after each gait change (and at the start) that are run but neither measured nor judged. ``"auto"``
-        (default): measured, for a robot that does not declare them. The first gait change of a run (and the first
+        (default): the robot's own ``settle_cycles`` where it declares them (0 for a simulator of a principally
+        kinematic system), else measured. The first gait change of a run (and the first
         after a change of the robot is detected) holds its new gait for three cycles; its first cycle is a settling
         cycle when it differs from the mean of the next two beyond noise (:data:`SETTLE_LEVEL`, at least 5 %), and
         so is its second when it differs from the third. The count found (0 to 2) holds for every later gait

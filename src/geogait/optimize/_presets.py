@@ -58,8 +58,8 @@ def default(**params) -> InSituOptimizer:
 
 def paper_loop(**params) -> InSituOptimizer:
     """The paper's loop (Fig. 5): Γ-gated trust-region steps from the model alone — no measured climb, no revert
-    to the best gait measured, no change watched for (the RLS model's forgetting is the paper's adaptation), and
-    no exploration commanded (the robot perturbs itself, as the paper's swimmer).
+    to the best gait measured, no change watched for (the RLS model's forgetting is the paper's adaptation), no
+    settling cycles, and no exploration commanded (the robot perturbs itself, as the paper's swimmer).
 
     Parameters
     ----------
@@ -70,7 +70,7 @@ def paper_loop(**params) -> InSituOptimizer:
     -------
     InSituOptimizer
     """
-    return default(climb=False, safety=Safety(revert_tolerance=None), exploration=None,
+    return default(climb=False, safety=Safety(settle_cycles=0, revert_tolerance=None), exploration=None,
                    checks=[]).set_params(**params)
 
 
@@ -88,7 +88,7 @@ def prior_work(**params) -> InSituOptimizer:
     InSituOptimizer
     """
     return default(model=models.BatchGaitModel(), gate=Gate(kind="cycles"), climb=False,
-                   safety=Safety(revert_tolerance=None), checks=[]).set_params(**params)
+                   safety=Safety(settle_cycles=0, revert_tolerance=None), checks=[]).set_params(**params)
 
 
 def structured(model, **params) -> InSituOptimizer:

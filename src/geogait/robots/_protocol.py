@@ -37,11 +37,13 @@ __all__ = ["Robot", "check_robot_members", "ROBOT_EXTRAS"]
 #: ((d, 2) array of joint limits in shape units: the optimiser's automatic limit), ``feasibility(shapes,
 #: jacobian=False)`` (a signed margin ≥ 0 inside the shapes the robot may take, e.g. a
 #: :class:`~geogait.systems.LinearRegion`: every commanded gait keeps it) and
-#: ``front_back_symmetric`` (bool: the symmetric gait family applies) and ``mirror_symmetric`` (bool:
+#: ``front_back_symmetric`` (bool: the symmetric gait family applies), ``mirror_symmetric`` (bool:
 #: the body and its medium read the same in a mirror along the body's axis, so the half-wave
-#: symmetric gait family applies).
+#: symmetric gait family applies) and ``settle_cycles`` (int: cycles a gait change takes to settle;
+#: undeclared, the optimiser measures them).
 ROBOT_EXTRAS = ("current_system", "robot_state", "restore_robot_state", "close", "set_excitation",
-                "set_cycle_period", "joint_ranges", "feasibility", "front_back_symmetric", "mirror_symmetric")
+                "set_cycle_period", "joint_ranges", "feasibility", "front_back_symmetric", "mirror_symmetric",
+                "settle_cycles")
 
 
 @runtime_checkable

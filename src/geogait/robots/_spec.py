@@ -45,6 +45,10 @@ class RobotSpec:
     region : callable or None
         The shapes the robot may take, as it declares them: ``feasibility(shapes, jacobian=False)``, a signed margin
         ≥ 0 inside (a simulated system's singular set is read from ``system`` instead).
+    settle_cycles : int or None
+        Cycles a gait change takes to settle, as the robot declares them (``settle_cycles``); 0 for a simulator of
+        a principally kinematic system (``current_system()``: its motion follows the shape at once); None when
+        not declared (``Safety(settle_cycles="auto")`` then measures them).
     """
 
     kind: str
@@ -59,6 +63,7 @@ class RobotSpec:
     saves_state: bool = False
     system: object = None
     region: object = None
+    settle_cycles: int | None = None
 
     @property
     def simulated(self) -> bool:
@@ -104,7 +109,17 @@ def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
         and bool(getattr(robot, "accepts_excitation", True)),
         saves_state=callable(getattr(robot, "robot_state", None))
         and callable(getattr(robot, "restore_robot_state", None)),
-        system=system, region=robot.feasibility if callable(getattr(robot, "feasibility", None)) else None)
+        system=system, region=robot.feasibility if callable(getattr(robot, "feasibility", None)) else None,
+        settle_cycles=_settle_cycles(robot, system, owner))
+
+
+def _settle_cycles(robot, system, owner: str) -> int | None:
+    declared = getattr(robot, "settle_cycles", None)
+    if declared is None:
+        return 0 if system is not None else None
+    if isinstance(declared, bool) or not isinstance(declared, int | np.integer) or declared < 0:
+        raise fail("robot.settle_cycles", owner, "a count of cycles (an int >= 0)", declared)
+    return int(declared)
 
 
 def _declared(robot, name: str, otherwise: bool) -> bool:
