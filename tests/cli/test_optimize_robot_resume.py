@@ -56,3 +56,31 @@ def test_a_resumed_robot_whose_hello_is_the_same_continues(robot_run):
     result = invoke("optimize", "--resume", out, "--cycles", "3")
     assert result.exit_code == 0, result.output
     assert len((out / "cycles.csv").read_text().splitlines()) == 1 + 3
+
+
+def test_a_robot_run_without_cycles_goes_on_until_a_stop_file_then_resumes(tmp_path):
+    """No --cycles with --robot: continuous operation, ended by OUT/STOP as by a budget (outputs written)."""
+    import shlex
+    import threading
+    import time
+
+    out = tmp_path / "run"
+
+    def stop_once_under_way():
+        for _ in range(6000):  # (at most ten minutes: the test fails then rather than hangs)
+            if (out / "checkpoint.npz").exists():
+                (out / "STOP").touch()
+                return
+            time.sleep(0.1)
+
+    stopper = threading.Thread(target=stop_once_under_way, daemon=True)
+    stopper.start()
+    driver = shlex.join([sys.executable, str(FAULT_DRIVER), "{}"])
+    result = invoke("optimize", "--robot", driver, "--out", out)
+    stopper.join()
+    assert result.exit_code == 0, result.output
+    ran = json.loads((out / "summary.json").read_text())["results"]["cycles_run"]
+    assert ran >= 1 and json.loads((out / "run.json").read_text())["cycles"] is None
+    result = invoke("optimize", "--resume", out, "--cycles", ran + 2)  # (the STOP left is the old run's)
+    assert result.exit_code == 0, result.output
+    assert json.loads((out / "summary.json").read_text())["results"]["cycles_run"] == ran + 2
