@@ -426,7 +426,7 @@ def _optimizer(settings, robot=None) -> InSituOptimizer:
     from ..optimize import (
         CLIMB_RULES,
     )
-    from ..simulate._stream import MAX_SENSOR_NOISE
+    from ..simulate import MAX_SENSOR_NOISE
 
     if settings["method"] not in _METHODS:
         raise typer.BadParameter(f"expected one of {', '.join(_METHODS)}, got {settings['method']!r}",
@@ -450,7 +450,7 @@ def _optimizer(settings, robot=None) -> InSituOptimizer:
         raise typer.BadParameter(f"expected 0 (no test) or at least 3 cycles per period, got "
                                  f"{settings['model_class_cycles']}", param_hint="--model-class-cycles")
     _check_budget(settings)
-    from ..robots._bridge import PERIOD_RANGE
+    from ..robots import PERIOD_RANGE
 
     low, high = PERIOD_RANGE
     if not (np.isfinite(settings["period"]) and low <= settings["period"] <= high):

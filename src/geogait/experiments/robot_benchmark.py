@@ -114,11 +114,11 @@ from ..optimize import (
     default,
     for_robot,
     measure_cycle,
+    onto_joint_limit,
     prior_work,
     robot_feasibility,
     structured,
 )
-from ..optimize._search import onto_joint_limit
 from ..plotting import plt, save_figure
 from ..simulate import SwimmerStream, end_pose
 from ..sweep import run_trials

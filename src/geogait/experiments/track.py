@@ -34,8 +34,7 @@ from ..control import (
 from ..gaits import Perturbation
 from ..plotting import plt, save_figure
 from ..robots import ProcessRobot
-from ..simulate import DragRatioSchedule, SwimmerStream
-from ..simulate._stream import MAX_SENSOR_NOISE
+from ..simulate import MAX_SENSOR_NOISE, DragRatioSchedule, SwimmerStream
 from ._common import run_sweep
 from .tracking import (
     TRACKING_MODELS,

@@ -24,6 +24,7 @@ from ._part import Part
 from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
 from ._presets import default, for_robot, from_flat_params, paper_loop, prior_work, structured
 from ._result import InSituResult
+from ._search import onto_joint_limit
 from ._state import read_checkpoint_metadata
 from ._steps import STEP_RULES, Step, StepProblem, linear_step, sqp_step, take_step
 
@@ -63,6 +64,7 @@ __all__ = [
     "linear_step",
     "measure_cycle",
     "objective",
+    "onto_joint_limit",
     "optimize_ceiling",
     "paper_loop",
     "path_length",

@@ -97,14 +97,35 @@ class Adaptation(Part):
 
     def band(self, dof: int) -> float:
         """The out-of-band factor for a noise estimate of ``dof`` degrees of freedom (Student's quantile at the
-        two-sided level of ``threshold`` normal standard deviations; infinite without any)."""
+        two-sided level of ``threshold`` normal standard deviations; infinite without any).
+
+        Parameters
+        ----------
+        dof : int
+
+        Returns
+        -------
+        float
+        """
         if dof < 1:
             return np.inf
         level = 2 * stats.norm.sf(self.threshold)
         return float(stats.t.isf(level / 2, dof))
 
     def reopen_sigma(self, sigma: float, first_sigma: float, size: float) -> float:
-        """The climb's step length after a change of relative size ``size`` (module docstring)."""
+        """The climb's step length after a change of relative size ``size`` (module docstring).
+
+        Parameters
+        ----------
+        sigma, first_sigma : float
+            The :class:`~geogait.optimize.Climb`'s step lengths after the model and at the start.
+        size : float
+            The change's relative size (0: none; 1 or more: as large as the objective itself).
+
+        Returns
+        -------
+        float
+        """
         return sigma + (first_sigma - sigma) * min(1.0, size)
 
 

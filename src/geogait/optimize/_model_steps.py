@@ -160,7 +160,8 @@ class ModelSteps:
         else:
             state.model.rebase(gait, terms=parts.step.rebase, covariance_inflation=parts.step.covariance_inflation,
                                constant_variance=parts.step.constant_variance)
-            state.model.reset_gamma()
+            if not state.climb.active:  # (while climbing, Γ runs over all the climb's cycles: one per candidate)
+                state.model.reset_gamma()
         moved = (gait, period) != (state.gait, state.period)
         state.previous_gait, state.gait = state.gait, gait
         state.previous_period, state.period = state.period, period

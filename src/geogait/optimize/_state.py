@@ -136,7 +136,7 @@ class RunState:
             error = float(np.mean((self.model.prior_prediction_[..., 2] - chunk.body_velocity[..., 2]) ** 2))
             previous = self.residual_variance
             self.residual_variance = error if np.isnan(previous) else 0.8 * previous + 0.2 * error
-        if self.iteration > 0 and self.cycles_in_iteration == 1:
+        if self.iteration > 0 and self.cycles_in_iteration == 1 and not self.climb.active:
             self.model.reset_gamma()  # the fresh baseline has now seen the new gait once
             self.gamma = np.nan
         else:

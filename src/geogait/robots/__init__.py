@@ -12,7 +12,7 @@ helpers of :mod:`geogait.robots.continuum` (body frame, curvature, modal shape c
 """
 
 from ..simulate import SwimmerStream
-from ._bridge import PROTOCOL, PROTOCOL_VERSION, ProcessRobot
+from ._bridge import PERIOD_RANGE, PROTOCOL, PROTOCOL_VERSION, ProcessRobot
 from ._check import check_cycle, check_robot
 from ._elastica import ElasticaSnake, elastica_snake, snake_seed_gait
 from ._mujoco import (
@@ -38,6 +38,7 @@ from .continuum import (
 
 __all__ = [
     "MODELS_DIRECTORY",
+    "PERIOD_RANGE",
     "PROTOCOL",
     "PROTOCOL_VERSION",
     "ROBOT_EXTRAS",

@@ -103,7 +103,7 @@ from ..se2 import body_velocity_from_poses
 from ..simulate import Trajectory, velocity_pose_disagreement
 from ..systems import BODY_FRAMES, LinearRegion
 
-__all__ = ["PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
+__all__ = ["PERIOD_RANGE", "PROTOCOL", "PROTOCOL_VERSION", "PROTOCOL_VERSIONS", "ProcessRobot"]
 
 
 PROTOCOL = "geogait-robot"

@@ -26,7 +26,7 @@ from ._trajectory import Trajectory
 #: Largest sensor noise, as a fraction of the signal's RMS (beyond it a sample is no longer a measurement).
 MAX_SENSOR_NOISE = 100.0
 
-__all__ = ["DragRatioSchedule", "SwimmerStream", "simulate", "simulate_rate"]
+__all__ = ["MAX_SENSOR_NOISE", "DragRatioSchedule", "SwimmerStream", "simulate", "simulate_rate"]
 
 
 @dataclass(frozen=True)
