@@ -18,10 +18,7 @@ gait p. Per trial it prints
   to ``--refit`` noise-free cycles of p alone (perturbation 0.15 rad) — what the basis can do at p
   with ample data and no memory of other gaits.
 
-``--true-ratio`` runs the optimiser with the *true* objective in place of the model's in the
-trust-radius ratio test (a study-only change: is the radius adaptation what stops the climb?).
-
-    python studies/plateau.py [TRIALS] [CYCLES] [--radius 0.15] [--walk 10] [--refit 30] [--true-ratio]
+    python studies/plateau.py [TRIALS] [CYCLES] [--radius 0.15] [--walk 10] [--refit 30]
 """
 
 import argparse
@@ -30,33 +27,11 @@ import numpy as np
 
 from geogait.gaits import SymmetricGaitFamily, seed_gait
 from geogait.models import PerfectInformationModel, ShapeSpaceModel
-from geogait.optimize import InSituOptimizer, cached_ceiling, joint_limit_constraints
-from geogait.optimize._steps import StepProblem, take_step
-from geogait.simulate import SwimmerStream, cycle_displacement
+from geogait.optimize import InSituOptimizer, StepProblem, cached_ceiling, joint_limit_constraints, take_step
+from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
 
 LINKS = 9
-
-
-class TrueRatioOptimizer(InSituOptimizer):
-    """The ratio test fed with true objectives (before and after a step) instead of the model's."""
-
-    def _step(self, state):
-        system = PurcellSwimmer(state.gait.n_joints + 1)
-        now = float(np.hypot(*cycle_displacement(system, state.gait, resolution=128)[:2]))
-        if state.promised is not None:
-            before, promised, boundary = state.promised
-            true_before = state.true_before
-            state.promised = (true_before, true_before + promised - before, boundary)
-        update_radius = state.update_radius
-        state.update_radius = lambda value, low, high: update_radius(now, low, high)
-        try:
-            stepped = super()._step(state)
-        finally:
-            del state.update_radius
-        if stepped:
-            state.true_before = now
-        return stepped
 
 
 def fig5_model(forgetting_factor=0.9999):
@@ -118,15 +93,13 @@ def analyse(result, ceiling, radius, walk, refit):
     return row
 
 
-def main(trials, cycles, radius, walk, refit, true_ratio):
+def main(trials, cycles, radius, walk, refit):
     ceiling = cached_ceiling(PurcellSwimmer(LINKS)).value
-    kind = TrueRatioOptimizer if true_ratio else InSituOptimizer
     rows = []
-    print(f"{LINKS}-link, {cycles} cycles, {trials} trials, step radius {radius}"
-          + (", true objective in the ratio test" if true_ratio else ""))
+    print(f"{LINKS}-link, {cycles} cycles, {trials} trials, step radius {radius}")
     for seed in range(trials):
         stream = SwimmerStream(PurcellSwimmer(LINKS), seed_gait(LINKS - 1), sensor_noise=0.1, seed=seed)
-        result = kind(model=fig5_model(), family="symmetric").run(stream, cycles, ceiling=ceiling)
+        result = InSituOptimizer(model=fig5_model(), family="symmetric").run(stream, cycles, ceiling=ceiling)
         row = analyse(result, ceiling, radius, walk, refit)
         rows.append(row)
         print(f"seed {seed}: true {row['true']:.3f} predicted {row['predicted']:.3f} | true gradient "
@@ -146,7 +119,5 @@ if __name__ == "__main__":
     parser.add_argument("--radius", type=float, default=0.15)
     parser.add_argument("--walk", type=int, default=10)
     parser.add_argument("--refit", type=int, default=30)
-    parser.add_argument("--true-ratio", action="store_true")
     arguments = parser.parse_args()
-    main(arguments.trials, arguments.cycles, arguments.radius, arguments.walk, arguments.refit,
-         arguments.true_ratio)
+    main(arguments.trials, arguments.cycles, arguments.radius, arguments.walk, arguments.refit)

@@ -1,9 +1,11 @@
 r"""Adapting to a change of the robot or its world that nobody announces: the :class:`Adaptation` part.
 
 A black-box search keeps records; a model can notice that they are stale. The part watches the one gait the run
-holds (the climb's base, or the gait a revert goes back to) each time it is measured again:
+holds (the climb's base, the gait a revert goes back to, or the gait the model holds) each time it is measured
+again:
 
-**Notice.** A cycle of a gait that has a record from an earlier visit is compared with that record. Let
+**Notice.** A cycle of a gait that has a record from an earlier visit, or that has been held for four measured
+cycles or more without a break, is compared with that record. Let
 :math:`m` be the record's mean, :math:`n` its cycles and :math:`\sigma` the pooled cycle-to-cycle standard
 deviation within the run's gaits (of :math:`\nu` degrees of freedom). The cycle is *out of band* when
 
@@ -12,8 +14,9 @@ deviation within the run's gaits (of :math:`\nu` degrees of freedom). The cycle 
 with :math:`t_\nu` Student's quantile of the two-sided level that ``threshold`` standard deviations have for a
 normal noise (3: p = 0.0027). An out-of-band cycle holds the gait one more cycle; a change is detected when the
 two cycles' mean is out of band on the same side (:math:`\sqrt{1/2 + 1/n}` in place of :math:`\sqrt{1 + 1/n}`).
-In a family that promises no net rotation (symmetric, mirror), the cycles' net rotation is tested the same way:
-rotation that appears beyond its band and beyond the climb's rotation tolerance is a change too. While the climb
+In a family that promises no net rotation (symmetric, mirror), every rotation measured is noise until a change:
+a gait whose mean rotation over its cycles (three or more) is beyond the band of that noise (σ: the RMS of every
+rotation recorded) and beyond the climb's rotation tolerance, at two cycles in a row, is a change too. While the climb
 runs, the held gait is measured again after every ``check_every`` of its candidates: a check costs one cycle,
 two when the first is out of band.
 
@@ -138,7 +141,8 @@ class ChangeWatch:
     since_check : int
         Climb candidates measured since the held gait was last measured.
     suspect : list
-        ``[value, rotation, side, evidence]`` of an out-of-band first cycle awaiting its second (empty: none).
+        ``[value, rotation, record length, iteration, cycles in it]`` of an out-of-band cycle awaiting its second
+        (empty: none).
     reopen : float
         The step length of the next climb after a detection (NaN: the Climb's own).
     events : list of dict
@@ -146,6 +150,8 @@ class ChangeWatch:
     rotation_free : bool
         A rotation was detected: every later climb holds its candidates to the Climb's ``rotation_tolerance``, not
         to the rotation its base measures.
+    turning : int
+        Cycles in a row whose gait's mean rotation was out of its band (two make a detection).
     """
 
     since_check: int = 0
@@ -153,11 +159,12 @@ class ChangeWatch:
     reopen: float = np.nan
     events: list = field(default_factory=list)
     rotation_free: bool = False
+    turning: int = 0
 
     def to_json(self) -> dict:
         return {"since_check": self.since_check, "suspect": [_plain(v) for v in self.suspect],
                 "reopen": None if np.isnan(self.reopen) else float(self.reopen), "events": self.events,
-                "rotation_free": self.rotation_free}
+                "rotation_free": self.rotation_free, "turning": self.turning}
 
     @classmethod
     def from_json(cls, data: dict | None) -> ChangeWatch:
@@ -165,7 +172,7 @@ class ChangeWatch:
             return cls()
         return cls(since_check=int(data["since_check"]), suspect=list(data["suspect"]),
                    reopen=np.nan if data["reopen"] is None else float(data["reopen"]), events=list(data["events"]),
-                   rotation_free=bool(data["rotation_free"]))
+                   rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]))
 
 
 def _plain(value):

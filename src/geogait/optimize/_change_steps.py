@@ -14,6 +14,8 @@ from ._state import family_kind
 
 #: Fewest cycles of a gait whose mean net rotation is tested against zero.
 ROTATION_CYCLES = 3
+#: Measured cycles of a gait held without a break after which each further cycle is tested against them.
+HELD_CYCLES = 4
 
 
 class ChangeSteps:
@@ -35,8 +37,8 @@ class ChangeSteps:
             return None
         watch = state.watch
         values, rotations = self._records()
-        if watch.suspect and watch.suspect[3] == state.iteration and state.cycles_in_iteration == 1:
-            first, first_rotation, n_ref, _ = watch.suspect
+        if watch.suspect and watch.suspect[3] == state.iteration and state.cycles_in_iteration == watch.suspect[4] + 1:
+            first, first_rotation, n_ref = watch.suspect[:3]
             watch.suspect = []
             reference = values[key][:int(n_ref)]
             found = self._out_of_band([first, value], reference, values, key)
@@ -45,13 +47,21 @@ class ChangeSteps:
                                      found[1])
             return None
         watch.suspect = []
-        if state.cycles_in_iteration == 0 and values.get(key):
-            watch.since_check = 0
+        revisit = state.cycles_in_iteration == 0 and bool(values.get(key))
+        held = state.cycles_in_iteration >= HELD_CYCLES and len(values.get(key, ())) >= HELD_CYCLES
+        if revisit or held:
+            watch.since_check = 0 if revisit else watch.since_check
             found = self._out_of_band([value], values[key], values, key)
             if found is not None:
-                watch.suspect = [value, rotation, len(values[key]), state.iteration]
+                watch.suspect = [value, rotation, len(values[key]), state.iteration, state.cycles_in_iteration]
                 return "hold"
-        if self._rotation_appears(key, rotation, rotations):
+        turning = self._rotation_appears(key, rotation, rotations)
+        if turning is None:
+            return None
+        watch.turning = watch.turning + 1 if turning else 0
+        if watch.turning == 1:  # (held a cycle more: two tests in a row, as the objective's)
+            return "hold"
+        if watch.turning >= 2:
             post = rotations[key] + [rotation]
             return self._respond("rotation", key, [value], [rotation], values.get(key, [value]), np.nan, post)
         return None
@@ -71,11 +81,15 @@ class ChangeSteps:
             return None
         return (1 if shift > 0 else -1), sigma
 
-    def _rotation_appears(self, key, rotation: float, rotations: dict) -> bool:
-        """In a family that promises no net rotation: the gait's mean measured rotation over its cycles (this one
-        included, at least :data:`ROTATION_CYCLES`) is beyond its noise band and the rotation tolerance."""
+    def _rotation_appears(self, key, rotation: float, rotations: dict) -> bool | None:
+        """In a family that promises no net rotation: whether the gait's mean measured rotation over its cycles
+        (this one included) is beyond its noise band and the rotation tolerance; None (not tested) for a gait of
+        fewer than :data:`ROTATION_CYCLES` cycles or a family that promises none."""
         cycles = np.append(self._records()[1].get(key, []), rotation)
-        return cycles.size >= ROTATION_CYCLES and self._turns({**rotations, key: list(cycles)}, cycles)
+        if cycles.size < ROTATION_CYCLES or isinstance(self.state.family, FreeGaitFamily) \
+                or not self.parts.adaptation.widen_family:
+            return None
+        return self._turns({**rotations, key: list(cycles)}, cycles)
 
     def _turns(self, rotations: dict, cycles) -> bool:
         """In a family that promises no net rotation (and ``widen_family``): the mean of ``cycles`` (measured net
@@ -115,7 +129,7 @@ class ChangeSteps:
                              "reference": before, "noise": None if np.isnan(noise) else float(noise),
                              "rotation": float(np.mean(post_rotations if post_rotations else rotations)),
                              "family": family_kind(state.family)})
-        watch.since_check, watch.suspect = 0, []
+        watch.since_check, watch.suspect, watch.turning = 0, [], 0
         if not widened and "forget" in self.capabilities and adaptation.forget > 1:
             state.model.forget(adaptation.forget)
         state.measured, state.rotations = {}, {}
