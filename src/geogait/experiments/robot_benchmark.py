@@ -187,9 +187,10 @@ class BenchmarkCase:
         |net rotation| per cycle (rad) the ``held`` black-box variants are held to.
     eval_cycles : int
         Measured clean cycles per final-gait evaluation.
-    settle_declared : bool
-        Whether geogait is told ``settle_cycles`` (else it measures them: ``Safety(settle_cycles="auto")``); the
-        black-box methods run ``settle_cycles`` either way.
+    declared : bool
+        Whether geogait is told the case's ``settle_cycles`` and ``family`` (else it measures its settling and
+        chooses its family itself: ``Safety(settle_cycles="auto")``, ``family="auto"``); the black-box methods run
+        ``settle_cycles`` and ``family`` either way.
     eval_settle_cycles : int, optional
         Cycles a final-gait evaluation runs from rest before its measured ones (default ``settle_cycles``):
         enough for a body with momentum to reach the gait's steady speed, which one settling cycle after
@@ -226,7 +227,7 @@ class BenchmarkCase:
     direction: tuple | None = (1.0, 0.0)
     max_joint_angle: float = _R_MAX
     settle_cycles: int = 0
-    settle_declared: bool = True
+    declared: bool = True
     family: str = "free"
     rotation_limit: float = 0.02
     eval_cycles: int = 1
@@ -491,12 +492,13 @@ def _undeclared_robot(make_robot, seed, explore, noise, gait=None):
 
 def _undeclared_cases(cases: dict) -> dict:
     """Every stationary case also as a user brings it (``<name>-undeclared``): the robot declares only its joints,
-    period and objective (:class:`_UndeclaredRobot`); no settling cycles declared, so every method searches the free
-    family and measures a candidate's first cycle (geogait measures its own settling). Gaits are judged as in the case
-    itself (its evaluation settling)."""
+    period and objective (:class:`_UndeclaredRobot`); no settling cycles or symmetry declared, so every black-box
+    method searches the free family and measures a candidate's first cycle, while geogait measures its own settling
+    and chooses its family itself (``Safety(settle_cycles="auto")``, ``family="auto"``). Gaits are judged as in the
+    case itself (its evaluation settling)."""
     return {f"{name}-undeclared": dataclasses.replace(
         case, name=f"{name}-undeclared", description=f"{case.description}; declaring only its joints, period and "
-        "objective", make_robot=partial(_undeclared_robot, case.make_robot), settle_cycles=0, settle_declared=False,
+        "objective", make_robot=partial(_undeclared_robot, case.make_robot), settle_cycles=0, declared=False,
         family="free",
         eval_settle_cycles=case.settle_cycles if case.eval_settle_cycles is None else case.eval_settle_cycles)
         for name, case in cases.items()}
@@ -938,8 +940,9 @@ def case_optimizer(case: BenchmarkCase, optimizer: InSituOptimizer | None = None
     """
     optimizer = default() if optimizer is None else optimizer
     settings = {"limits__max_joint_angle": case.max_joint_angle,
-                "safety__settle_cycles": case.settle_cycles if case.settle_declared else "auto",
-                "family": "free" if case.family == "free" else "auto", "step__rotation_tolerance": case.rotation_limit}
+                "safety__settle_cycles": case.settle_cycles if case.declared else "auto",
+                "family": "free" if case.family == "free" and case.declared else "auto",
+                "step__rotation_tolerance": case.rotation_limit}
     if isinstance(optimizer.climb, Climb):
         settings["climb__rotation_tolerance"] = case.rotation_limit
     if case.objective == "forward":

@@ -131,7 +131,9 @@ class InSituOptimizer(Estimator):
         What a gait is judged by (default ``Objective()``: straight-line progress per cycle, no net rotation).
     family : {"auto", "free", "symmetric", "mirror"}
         Gait family searched. ``"auto"``: symmetric when the robot declares front–back symmetry and the seed is a
-        member, else mirror when it declares mirror symmetry and the seed is a member, else free.
+        member, else mirror when it declares mirror symmetry and the seed is a member, else free. A robot that
+        declares no symmetry starts in the mirror family when the seed is a member and an
+        :class:`~geogait.optimize.Adaptation` may widen it (to the free family, once a gait turns the body).
     order : int
         Fourier order of the gait family (a seed of higher order is refused rather than cut).
     period : PeriodSearch, optional
@@ -426,6 +428,11 @@ class InSituOptimizer(Estimator):
             raise fail("robot", owner, "a half-wave symmetric seed gait (no offsets or even harmonics) for family "
                        "'mirror'", f"a gait at distance {mirror.residual(gait):.3g} from the family")
         if self.family == "mirror" or (member and spec.mirror_symmetric):
+            return mirror
+        # a robot that declares no symmetry: the half-wave family, on trial (the Adaptation widens it to the free
+        # family once a gait of it turns the body beyond noise)
+        adapts = self.checks is None or any(isinstance(c, Adaptation) and c.widen_family for c in self.checks)
+        if self.family == "auto" and member and not spec.symmetry_declared and adapts:
             return mirror
         return FreeGaitFamily(gait.n_joints, self.order)
 

@@ -62,7 +62,9 @@ class SafetySteps:
         if len(state.settle_probe) < PROBE_CYCLES:
             return "probe"
         values, rotations = (list(v) for v in zip(*state.settle_probe, strict=True))
-        noise, dof = pooled_noise(state.measured, state.climb.measured, {"probe": values[1:]})
+        # the noise of settled cycles: every gait's first cycle left out (the start's, or one after a change)
+        settled = [{key: v[1:] for key, v in record.items()} for record in (state.measured, state.climb.measured)]
+        noise, dof = pooled_noise(*settled, {"probe": values[1:]})
         state.settle_cycles = self.parts.safety.settle_count(values, noise, dof)
         state.settle_probe = None
         records = self._records()

@@ -45,6 +45,9 @@ class RobotSpec:
     region : callable or None
         The shapes the robot may take, as it declares them: ``feasibility(shapes, jacobian=False)``, a signed margin
         ≥ 0 inside (a simulated system's singular set is read from ``system`` instead).
+    symmetry_declared : bool
+        The robot declares its symmetries (``front_back_symmetric`` or ``mirror_symmetric``), or is a simulated
+        :class:`~geogait.systems.PurcellSwimmer`; else the optimiser may measure them.
     settle_cycles : int or None
         Cycles a gait change takes to settle, as the robot declares them (``settle_cycles``); 0 for a simulator of
         a principally kinematic system (``current_system()``: its motion follows the shape at once); None when
@@ -63,6 +66,7 @@ class RobotSpec:
     saves_state: bool = False
     system: object = None
     region: object = None
+    symmetry_declared: bool = True
     settle_cycles: int | None = None
 
     @property
@@ -110,6 +114,8 @@ def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
         saves_state=callable(getattr(robot, "robot_state", None))
         and callable(getattr(robot, "restore_robot_state", None)),
         system=system, region=robot.feasibility if callable(getattr(robot, "feasibility", None)) else None,
+        symmetry_declared=swimmer or any(getattr(robot, name, None) is not None
+                                         for name in ("front_back_symmetric", "mirror_symmetric")),
         settle_cycles=_settle_cycles(robot, system, owner))
 
 
