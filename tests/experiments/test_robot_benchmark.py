@@ -614,9 +614,9 @@ def test_a_restart_variant_restarts_after_the_change_and_runs_within_the_budget(
 
 def test_an_undeclared_case_declares_only_joints_period_and_objective():
     """Each stationary robot also comes as a user brings it: no resistive medium, chain geometry, symmetry,
-    settling or truth; geogait then searches the free family with its data-driven defaults, as every black-box
-    method does, and the chain's resistance model is skipped in one line."""
-    from geogait.gaits import FreeGaitFamily
+    settling or truth; every black-box method searches the free family, geogait chooses its own (the half-wave one on
+    trial) and measures its settling, and the chain's resistance model is skipped in one line."""
+    from geogait.gaits import FreeGaitFamily, MirrorGaitFamily
 
 
     assert set(bench.UNDECLARED_CASES) == {f"{n}-undeclared" for n in bench.CASES
@@ -628,7 +628,9 @@ def test_an_undeclared_case_declares_only_joints_period_and_objective():
                    "current_system", "robot_state"):
         assert not hasattr(robot, hidden), hidden
     assert robot.n_joints == 4 and robot.cycle_period == 1.0 and callable(robot.set_excitation)
-    assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), FreeGaitFamily)
+    # no symmetry declared: the half-wave family on trial with the Adaptation, else the free family
+    assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), MirrorGaitFamily)
+    assert isinstance(InSituOptimizer(checks=[])._family(read_robot_spec(robot), robot.gait), FreeGaitFamily)
     lines = []
     result = bench.run_robot_benchmark(["swimmer3-undeclared"], ["geogait", "geogait-resistance", "random-held"],
                                        n_seeds=1, budget=4, checkpoints=[4], progress=False, log=lines.append)

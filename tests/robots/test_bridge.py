@@ -74,18 +74,25 @@ def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
 
 def test_hello_declares_mirror_symmetry_and_the_optimiser_searches_that_family(tmp_path):
     """A 4-link swimmer with unequal links is mirror symmetric but not front–back symmetric: declared in the
-    hello, the optimiser's automatic family is the half-wave one; not declared, the free one."""
-    from geogait.gaits import MirrorGaitFamily
+    hello, the optimiser's automatic family is the half-wave one; declared false, the free one; not declared, the
+    half-wave one on trial (the Adaptation widens it once a gait turns), or the free one without an Adaptation."""
+    from geogait.gaits import FreeGaitFamily, MirrorGaitFamily
+    from geogait.robots import read_robot_spec
 
     hello = {"type": "hello", "protocol": "geogait-robot", "version": 2, "n_joints": 2, "cycle_period": 1.0,
              "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}, "mirror_symmetric": True}
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
         assert robot.mirror_symmetric is True and robot.front_back_symmetric is None
-        assert isinstance(InSituOptimizer()._family(robot, robot.gait), MirrorGaitFamily)
+        assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), MirrorGaitFamily)
+    with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric=False)!r}), flush=True)\n"
+                                        "sys.stdin.readline()\n")) as robot:
+        assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), FreeGaitFamily)
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric=None)!r}), flush=True)\n"
                                         "sys.stdin.readline()\n")) as robot:
         assert robot.mirror_symmetric is None
-        assert not isinstance(InSituOptimizer()._family(robot, robot.gait), MirrorGaitFamily)
+        spec = read_robot_spec(robot)
+        assert isinstance(InSituOptimizer()._family(spec, robot.gait), MirrorGaitFamily)
+        assert isinstance(InSituOptimizer(checks=[])._family(spec, robot.gait), FreeGaitFamily)
     with pytest.raises(ValueError, match="'mirror_symmetric' must be true or false"):
         ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric='yes')!r}), "
                                        "flush=True)\nsys.stdin.readline()\n"))
