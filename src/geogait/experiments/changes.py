@@ -33,13 +33,13 @@ from collections.abc import Callable
 import numpy as np
 
 from .._validation import GeogaitError, check_array, check_float, check_int, fail
-from ..gaits import FourierGait
+from ..robots import RobotWrapper
 from ..simulate import Trajectory
 
 __all__ = ["ChangingRobot", "swimmer_link_drag", "mujoco_link_drag", "mujoco_joint_gear", "elastica_friction"]
 
 
-class ChangingRobot:
+class ChangingRobot(RobotWrapper):
     """A robot whose body or medium changes, unannounced, before its cycle ``at_cycle``.
 
     Every member of the wrapped robot is the wrapper's (its declarations, ``set_cycle_period``,
@@ -67,26 +67,9 @@ class ChangingRobot:
         self.at_cycle = check_int(at_cycle, "at_cycle", owner, minimum=0)
         if not callable(change):
             raise fail("change", owner, "a callable change(robot)", type(change).__name__)
-        self.robot, self.change = robot, change
+        super().__init__(robot)
+        self.change = change
         self.cycles_run, self.changed = 0, False
-
-    def __getattr__(self, name):
-        if name == "robot":  # (not set yet: unpickling)
-            raise AttributeError(name)
-        return getattr(self.robot, name)
-
-    @property
-    def gait(self) -> FourierGait:
-        return self.robot.gait
-
-    def set_gait(self, gait: FourierGait) -> None:
-        """Command ``gait`` from the next cycle on (the wrapped robot's).
-
-        Parameters
-        ----------
-        gait : FourierGait
-        """
-        self.robot.set_gait(gait)
 
     def next_cycle(self) -> Trajectory:
         """Run one cycle, the change applied first when this is cycle ``at_cycle``."""

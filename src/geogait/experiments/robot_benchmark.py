@@ -120,6 +120,7 @@ from ..optimize import (
     structured,
 )
 from ..plotting import plt, save_figure
+from ..robots import RobotWrapper
 from ..simulate import SwimmerStream, end_pose
 from ..sweep import run_trials
 from ..systems import KinematicSnake, PurcellSwimmer
@@ -137,22 +138,12 @@ UNEQUAL_LINKS = (0.3, 0.15, 0.2, 0.25, 0.1)
 _SWIMMER_V5_DT, _SWIMMER_V5_STEPS = 0.04, 1000
 
 
-class _CountingRobot:
+class _CountingRobot(RobotWrapper):
     """A robot that counts the cycles it runs (what every method is charged)."""
 
     def __init__(self, robot):
-        self.robot = robot
+        super().__init__(robot)
         self.cycles = 0
-
-    def __getattr__(self, name):
-        return getattr(self.robot, name)
-
-    @property
-    def gait(self):
-        return self.robot.gait
-
-    def set_gait(self, gait):
-        self.robot.set_gait(gait)
 
     def next_cycle(self):
         self.cycles += 1
@@ -459,7 +450,7 @@ def _change_cases(cases: dict) -> dict:
     return {case.name: case for case in changed}
 
 
-class _UndeclaredRobot:
+class _UndeclaredRobot(RobotWrapper):
     """A robot as a user brings it: its joints (count, ranges and, where some shapes are out of reach, the region it
     may take), its period and what may be commanded (gait, period, excitation), and nothing else — no resistive
     medium, chain geometry, symmetry or simulator's truth."""
@@ -467,23 +458,10 @@ class _UndeclaredRobot:
     MEMBERS = frozenset({"n_joints", "cycle_period", "gait", "set_gait", "next_cycle", "next_cycles", "joint_ranges",
                          "feasibility", "set_cycle_period", "set_excitation", "accepts_excitation", "close"})
 
-    def __init__(self, robot):
-        self.robot = robot
-
     def __getattr__(self, name):
         if name == "robot" or name not in self.MEMBERS:
             raise AttributeError(name)
         return getattr(self.robot, name)
-
-    @property
-    def gait(self) -> FourierGait:
-        return self.robot.gait
-
-    def set_gait(self, gait: FourierGait) -> None:
-        self.robot.set_gait(gait)
-
-    def next_cycle(self):
-        return self.robot.next_cycle()
 
 
 def _undeclared_robot(make_robot, seed, explore, noise, gait=None):

@@ -26,6 +26,7 @@ from ._mujoco import (
 )
 from ._protocol import ROBOT_EXTRAS, Robot, check_robot_members
 from ._spec import RobotSpec, read_robot_spec
+from ._wrapper import RobotWrapper
 from .continuum import (
     CurvatureModes,
     body_pose,
@@ -48,6 +49,7 @@ __all__ = [
     "ProcessRobot",
     "Robot",
     "RobotSpec",
+    "RobotWrapper",
     "SwimmerStream",
     "body_pose",
     "body_velocity",
