@@ -213,7 +213,8 @@ def test_a_climb_handing_back_holds_the_models_steps_to_what_its_base_tracks(mon
         return trusted(climb)
 
     monkeypatch.setattr(MeasuredClimb, "model_trusted_again", property(spy))
-    log = InSituOptimizer(climb=Climb(rule="es"), safety=Safety(settle_cycles=0),  # (declared: no settling probe)
+    # (the mechanism alone: no settling probe, no Adaptation's checks, which move this run's hand-back)
+    log = InSituOptimizer(climb=Climb(rule="es"), safety=Safety(settle_cycles=0), checks=[],
                           random_state=7).run(LaggingRobot(), 80, callback=rows.append).log
     assert handed_back
     params = log.filter(like="param_").to_numpy()

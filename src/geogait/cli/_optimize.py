@@ -623,7 +623,8 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
                     (folder / file).unlink(missing_ok=True)
                 _write_settings(folder, settings, run_id)  # (a resume's new --cycles: the total it continues to)
                 started[0] = True
-            gamma = "  – " if np.isnan(row["gamma"]) else f"{row['gamma']:.2f}"  # – : burn-in or settle cycle
+            # –: a burn-in or settle cycle; <0: the model predicts worse than its phase average (see cycles.csv)
+            gamma = "  – " if np.isnan(row["gamma"]) else " <0 " if row["gamma"] < 0 else f"{row['gamma']:.2f}"
             value = row.get("true_objective", row["measured_objective"])
             share = f"  {100 * row['ceiling_fraction']:.0f}% of ceiling" if "ceiling_fraction" in row else ""
             trial = "  (a trial)" if row.get("candidate", False) else ""

@@ -12,13 +12,20 @@ deviation within the run's gaits (of :math:`\nu` degrees of freedom). The cycle 
 .. math::  |v - m| > t_\nu \, \sigma \sqrt{1 + 1/n} \quad\text{and}\quad |v - m| > \text{min\_change}\,|m|,
 
 with :math:`t_\nu` Student's quantile of the two-sided level that ``threshold`` standard deviations have for a
-normal noise (3: p = 0.0027). An out-of-band cycle holds the gait one more cycle; a change is detected when the
+normal noise (3: p = 0.0027). Where the model's recent prediction residuals of climb candidates (below) are more
+than the repeated cycles, their robust spread (1.4826 × the median absolute deviation; it holds the model's error
+too, so it errs wide) stands for σ. An out-of-band cycle holds the gait one more cycle; a change is detected when the
 two cycles' mean is out of band on the same side (:math:`\sqrt{1/2 + 1/n}` in place of :math:`\sqrt{1 + 1/n}`).
 In a family that promises no net rotation (symmetric, mirror), every rotation measured is noise until a change:
-a gait whose mean rotation over its cycles (three or more) is beyond the band of that noise (σ: the RMS of every
-rotation recorded) and beyond the climb's rotation tolerance, at two cycles in a row, is a change too. While the climb
+a gait whose mean rotation over its cycles is beyond the band of that noise at ``threshold`` + 1 (σ: the RMS of every
+rotation recorded, those of dropped records too; tested at every cycle, so one σ stricter) and beyond the climb's
+rotation tolerance, at two cycles in a row of that gait, is a change too. While the climb
 runs, the held gait is measured again after every ``check_every`` of its candidates: a check costs one cycle,
-two when the first is out of band.
+two when the first is out of band. The model's surprise brings a check forward: while the climb runs and the model is
+confident (Γ over the climb's cycles at least the gate's Γ*), it predicts each candidate's objective before it is
+measured; two residuals in a row beyond ``threshold`` robust
+standard deviations of the recent ones (1.4826 × their median absolute deviation), on the same side, make the
+check due at once.
 
 **Forget.** On a detection the records made before it are dropped — every gait's measured mean, the climb's
 history and its search, the revert's reference, the trust radius's ratio test — and the model forgets its
@@ -69,7 +76,7 @@ class Adaptation(Part):
         Smallest relative change of the held gait's measured objective that counts (a change below it is not
         worth forgetting what was learned; it also bounds a noiseless robot's alarms).
     check_every : int
-        Candidates of the climb between two checks of the held gait.
+        Candidates of the climb between two checks of the held gait (sooner when the model is surprised).
     forget : float
         The factor by which the model discounts its evidence on a detection (``model.forget``: each direction of
         its covariance back towards the prior's, its weights kept as the starting point; 1: keep the evidence).
@@ -89,7 +96,7 @@ class Adaptation(Part):
         "lead": Options(("model", "climb")),
     }
 
-    def __init__(self, *, threshold: float = 3.0, min_change: float = 0.05, check_every: int = 10,
+    def __init__(self, *, threshold: float = 3.0, min_change: float = 0.05, check_every: int = 20,
                  forget: float = 1e6, widen_family: bool = True, lead: str = "climb"):
         self.threshold = threshold
         self.min_change = min_change
@@ -152,6 +159,15 @@ class ChangeWatch:
         to the rotation its base measures.
     turning : int
         Cycles in a row whose gait's mean rotation was out of its band (two make a detection).
+    residuals, surprise : list of float, int
+        The model's recent prediction residuals of climb candidates, and the side (±1, 0: none) of the last one
+        beyond their band (two on one side make the held gait's check due).
+    noise_ss, noise_dof : float, int
+        The sum of squared deviations and degrees of freedom of the records the run has dropped (a hand-back, a
+        climb's restart, a change): the noise estimate keeps them.
+    rotation_ss, rotation_n : float, int
+        The sum of squared rotations and their count in those records (the rotation noise of a family that
+        promises none).
     """
 
     since_check: int = 0
@@ -160,11 +176,44 @@ class ChangeWatch:
     events: list = field(default_factory=list)
     rotation_free: bool = False
     turning: int = 0
+    residuals: list = field(default_factory=list)
+    surprise: int = 0
+    noise_ss: float = 0.0
+    noise_dof: int = 0
+    rotation_ss: float = 0.0
+    rotation_n: int = 0
+
+    def archive_rotations(self, *rotations: dict) -> None:
+        """Keep the sum of squares of the rotations of ``rotations`` (records about to be dropped)."""
+        for record in rotations:
+            for cycles in record.values():
+                cycles = np.asarray(cycles, dtype=float)
+                self.rotation_ss, self.rotation_n = self.rotation_ss + float(np.sum(cycles ** 2)), \
+                    self.rotation_n + cycles.size
+
+    def archive(self, *records: dict) -> None:
+        """Keep the cycle-to-cycle spread of ``records`` (about to be dropped) for later noise estimates."""
+        sigma, dof = pooled_noise(*records)
+        if dof:
+            self.noise_ss, self.noise_dof = self.noise_ss + sigma ** 2 * dof, self.noise_dof + dof
+
+    def noise(self, *records: dict) -> tuple[float, int]:
+        """The pooled cycle-to-cycle standard deviation of ``records`` and of every record archived, and its
+        degrees of freedom."""
+        sigma, dof = pooled_noise(*records)
+        total = dof + self.noise_dof
+        if total == 0:
+            return np.nan, 0
+        squares = (sigma ** 2 * dof if dof else 0.0) + self.noise_ss
+        return float(np.sqrt(squares / total)), total
 
     def to_json(self) -> dict:
         return {"since_check": self.since_check, "suspect": [_plain(v) for v in self.suspect],
                 "reopen": None if np.isnan(self.reopen) else float(self.reopen), "events": self.events,
-                "rotation_free": self.rotation_free, "turning": self.turning}
+                "rotation_free": self.rotation_free, "turning": self.turning,
+                "residuals": [float(r) for r in self.residuals], "surprise": self.surprise,
+                "noise_ss": float(self.noise_ss), "noise_dof": int(self.noise_dof),
+                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n)}
 
     @classmethod
     def from_json(cls, data: dict | None) -> ChangeWatch:
@@ -172,7 +221,10 @@ class ChangeWatch:
             return cls()
         return cls(since_check=int(data["since_check"]), suspect=list(data["suspect"]),
                    reopen=np.nan if data["reopen"] is None else float(data["reopen"]), events=list(data["events"]),
-                   rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]))
+                   rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]),
+                   residuals=[float(r) for r in data["residuals"]], surprise=int(data["surprise"]),
+                   noise_ss=float(data["noise_ss"]), noise_dof=int(data["noise_dof"]),
+                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]))
 
 
 def _plain(value):

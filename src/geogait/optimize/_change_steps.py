@@ -8,14 +8,14 @@ import numpy as np
 
 from ..gaits import FreeGaitFamily, MirrorGaitFamily
 from ..models import model_capabilities
-from ._adaptation import pooled_noise
+from ._adaptation import Adaptation
 from ._models import run_model
 from ._state import family_kind
 
-#: Fewest cycles of a gait whose mean net rotation is tested against zero.
-ROTATION_CYCLES = 3
 #: Measured cycles of a gait held without a break after which each further cycle is tested against them.
 HELD_CYCLES = 4
+#: The model's most recent prediction residuals of climb candidates that scale its surprise.
+SURPRISE_HISTORY = 20
 
 
 class ChangeSteps:
@@ -37,6 +37,7 @@ class ChangeSteps:
             return None
         watch = state.watch
         values, rotations = self._records()
+        self._model_surprised(key, value)
         if watch.suspect and watch.suspect[3] == state.iteration and state.cycles_in_iteration == watch.suspect[4] + 1:
             first, first_rotation, n_ref = watch.suspect[:3]
             watch.suspect = []
@@ -66,6 +67,31 @@ class ChangeSteps:
             return self._respond("rotation", key, [value], [rotation], values.get(key, [value]), np.nan, post)
         return None
 
+    def _model_surprised(self, key, value: float) -> None:
+        """While climbing, with the model confident (Γ over the climb's cycles at least the gate's Γ*): the model's
+        a-priori prediction of each candidate's objective against what it measured.
+        Two residuals in a row beyond ``threshold`` robust standard deviations of the recent ones (their median
+        absolute deviation, over at least :data:`SURPRISE_HISTORY` // 2 of them), on the same side, make the held
+        gait's check due at once: the model notices, the held gait's measurement confirms."""
+        state, watch = self.state, self.state.watch
+        fitted = getattr(state.model, "__sklearn_is_fitted__", lambda: True)()
+        # (the first surprise of a change drops Γ: a second is judged by the confidence the first was)
+        confident = self.gate != "gamma" or state.gamma >= self.parts.gate.gamma_threshold or watch.surprise != 0
+        if not state.climb.active or key == state.climb.base or not fitted or not confident:
+            return
+        residual = value - self._predict(key[0])[1] * state.rate(key[1])
+        history = np.asarray(watch.residuals, dtype=float)
+        watch.residuals = [*watch.residuals, residual][-SURPRISE_HISTORY:]
+        if history.size < SURPRISE_HISTORY // 2:
+            return
+        centre = float(np.median(history))
+        scale = 1.4826 * float(np.median(np.abs(history - centre)))
+        side = int(np.sign(residual - centre)) if abs(residual - centre) > self.parts.adaptation.threshold * scale \
+            else 0
+        if side and side == watch.surprise:
+            watch.since_check = self.parts.adaptation.check_every  # (due at the next decision)
+        watch.surprise = side
+
     @staticmethod
     def _side(value: float, reference) -> int:
         return 1 if value > float(np.mean(reference)) else -1
@@ -74,7 +100,11 @@ class ChangeSteps:
         """(side, noise) when the mean of ``new`` is out of ``reference``'s band (module docstring), else None."""
         adaptation, state = self.parts.adaptation, self.state
         other = state.measured if values is state.climb.measured else state.climb.measured
-        sigma, dof = pooled_noise({**values, key: list(reference)}, other)
+        sigma, dof = state.watch.noise({**values, key: list(reference)}, other)
+        residuals = np.asarray(state.watch.residuals, dtype=float)
+        if residuals.size - 1 > dof:  # (a climb measures each candidate once: the model's residuals say more)
+            sigma = 1.4826 * float(np.median(np.abs(residuals - np.median(residuals))))
+            dof = residuals.size - 1
         mean, shift = float(np.mean(reference)), float(np.mean(new)) - float(np.mean(reference))
         band = adaptation.band(dof) * sigma * np.sqrt(1 / len(new) + 1 / len(reference))
         if not (abs(shift) > band and abs(shift) > adaptation.min_change * abs(mean)):
@@ -83,29 +113,31 @@ class ChangeSteps:
 
     def _rotation_appears(self, key, rotation: float, rotations: dict) -> bool | None:
         """In a family that promises no net rotation: whether the gait's mean measured rotation over its cycles
-        (this one included) is beyond its noise band and the rotation tolerance; None (not tested) for a gait of
-        fewer than :data:`ROTATION_CYCLES` cycles or a family that promises none."""
+        (this one included) is beyond its noise band and the rotation tolerance; None (not tested) in a family that
+        promises none."""
         cycles = np.append(self._records()[1].get(key, []), rotation)
-        if cycles.size < ROTATION_CYCLES or isinstance(self.state.family, FreeGaitFamily) \
-                or not self.parts.adaptation.widen_family:
+        if isinstance(self.state.family, FreeGaitFamily) or not self.parts.adaptation.widen_family:
             return None
         return self._turns({**rotations, key: list(cycles)}, cycles)
 
     def _turns(self, rotations: dict, cycles) -> bool:
         """In a family that promises no net rotation (and ``widen_family``): the mean of ``cycles`` (measured net
         rotations of one gait) is beyond its noise band and the rotation tolerance. Every gait of such a family
-        turns the body it was chosen for by exactly nothing, so every rotation recorded (``rotations``) is noise:
-        the band's σ is their root mean square."""
+        turns the body it was chosen for by exactly nothing, so every rotation recorded (``rotations``, and those of
+        records the run has dropped) is noise: the band's σ is their root mean square."""
         state, adaptation = self.state, self.parts.adaptation
         if isinstance(state.family, FreeGaitFamily) or not adaptation.widen_family:
             return False
         cycles = np.asarray(cycles, dtype=float)
         recorded = np.concatenate([np.asarray(v, dtype=float) for v in rotations.values()] or [np.zeros(0)])
-        sigma, dof = float(np.sqrt(np.mean(recorded ** 2))) if recorded.size else np.nan, recorded.size
+        dof = recorded.size + state.watch.rotation_n
+        sigma = float(np.sqrt((np.sum(recorded ** 2) + state.watch.rotation_ss) / dof)) if dof else np.nan
         limit = self.parts.climb.rotation_tolerance if self.parts.climb is not None \
             else self.parts.step.rotation_tolerance
         mean = abs(float(cycles.mean()))
-        return bool(mean > adaptation.band(dof) * sigma / np.sqrt(cycles.size) and mean > limit)
+        # (tested at every cycle, not at checks: one standard deviation stricter than the objective's test)
+        band = Adaptation(threshold=adaptation.threshold + 1).band(dof)
+        return bool(mean > band * sigma / np.sqrt(cycles.size) and mean > limit)
 
     def _respond(self, evidence: str, key, values: list, rotations: list, reference, noise: float,
                  post_rotations: list | None = None) -> str:
@@ -130,8 +162,11 @@ class ChangeSteps:
                              "rotation": float(np.mean(post_rotations if post_rotations else rotations)),
                              "family": family_kind(state.family)})
         watch.since_check, watch.suspect, watch.turning = 0, [], 0
+        watch.residuals, watch.surprise = [], 0  # (the model's residuals before the change are no scale after it)
         if not widened and "forget" in self.capabilities and adaptation.forget > 1:
             state.model.forget(adaptation.forget)
+        watch.archive(state.measured, state.climb.measured)
+        watch.archive_rotations(state.rotations, state.climb.rotations)
         state.measured, state.rotations = {}, {}
         state.radius = parts.step.trust_radius * state.scale
         state.distrust = state.prediction_failures = state.stall = 0

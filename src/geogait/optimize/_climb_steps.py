@@ -25,6 +25,8 @@ class ClimbSteps:
         best = self._best_key() if base is None else base
         if sigma is None and np.isfinite(state.watch.reopen):  # the first climb after a change: sized by it
             sigma, state.watch.reopen = state.watch.reopen, np.nan
+        state.watch.archive(state.climb.measured)  # (the noise it measured outlives the records)
+        state.watch.archive_rotations(state.climb.rotations)
         state.climb.start(best, self.parts.climb.sigma * state.scale if sigma is None else sigma)
         if self.parts.climb.rule != "es":
             state.climb.search = self._new_search(best, state.climb.sigma)
@@ -79,6 +81,8 @@ class ClimbSteps:
                     climb.active = False
                     state.distrust = state.prediction_failures = state.stall = 0
                     state.radius = parts.step.trust_radius * state.scale
+                    state.watch.archive(state.measured)
+                    state.watch.archive_rotations(state.rotations)
                     state.measured, state.rotations = {}, {}
                     self._change_gait(*climb.base)
                     state.previous_gait = None  # (the base was accepted: never refused back to a failed candidate)
