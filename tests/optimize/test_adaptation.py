@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from geogait._validation import GeogaitError
 from geogait.experiments.changes import ChangingRobot, swimmer_link_drag
 from geogait.gaits import FourierGait, seed_gait
-from geogait.optimize import Adaptation, InSituOptimizer, cached_ceiling, default, paper_loop
+from geogait.optimize import Adaptation, InSituOptimizer, Safety, cached_ceiling, default, paper_loop
+from geogait.robots import RobotWrapper
 from geogait.simulate import SwimmerStream, TrueMotion
 from geogait.systems import PurcellSwimmer
 
@@ -146,3 +147,44 @@ def test_a_stop_file_ends_a_run(tmp_path):
     assert len(InSituOptimizer().run(swimmer(0), None, callback=touch, stop=stop).log) == 5
     with pytest.raises(GeogaitError, match="'stop' parameter"):
         InSituOptimizer().run(swimmer(0), None, stop=3)
+
+
+# -- settling a robot does not declare ------------------------------------------------------------
+class OneCycleLate(RobotWrapper):
+    """A controller one cycle late: the cycle after a gait change still runs the old gait. Declares nothing (no
+    simulator's truth), so its settling is measured."""
+
+    current_system = None
+
+    def __init__(self, robot):
+        super().__init__(robot)
+        self.pending = None
+
+    def set_gait(self, gait):
+        self.pending = gait
+
+    def next_cycle(self):
+        chunk = self.robot.next_cycle()
+        if self.pending is not None:  # (from the next cycle on)
+            self.robot.set_gait(self.pending)
+            self.pending = None
+        return chunk
+
+
+def test_a_robot_one_cycle_late_is_measured_to_settle_in_one_cycle_and_a_simulator_declares_none():
+    late = InSituOptimizer(random_state=0).run(OneCycleLate(swimmer(0)), 16).log
+    assert late["settle_cycles"].iloc[-1] == 1
+    assert late["settling"].sum() >= 3  # (the settling cycles after each later gait change)
+    simulated = InSituOptimizer(random_state=0).run(swimmer(0), 16).log  # a kinematic simulator: 0, no probe
+    assert (simulated["settle_cycles"] == 0).all() and not simulated["settling"].any()
+    declared = InSituOptimizer(safety=Safety(settle_cycles=2), random_state=0).run(OneCycleLate(swimmer(0)), 16).log
+    assert (declared["settle_cycles"] == 2).all()  # (given: never measured, never rewritten)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_with_the_model_alone_a_held_gait_notices_the_change(seed):
+    """No climb: the model's gait is measured cycle after cycle; the cycles after a change leave its band."""
+    changed = InSituOptimizer(climb=False, random_state=seed).run(swimmer(seed, ENDS), 60)
+    assert [e["evidence"] for e in changed.changes] == ["objective"]
+    assert CHANGE_AT <= changed.changes[0]["cycle"] <= CHANGE_AT + 20
+    assert InSituOptimizer(climb=False, random_state=seed).run(swimmer(seed), 60).changes == []
