@@ -350,18 +350,22 @@ def _given(ctx, name: str) -> bool:
 
 
 def _declared(robot, result) -> dict:
-    """What the robot declared and what the run made of it (a --robot run's summary)."""
-    ranges = getattr(robot, "joint_ranges", None)
-    region = getattr(robot, "shape_constraints", None)  # (a bridge driver's linear limits, a · r <= b)
-    return {"n_joints": int(robot.n_joints), "cycle_period_s": float(robot.cycle_period),
-            "joint_ranges": None if ranges is None else np.asarray(ranges, dtype=float).tolist(),
-            "shape_constraints": None if region is None
-            else np.column_stack([region.normals, region.bounds]).tolist(),
+    """What the robot declared (:func:`~geogait.robots.read_robot_spec`) and what the run made of it (a --robot
+    run's summary)."""
+    from ..robots import read_robot_spec
+
+    spec = read_robot_spec(robot, "geogait optimize")
+    region = spec.region.__self__ if hasattr(spec.region, "__self__") else spec.region  # (a bound feasibility)
+    linear = hasattr(region, "normals") and hasattr(region, "bounds")  # (a bridge driver's limits, a · r <= b)
+    return {"n_joints": spec.n_joints, "cycle_period_s": spec.cycle_period,
+            "joint_ranges": None if spec.joint_ranges is None else spec.joint_ranges.tolist(),
+            "shape_constraints": np.column_stack([region.normals, region.bounds]).tolist() if linear else None,
             "seed_gait_params": result.initial_gait.params.tolist(),
             "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
-            "chain": getattr(robot, "chain", None), "resistive_medium": bool(getattr(robot, "resistive_medium", False)),
-            "front_back_symmetric": getattr(robot, "front_back_symmetric", None),
-            "mirror_symmetric": getattr(robot, "mirror_symmetric", None), "gait_family_used": result.family}
+            "chain": spec.resistive_chain, "resistive_medium": spec.resistive_chain is not None,
+            "front_back_symmetric": spec.front_back_symmetric if spec.symmetry_declared else None,
+            "mirror_symmetric": spec.mirror_symmetric if spec.symmetry_declared else None,
+            "settle_cycles": spec.settle_cycles, "gait_family_used": result.family}
 
 
 def _run_id(settings: dict) -> str:
