@@ -71,7 +71,7 @@ from .._validation import (
 from ..gaits import FourierGait, Perturbation
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
-from ..robots import check_robot_members
+from ..robots import read_robot_spec
 from ..simulate import Trajectory, TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
@@ -383,7 +383,7 @@ class PathTracker(Estimator):
         self.validate()
         owner = "PathTracker.run"
         check_callback(callback, record, owner)
-        check_robot_members(robot, owner)
+        spec = read_robot_spec(robot, owner)
         if not isinstance(path, ReferencePath):
             raise fail("path", owner, "a ReferencePath", type(path).__name__)
         n_cycles = check_int(n_cycles, "n_cycles", owner, minimum=1)
@@ -394,7 +394,7 @@ class PathTracker(Estimator):
         if reference.joint_limit().max() > self.max_joint_angle + 1e-9:
             raise fail("gait", owner, f"a gait within max_joint_angle = {self.max_joint_angle:.4g}",
                        f"a gait reaching {reference.joint_limit().max():.4g} rad")
-        oracle = getattr(robot, "current_system", None)
+        oracle = robot.current_system if spec.simulated else None  # (a simulator's truth, asked again as it changes)
         # the robot's feasible region (its own, or its simulator's): every steering gait keeps it, as the joint limits
         self._region = robot_feasibility(robot, reference.n_joints, reference.order)
         lowest = float(self._region(reference.params)[0].min()) if self._region is not None else 0.0
