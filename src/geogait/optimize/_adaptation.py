@@ -17,9 +17,9 @@ than the repeated cycles, their robust spread (1.4826 × the median absolute dev
 too, so it errs wide) stands for σ. An out-of-band cycle holds the gait one more cycle; a change is detected when the
 two cycles' mean is out of band on the same side (:math:`\sqrt{1/2 + 1/n}` in place of :math:`\sqrt{1 + 1/n}`).
 In a family that promises no net rotation (symmetric, mirror), every rotation measured is noise until a change:
-a gait whose mean rotation over its cycles is beyond the band of that noise at ``threshold`` + 1 (σ: the RMS of every
-rotation recorded, those of dropped records too; tested at every cycle, so one σ stricter) and beyond the climb's
-rotation tolerance, at two cycles in a row of that gait, is a change too. While the climb
+a gait measured twice or more whose mean rotation is beyond the band of that noise at ``threshold`` + 1 (σ: the RMS
+of every rotation recorded, those of dropped records too; one σ stricter, as it is tested at every such cycle) and
+beyond the climb's rotation tolerance, at two cycles in a row of that gait, is a change too. While the climb
 runs, the held gait is measured again after every ``check_every`` of its candidates: a check costs one cycle,
 two when the first is out of band. The model's surprise brings a check forward: while the climb runs and the model is
 confident (Γ over the climb's cycles at least the gate's Γ*), it predicts each candidate's objective before it is
@@ -96,7 +96,7 @@ class Adaptation(Part):
         "lead": Options(("model", "climb")),
     }
 
-    def __init__(self, *, threshold: float = 3.0, min_change: float = 0.05, check_every: int = 20,
+    def __init__(self, *, threshold: float = 3.0, min_change: float = 0.05, check_every: int = 10,
                  forget: float = 1e6, widen_family: bool = True, lead: str = "climb"):
         self.threshold = threshold
         self.min_change = min_change

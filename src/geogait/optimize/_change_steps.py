@@ -12,6 +12,8 @@ from ._adaptation import Adaptation
 from ._models import run_model
 from ._state import family_kind
 
+#: Fewest measured cycles of a gait whose mean net rotation is tested (the held gait's, at a check or a hold).
+ROTATION_CYCLES = 2
 #: Measured cycles of a gait held without a break after which each further cycle is tested against them.
 HELD_CYCLES = 4
 #: The model's most recent prediction residuals of climb candidates that scale its surprise.
@@ -113,10 +115,12 @@ class ChangeSteps:
 
     def _rotation_appears(self, key, rotation: float, rotations: dict) -> bool | None:
         """In a family that promises no net rotation: whether the gait's mean measured rotation over its cycles
-        (this one included) is beyond its noise band and the rotation tolerance; None (not tested) in a family that
-        promises none."""
+        (this one included) is beyond its noise band and the rotation tolerance; None (not tested) for a gait of
+        fewer than :data:`ROTATION_CYCLES` cycles (a climb's candidate: one cycle, which may still turn as the body
+        settles) or in a family that promises none."""
         cycles = np.append(self._records()[1].get(key, []), rotation)
-        if isinstance(self.state.family, FreeGaitFamily) or not self.parts.adaptation.widen_family:
+        if cycles.size < ROTATION_CYCLES or isinstance(self.state.family, FreeGaitFamily) \
+                or not self.parts.adaptation.widen_family:
             return None
         return self._turns({**rotations, key: list(cycles)}, cycles)
 
