@@ -5,7 +5,8 @@ holds (the climb's base, the gait a revert goes back to, or the gait the model h
 again:
 
 **Notice.** A cycle of a gait that has a record from an earlier visit, or that has been held for four measured
-cycles or more without a break, is compared with that record. Let
+cycles or more without a break, is compared with that record (a held gait at ``threshold`` + 1: it is tested at
+every cycle, not once a check). Let
 :math:`m` be the record's mean, :math:`n` its cycles and :math:`\sigma` the pooled cycle-to-cycle standard
 deviation within the run's gaits (of :math:`\nu` degrees of freedom). The cycle is *out of band* when
 
@@ -168,6 +169,8 @@ class ChangeWatch:
     rotation_ss, rotation_n : float, int
         The sum of squared rotations and their count in those records (the rotation noise of a family that
         promises none).
+    suspect_strict : bool
+        The last test was a held gait's, at ``threshold`` + 1 (its second cycle is judged the same way).
     """
 
     since_check: int = 0
@@ -182,6 +185,7 @@ class ChangeWatch:
     noise_dof: int = 0
     rotation_ss: float = 0.0
     rotation_n: int = 0
+    suspect_strict: bool = False
 
     def archive_rotations(self, *rotations: dict) -> None:
         """Keep the sum of squares of the rotations of ``rotations`` (records about to be dropped)."""
@@ -213,7 +217,8 @@ class ChangeWatch:
                 "rotation_free": self.rotation_free, "turning": self.turning,
                 "residuals": [float(r) for r in self.residuals], "surprise": self.surprise,
                 "noise_ss": float(self.noise_ss), "noise_dof": int(self.noise_dof),
-                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n)}
+                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n),
+                "suspect_strict": bool(self.suspect_strict)}
 
     @classmethod
     def from_json(cls, data: dict | None) -> ChangeWatch:
@@ -224,7 +229,8 @@ class ChangeWatch:
                    rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]),
                    residuals=[float(r) for r in data["residuals"]], surprise=int(data["surprise"]),
                    noise_ss=float(data["noise_ss"]), noise_dof=int(data["noise_dof"]),
-                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]))
+                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]),
+                   suspect_strict=bool(data["suspect_strict"]))
 
 
 def _plain(value):

@@ -44,7 +44,7 @@ class ChangeSteps:
             first, first_rotation, n_ref = watch.suspect[:3]
             watch.suspect = []
             reference = values[key][:int(n_ref)]
-            found = self._out_of_band([first, value], reference, values, key)
+            found = self._out_of_band([first, value], reference, values, key, strict=watch.suspect_strict)
             if found is not None and found[0] == self._side(first, reference):
                 return self._respond("objective", key, [first, value], [first_rotation, rotation], reference,
                                      found[1])
@@ -54,7 +54,8 @@ class ChangeSteps:
         held = state.cycles_in_iteration >= HELD_CYCLES and len(values.get(key, ())) >= HELD_CYCLES
         if revisit or held:
             watch.since_check = 0 if revisit else watch.since_check
-            found = self._out_of_band([value], values[key], values, key)
+            # (a held gait is tested at every cycle, not once a check: one standard deviation stricter)
+            found = self._out_of_band([value], values[key], values, key, strict=held and not revisit)
             if found is not None:
                 watch.suspect = [value, rotation, len(values[key]), state.iteration, state.cycles_in_iteration]
                 return "hold"
@@ -98,9 +99,14 @@ class ChangeSteps:
     def _side(value: float, reference) -> int:
         return 1 if value > float(np.mean(reference)) else -1
 
-    def _out_of_band(self, new: list, reference: list, values: dict, key) -> tuple[int, float] | None:
-        """(side, noise) when the mean of ``new`` is out of ``reference``'s band (module docstring), else None."""
+    def _out_of_band(self, new: list, reference: list, values: dict, key, strict: bool = False) \
+            -> tuple[int, float] | None:
+        """(side, noise) when the mean of ``new`` is out of ``reference``'s band (module docstring; ``strict``: at
+        ``threshold`` + 1), else None."""
         adaptation, state = self.parts.adaptation, self.state
+        if strict:
+            adaptation = Adaptation(threshold=adaptation.threshold + 1, min_change=adaptation.min_change)
+        self.state.watch.suspect_strict = strict
         other = state.measured if values is state.climb.measured else state.climb.measured
         sigma, dof = state.watch.noise({**values, key: list(reference)}, other)
         residuals = np.asarray(state.watch.residuals, dtype=float)
