@@ -17,7 +17,6 @@ from geogait.systems import PurcellSwimmer
 
 CHANGE_AT = 30
 ENDS = [(1, 0.3), (1, 1), (1, 0.3)]  # both end links lose 70 % of their lateral drag: still front-back symmetric
-TAIL = [(1, 0.3), (1, 1), (1, 1)]  # the tail alone: the symmetry breaks
 
 
 def progress(pose):
@@ -61,13 +60,17 @@ def test_without_adaptation_the_records_go_stale_and_the_gait_is_held():
     assert progress(motion(adapted.final_gait)) / ceiling > progress(motion(kept.final_gait)) / ceiling + 0.1
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [0, 1])
 def test_rotation_in_the_symmetric_family_widens_it_to_the_mirror_family(seed):
-    result = InSituOptimizer(random_state=seed).run(swimmer(seed, TAIL), 70)
+    """The benchmark's 5-link swimmer whose head link loses 70 % of its lateral drag: its symmetric gaits now turn."""
+    head = [(1, 1), (1, 1), (1, 1), (1, 1), (1, 0.3)]
+    stream = SwimmerStream(PurcellSwimmer(5), seed_gait(4), sensor_noise=0.1, seed=seed)
+    result = InSituOptimizer(random_state=seed).run(ChangingRobot(stream, 40, swimmer_link_drag(head)), 60)
     assert result.family == "mirror"
     assert any("rotation" in e["evidence"] for e in result.changes)
+    assert all(e["cycle"] >= 40 for e in result.changes)
     # a half-wave gait on a body that is still mirror symmetric turns by exactly nothing
-    assert abs(TrueMotion(PurcellSwimmer(3, link_drag_scale=TAIL))(result.final_gait)[2]) < 1e-9
+    assert abs(TrueMotion(PurcellSwimmer(5, link_drag_scale=head))(result.final_gait)[2]) < 1e-9
 
 
 def test_a_run_resumed_across_a_detection_is_bit_identical(tmp_path):

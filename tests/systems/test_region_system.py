@@ -84,7 +84,10 @@ def test_the_in_situ_optimiser_keeps_the_region_on_a_simulator(bent):
     phases = np.linspace(0, 2 * np.pi, 2048, endpoint=False)
     assert result.n_steps >= 2
     assert max(gait.shape(phases)[:, 0].max() for gait in result.gaits) <= LIMIT
-    assert result.log["true_objective"].iloc[-1] > result.log["true_objective"].iloc[0]
+    # the gait the run hands over (the last cycle may be a climb's candidate, not kept)
+    final = result.log.loc[np.all(result.log.filter(regex=r"^param_\d+$").to_numpy() == result.final_gait.params,
+                                  axis=1), "true_objective"]
+    assert final.iloc[-1] > result.log["true_objective"].iloc[0]
 
 
 def test_the_tracker_keeps_a_simulators_region_in_every_steering_gait(bent):

@@ -362,7 +362,8 @@ def _declared(robot, result) -> dict:
             "shape_constraints": np.column_stack([region.normals, region.bounds]).tolist() if linear else None,
             "seed_gait_params": result.initial_gait.params.tolist(),
             "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
-            "chain": spec.resistive_chain, "resistive_medium": spec.resistive_chain is not None,
+            # (a bridge's hello may declare its chain without a resistive medium: the hello's, as declared)
+            "chain": getattr(robot, "chain", None), "resistive_medium": spec.resistive_chain is not None,
             "front_back_symmetric": spec.front_back_symmetric if spec.symmetry_declared else None,
             "mirror_symmetric": spec.mirror_symmetric if spec.symmetry_declared else None,
             "settle_cycles": spec.settle_cycles, "gait_family_used": result.family}
