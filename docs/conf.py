@@ -34,6 +34,9 @@ TABLE_TITLES = {
     "results/robots-elastica/robots": "Robot benchmark: the continuum snake",
     "results/change-benchmark/robots": "Change benchmark: every method",
     "results/change-benchmark-gp/robots": "Change benchmark: the Gaussian-process optimiser",
+    "results/change-benchmark-robots/robots": "Change benchmark: robots geogait did not write",
+    "results/change-benchmark-elastica/robots": "Change benchmark: the continuum snake",
+    "results/undeclared/robots": "Robots that declare nothing: every run",
 }
 
 
