@@ -633,9 +633,9 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
             value = row.get("true_objective", row["measured_objective"])
             share = f"  {100 * row['ceiling_fraction']:.0f}% of ceiling" if "ceiling_fraction" in row else ""
             trial = "  (a trial)" if row.get("candidate", False) else ""
-            steps = f"  model/climb steps {row['steps_by_model']}/{row['steps_by_climb']}"
+            steps = f"  steps model/climb {row['steps_by_model']}/{row['steps_by_climb']}"
             change = f"  change detected ({row['change']})" if row.get("change") else ""
-            status = f"Γ {gamma}  this cycle {value:.4f}{share}{trial}{steps}{change}"
+            status = f"Γ {gamma}{steps}{change}  this cycle {value:.4f}{share}{trial}"
             progress.update(task, completed=row["cycle"] + 1, status=status)
 
         checkpoint = folder / CHECKPOINT_FILE
