@@ -355,11 +355,10 @@ def _declared(robot, result) -> dict:
     from ..robots import read_robot_spec
 
     spec = read_robot_spec(robot, "geogait optimize")
-    region = spec.region.__self__ if hasattr(spec.region, "__self__") else spec.region  # (a bound feasibility)
-    linear = hasattr(region, "normals") and hasattr(region, "bounds")  # (a bridge driver's limits, a · r <= b)
+    region = getattr(robot, "shape_constraints", None)  # (a bridge hello's linear limits a · r <= b, as declared)
     return {"n_joints": spec.n_joints, "cycle_period_s": spec.cycle_period,
             "joint_ranges": None if spec.joint_ranges is None else spec.joint_ranges.tolist(),
-            "shape_constraints": np.column_stack([region.normals, region.bounds]).tolist() if linear else None,
+            "shape_constraints": None if region is None else np.column_stack([region.normals, region.bounds]).tolist(),
             "seed_gait_params": result.initial_gait.params.tolist(),
             "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
             # (a bridge's hello may declare its chain without a resistive medium: the hello's, as declared)

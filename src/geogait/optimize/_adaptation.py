@@ -106,13 +106,15 @@ class Adaptation(Part):
         self.widen_family = widen_family
         self.lead = lead
 
-    def band(self, dof: int) -> float:
+    def band(self, dof: int, strict: bool = False) -> float:
         """The out-of-band factor for a noise estimate of ``dof`` degrees of freedom (Student's quantile at the
         two-sided level of ``threshold`` normal standard deviations; infinite without any).
 
         Parameters
         ----------
         dof : int
+        strict : bool
+            At ``threshold`` + 1 (a test made at every cycle rather than once a check).
 
         Returns
         -------
@@ -120,7 +122,7 @@ class Adaptation(Part):
         """
         if dof < 1:
             return np.inf
-        level = 2 * stats.norm.sf(self.threshold)
+        level = 2 * stats.norm.sf(self.threshold + strict)
         return float(stats.t.isf(level / 2, dof))
 
     def reopen_sigma(self, sigma: float, first_sigma: float, size: float) -> float:
@@ -149,8 +151,8 @@ class ChangeWatch:
     since_check : int
         Climb candidates measured since the held gait was last measured.
     suspect : list
-        ``[value, rotation, record length, iteration, cycles in it]`` of an out-of-band cycle awaiting its second
-        (empty: none).
+        ``[value, rotation, record length, iteration, cycles in it, strict]`` of an out-of-band cycle awaiting its
+        second, judged at the same band (empty: none).
     reopen : float
         The step length of the next climb after a detection (NaN: the Climb's own).
     events : list of dict
@@ -169,8 +171,6 @@ class ChangeWatch:
     rotation_ss, rotation_n : float, int
         The sum of squared rotations and their count in those records (the rotation noise of a family that
         promises none).
-    suspect_strict : bool
-        The last test was a held gait's, at ``threshold`` + 1 (its second cycle is judged the same way).
     """
 
     since_check: int = 0
@@ -185,7 +185,6 @@ class ChangeWatch:
     noise_dof: int = 0
     rotation_ss: float = 0.0
     rotation_n: int = 0
-    suspect_strict: bool = False
 
     def archive_rotations(self, *rotations: dict) -> None:
         """Keep the sum of squares of the rotations of ``rotations`` (records about to be dropped)."""
@@ -212,13 +211,12 @@ class ChangeWatch:
         return float(np.sqrt(squares / total)), total
 
     def to_json(self) -> dict:
-        return {"since_check": self.since_check, "suspect": [_plain(v) for v in self.suspect],
+        return {"since_check": self.since_check, "suspect": [float(v) for v in self.suspect],
                 "reopen": None if np.isnan(self.reopen) else float(self.reopen), "events": self.events,
                 "rotation_free": self.rotation_free, "turning": self.turning,
                 "residuals": [float(r) for r in self.residuals], "surprise": self.surprise,
                 "noise_ss": float(self.noise_ss), "noise_dof": int(self.noise_dof),
-                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n),
-                "suspect_strict": bool(self.suspect_strict)}
+                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n)}
 
     @classmethod
     def from_json(cls, data: dict | None) -> ChangeWatch:
@@ -229,12 +227,7 @@ class ChangeWatch:
                    rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]),
                    residuals=[float(r) for r in data["residuals"]], surprise=int(data["surprise"]),
                    noise_ss=float(data["noise_ss"]), noise_dof=int(data["noise_dof"]),
-                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]),
-                   suspect_strict=bool(data["suspect_strict"]))
-
-
-def _plain(value):
-    return value if isinstance(value, str) else float(value)
+                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]))
 
 
 def pooled_noise(*records: dict) -> tuple[float, int]:

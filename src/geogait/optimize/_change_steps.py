@@ -8,7 +8,6 @@ import numpy as np
 
 from ..gaits import FreeGaitFamily, MirrorGaitFamily
 from ..models import model_capabilities
-from ._adaptation import Adaptation
 from ._models import run_model
 from ._state import family_kind
 
@@ -41,10 +40,10 @@ class ChangeSteps:
         values, rotations = self._records()
         self._model_surprised(key, value)
         if watch.suspect and watch.suspect[3] == state.iteration and state.cycles_in_iteration == watch.suspect[4] + 1:
-            first, first_rotation, n_ref = watch.suspect[:3]
+            first, first_rotation, n_ref, _, _, strict = watch.suspect
             watch.suspect = []
             reference = values[key][:int(n_ref)]
-            found = self._out_of_band([first, value], reference, values, key, strict=watch.suspect_strict)
+            found = self._out_of_band([first, value], reference, values, key, strict=bool(strict))
             if found is not None and found[0] == self._side(first, reference):
                 return self._respond("objective", key, [first, value], [first_rotation, rotation], reference,
                                      found[1])
@@ -54,10 +53,10 @@ class ChangeSteps:
         held = state.cycles_in_iteration >= HELD_CYCLES and len(values.get(key, ())) >= HELD_CYCLES
         if revisit or held:
             watch.since_check = 0 if revisit else watch.since_check
-            # (a held gait is tested at every cycle, not once a check: one standard deviation stricter)
-            found = self._out_of_band([value], values[key], values, key, strict=held and not revisit)
+            strict = held and not revisit  # (a held gait is tested at every cycle, not once a check)
+            found = self._out_of_band([value], values[key], values, key, strict=strict)
             if found is not None:
-                watch.suspect = [value, rotation, len(values[key]), state.iteration, state.cycles_in_iteration]
+                watch.suspect = [value, rotation, len(values[key]), state.iteration, state.cycles_in_iteration, strict]
                 return "hold"
         turning = self._rotation_appears(key, rotation, rotations)
         if turning is None:
@@ -104,9 +103,6 @@ class ChangeSteps:
         """(side, noise) when the mean of ``new`` is out of ``reference``'s band (module docstring; ``strict``: at
         ``threshold`` + 1), else None."""
         adaptation, state = self.parts.adaptation, self.state
-        if strict:
-            adaptation = Adaptation(threshold=adaptation.threshold + 1, min_change=adaptation.min_change)
-        self.state.watch.suspect_strict = strict
         other = state.measured if values is state.climb.measured else state.climb.measured
         sigma, dof = state.watch.noise({**values, key: list(reference)}, other)
         residuals = np.asarray(state.watch.residuals, dtype=float)
@@ -114,7 +110,7 @@ class ChangeSteps:
             sigma = 1.4826 * float(np.median(np.abs(residuals - np.median(residuals))))
             dof = residuals.size - 1
         mean, shift = float(np.mean(reference)), float(np.mean(new)) - float(np.mean(reference))
-        band = adaptation.band(dof) * sigma * np.sqrt(1 / len(new) + 1 / len(reference))
+        band = adaptation.band(dof, strict) * sigma * np.sqrt(1 / len(new) + 1 / len(reference))
         if not (abs(shift) > band and abs(shift) > adaptation.min_change * abs(mean)):
             return None
         return (1 if shift > 0 else -1), sigma
@@ -124,11 +120,14 @@ class ChangeSteps:
         (this one included) is beyond its noise band and the rotation tolerance; None (not tested) for a gait of
         fewer than :data:`ROTATION_CYCLES` cycles (a climb's candidate: one cycle, which may still turn as the body
         settles) or in a family that promises none."""
-        cycles = np.append(self._records()[1].get(key, []), rotation)
-        if cycles.size < ROTATION_CYCLES or isinstance(self.state.family, FreeGaitFamily) \
-                or not self.parts.adaptation.widen_family:
+        cycles = np.append(rotations.get(key, []), rotation)
+        if cycles.size < ROTATION_CYCLES or not self._promises_no_rotation():
             return None
         return self._turns({**rotations, key: list(cycles)}, cycles)
+
+    def _promises_no_rotation(self) -> bool:
+        """The family searched turns the body it was chosen for by nothing, and the part may widen it."""
+        return not isinstance(self.state.family, FreeGaitFamily) and self.parts.adaptation.widen_family
 
     def _turns(self, rotations: dict, cycles) -> bool:
         """In a family that promises no net rotation (and ``widen_family``): the mean of ``cycles`` (measured net
@@ -136,7 +135,7 @@ class ChangeSteps:
         turns the body it was chosen for by exactly nothing, so every rotation recorded (``rotations``, and those of
         records the run has dropped) is noise: the band's σ is their root mean square."""
         state, adaptation = self.state, self.parts.adaptation
-        if isinstance(state.family, FreeGaitFamily) or not adaptation.widen_family:
+        if not self._promises_no_rotation():
             return False
         cycles = np.asarray(cycles, dtype=float)
         recorded = np.concatenate([np.asarray(v, dtype=float) for v in rotations.values()] or [np.zeros(0)])
@@ -145,8 +144,7 @@ class ChangeSteps:
         limit = self.parts.climb.rotation_tolerance if self.parts.climb is not None \
             else self.parts.step.rotation_tolerance
         mean = abs(float(cycles.mean()))
-        # (tested at every cycle, not at checks: one standard deviation stricter than the objective's test)
-        band = Adaptation(threshold=adaptation.threshold + 1).band(dof)
+        band = adaptation.band(dof, strict=True)  # (tested at every cycle, not once a check)
         return bool(mean > band * sigma / np.sqrt(cycles.size) and mean > limit)
 
     def _respond(self, evidence: str, key, values: list, rotations: list, reference, noise: float,
@@ -161,10 +159,7 @@ class ChangeSteps:
         if evidence == "objective" and self._turns(self._records()[1], rotations):
             evidence = "objective+rotation"  # (the body turns since the change: its family no longer holds)
         family = family_kind(state.family)
-        if "rotation" in evidence:
-            held = self._widen(key)
-        else:
-            held = key
+        held = self._widen(key) if "rotation" in evidence else key
         widened = family_kind(state.family) != family
         watch.rotation_free = watch.rotation_free or "rotation" in evidence
         watch.events.append({"cycle": int(state.cycle), "evidence": evidence, "measured": measured,

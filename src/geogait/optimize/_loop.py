@@ -111,26 +111,20 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
                 self._follow_tracking()
             rejected = self._tracking_rejects(measured, value)
             if not rejected:
-                key = (state.gait, state.period)
-                change = self._settle_probe(key, value * state.rate(state.period), float(measured.net[2])) \
-                    or self._watch(key, value * state.rate(state.period), float(measured.net[2]))
+                key, turned = (state.gait, state.period), float(measured.net[2])
+                rated = value * state.rate(state.period)
+                change = self._settle_probe(key, rated, turned) or self._watch(key, rated, turned)
                 state.learn(chunk, self.gate)
                 state.iteration_measured.append(value)
                 state.iteration_excitation.append(measured.excitation)
-                key = (state.gait, state.period)
-                if change not in (None, "hold"):  # (the probe and the Adaptation record what they measured)
-                    pass
-                elif state.climb.active:
-                    state.climb.record(key, value * state.rate(state.period), float(measured.net[2]))
-                else:
-                    state.measured.setdefault(key, []).append(value * state.rate(state.period))
-                    state.rotations.setdefault(key, []).append(float(measured.net[2]))
+                if change in (None, "hold"):  # (the probe and the Adaptation record what they measured themselves)
+                    records = self._records()
+                    records[0].setdefault(key, []).append(rated)
+                    records[1].setdefault(key, []).append(turned)
+                decide = change in (None, "probed")  # (not a cycle held for another look, or a change answered)
                 seed = state.climb.base is None and state.gait == state.gaits[0]
-                if change not in (None, "probed"):  # held for another look, or a change answered: no decision
-                    pass
-                elif seed and state.cycles_in_iteration >= parts.gate.min_cycles:
+                if decide and seed and state.cycles_in_iteration >= parts.gate.min_cycles:
                     self._check_structure()  # (before the gate: a wrong structure need not wait for Γ)
-                decide = change in (None, "probed")
                 if decide and not state.climb.active and state.cycles_in_iteration >= parts.gate.min_cycles \
                         and self._unexcited() and self.parts.climb is not None:  # (Γ cannot rise without exploration)
                     self._start_climb()

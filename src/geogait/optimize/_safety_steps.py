@@ -63,7 +63,7 @@ class SafetySteps:
             return "probe"
         values, rotations = (list(v) for v in zip(*state.settle_probe, strict=True))
         # the noise of settled cycles: every gait's first cycle left out (the start's, or one after a change)
-        settled = [{key: v[1:] for key, v in record.items()} for record in (state.measured, state.climb.measured)]
+        settled = [{k: v[1:] for k, v in record.items()} for record in (state.measured, state.climb.measured)]
         noise, dof = pooled_noise(*settled, {"probe": values[1:]})
         state.settle_cycles = self.parts.safety.settle_count(values, noise, dof)
         state.settle_probe = None
