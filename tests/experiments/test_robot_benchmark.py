@@ -14,6 +14,7 @@ import pytest
 from geogait.experiments import robot_benchmark as bench
 from geogait.gaits import seed_gait
 from geogait.optimize import InSituOptimizer, ModelStep
+from geogait.optimize._setup import gait_family
 from geogait.robots import read_robot_spec
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -320,7 +321,7 @@ def test_geogait_defaults_search_the_family_every_black_box_method_searches(name
     robot = case.make_robot(None, explore=False, noise=False)
     shared = bench._Family(case, robot.gait, robot.cycle_period).family
     optimizer = InSituOptimizer(family="free" if case.family == "free" else "auto")
-    own = optimizer._family(read_robot_spec(robot), robot.gait)
+    own = gait_family(optimizer, read_robot_spec(robot), robot.gait)
     assert type(own) is type(shared)
     assert np.allclose(own.matrix, shared.matrix)
 
@@ -629,8 +630,8 @@ def test_an_undeclared_case_declares_only_joints_period_and_objective():
         assert not hasattr(robot, hidden), hidden
     assert robot.n_joints == 4 and robot.cycle_period == 1.0 and callable(robot.set_excitation)
     # no symmetry declared: the half-wave family on trial with the Adaptation, else the free family
-    assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), MirrorGaitFamily)
-    assert isinstance(InSituOptimizer(checks=[])._family(read_robot_spec(robot), robot.gait), FreeGaitFamily)
+    assert isinstance(gait_family(InSituOptimizer(), read_robot_spec(robot), robot.gait), MirrorGaitFamily)
+    assert isinstance(gait_family(InSituOptimizer(checks=[]), read_robot_spec(robot), robot.gait), FreeGaitFamily)
     lines = []
     result = bench.run_robot_benchmark(["swimmer3-undeclared"], ["geogait", "geogait-resistance", "random-held"],
                                        n_seeds=1, budget=4, checkpoints=[4], progress=False, log=lines.append)

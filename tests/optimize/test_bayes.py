@@ -18,7 +18,7 @@ def _objective(x):  # to maximise: a tilted quadratic bowl, its top at OPTIMUM
 
 def _drive(search, n, rotation=lambda x: 0.0, **constraints):
     for _ in range(n):
-        point = search.next(**constraints)
+        point = search.ask(**constraints)
         if point is None:
             break
         search.tell(point, _objective(point), rotation(point))
@@ -63,7 +63,7 @@ def test_it_climbs_a_quadratic_faster_than_a_coordinate_design_and_then_stops():
     search = _drive(search, 150)
     best = search.points[int(np.argmax(search.values))]
     np.testing.assert_allclose(best, OPTIMUM, atol=0.05)
-    assert search.next() is None  # converged at its final half-width
+    assert search.ask() is None  # converged at its final half-width
 
 
 def test_known_limits_bounds_and_the_rotation_limit_are_kept():
@@ -88,7 +88,7 @@ def test_a_search_restored_from_its_checkpoint_proposes_what_the_original_would(
     search = _drive(BayesianSearch(origin=np.zeros(4), radius=0.3, final_radius=1e-3, period=2.0, seed=7), 12)
     metadata, arrays = search.to_checkpoint("s")
     restored = BayesianSearch.from_checkpoint(metadata, arrays, "s")
-    np.testing.assert_array_equal(restored.next(), search.next())
+    np.testing.assert_array_equal(restored.ask(), search.ask())
 
 
 def _history(steps):

@@ -11,6 +11,7 @@ from geogait.gaits import seed_gait
 from geogait.models import BatchGaitModel, ResistanceModel
 from geogait.optimize import (
     Climb,
+    EvolutionStrategy,
     Exploration,
     Gate,
     InSituOptimizer,
@@ -33,7 +34,8 @@ from geogait.systems import PurcellSwimmer
 
 PARTS = [Gate(gamma_threshold=0.4), ModelStep(trust_radius=0.05, rule="sqp"), Climb(start="stalled", rule="es"),
          Safety(settle_cycles=2), Limits(max_joint_angle=1.5), Objective(kind="forward", direction=[1.0, 0.0]),
-         PeriodSearch(period_range=(0.5, 2.0)), Exploration(std=0.1), ModelClassTest(cycles=4),
+         PeriodSearch(period_range=(0.5, 2.0)), Exploration(std=0.1), EvolutionStrategy(shrink=0.8),
+         Climb(rule=EvolutionStrategy(growth=2.0)), ModelClassTest(cycles=4),
          StructureCheck(limit=0.2, step=ModelStep(), climb=False)]
 
 

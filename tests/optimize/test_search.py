@@ -16,7 +16,7 @@ def _objective(x):  # to maximise: a tilted quadratic bowl, its top at OPTIMUM
 
 def _drive(search, n, **constraints):
     for _ in range(n):
-        point = search.next(**constraints)
+        point = search.ask(**constraints)
         if point is None:
             break
         search.tell(point, _objective(point), 0.0)
@@ -43,7 +43,7 @@ def test_it_finds_the_top_of_a_quadratic_in_few_evaluations_and_then_stops():
     best = search.points[int(np.argmax(search.values))]
     np.testing.assert_allclose(best, OPTIMUM, atol=1e-3)
     assert len(search.values) < 80  # an evolution strategy needs hundreds here
-    assert search.next() is None  # converged at its final radius: it asks for nothing more
+    assert search.ask() is None  # converged at its final radius: it asks for nothing more
 
 
 def test_known_limits_and_bounds_are_passed_to_cobyqa():
@@ -95,7 +95,7 @@ def test_a_measured_rotation_limit_keeps_the_search_off_turning_points():
     the objective alone would choose."""
     search = QuadraticSearch(origin=np.zeros(4), radius=0.3, final_radius=1e-6, period=1.0)
     for _ in range(200):
-        point = search.next(rotation_limit=0.1)
+        point = search.ask(rotation_limit=0.1)
         if point is None:
             break
         search.tell(point, _objective(point), 2 * point[3])
@@ -110,7 +110,7 @@ def test_a_checkpoint_round_trip_asks_for_the_same_next_point():
     metadata, arrays = search.to_checkpoint("climb/search")
     restored = QuadraticSearch.from_checkpoint(metadata, arrays, "climb/search")
     assert restored.period == 2.0
-    np.testing.assert_array_equal(restored.next(), search.next())
+    np.testing.assert_array_equal(restored.ask(), search.ask())
 
 
 def test_the_initial_design_is_the_origin_and_one_radius_along_each_coordinate_then_model_steps():
@@ -118,12 +118,12 @@ def test_the_initial_design_is_the_origin_and_one_radius_along_each_coordinate_t
     radius along one coordinate (the method's published start), every later point a step of its model."""
     search = QuadraticSearch(origin=np.full(4, 0.2), radius=0.3, final_radius=1e-4, period=1.0)
     for _ in range(2 * 4 + 1):
-        point = search.next()
+        point = search.ask()
         offset = point - search.origin
         assert np.count_nonzero(offset) <= 1 and np.abs(offset).max() in (0.0, pytest.approx(0.3))
         search.tell(point, _objective(point), 0.0)
         assert search.designing
-    point = search.next()
+    point = search.ask()
     search.tell(point, _objective(point), 0.0)
     assert not search.designing
 

@@ -14,6 +14,7 @@ import pytest
 from geogait.gaits import Perturbation, seed_gait
 from geogait.models import ResistanceModel
 from geogait.optimize import Climb, InSituOptimizer
+from geogait.optimize._setup import gait_family
 from geogait.robots import ProcessRobot, Robot
 from geogait.simulate import SwimmerStream
 from geogait.systems import PurcellSwimmer
@@ -59,10 +60,10 @@ def test_hello_declares_joint_ranges_and_checks_them(tmp_path):
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
         np.testing.assert_array_equal(robot.joint_ranges, [[-1.5, 1.5], [-1.2, 1.4]])
         from geogait.optimize import Limits
-        from geogait.optimize._insitu import _joint_limit
+        from geogait.optimize._setup import joint_limit
         from geogait.robots import read_robot_spec
 
-        assert _joint_limit(Limits(), read_robot_spec(robot)) == 1.2
+        assert joint_limit(Limits(), read_robot_spec(robot)) == 1.2
     for bad in ([[-1.5, 1.5]], [[0.5, 1.5], [-1, 1]], [[-1, "1"], [-1, 1]]):
         wrong = dict(hello, joint_ranges=bad)
         with pytest.raises(ValueError, match="'joint_ranges'"):
@@ -83,16 +84,16 @@ def test_hello_declares_mirror_symmetry_and_the_optimiser_searches_that_family(t
              "gait": {"order": 1, "params": [0, 1, 0, 0, 0, 1]}, "mirror_symmetric": True}
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({hello!r}), flush=True)\nsys.stdin.readline()\n")) as robot:
         assert robot.mirror_symmetric is True and robot.front_back_symmetric is None
-        assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), MirrorGaitFamily)
+        assert isinstance(gait_family(InSituOptimizer(), read_robot_spec(robot), robot.gait), MirrorGaitFamily)
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric=False)!r}), flush=True)\n"
                                         "sys.stdin.readline()\n")) as robot:
-        assert isinstance(InSituOptimizer()._family(read_robot_spec(robot), robot.gait), FreeGaitFamily)
+        assert isinstance(gait_family(InSituOptimizer(), read_robot_spec(robot), robot.gait), FreeGaitFamily)
     with ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric=None)!r}), flush=True)\n"
                                         "sys.stdin.readline()\n")) as robot:
         assert robot.mirror_symmetric is None
         spec = read_robot_spec(robot)
-        assert isinstance(InSituOptimizer()._family(spec, robot.gait), MirrorGaitFamily)
-        assert isinstance(InSituOptimizer(checks=[])._family(spec, robot.gait), FreeGaitFamily)
+        assert isinstance(gait_family(InSituOptimizer(), spec, robot.gait), MirrorGaitFamily)
+        assert isinstance(gait_family(InSituOptimizer(checks=[]), spec, robot.gait), FreeGaitFamily)
     with pytest.raises(ValueError, match="'mirror_symmetric' must be true or false"):
         ProcessRobot(_driver(tmp_path, f"print(json.dumps({dict(hello, mirror_symmetric='yes')!r}), "
                                        "flush=True)\nsys.stdin.readline()\n"))

@@ -246,7 +246,7 @@ def _write_outputs(result, robot, *, optimizer, system, settings, folder, run_id
     summary["cycles_run"] = len(result.log)
     config = dict(settings)
     if settings["robot"] is not None:
-        quarantined = list(getattr(robot, "quarantined", []))
+        quarantined = list(robot.quarantined)  # (a --robot run's robot is a ProcessRobot)
         summary["quarantined_cycles"] = len(quarantined)
         summary["quarantine_reasons"] = quarantined[:20]
         summary["robot"] = _declared(robot, result)
@@ -350,19 +350,19 @@ def _given(ctx, name: str) -> bool:
 
 
 def _declared(robot, result) -> dict:
-    """What the robot declared (:func:`~geogait.robots.read_robot_spec`) and what the run made of it (a --robot
-    run's summary)."""
+    """What the robot (a :class:`~geogait.robots.ProcessRobot`) declared in its hello
+    (:func:`~geogait.robots.read_robot_spec`) and what the run made of it (a --robot run's summary)."""
     from ..robots import read_robot_spec
 
     spec = read_robot_spec(robot, "geogait optimize")
-    region = getattr(robot, "shape_constraints", None)  # (a bridge hello's linear limits a · r <= b, as declared)
+    region = robot.shape_constraints  # (the hello's linear limits a · r <= b, as declared)
     return {"n_joints": spec.n_joints, "cycle_period_s": spec.cycle_period,
             "joint_ranges": None if spec.joint_ranges is None else spec.joint_ranges.tolist(),
             "shape_constraints": None if region is None else np.column_stack([region.normals, region.bounds]).tolist(),
             "seed_gait_params": result.initial_gait.params.tolist(),
             "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
             # (a bridge's hello may declare its chain without a resistive medium: the hello's, as declared)
-            "chain": getattr(robot, "chain", None), "resistive_medium": spec.resistive_chain is not None,
+            "chain": robot.chain, "resistive_medium": spec.resistive_chain is not None,
             "front_back_symmetric": spec.front_back_symmetric if spec.symmetry_declared else None,
             "mirror_symmetric": spec.mirror_symmetric if spec.symmetry_declared else None,
             "settle_cycles": spec.settle_cycles, "gait_family_used": result.family}
@@ -657,7 +657,7 @@ def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
 def _check_memory(settings: dict, optimizer) -> None:
     """The built-in swimmer's gait family and model fit in memory and solver steps short enough for SIGTERM, checked
     before its ceiling is computed (a robot's joints are known once its driver says hello: checked then)."""
-    from ..models import AdaptiveGaitModel
+    from ..models import AdaptiveGaitModel, model_capabilities
     from ..optimize import symmetric_chain_model
 
     if settings["robot"] is not None:
@@ -670,7 +670,7 @@ def _check_memory(settings: dict, optimizer) -> None:
         symmetric = settings.get("family", "auto") in ("auto", "symmetric") and links >= 3
         model = _preset({**settings, "links": links}, None).model  # (the swimmer's own: a resistance model's chain)
         model = model or (symmetric_chain_model(links - 1) if symmetric else AdaptiveGaitModel())
-        return max(model.memory_bytes(links - 1) if hasattr(model, "memory_bytes") else 0.0,
+        return max(model.memory_bytes(links - 1) if "memory" in model_capabilities(model) else 0.0,
                    chain_motion_bytes(links - 1))
 
     def fits(links: int) -> bool:

@@ -68,10 +68,10 @@ from .._validation import (
     check_int,
     fail,
 )
-from ..gaits import FourierGait, Perturbation
+from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
-from ..robots import read_robot_spec
+from ..robots import perturbation_std, read_robot_spec
 from ..simulate import Trajectory, TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
@@ -405,7 +405,7 @@ class PathTracker(Estimator):
             raise GeogaitError(f"The 'true' controller of {owner} needs a simulated robot with current_system(); "
                                f"{type(robot).__name__} has none. Use controller='adaptive' or 'frozen'.")
         plan = self._exploration_plan()
-        if plan is not None and not callable(getattr(robot, "set_perturbation_std", None)):
+        if plan is not None and not spec.perturbation_control:
             raise GeogaitError(f"exploration={self.exploration!r} of {owner} needs a robot with "
                                f"set_perturbation_std(std); {type(robot).__name__} has none "
                                "(geogait.simulate.SwimmerStream has one), or use exploration='fixed'.")
@@ -590,7 +590,7 @@ class _Sizes:
     def apply(self) -> float:
         """Set the next cycle's δ std on the robot (not for ``"fixed"``); returns it (NaN if unknown)."""
         if self.plan is None:
-            std = _robot_std(self.robot)
+            std = perturbation_std(self.robot)
         else:
             std = (self.plan.std_ if isinstance(self.plan, AdaptiveExploration)
                    else float(self.plan[min(len(self.used), self.plan.size - 1)]))
@@ -621,14 +621,6 @@ class _ChangeTest:
         alarm = surprise_alarm(surprise, self.since, self.alarm, self.window)
         self.since = [] if alarm else self.since + [surprise]
         return alarm
-
-
-def _robot_std(robot) -> float:
-    """δ std of a robot that says (``perturbation_std``, or a :class:`~geogait.gaits.Perturbation`), else NaN."""
-    std = getattr(robot, "perturbation_std", None)
-    if std is None and isinstance(getattr(robot, "perturbation", None), Perturbation):
-        std = robot.perturbation.stationary_std[0]
-    return float(std) if std is not None else np.nan
 
 
 def _motion_columns(prefix: str, pose) -> dict:

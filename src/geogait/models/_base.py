@@ -107,7 +107,10 @@ def model_capabilities(model) -> frozenset:
     -------
     frozenset of str
     """
-    return frozenset(name for name, members in CAPABILITIES.items() if _first_missing(model, members) is None)
+    offered = {name for name, members in CAPABILITIES.items() if _first_missing(model, members) is None}
+    if "save" in offered and not getattr(model, "can_save", lambda: True)():  # (an estimator with no state to save)
+        offered.remove("save")
+    return frozenset(offered)
 
 
 def check_gait_model(model, members, owner: str, parameter: str = "model", prefix: str = "a") -> None:

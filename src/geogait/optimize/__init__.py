@@ -4,7 +4,15 @@ ceiling and the trust-region step rules."""
 from ._adaptation import Adaptation
 from ._ceiling import Ceiling, cached_ceiling, optimize_ceiling
 from ._checks import ModelClassTest, StructureCheck
-from ._climb import BAYES_DESIGN_CYCLES, CLIMB_RULES, climb_rule_for
+from ._climb import (
+    BAYES_DESIGN_CYCLES,
+    CLIMB_RULES,
+    BayesianOptimization,
+    Cobyqa,
+    EvolutionStrategy,
+    SearchRule,
+    climb_rule_for,
+)
 from ._exploration import ExcitationSignal, Exploration
 from ._insitu import Composition, InSituOptimizer, symmetric_chain_model
 from ._measure import CycleMeasurement, measure_cycle
@@ -34,10 +42,13 @@ __all__ = [
     "CLIMB_RULES",
     "OBJECTIVES",
     "STEP_RULES",
+    "BayesianOptimization",
     "Ceiling",
     "Climb",
+    "Cobyqa",
     "Composition",
     "CycleMeasurement",
+    "EvolutionStrategy",
     "ExcitationSignal",
     "Exploration",
     "Gate",
@@ -50,6 +61,7 @@ __all__ = [
     "Part",
     "PeriodSearch",
     "Safety",
+    "SearchRule",
     "Step",
     "StepProblem",
     "StructureCheck",

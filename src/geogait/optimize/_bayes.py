@@ -16,14 +16,14 @@ before its first model step — 2(2n + 1) robot cycles with a settling cycle per
 10-parameter gait. The process needs no design: from the second candidate on, every point it has measured
 shapes the next one, which moves every parameter at once.
 
-The search is a function of its history: :meth:`BayesianSearch.next` fits the processes afresh and draws
+The search is a function of its history: :meth:`BayesianSearch.ask` fits the processes afresh and draws
 its random candidates from a generator seeded by the search's seed and the number of values told, so a
 search restored from a checkpoint proposes exactly what the original would have.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
@@ -127,10 +127,10 @@ class BayesianSearch(MeasuredSearch):
     """
 
     seed: int = 0
+    _converged: bool = field(default=False, init=False, repr=False, compare=False)
 
     rule = "bayes"
     _checkpointed = ("seed",)
-    designing = False  # (no initial design: every candidate is the search's own step)
     #: Random candidates scored per proposal (uniform in the box); the best-scored whose neighbourhoods are searched,
     #: and those neighbourhoods' widths (share of the box).
     CANDIDATES = 1000
@@ -154,13 +154,20 @@ class BayesianSearch(MeasuredSearch):
                 width, failures = width / 2, 0
         return width
 
-    def next(self, bounds=None, known=None, rotation_limit: float | None = None) -> np.ndarray | None:
+    @property
+    def converged(self) -> bool:
+        """The box shrank below its final half-width, or holds no point within the known limits."""
+        return self._converged
+
+    def ask(self, bounds=None, known=None, rotation_limit: float | None = None, rng=None) -> np.ndarray | None:
         """The next point to measure, or None when the search has converged; arguments as
-        :meth:`QuadraticSearch.next`."""
+        :meth:`~geogait.optimize._search.MeasuredSearch.ask` (``rng`` unused: the search draws from its own
+        seed)."""
         if not self.values:
             return self.origin.copy()
         width = self.half_width()
         if width < self.final_radius:
+            self._converged = True
             return None
         x, y = np.asarray(self.points), np.asarray(self.values)
         objective = GaussianProcess(self.radius).fit(x, y)
@@ -196,7 +203,8 @@ class BayesianSearch(MeasuredSearch):
         for spread in self.REFINE:
             leaders = best_feasible(candidates, self.LEADERS)
             if not len(leaders):
-                return None  # nothing feasible left in the box
+                self._converged = True  # nothing feasible left in the box
+                return None
             near = np.repeat(leaders, self.CANDIDATES // (2 * self.LEADERS), axis=0)
             near = np.clip(near + spread * (high - low) * rng.standard_normal(near.shape), low, high)
             candidates = np.concatenate([leaders, near])

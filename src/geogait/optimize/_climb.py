@@ -4,18 +4,16 @@ A model can fit the samples well (Γ high, the prediction check passing) and sti
 the gradient of the objective — on a robot with inertia or drag outside the model class its
 promised gains are not measured, the ratio test shrinks the trust radius to its floor, and the run
 stalls. The in-situ optimiser then climbs on what the robot measures, in the same gait family, by one
-of three rules (``climb_rule``):
+of its search rules (:class:`SearchRule`, ``Climb(rule=...)``), each an ask/tell search on the measured outcomes
+(as optuna's samplers are to a study):
 
-* ``"cobyqa"``: SciPy's COBYQA proposes every candidate from quadratic models of the
+* :class:`Cobyqa` (``"cobyqa"``): SciPy's COBYQA proposes every candidate from quadratic models of the
   measured outcomes (module :mod:`geogait.optimize._search`);
-* ``"bayes"``: trust-region Bayesian optimisation, a Gaussian process of every measured outcome
-  proposing each candidate (module :mod:`geogait.optimize._bayes`); ``"auto"`` (default) picks one of these
-  two by the length of COBYQA's initial design (:func:`climb_rule_for`);
-* ``"es"``: a (1+1) evolution strategy with mirrored sampling (Brockhoff, Auger, Hansen, Arnold &
-  Hohm, PPSN 2010). From the base gait (the best measured so far) a candidate is commanded at
-  distance σ in a random direction (or, after a failure, in the opposite direction); σ grows by half
-  on success and shrinks by 0.85 on failure (a success rate near 2/7 keeps it steady). After three
-  failures in a row the base is run again, so a base that was measured lucky is corrected.
+* :class:`BayesianOptimization` (``"bayes"``): trust-region Bayesian optimisation, a Gaussian process of every
+  measured outcome proposing each candidate (module :mod:`geogait.optimize._bayes`); ``"auto"`` (default) picks
+  one of these two by the length of COBYQA's initial design (:func:`climb_rule_for`);
+* :class:`EvolutionStrategy` (``"es"``): a (1+1) evolution strategy with mirrored sampling from the climb's base
+  (module :mod:`geogait.optimize._evolution`).
 
 Either way a candidate runs for the usual settle and measured cycles and becomes the base when its
 mean measured objective beats the base's and its measured net rotation does not grow beyond noise.
@@ -33,9 +31,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._search import MeasuredSearch
+from .._estimator import Integer, Real
+from ._bayes import BayesianSearch
+from ._evolution import EvolutionSearch
+from ._part import Part
+from ._search import MeasuredSearch, QuadraticSearch
 
-__all__ = ["BAYES_DESIGN_CYCLES", "CLIMB_RULES", "MeasuredClimb", "climb_rule_for"]
+__all__ = ["BAYES_DESIGN_CYCLES", "CLIMB_RULES", "BayesianOptimization", "Cobyqa", "EvolutionStrategy",
+           "MeasuredClimb", "SearchRule", "climb_rule_for", "search_rule"]
 
 #: How the climb proposes candidates: the mirrored (1+1) evolution strategy, COBYQA (:mod:`._search`),
 #: trust-region Bayesian optimisation (:mod:`._bayes`), or the one of the last two that suits the search
@@ -62,6 +65,77 @@ def climb_rule_for(rule: str, n_coordinates: int, settle_cycles: int) -> str:
     return "bayes" if (2 * n_coordinates + 1) * (settle_cycles + 1) > BAYES_DESIGN_CYCLES else "cobyqa"
 
 
+class SearchRule(Part):
+    """How the measured climb proposes its candidates: a part whose :meth:`search` starts an ask/tell search
+    (:class:`~geogait.optimize._search.MeasuredSearch`) from the climb's base. A rule of your own subclasses it
+    and a search that names its ``rule``."""
+
+    def search(self, origin, *, radius: float, final_radius: float, max_radius: float, period: float,
+               rng: np.random.Generator) -> MeasuredSearch:
+        """A search from ``origin`` (the base's coordinates at ``period``) with step radius ``radius`` within
+        [``final_radius``, ``max_radius``]; ``rng`` is the run's generator (draw from it for a seed)."""
+        raise NotImplementedError(f"{type(self).__name__} starts no search: a rule implements search")
+
+
+class Cobyqa(SearchRule):
+    """SciPy's COBYQA on the measured outcomes (module :mod:`geogait.optimize._search`)."""
+
+    def search(self, origin, *, radius, final_radius, max_radius, period, rng) -> QuadraticSearch:
+        return QuadraticSearch(origin=origin, radius=radius, final_radius=final_radius, period=period)
+
+
+class BayesianOptimization(SearchRule):
+    """Trust-region Bayesian optimisation of the measured outcomes (module :mod:`geogait.optimize._bayes`); its
+    seed is drawn from the run's generator."""
+
+    def search(self, origin, *, radius, final_radius, max_radius, period, rng) -> BayesianSearch:
+        return BayesianSearch(origin=origin, radius=radius, final_radius=final_radius, period=period,
+                              seed=int(rng.integers(2**31 - 1)))
+
+
+class EvolutionStrategy(SearchRule):
+    """The mirrored (1+1) evolution strategy from the climb's base (module :mod:`geogait.optimize._evolution`).
+
+    Parameters
+    ----------
+    growth, shrink : float
+        Step length's factor after a kept and after a failed candidate.
+    shortenings : int
+        Halvings of a candidate that may not run before its direction is given up.
+    remeasure_after : int
+        Failed candidates in a row after which the base is measured again.
+    """
+
+    _parameter_constraints = {
+        "growth": Real(low=1),
+        "shrink": Real(low=0, high=1, low_open=True),
+        "shortenings": Integer(minimum=1),
+        "remeasure_after": Integer(minimum=1),
+    }
+
+    def __init__(self, *, growth: float = 1.5, shrink: float = 0.85, shortenings: int = 6, remeasure_after: int = 3):
+        self.growth = growth
+        self.shrink = shrink
+        self.shortenings = shortenings
+        self.remeasure_after = remeasure_after
+
+    def search(self, origin, *, radius, final_radius, max_radius, period, rng) -> EvolutionSearch:
+        return EvolutionSearch(origin=origin, radius=radius, final_radius=final_radius, period=period,
+                               max_radius=max_radius, **self.get_params())
+
+
+#: The rules by name (``Climb(rule="es")``).
+_RULES = {"es": EvolutionStrategy, "cobyqa": Cobyqa, "bayes": BayesianOptimization}
+
+
+def search_rule(rule, n_coordinates: int, settle_cycles: int) -> SearchRule:
+    """The :class:`SearchRule` of ``Climb(rule=rule)``: ``rule`` itself, or the rule of its name (``"auto"``
+    resolved by :func:`climb_rule_for`)."""
+    if isinstance(rule, SearchRule):
+        return rule
+    return _RULES[climb_rule_for(rule, n_coordinates, settle_cycles)]()
+
+
 @dataclass
 class MeasuredClimb:
     """State of the measured-outcome climb (module docstring).
@@ -69,15 +143,11 @@ class MeasuredClimb:
     Parameters
     ----------
     sigma, min_sigma, max_sigma : float
-        Step length in the family's parameters and its bounds (shape units).
+        The step radius the climb's search started at, and the bounds of its radii (shape units).
     active : bool
         Steps come from the climb (True) or from the model (False).
     base, candidate : tuple (FourierGait, period) or None
         The gait the candidates are drawn from, and the candidate being measured.
-    direction : ndarray or None
-        Unit direction (family parameters) of the last candidate.
-    mirror : bool
-        The next candidate is the mirror image of the last, failed one.
     failures, agreements : int
         Failures in a row; candidates in a row whose measured gain the model predicted.
     predicted_gain : float
@@ -87,8 +157,7 @@ class MeasuredClimb:
         climb measures it (clean when the optimiser owns the exploration), or the optimiser's rotation
         tolerance if larger; fixed for the whole climb so it cannot ratchet up (NaN until measured).
     search : MeasuredSearch or None
-        With ``climb_rule="cobyqa"`` or ``"bayes"``: the search that proposes the candidates (modules
-        :mod:`geogait.optimize._search`, :mod:`geogait.optimize._bayes`), and ``pending``, the point of the
+        The search that proposes the candidates (:class:`SearchRule`), and ``pending``, the point of the
         candidate being measured.
     measured, rotations : dict
         (gait, period) → the measured objective (per second with ``optimize_period``) and net
@@ -102,8 +171,6 @@ class MeasuredClimb:
     active: bool = False
     base: tuple | None = None
     candidate: tuple | None = None
-    direction: np.ndarray | None = None
-    mirror: bool = False
     failures: int = 0
     agreements: int = 0
     predicted_gain: float = np.nan
@@ -120,18 +187,8 @@ class MeasuredClimb:
         self.rotation_limit = np.nan
         self.measured, self.rotations = {}, {}
         self.sigma = float(np.clip(sigma, self.min_sigma, self.max_sigma))
-        self.direction, self.mirror, self.failures, self.agreements = None, False, 0, 0
+        self.failures, self.agreements = 0, 0
         self.search, self.pending = None, None
-
-    def next_direction(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """The mirror of the last failed direction, or a fresh random unit direction of ``n`` coordinates
-        drawn from ``rng``."""
-        if self.mirror and self.direction is not None:
-            self.direction = -self.direction
-        else:
-            draw = rng.standard_normal(n)
-            self.direction = draw / np.linalg.norm(draw)
-        return self.direction
 
     def record(self, key: tuple, value: float, rotation: float) -> None:
         """One measured cycle of ``key`` = (gait, period) while climbing."""
@@ -161,12 +218,9 @@ class MeasuredClimb:
         if tests_model:
             self.agreements = self.agreements + 1 if agrees else 0
         if success:
-            self.base, self.failures, self.mirror = self.candidate, 0, False
-            self.sigma = min(self.max_sigma, 1.5 * self.sigma)
+            self.base, self.failures = self.candidate, 0
         else:
             self.failures += 1
-            self.mirror = not self.mirror  # mirror once after a fresh direction fails
-            self.sigma = max(self.min_sigma, 0.85 * self.sigma)
         self.candidate = None
         return success
 

@@ -6,10 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..gaits import FreeGaitFamily
-from ._bayes import BayesianSearch
-from ._climb import climb_rule_for
+from ._climb import search_rule
 from ._objective import joint_limit_constraints
-from ._search import QuadraticSearch, onto_joint_limit
+from ._search import MeasuredSearch, onto_joint_limit
 
 
 class ClimbSteps:
@@ -28,23 +27,25 @@ class ClimbSteps:
         state.watch.archive(state.climb.measured)  # (the noise it measured outlives the records)
         state.watch.archive_rotations(state.climb.rotations)
         state.climb.start(best, self.parts.climb.sigma * state.scale if sigma is None else sigma)
-        if self.parts.climb.rule != "es":
-            state.climb.search = self._new_search(best, state.climb.sigma)
+        state.climb.search = self._new_search(best, state.climb.sigma)
         if state.period_search is not None:
             state.period_search.trial_from = None
 
-    def _new_search(self, base: tuple, radius: float) -> QuadraticSearch | BayesianSearch:
-        """The climb rule's search from ``base`` = (gait, period) at trust radius (half-width) ``radius`` down
-        to the smallest trust radius."""
+    def _new_search(self, base: tuple, radius: float) -> MeasuredSearch:
+        """The climb rule's search (:func:`~geogait.optimize._climb.search_rule`) from ``base`` = (gait, period)
+        at step radius ``radius``, within the climb's radii."""
+        state, climb = self.state, self.state.climb
+        origin = self._coordinates(base)
+        rule = search_rule(self.parts.climb.rule, origin.size, state.settle_cycles)
+        return rule.search(origin, radius=radius, final_radius=climb.min_sigma, max_radius=climb.max_sigma,
+                           period=base[1], rng=state.rng)
+
+    def _coordinates(self, key: tuple) -> np.ndarray:
+        """The search coordinates of ``key`` = (gait, period) at its own period: the family's free parameters,
+        and with a period search a log-period coordinate of 0."""
         state = self.state
-        origin = state.family.params_of(base[0], tolerance=1e-8)
-        if state.period_search is not None:
-            origin = np.append(origin, 0.0)
-        settings = dict(origin=origin, radius=radius, period=base[1],
-                        final_radius=self.parts.climb.min_sigma * state.scale)
-        if climb_rule_for(self.parts.climb.rule, origin.size, state.settle_cycles) == "bayes":
-            return BayesianSearch(**settings, seed=int(state.rng.integers(2**31 - 1)))
-        return QuadraticSearch(**settings)
+        origin = state.family.params_of(key[0], tolerance=1e-8)
+        return origin if state.period_search is None else np.append(origin, 0.0)
 
     def _best_key(self) -> tuple:
         """The (gait, period) with the best mean measured objective (of those measured twice or more)."""
@@ -68,13 +69,13 @@ class ClimbSteps:
             climb.rotation_limit = max(rotation, parts.climb.rotation_tolerance)
         if climb.candidate is not None:
             if climb.candidate == key and climb.base in measured:
-                if climb.search is not None:
-                    climb.search.tell(climb.pending, np.mean(measured[key]), np.mean(climb.rotations[key]))
+                designing = climb.search.designing  # (of the value about to be told)
                 kept = climb.judge(float(np.mean(measured[key])), float(np.mean(measured[climb.base])),
-                                   self._rotation_holds(key, climb.base),
-                                   tests_model=climb.search is None or not climb.search.designing)
+                                   self._rotation_holds(key, climb.base), tests_model=not designing)
+                climb.search.tell(climb.pending, np.mean(measured[key]), np.mean(climb.rotations[key]), kept)
                 state.watch.since_check += 1
                 if kept:
+                    climb.search.recentre(self._coordinates(climb.base), climb.base[1])
                     self._follow_tracking()
                 # back to model steps (unless outside its class), from the best gait, on a fresh record
                 if climb.model_trusted_again and not self._model_excluded():
@@ -93,37 +94,13 @@ class ClimbSteps:
             state.watch.since_check = 0
             self._change_gait(*climb.base)
             return "check"
-        remeasure = climb.search is None and key != climb.base and climb.failures >= 3  # (COBYQA: its own model)
+        after = climb.search.remeasure_after
+        remeasure = after is not None and key != climb.base and climb.failures >= after
         if climb.base not in measured or remeasure:
             climb.failures = 0  # measure the base (again: it may have been lucky)
             self._change_gait(*climb.base)
             return "climb"
         return "climb" if self._climb_candidate() else None
-
-    def _climb_candidate(self) -> bool:
-        """Command the climb's next candidate: σ from the base in its next direction, shortened until it
-        keeps the joint limits and the feasible region."""
-        state, climb = self.state, self.state.climb
-        if climb.search is not None:
-            return self._search_candidate()
-        base_gait, base_period = climb.base
-        family, search = state.family, state.period_search
-        base = family.params_of(base_gait, tolerance=1e-8)
-        # with optimize_period, log T is one more coordinate (σ / shape_scale in log units)
-        direction = climb.next_direction(state.rng, base.size + (search is not None))
-        for shrink in range(6):
-            length = climb.sigma * 0.5 ** shrink
-            gait = family.gait(base + length * direction[:base.size])
-            period = base_period
-            if search is not None:
-                period = float(np.clip(base_period * np.exp(length * direction[-1] / state.scale),
-                                       search.low, search.high))
-            if self._runnable(gait, period):
-                break
-        else:
-            climb.sigma = max(climb.min_sigma, climb.sigma / 2)
-            return False
-        return self._command_candidate(gait, period)
 
     def _known_feasibility(self, point) -> np.ndarray:
         """The feasible region's tightest row at a search point's gait (scaled onto the joint limit),
@@ -154,10 +131,11 @@ class ClimbSteps:
         self._change_gait(gait, period)
         return True
 
-    def _search_candidate(self) -> bool:
-        """Command the search's next point (:class:`QuadraticSearch`, :class:`BayesianSearch`), scaled back onto
-        the joint limit when beyond it; one that breaks another limit (joint speed, the feasible region) is
-        answered with the worst value measured, unrun. A converged search starts afresh from the base."""
+    def _climb_candidate(self) -> bool:
+        """Command the search's next point (:class:`~geogait.optimize._climb.SearchRule`); one beyond the joint
+        limit is scaled back onto it where the search asks so, and one that breaks a limit it cannot be scaled to
+        (joint speed, the feasible region) is refused, unrun. A converged search starts afresh from the base;
+        returns False when the search proposes nothing to run this cycle."""
         state, climb = self.state, self.state.climb
         n = state.family.n_params
         for _ in range(100):
@@ -172,13 +150,18 @@ class ClimbSteps:
                 box = [(-np.inf, np.inf)] * n + [(low, high)]
             rotation = climb.rotation_limit if isinstance(state.family, FreeGaitFamily) else None
             known = None if state.feasibility is None else self._known_feasibility
-            point = search.next(box, known, rotation)
-            if point is None:  # converged at its smallest radius: afresh from the base
-                climb.search = self._new_search(climb.base, climb.max_sigma / 4)
+            point = search.ask(box, known, rotation, rng=state.rng)
+            if point is None:
+                if not search.converged:
+                    return False
+                climb.search = self._new_search(climb.base, climb.max_sigma / 4)  # afresh from the base
                 continue
-            gait = onto_joint_limit(state.family, point[:n], state.max_joint_angle)
-            period = search.period if state.period_search is None else \
-                float(search.period * np.exp(point[n] / state.scale))
+            gait = (onto_joint_limit(state.family, point[:n], state.max_joint_angle) if search.onto_joint_limit
+                    else state.family.gait(point[:n]))
+            period = search.period
+            if state.period_search is not None:
+                period = float(np.clip(search.period * np.exp(point[n] / state.scale),
+                                       state.period_search.low, state.period_search.high))
             if self._runnable(gait, period):
                 climb.pending = point
                 return self._command_candidate(gait, period)

@@ -19,31 +19,39 @@ Every commanded gait of those has exactly zero net rotation, so the rotation con
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .._defaults import FEASIBILITY_TOLERANCE, MAX_JOINT_ANGLE
+from .._defaults import FEASIBILITY_TOLERANCE
 from .._estimator import Estimator, InstanceOf, Integer, Options
 from .._files import read_state
 from .._validation import GeogaitError, check_bytes, check_callback, check_float, check_gait_size, check_int, fail
-from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import check_gait_model, model_capabilities
-from ..robots import RobotSpec, read_robot_spec
+from ..robots import read_robot_spec
 from ._adaptation import Adaptation
 from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
 from ._loop import CycleLoop, new_climb
 from ._measure import peak_phase_speed
-from ._model_class import PERIOD_RATIO, ModelClassCheck, second_period, smallest_budget
 from ._models import gate_kind, gate_members, model_template, run_model, symmetric_chain_model
 from ._objective import Objective, spec_feasibility
 from ._parts import Climb, Gate, Limits, ModelStep, PeriodSearch, Safety
 from ._period import PeriodLineSearch
 from ._result import InSituResult
+from ._setup import (
+    check_budget,
+    commands_excitation,
+    gait_family,
+    joint_limit,
+    model_class_check,
+    period_range,
+    settle_at_start,
+    shape_scale,
+    stop_rule,
+)
 from ._state import (
     CHECKPOINT_FORMAT,
     CHECKPOINT_VERSION,
@@ -56,8 +64,6 @@ from ._state import (
 
 __all__ = ["Composition", "InSituOptimizer", "symmetric_chain_model"]
 
-#: r_max of a robot that declares no joint ranges (the design's 2π/3).
-DEFAULT_MAX_JOINT_ANGLE = MAX_JOINT_ANGLE
 #: The parts ``checks`` takes (one of each at most).
 CHECKS = (Adaptation, ModelClassTest, StructureCheck)
 
@@ -279,14 +285,14 @@ class InSituOptimizer(Estimator):
         parts = self.composition()
         owner = "InSituOptimizer.run"
         check_callback(callback, record, owner)
-        n_cycles = _check_budget(n_cycles, parts, owner)
+        n_cycles = check_budget(n_cycles, parts, owner)
         stop = stop_rule(stop, owner)
         checkpoint_every = check_int(checkpoint_every, "checkpoint_every", owner, minimum=1)
         if ceiling is not None:
             ceiling = check_float(ceiling, "ceiling", owner, low=0, low_open=True)
         checkpoint = checkpoint_path(checkpoint, owner)
         template = model_template(self.model)
-        if checkpoint is not None and not getattr(template, "can_save", lambda: True)():
+        if checkpoint is not None and "save" not in model_capabilities(template):
             raise fail("checkpoint", owner, f"None for a {type(template).__name__}, which cannot be saved",
                        str(checkpoint))
         spec = read_robot_spec(robot, owner)
@@ -297,7 +303,7 @@ class InSituOptimizer(Estimator):
         check_gait_size(robot.gait.n_joints, self.order, owner, speed_limit=parts.limits.max_joint_velocity is not None)
         gait = robot.gait.with_order(self.order)
         limits = parts.limits
-        r_max = _joint_limit(limits, spec)
+        r_max = joint_limit(limits, spec)
         reach = gait.joint_limit().max()
         if reach > r_max + 1e-12:
             if limits.max_joint_angle == "auto":  # (the limit the robot declares)
@@ -310,16 +316,16 @@ class InSituOptimizer(Estimator):
             if speed > limits.max_joint_velocity * (1 + 1e-9):
                 raise fail("max_joint_velocity", owner, f"at least the peak joint speed of the robot's seed gait "
                            f"({speed:.4g} rad/s), where the run starts", limits.max_joint_velocity)
-        period_range = _period_range(parts.period, spec, period, owner)
-        excites = _excites(self.exploration, spec, owner)
-        family = self._family(spec, gait)
+        periods = period_range(parts.period, spec, period, owner)
+        excites = commands_excitation(self.exploration, spec, owner)
+        family = gait_family(self, spec, gait)
         feasibility = spec_feasibility(spec, gait.n_joints, self.order)
         if feasibility is not None and feasibility(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
             raise fail("robot", owner, "a seed gait inside the robot's feasible region (its system's singular set's "
                        "margin, or the region it declares; e.g. the system's own seed_gait())",
                        "a seed gait that leaves it")
-        scale = _shape_scale(limits, gait)
-        check = _model_class_check(parts, spec, gait, period, period_range, owner)
+        scale = shape_scale(limits, gait)
+        check = model_class_check(parts, spec, gait, period, periods, owner)
         model = run_model(self.model, gait, period, family, scale)
         if "memory" in model_capabilities(model):
             check_bytes(model.memory_bytes(gait.n_joints), f"a {type(model).__name__} of {gait.n_joints} joints", owner,
@@ -327,11 +333,11 @@ class InSituOptimizer(Estimator):
         robot.set_gait(gait)  # (every check passed: a refused run leaves the robot as it was)
         state = RunState(gait=gait, radius=parts.step.trust_radius * scale, model=model,
                          n_cycles=n_cycles, ceiling=ceiling, period=period, family=family,
-                         settle_left=_settle_cycles(parts.safety, spec), max_joint_angle=r_max, scale=scale,
-                         settle_cycles=_settle_cycles(parts.safety, spec),
+                         settle_left=settle_at_start(parts.safety, spec), max_joint_angle=r_max, scale=scale,
+                         settle_cycles=settle_at_start(parts.safety, spec),
                          settle_due=parts.safety.settle_cycles == "auto" and spec.settle_cycles is None,
                          feasibility=feasibility, robot_period=period, seed_period=period,
-                         period_search=PeriodLineSearch(*period_range) if period_range is not None else None,
+                         period_search=PeriodLineSearch(*periods) if periods is not None else None,
                          climb=new_climb(parts.climb, scale), rng=np.random.default_rng(self.random_state))
         if excites:
             state.exploration = parts.exploration.signal(scale, gait.n_joints, state.rng)
@@ -378,22 +384,22 @@ class InSituOptimizer(Estimator):
             raise GeogaitError(f"{path} is an inconsistent optimiser checkpoint: {error}") from None
         if state.model is None:  # not fitted yet when saved (the "cycles" gate's first iteration)
             state.model = run_model(optimizer.model, state.gait, state.period, state.family,
-                                    _shape_scale(parts.limits, state.gaits[0]))
+                                    shape_scale(parts.limits, state.gaits[0]))
         spec = read_robot_spec(robot, "InSituOptimizer.resume")
         if robot.gait.n_joints != state.gait.n_joints:
             raise fail("robot", "InSituOptimizer.resume", f"a robot with {state.gait.n_joints} joints",
                        robot.gait.n_joints)
-        state.max_joint_angle = _joint_limit(parts.limits, spec)
-        state.scale = _shape_scale(parts.limits, state.gaits[0])
+        state.max_joint_angle = joint_limit(parts.limits, spec)
+        state.scale = shape_scale(parts.limits, state.gaits[0])
         if state.climb is None:  # checkpoints before the climb
             state.climb = new_climb(parts.climb, state.scale)
         if "rng" not in metadata["state"]:
             state.rng = np.random.default_rng(optimizer.random_state)
         state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order)
         if "settle" not in metadata["state"]:  # (checkpoints before "auto")
-            state.settle_cycles = _settle_cycles(parts.safety, spec)
+            state.settle_cycles = settle_at_start(parts.safety, spec)
         if n_cycles is not None:
-            n_cycles = _check_budget(n_cycles, parts, "InSituOptimizer.resume")
+            n_cycles = check_budget(n_cycles, parts, "InSituOptimizer.resume")
             state.n_cycles = check_int(n_cycles, "n_cycles", "InSituOptimizer.resume", minimum=max(1, state.cycle))
         robot_state = metadata.get("robot_state")
         if robot_state is not None and spec.saves_state:
@@ -404,126 +410,3 @@ class InSituOptimizer(Estimator):
                 robot.set_cycle_period(state.robot_period)
         loop = CycleLoop(optimizer, parts, robot, spec, state, path, metadata["checkpoint_every"], metadata.get("tag"))
         return loop.run(callback, record, stop)
-
-    # -- gait family --------------------------------------------------------------------------
-    def _family(self, spec: RobotSpec, gait: FourierGait):
-        """The family searched (``family`` parameter): SymmetricGaitFamily about the seed, MirrorGaitFamily or
-        FreeGaitFamily."""
-        owner = "InSituOptimizer.run"
-        if self.family == "free":
-            return FreeGaitFamily(gait.n_joints, self.order)
-        if self.family in ("auto", "symmetric") and gait.n_joints >= 2:
-            symmetric = SymmetricGaitFamily.from_gait(gait, self.order)
-            member = symmetric.residual(gait) <= 1e-9
-            if self.family == "symmetric" and not member:
-                raise fail("robot", owner, "a seed gait with front-back symmetry for family 'symmetric'",
-                           f"a gait at distance {symmetric.residual(gait):.3g} from the family")
-            if self.family == "symmetric" or (member and spec.front_back_symmetric):
-                return symmetric
-        elif self.family == "symmetric":
-            raise fail("family", owner, "'free' or 'mirror' for a robot with one joint", self.family)
-        mirror = MirrorGaitFamily(gait.n_joints, self.order)
-        member = mirror.residual(gait) <= 1e-9
-        if self.family == "mirror" and not member:
-            raise fail("robot", owner, "a half-wave symmetric seed gait (no offsets or even harmonics) for family "
-                       "'mirror'", f"a gait at distance {mirror.residual(gait):.3g} from the family")
-        if self.family == "mirror" or (member and spec.mirror_symmetric):
-            return mirror
-        # a robot that declares no symmetry: the half-wave family, on trial (the Adaptation widens it to the free
-        # family once a gait of it turns the body beyond noise)
-        adapts = self.checks is None or any(isinstance(c, Adaptation) and c.widen_family for c in self.checks)
-        if self.family == "auto" and member and not spec.symmetry_declared and adapts:
-            return mirror
-        return FreeGaitFamily(gait.n_joints, self.order)
-
-
-def _settle_cycles(safety: Safety, spec: RobotSpec) -> int:
-    """The settling cycles a run starts with: the Safety's count, or for ``"auto"`` what the robot declares (0 where it
-    declares nothing: they are measured at the first gait change)."""
-    if safety.settle_cycles != "auto":
-        return int(safety.settle_cycles)
-    return spec.settle_cycles or 0
-
-
-def stop_rule(stop, owner: str) -> Callable[[], bool] | None:
-    """The ``stop`` argument as a callable: itself, or whether a file exists (None: never)."""
-    if stop is None or callable(stop):
-        return stop
-    if isinstance(stop, str | os.PathLike):
-        path = Path(stop)
-        return path.exists
-    raise fail("stop", owner, "None, a callable stop() -> bool or the path of a stop file", type(stop).__name__)
-
-
-def _check_budget(n_cycles, parts: Composition, owner: str) -> int | None:
-    """A cycle budget that holds at least one measured cycle (:func:`smallest_budget`); None: no budget."""
-    if n_cycles is None:
-        return None
-    test = 0 if parts.model_class is None else parts.model_class.cycles
-    smallest = smallest_budget(parts.safety.declared_settle_cycles, test)
-    return check_int(n_cycles, "n_cycles", owner, minimum=smallest)
-
-
-# -- what the robot declares ---------------------------------------------------------------------
-def _excites(exploration, spec: RobotSpec, owner: str) -> bool:
-    """Whether the optimiser commands the excitation (``exploration``) to this robot."""
-    if exploration is None:
-        return False
-    if exploration != "auto" and not spec.excitation:
-        raise fail("robot", owner, "a robot with set_excitation(shape, shape_velocity) for an Exploration "
-                   "(or exploration='auto' / None)", spec.kind)
-    return spec.excitation
-
-
-def _period_range(search: PeriodSearch | None, spec: RobotSpec, period: float, owner: str):
-    """(shortest, longest) period of the period search (None when the period is fixed)."""
-    if search is None:
-        return None
-    if not spec.period_control:
-        raise fail("robot", owner, "a robot with set_cycle_period(seconds) for a PeriodSearch "
-                   "(e.g. geogait.robots.MujocoRobot)", spec.kind)
-    low, high = search.bounds(period)
-    if not low <= period <= high:
-        raise fail("period_range", owner, f"a range holding the robot's period ({period:g} s)", (low, high))
-    return low, high
-
-
-def _model_class_check(parts: Composition, spec: RobotSpec, gait: FourierGait, period: float, period_range,
-                       owner: str):
-    """The run's model-class test (a ModelClassTest among the checks), or None."""
-    test = parts.model_class
-    if test is None:
-        return None
-    if not spec.period_control:
-        raise fail("robot", owner, "a robot with set_cycle_period(seconds) for a ModelClassTest (the test runs the "
-                   "seed gait at two periods)", spec.kind)
-    low, high = period_range if period_range is not None else (0.0, np.inf)
-    speed_limit = parts.limits.max_joint_velocity
-    shortest = 0.0 if speed_limit is None else peak_phase_speed(gait) * 2 * np.pi / speed_limit
-    other = second_period(period, low, high, shortest)
-    if other is None:
-        raise fail("checks", owner, f"no ModelClassTest, or a period range and joint-velocity limit that allow "
-                   f"{PERIOD_RATIO:g} x or 1/{PERIOD_RATIO:g} x the robot's period ({period:g} s)", test)
-    return ModelClassCheck(period, other, test.cycles, settle_cycles=parts.safety.declared_settle_cycles)
-
-
-def _joint_limit(limits: Limits, spec: RobotSpec) -> float:
-    """r_max: the parameter, or (``"auto"``) from the robot's declared joint ranges."""
-    if not isinstance(limits.max_joint_angle, str):
-        return float(limits.max_joint_angle)
-    if spec.joint_ranges is None:
-        return DEFAULT_MAX_JOINT_ANGLE
-    ranges = spec.joint_ranges
-    limit = float(np.min(np.minimum(-ranges[:, 0], ranges[:, 1])))
-    return limit if np.isfinite(limit) else DEFAULT_MAX_JOINT_ANGLE
-
-
-def _shape_scale(limits: Limits, seed: FourierGait) -> float:
-    """The unit of shape (``shape_scale``): the parameter, or the seed gait's largest amplitude."""
-    if not isinstance(limits.shape_scale, str):
-        return float(limits.shape_scale)
-    amplitude = float(np.sqrt((seed.coefficients[:, 1:] ** 2).sum(axis=1)).max())
-    if not amplitude > 0:
-        raise fail("robot", "InSituOptimizer.run", "a seed gait that moves its joints (shape_scale='auto' "
-                   "is its amplitude)", "a constant gait")
-    return amplitude

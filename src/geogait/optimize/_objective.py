@@ -35,7 +35,7 @@ import numpy as np
 from .._estimator import Options
 from .._validation import GeogaitError, check_choice, check_int, fail
 from ..gaits import FourierGait, fourier_basis
-from ..robots import RobotSpec
+from ..robots import RobotSpec, read_robot_spec
 from ..systems import FeasibleSystem
 from ._part import Part
 
@@ -276,22 +276,16 @@ def robot_feasibility(robot, n_joints: int, order: int):
     -------
     callable or None
     """
-    own = getattr(robot, "feasibility", None)
-    system = robot.current_system() if callable(getattr(robot, "current_system", None)) else None
-    return _feasibility(own if callable(own) else None, system, n_joints, order)
+    return spec_feasibility(read_robot_spec(robot, "robot_feasibility"), n_joints, order)
 
 
 def spec_feasibility(spec: RobotSpec, n_joints: int, order: int):
     """:func:`robot_feasibility` from what the robot declares (its :class:`~geogait.robots.RobotSpec`)."""
-    return _feasibility(spec.region, spec.system, n_joints, order)
-
-
-def _feasibility(region, system, n_joints: int, order: int):
     n_joints = check_int(n_joints, "n_joints", "robot_feasibility", minimum=1)
     order = check_int(order, "order", "robot_feasibility", minimum=1)
-    if region is not None:
-        return _region_rows(region, n_joints, order)
-    return None if system is None else feasibility_constraint(system, n_joints, order)
+    if spec.region is not None:
+        return _region_rows(spec.region, n_joints, order)
+    return None if spec.system is None else feasibility_constraint(spec.system, n_joints, order)
 
 
 def _describe(answer) -> str:

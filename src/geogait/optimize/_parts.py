@@ -33,7 +33,7 @@ from scipy import stats
 
 from .._estimator import Integer, Options, Real
 from .._validation import check_float, check_int, fail
-from ._climb import CLIMB_RULES
+from ._climb import CLIMB_RULES, SearchRule
 from ._part import Part
 from ._steps import STEP_RULES
 
@@ -197,10 +197,12 @@ class Climb(Part):
         measured outcomes contradict the model (two broken promises in a row, a revert, two failed prediction
         checks, cycles without exploration) or the model levels off (three decisions in a row without a step
         promising 1 %). ``"contradicted"``: only when measured outcomes contradict the model.
-    rule : {"auto", "es", "cobyqa", "bayes"}
-        How candidates are proposed: COBYQA's quadratic models, trust-region Bayesian optimisation, or a mirrored
-        (1+1) evolution strategy; ``"auto"``: Bayesian where COBYQA's initial design would take more than 30 robot
-        cycles, else COBYQA (:func:`~geogait.optimize.climb_rule_for`).
+    rule : {"auto", "es", "cobyqa", "bayes"} or SearchRule
+        How candidates are proposed: a :class:`~geogait.optimize.SearchRule` (an ask/tell search), or one by
+        name: COBYQA's quadratic models (:class:`~geogait.optimize.Cobyqa`), trust-region Bayesian optimisation
+        (:class:`~geogait.optimize.BayesianOptimization`), or a mirrored (1+1) evolution strategy
+        (:class:`~geogait.optimize.EvolutionStrategy`); ``"auto"``: Bayesian where COBYQA's initial design would
+        take more than 30 robot cycles, else COBYQA (:func:`~geogait.optimize.climb_rule_for`).
     sigma : float
         Step length of a climb that starts after the model (shape_scale units).
     first_sigma : float
@@ -213,7 +215,6 @@ class Climb(Part):
 
     _parameter_constraints = {
         "start": Options(CLIMB_STARTS),
-        "rule": Options(tuple(CLIMB_RULES)),
         "sigma": Real(low=0, low_open=True),
         "first_sigma": Real(low=0, low_open=True),
         "min_sigma": Real(low=0, low_open=True),
@@ -234,6 +235,8 @@ class Climb(Part):
     def _check_param_combinations(self) -> None:
         owner = type(self).__name__
         check_float(self.max_sigma, "max_sigma", owner, low=self.min_sigma)
+        if not isinstance(self.rule, SearchRule) and not (isinstance(self.rule, str) and self.rule in CLIMB_RULES):
+            raise fail("rule", owner, f"one of {', '.join(map(repr, CLIMB_RULES))} or a SearchRule", self.rule)
 
 
 class Safety(Part):

@@ -39,10 +39,10 @@ class SafetySteps:
         state.promised = None
         state.radius = max(min(parts.step.min_trust_radius, REJECTION_FLOOR) * state.scale, state.radius / 2)
         previous = (state.previous_gait, state.previous_period)
-        if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow
-            if state.climb.search is not None:
-                state.climb.search.refuse(state.climb.pending)
+        if state.climb.candidate == (state.gait, state.period):  # a candidate the robot cannot follow: it failed
             state.climb.judge(-np.inf, 0.0, rotation_holds=False)
+            climbing = state.climb.search  # (told the worst value measured, as a point it may not run)
+            climbing.tell(state.climb.pending, min(climbing.values), 0.0, kept=False)
             previous = state.climb.base  # (the gait before it may be another failed candidate)
         self._change_gait(*previous)
         if trial:  # a period the robot cannot follow

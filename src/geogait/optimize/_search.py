@@ -10,7 +10,7 @@ fewer evaluations than an evolution strategy: it learns the curvature that a (1+
 samples.
 
 SciPy runs COBYQA as a callback loop; the in-situ optimiser needs it one measured candidate at a time,
-across checkpoints. So the search *is* its history: :meth:`QuadraticSearch.next` runs COBYQA afresh from
+across checkpoints. So the search *is* its history: :meth:`QuadraticSearch.ask` runs COBYQA afresh from
 the same origin and answers every point it asks for from the values recorded so far (COBYQA is
 deterministic), and stops it at the first point not measured yet — the next candidate. A replay of
 k values costs k COBYQA iterations (milliseconds), far less than a robot's cycle.
@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import NonlinearConstraint, minimize
 
-__all__ = ["MeasuredSearch", "QuadraticSearch", "onto_joint_limit"]
+__all__ = ["SEARCHES", "MeasuredSearch", "QuadraticSearch", "onto_joint_limit"]
 
 
 def onto_joint_limit(family, params, max_joint_angle: float):
@@ -63,23 +63,32 @@ class _Ask(Exception):
         self.point = np.array(point, dtype=float, copy=True)
 
 
+#: Every search by its ``rule`` name (its checkpoint's "rule"): subclasses of :class:`MeasuredSearch` add themselves.
+SEARCHES: dict = {}
+
+
 @dataclass
 class MeasuredSearch:
-    """A search's history, shared by the climb's COBYQA and Bayesian rules: every point it proposed, in order,
-    with its measured objective and net rotation per cycle; the search itself is a function of it, so a
-    checkpoint of it resumes the search exactly.
+    """An ask/tell search on measured outcomes, the measured climb's rule: :meth:`ask` proposes the next point,
+    :meth:`tell` records what the robot measured there. It keeps every point told, in order, with its measured
+    objective and net rotation per cycle; a checkpoint of that history (and of a subclass's ``_checkpointed``
+    fields) resumes the search exactly.
+
+    A subclass names its ``rule`` (it is then found by that name in :data:`SEARCHES`) and implements
+    :meth:`ask`; the climb reads three more class attributes: ``designing``, ``onto_joint_limit`` and
+    ``remeasure_after``.
 
     Parameters
     ----------
     origin : ndarray of shape (n,)
         Start point (the climb's base) in the search's coordinates.
     radius, final_radius : float
-        The search's initial and final trust-region radius.
+        The search's initial and final step radius.
     period : float
         The origin's cycle period (with ``optimize_period`` the last coordinate is
         ``shape_scale · log(T / period)``).
     points, values, rotations : list
-        Every point proposed, in order, with its measured objective (to maximise) and net rotation per cycle.
+        Every point told, in order, with its measured objective (to maximise) and net rotation per cycle.
     """
 
     origin: np.ndarray
@@ -90,24 +99,66 @@ class MeasuredSearch:
     values: list = field(default_factory=list)
     rotations: list = field(default_factory=list)
 
-    rule = None  # the climb rule, recorded in a checkpoint
-    _checkpointed = ()  # further fields a checkpoint keeps
+    rule = None  # the search's name, recorded in a checkpoint
+    _checkpointed = ()  # further fields a checkpoint keeps (JSON values)
+    #: The last value told belongs to a design of probes, not to a step of the search's own (the climb then does
+    #: not count the model's predictions of it).
+    designing = False
+    #: A point beyond the joint limit is run scaled back onto it (True) or refused (False: :meth:`refuse`).
+    onto_joint_limit = True
+    #: Failed candidates in a row after which the climb measures its base again (None: never; a search that models
+    #: every measured value corrects a lucky base itself).
+    remeasure_after = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.rule is not None:
+            SEARCHES[cls.rule] = cls
 
     def __post_init__(self):
         self.origin = np.asarray(self.origin, dtype=float)
 
-    def tell(self, point, value: float, rotation: float) -> None:
-        """Record the measured ``value`` and net ``rotation`` of ``point`` (the one :meth:`next` returned)."""
+    def ask(self, bounds=None, known=None, rotation_limit: float | None = None,
+            rng: np.random.Generator | None = None) -> np.ndarray | None:
+        """The next point to measure, or None when there is none (a search that has converged says so in
+        :attr:`converged`; else the climb runs no candidate this cycle).
+
+        Parameters
+        ----------
+        bounds : sequence of (low, high), optional
+            Bounds on each coordinate (None or ±inf: unbounded).
+        known : callable, optional
+            Constraints computed without a measurement, ``known(x) -> (m,)``, feasible where ≤ 0.
+        rotation_limit : float, optional
+            Largest |net rotation| per cycle (a constraint on the measured rotations).
+        rng : numpy.random.Generator, optional
+            The run's generator, for a search that draws (its draws then resume exactly with the run's).
+        """
+        raise NotImplementedError(f"{type(self).__name__} proposes no points: a search implements ask")
+
+    @property
+    def converged(self) -> bool:
+        """The search asks for nothing more (the climb then starts a fresh one from its base)."""
+        return False
+
+    def tell(self, point, value: float, rotation: float, kept: bool | None = None) -> None:
+        """Record the measured ``value`` and net ``rotation`` of ``point`` (the one :meth:`ask` returned), and
+        whether the climb ``kept`` it as its base (None: a point that was no candidate, the origin)."""
         self.points.append(np.asarray(point, dtype=float))
         self.values.append(float(value))
         self.rotations.append(float(rotation))
 
     def refuse(self, point) -> None:
-        """Answer ``point`` unrun (beyond a limit, or not followed by the robot): no better than the worst value
+        """Answer ``point`` unrun (beyond a limit it cannot be scaled to): no better than the worst value
         measured, and no rotation, so the search turns back."""
         self.tell(point, min(self.values), 0.0)
 
+    def recentre(self, origin, period: float) -> None:
+        """The climb's base moved to ``origin`` (coordinates at its own ``period``): a search that steps from
+        the base follows it; one that models its own history ignores it."""
+
     def to_checkpoint(self, prefix: str) -> tuple[dict, dict]:
+        """(metadata, arrays) of the search; arrays are named under ``prefix``."""
         metadata = {"rule": self.rule, "radius": self.radius, "final_radius": self.final_radius,
                     "period": self.period, **{name: getattr(self, name) for name in self._checkpointed}}
         arrays = {f"{prefix}/origin": self.origin,
@@ -118,6 +169,9 @@ class MeasuredSearch:
 
     @classmethod
     def from_checkpoint(cls, metadata: dict, arrays: dict, prefix: str) -> MeasuredSearch:
+        """The search of :meth:`to_checkpoint`'s ``metadata`` and ``arrays`` (of the class its rule names)."""
+        if cls is MeasuredSearch:  # (checkpoints before the rule was recorded: COBYQA's)
+            return SEARCHES.get(metadata.get("rule"), QuadraticSearch).from_checkpoint(metadata, arrays, prefix)
         return cls(origin=arrays[f"{prefix}/origin"], radius=metadata["radius"],
                    final_radius=metadata["final_radius"], period=metadata["period"],
                    points=list(arrays[f"{prefix}/points"]), values=arrays[f"{prefix}/values"].tolist(),
@@ -131,6 +185,7 @@ class QuadraticSearch(MeasuredSearch):
     :class:`MeasuredSearch` (``radius``, ``final_radius``: COBYQA's initial and final trust-region radius)."""
 
     _known_values: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    _converged: bool = field(default=False, init=False, repr=False, compare=False)
 
     rule = "cobyqa"
 
@@ -140,22 +195,16 @@ class QuadraticSearch(MeasuredSearch):
         and ±radius along each coordinate), not to a step of its own model."""
         return len(self.values) <= 2 * self.origin.size + 1
 
+    @property
+    def converged(self) -> bool:
+        """COBYQA stopped at its final radius."""
+        return self._converged
 
-    def next(self, bounds=None, known=None, rotation_limit: float | None = None) -> np.ndarray | None:
-        """The next point to measure, or None when COBYQA has converged (its final radius).
-
-        Parameters
-        ----------
-        bounds : sequence of (low, high), optional
-            Bounds on each coordinate (None or ±inf: unbounded).
-        known : callable, optional
-            Constraints computed without a measurement, ``known(x) -> (m,)``, feasible where ≤ 0; the same
-            function at every call: its values are kept per point, since every replay asks for the same
-            points again (on a robot with a feasible region the replays otherwise spend most of a run's time
-            in it).
-        rotation_limit : float, optional
-            Largest |net rotation| per cycle (a nonlinear constraint on the measured rotations).
-        """
+    def ask(self, bounds=None, known=None, rotation_limit: float | None = None, rng=None) -> np.ndarray | None:
+        """The next point to measure, or None when COBYQA has converged (its final radius); arguments as
+        :meth:`MeasuredSearch.ask` (``rng`` unused: COBYQA draws nothing). ``known`` must be the same function at
+        every call: its values are kept per point, since every replay asks for the same points again (on a robot
+        with a feasible region the replays otherwise spend most of a run's time in it)."""
         index = {}  # distinct points in the order COBYQA asks for them: the k-th is the k-th recorded
 
         def recorded(x):
@@ -185,4 +234,5 @@ class QuadraticSearch(MeasuredSearch):
                               "maxfev": 10**6, "disp": False})
         except _Ask as ask:
             return ask.point
+        self._converged = True
         return None

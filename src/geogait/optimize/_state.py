@@ -15,13 +15,13 @@ from .._validation import fail
 from ..gaits import FourierGait, FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
 from ..models import model_capabilities, model_from_state
 from ._adaptation import ChangeWatch
-from ._bayes import BayesianSearch
 from ._climb import MeasuredClimb
+from ._evolution import EvolutionSearch
 from ._exploration import ExcitationSignal
 from ._model_class import ModelClassCheck
 from ._part import describe_params
 from ._period import PeriodLineSearch
-from ._search import QuadraticSearch
+from ._search import MeasuredSearch
 
 CHECKPOINT_FORMAT = "geogait-optimizer-checkpoint"
 CHECKPOINT_VERSION = 1
@@ -193,7 +193,7 @@ class RunState:
         metadata["rng"] = self.rng.bit_generator.state
         climb = self.climb
         metadata["climb"] = {"sigma": climb.sigma, "min_sigma": climb.min_sigma, "max_sigma": climb.max_sigma,
-                             "active": climb.active, "mirror": climb.mirror, "failures": climb.failures,
+                             "active": climb.active, "failures": climb.failures,
                              "agreements": climb.agreements, "predicted_gain": _json_float(climb.predicted_gain),
                              "rotation_limit": _json_float(climb.rotation_limit),
                              "base_period": None if climb.base is None else climb.base[1],
@@ -212,8 +212,6 @@ class RunState:
         for name, value in (("climb/base", self.climb.base), ("climb/candidate", self.climb.candidate)):
             if value is not None:
                 arrays[name] = value[0].coefficients
-        if self.climb.direction is not None:
-            arrays["climb/direction"] = self.climb.direction
         metadata["climb"]["search"] = None
         if self.climb.search is not None:
             metadata["climb"]["search"], search_arrays = self.climb.search.to_checkpoint("climb/search")
@@ -280,7 +278,7 @@ class RunState:
         if climb is not None:
             state.climb = MeasuredClimb(
                 sigma=climb["sigma"], min_sigma=climb["min_sigma"], max_sigma=climb["max_sigma"],
-                active=climb["active"], mirror=climb["mirror"], failures=climb["failures"],
+                active=climb["active"], failures=climb["failures"],
                 agreements=climb["agreements"],
                 predicted_gain=np.nan if climb["predicted_gain"] is None else climb["predicted_gain"],
                 rotation_limit=np.nan if climb.get("rotation_limit") is None else climb["rotation_limit"],
@@ -288,10 +286,9 @@ class RunState:
                 else (FourierGait(arrays["climb/base"]), climb["base_period"]),
                 candidate=None if climb["candidate_period"] is None
                 else (FourierGait(arrays["climb/candidate"]), climb["candidate_period"]),
-                direction=arrays.get("climb/direction"), pending=arrays.get("climb/pending"))
+                pending=arrays.get("climb/pending"))
             if climb.get("search") is not None:
-                rule = BayesianSearch if climb["search"].get("rule") == BayesianSearch.rule else QuadraticSearch
-                state.climb.search = rule.from_checkpoint(climb["search"], arrays, "climb/search")
+                state.climb.search = MeasuredSearch.from_checkpoint(climb["search"], arrays, "climb/search")
         state.n_cycles = None if state.n_cycles is None else int(state.n_cycles)  # (None: a run without a budget)
         state.cycle = int(state.cycle)
         promised = scalars["promised"]
@@ -301,6 +298,8 @@ class RunState:
         state.family = {"symmetric": lambda: SymmetricGaitFamily(family["n_joints"], family["order"], family["center"]),
                         "mirror": lambda: MirrorGaitFamily(family["n_joints"], family["order"]),
                         "free": lambda: FreeGaitFamily(family["n_joints"], family["order"])}[family["kind"]]()
+        if climb is not None and climb.get("search") is None and state.climb.active:
+            state.climb.search = _evolution_of_old(state, climb, arrays)
         state.previous_gait = FourierGait(arrays["previous_gait"]) if "previous_gait" in arrays else None
         state.direction = arrays.get("direction")
         # checkpoints before the averaged direction fixed it at the first measured cycle
@@ -396,6 +395,23 @@ def params_to_json(optimizer) -> dict:
     return {name: describe_params(value) for name, value in optimizer.get_params(deep=False).items()}
 
 
+def _evolution_of_old(state: RunState, climb: dict, arrays: dict) -> EvolutionSearch:
+    """The evolution strategy of a checkpoint written before it was a search of its own (its step length,
+    mirror and direction then stood in the climb's record)."""
+    base, period = state.climb.base
+
+    def coordinates(key):  # (at the base's period)
+        point = state.family.params_of(key[0], tolerance=1e-8)
+        return point if state.period_search is None else np.append(point, state.scale * np.log(key[1] / period))
+
+    origin = coordinates(state.climb.base)
+    if state.climb.candidate is not None:  # (the point of the candidate being measured, for the search's record)
+        state.climb.pending = coordinates(state.climb.candidate)
+    return EvolutionSearch(origin=origin, radius=climb["sigma"], final_radius=climb["min_sigma"], period=period,
+                           max_radius=climb["max_sigma"], sigma=climb["sigma"], mirror=bool(climb["mirror"]),
+                           direction=arrays.get("climb/direction"))
+
+
 def params_from_json(params: dict) -> dict:
     """The optimiser's parameters from :func:`params_to_json`'s values, or from a checkpoint of the flat
     parameters that came before the parts (:func:`~geogait.optimize._presets.from_flat_params`)."""
@@ -412,10 +428,15 @@ def _built(value):
         return [_built(v) for v in value]
     if not (isinstance(value, dict) and set(value) == {"class", "params"}):
         return value
-    from . import _adaptation, _checks, _exploration, _objective, _parts  # (the part classes, by name)
+    from . import _adaptation, _checks, _climb, _exploration, _objective, _parts  # (the part classes, by name)
 
-    classes = {name: getattr(module, name) for module in (_parts, _checks, _objective, _exploration, _adaptation)
+    classes = {name: getattr(module, name) for module in (_parts, _checks, _objective, _exploration, _adaptation,
+                                                          _climb)
                for name in module.__all__ if isinstance(getattr(module, name), type)}
+    rules = [_climb.SearchRule]  # (with the rules users wrote, of classes imported by now)
+    for rule in rules:
+        rules.extend(rule.__subclasses__())
+    classes.update({rule.__name__: rule for rule in rules})
     name = value["class"]
     if name in models.__all__:
         return getattr(models, name)(**value["params"])

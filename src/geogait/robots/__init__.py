@@ -25,7 +25,7 @@ from ._mujoco import (
     purcell_swimmer_xml,
 )
 from ._protocol import ROBOT_EXTRAS, Robot, check_robot_members
-from ._spec import RobotSpec, read_robot_spec
+from ._spec import RobotSpec, perturbation_std, read_robot_spec
 from ._wrapper import RobotWrapper
 from .continuum import (
     CurvatureModes,
@@ -64,6 +64,7 @@ __all__ = [
     "load_mujoco_model",
     "mujoco_swimmer",
     "purcell_swimmer_xml",
+    "perturbation_std",
     "read_robot_spec",
     "rod_from_curvature",
     "snake_seed_gait",

@@ -7,10 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import fail
+from ..gaits import Perturbation
 from ..systems import PurcellSwimmer
 from ._protocol import check_robot_members
 
-__all__ = ["RobotSpec", "read_robot_spec"]
+__all__ = ["RobotSpec", "perturbation_std", "read_robot_spec"]
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,8 @@ class RobotSpec:
         Cycles a gait change takes to settle, as the robot declares them (``settle_cycles``); 0 for a simulator of
         a principally kinematic system (``current_system()``: its motion follows the shape at once); None when
         not declared (``Safety(settle_cycles="auto")`` then measures them).
+    perturbation_control : bool
+        The robot offers ``set_perturbation_std`` (the path follower's exploration plans set it).
     """
 
     kind: str
@@ -68,6 +71,7 @@ class RobotSpec:
     region: object = None
     symmetry_declared: bool = True
     settle_cycles: int | None = None
+    perturbation_control: bool = False
 
     @property
     def simulated(self) -> bool:
@@ -116,7 +120,18 @@ def read_robot_spec(robot, owner: str = "read_robot_spec") -> RobotSpec:
         system=system, region=robot.feasibility if callable(getattr(robot, "feasibility", None)) else None,
         symmetry_declared=swimmer or any(getattr(robot, name, None) is not None
                                          for name in ("front_back_symmetric", "mirror_symmetric")),
-        settle_cycles=_settle_cycles(robot, system, owner))
+        settle_cycles=_settle_cycles(robot, system, owner),
+        perturbation_control=callable(getattr(robot, "set_perturbation_std", None)))
+
+
+def perturbation_std(robot) -> float:
+    """The std of the perturbation δ a robot runs now, where it says (``perturbation_std``, or a
+    :class:`~geogait.gaits.Perturbation` as ``perturbation``), else NaN: read at every cycle, since a robot with
+    ``set_perturbation_std`` changes it."""
+    std = getattr(robot, "perturbation_std", None)
+    if std is None and isinstance(getattr(robot, "perturbation", None), Perturbation):
+        std = robot.perturbation.stationary_std[0]
+    return float(std) if std is not None else np.nan
 
 
 def _settle_cycles(robot, system, owner: str) -> int | None:
