@@ -21,6 +21,7 @@ import string
 import numpy as np
 import pytest
 from _reference import GAIT
+from _reference import Sink as _Sink
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -324,17 +325,6 @@ def test_cli_figures_from_bad_csv(tmp_path_factory, command, content, fill, opti
 def test_cli_optimize_rejects_unparseable_options(files, option, value):
     result = CliRunner().invoke(app, ["optimize", option, value, "--out", str(files / "a_file")])
     assert check_cli(result)
-
-
-class _Sink:
-    def __init__(self):
-        self.text = ""
-
-    def write(self, text):
-        self.text += text
-
-    def flush(self):
-        pass
 
 
 MAPPING_VALUES = st.one_of(st.none(), st.integers(), st.text(max_size=4), st.lists(st.text(max_size=3), max_size=4),

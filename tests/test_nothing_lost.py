@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from _cli import one_error_line
 from _reference import GAIT
 from typer.testing import CliRunner
 
@@ -37,17 +38,6 @@ from geogait.systems import PurcellSwimmer
 GEOGAIT = [sys.executable, "-c", "from geogait.cli import main; main()"]
 FAULT_DRIVER = [sys.executable, str(Path(__file__).with_name("_fault_driver.py"))]
 RUN = ["optimize", "--links", "3", "--cycles", "2"]
-
-
-def one_error_line(result, *fragments):
-    """Exit code 1, exactly one 'error: …' line holding every fragment, no traceback, not the bug message."""
-    assert result.exit_code == 1, result.output
-    errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
-    assert len(errors) == 1, result.stderr
-    assert "Traceback" not in result.output and "a bug in geogait" not in errors[0], result.output
-    for fragment in fragments:
-        assert fragment in errors[0], errors[0]
-    return errors[0]
 
 
 def invoke(*args):

@@ -1,14 +1,18 @@
-"""Saved models and phasers hold values within the ±1e12 every input is held to, both ways."""
+"""Saved models and phasers hold values within the ±1e12 every input is held to, both ways; a file that is not a
+model is said to be so, never a pickle (issue 11)."""
 
 import json
 import re
 
 import numpy as np
 import pytest
+from _cli import one_error_line
 from _reference import GAIT
+from typer.testing import CliRunner
 
 from geogait import GeogaitError
 from geogait._files import write_state
+from geogait.cli import app
 from geogait.models import AdaptiveGaitModel, BatchGaitModel, load_model
 from geogait.phase import Phaser
 from geogait.simulate import simulate
@@ -62,3 +66,14 @@ def test_a_state_beyond_the_bound_is_never_saved(model, tmp_path):
                                            "the previous file, if any, is kept"):
         write_state(path, metadata, {**state, "psi": np.full_like(state["psi"], 1e300)}, require_finite=True)
     assert path.read_bytes() == before and list(tmp_path.iterdir()) == [path]
+
+
+def test_garbage_model_file_error_does_not_mention_pickle(tmp_path):
+    for content in (b"garbage" * 10, b"\x80\x04\x95" + b"x" * 40):
+        path = tmp_path / "m.npz"
+        path.write_bytes(content)
+        with pytest.raises(GeogaitError) as info:
+            load_model(path)
+        assert "pickle" not in str(info.value) and "not a readable geogait model" in str(info.value)
+        result = CliRunner().invoke(app, ["stream", str(path)], input="")
+        assert "pickle" not in one_error_line(result, "not a readable geogait model")

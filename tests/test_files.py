@@ -1,0 +1,96 @@
+"""How geogait writes its outputs (``geogait._files``): atomically (the old file kept on failure, no temporary left,
+the stale ones of dead processes removed), keeping the mode and writing through links, into folders checked
+first, as strict JSON whose nulls say why (issue 11)."""
+
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _noisy_run import run as run
+from _reference import GAIT, strict_json
+from _reference import Sink as _Sink
+
+from geogait import GeogaitError
+from geogait._files import atomic_write, check_writable, json_ready, write_json
+from geogait.cli._common import write_manifest
+from geogait.io._records import StreamOutput, _JsonLinesWriter
+from geogait.models import AdaptiveGaitModel, load_model
+
+
+def test_json_outputs_have_null_and_a_reason_instead_of_nan(tmp_path):
+    value = {"gamma": float("nan"), "series": np.array([1.0, np.inf]), "nested": {"x": -np.inf}, "n": np.int64(3)}
+    assert json_ready(value) == {"gamma": None, "gamma_null_reason": "was nan", "series": [1.0, None],
+                                 "series_null_reason": "[1] was inf", "nested": {"x": None,
+                                                                                  "x_null_reason": "was -inf"},
+                                 "n": 3}
+    path = write_manifest(tmp_path / "m.json", command="test", config={"a": np.nan}, results=value, started=0.0)
+    manifest = strict_json(path.read_text())
+    assert manifest["config"] == {"a": None, "a_null_reason": "was nan"} and manifest["geogait_version"]
+    sink = _Sink()
+    _JsonLinesWriter(sink).write(StreamOutput(0, 1.0, 0.5, np.array([np.nan, 0.0, 1.0]), float("inf"), True))
+    line = strict_json(sink.text)
+    assert line["gamma"] is None and line["gamma_null_reason"] == "was inf"
+    assert line["prediction"] == [None, 0.0, 1.0] and line["prediction_null_reason"] == "[0] was nan"
+
+
+def test_saving_keeps_the_mode_and_writes_through_links(run, tmp_path):
+    model = AdaptiveGaitModel(gait=GAIT).fit(run.phase[:300], run.shape[:300], run.shape_velocity[:300],
+                                             run.body_velocity[:300])
+    path = model.save(tmp_path / "m.npz")
+    path.chmod(0o640)
+    model.save(path)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o640
+    link = tmp_path / "link.npz"
+    link.symlink_to(path)
+    model.partial_fit(run.phase[300:400], run.shape[300:400], run.shape_velocity[300:400],
+                      run.body_velocity[300:400])
+    model.save(link)
+    assert link.is_symlink() and load_model(path).n_samples_seen_ == 400
+    assert stat.S_IMODE(path.stat().st_mode) == 0o640
+    previous = os.umask(0o027)
+    try:
+        fresh = write_json(tmp_path / "new.json", {"a": 1})
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE(fresh.stat().st_mode) == 0o640
+
+
+def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
+    path = write_json(tmp_path / "a.json", {"a": 1})
+
+    def explode(stream):
+        stream.write(b"partial")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space"):
+        atomic_write(path, explode)
+    assert strict_json(path.read_text()) == {"a": 1} and sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
+
+
+def test_stale_temporary_files_of_dead_processes_are_removed(tmp_path):
+    stale = tmp_path / ".m.npz.999999999.abc123.tmp"  # no such pid
+    alive = tmp_path / f".m.npz.{os.getppid()}.def456.tmp"  # a live process may still be writing it
+    other = tmp_path / ".other.npz.999999999.x.tmp"
+    for path in (stale, alive, other):
+        path.write_bytes(b"half")
+    write_json(tmp_path / "m.npz", {"a": 1})
+    assert not stale.exists() and alive.exists() and other.exists()
+
+
+def test_check_writable(tmp_path):
+    assert check_writable(tmp_path / "x.npz") == tmp_path / "x.npz" and not (tmp_path / "x.npz").exists()
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(GeogaitError, match="its folder .*missing does not exist"):
+        check_writable(tmp_path / "missing" / "x.npz")
+    (tmp_path / "notes.txt").write_text("a file")  # a path through a file is said as such
+    with pytest.raises(GeogaitError, match=r"notes.txt is a file, not a folder"):
+        check_writable(tmp_path / "notes.txt" / "sub" / "x.npz", "model file")
+
+
+def test_files_module_is_the_only_atomic_writer():
+    source = Path(__file__).resolve().parents[1] / "src" / "geogait"
+    writers = [path.relative_to(source).as_posix() for path in source.rglob("*.py")
+               if "os.replace(" in path.read_text() or "mkstemp(" in path.read_text()]
+    assert writers == ["_files.py"]
