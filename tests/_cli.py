@@ -1,4 +1,15 @@
-"""What the command-line tests share: the check that a command failed in one line of its own words."""
+"""What the command-line tests share: the app invoked with any arguments, the check that a command failed in one
+line of its own words, and a folder's files (to show that a refused command left them as they were)."""
+
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from geogait.cli import app
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
 
 
 def one_error_line(result, *fragments):
@@ -12,3 +23,7 @@ def one_error_line(result, *fragments):
     for fragment in fragments:
         assert fragment in errors[0], errors[0]
     return errors[0]
+
+
+def snapshot(folder: Path) -> dict:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file() and p.name != ".geogait.lock"}

@@ -1,7 +1,9 @@
 """How geogait writes its outputs (``geogait._files``): atomically (the old file kept on failure, no temporary left,
 the stale ones of dead processes removed), keeping the mode and writing through links, into folders checked
-first, as strict JSON whose nulls say why (issue 11)."""
+first, as strict JSON whose nulls say why (issue 11); sets of outputs replaced all or nothing, the lock on an
+output folder, JSON keys that appear twice (issue 21)."""
 
+import json
 import os
 import stat
 from pathlib import Path
@@ -13,7 +15,7 @@ from _reference import GAIT, strict_json
 from _reference import Sink as _Sink
 
 from geogait import GeogaitError
-from geogait._files import atomic_write, check_writable, json_ready, write_json
+from geogait._files import OutputLock, atomic_write, check_writable, json_ready, output_set, write_json, write_text
 from geogait.cli._common import write_manifest
 from geogait.io._records import StreamOutput, _JsonLinesWriter
 from geogait.models import AdaptiveGaitModel, load_model
@@ -94,3 +96,57 @@ def test_files_module_is_the_only_atomic_writer():
     writers = [path.relative_to(source).as_posix() for path in source.rglob("*.py")
                if "os.replace(" in path.read_text() or "mkstemp(" in path.read_text()]
     assert writers == ["_files.py"]
+
+
+def test_a_lock_taken_on_a_removed_lock_file_is_taken_again_on_the_new_one(tmp_path):
+    """A run removes its lock file when it ends (OutputLock.release); a run that had opened that
+    file before must not hold a lock nobody else can see: it locks the file now there, or is refused."""
+    from geogait._files import LOCK_FILE, _same_inode
+
+    first = OutputLock(tmp_path)
+    opened_before = os.open(tmp_path / LOCK_FILE, os.O_RDWR)  # another run, between its open and its flock
+    first.release()
+    assert not (tmp_path / LOCK_FILE).exists() and not _same_inode(opened_before, tmp_path / LOCK_FILE)
+    os.close(opened_before)
+    with OutputLock(tmp_path):
+        assert (tmp_path / LOCK_FILE).exists()
+        with pytest.raises(GeogaitError, match="being written by another geogait run"):
+            OutputLock(tmp_path)
+    with OutputLock(tmp_path):  # released: free again
+        pass
+
+
+def test_an_output_set_is_all_or_nothing(tmp_path):
+    write_text(tmp_path / "a.csv", "old a")
+    write_text(tmp_path / "summary.json", "old summary")
+    with pytest.raises(RuntimeError), output_set(tmp_path, last=("summary.json",)) as staged:
+        write_text(staged / "a.csv", "new a")
+        raise RuntimeError("the plot failed")
+    assert (tmp_path / "a.csv").read_text() == "old a" and sorted(os.listdir(tmp_path)) == ["a.csv", "summary.json"]
+    with output_set(tmp_path, last=("summary.json",)) as staged:
+        write_text(staged / "a.csv", "new a")
+        write_text(staged / "summary.json", "new summary")
+    assert (tmp_path / "a.csv").read_text() == "new a" and (tmp_path / "summary.json").read_text() == "new summary"
+    assert sorted(os.listdir(tmp_path)) == ["a.csv", "summary.json"]
+
+
+def test_an_output_set_removes_the_members_it_no_longer_holds(tmp_path):
+    for name in ("model.npz", "phaser.npz", "mine.txt"):
+        write_text(tmp_path / name, "old")
+    with output_set(tmp_path, members=("model.npz", "phaser.npz")) as staged:
+        write_text(staged / "model.npz", "new")
+    assert sorted(os.listdir(tmp_path)) == ["mine.txt", "model.npz"]  # no phaser of an earlier fit beside the model
+
+
+def test_a_repeated_key_is_found_at_any_depth_and_in_one_pass():
+    from geogait._files import RepeatedKey, unique_keys
+
+    hello = '{"type": "hello", "gait": {"order": 1, "params": [0, 1], "order": 2}}'
+    with pytest.raises(RepeatedKey) as repeated:
+        json.loads(hello, object_pairs_hook=unique_keys)
+    assert repeated.value.key == "order"
+    many = "{" + ", ".join(f'"k{i}": {i}' for i in range(100_000)) + ', "k0": 0}'  # (a search per key: minutes)
+    with pytest.raises(RepeatedKey, match="k0"):
+        json.loads(many, object_pairs_hook=unique_keys)
+    assert json.loads('{"a": {"a": 1}, "b": [{"a": 2}]}', object_pairs_hook=unique_keys) == {"a": {"a": 1},
+                                                                                             "b": [{"a": 2}]}

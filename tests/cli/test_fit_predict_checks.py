@@ -1,17 +1,20 @@
 """``geogait fit`` / ``geogait predict`` check the logs they read and the files they write (issue 11): implausible
 and garbage logs named by column and row, time units, predictions and summary in two files that are never an input,
-versions in the report."""
+versions in the report; an earlier run's files kept unless told to replace them (issue 21)."""
 
 import numpy as np
 import pandas as pd
 import pytest
-from _cli import one_error_line
+from _cli import invoke, one_error_line
 from _noisy_run import frame as frame
 from _noisy_run import run as run
-from _reference import BODY, CLI_COLUMNS, strict_json
+from _reference import BODY, CLI_COLUMNS, GAIT, strict_json
 from typer.testing import CliRunner
 
+from geogait._files import write_text
 from geogait.cli import app
+from geogait.simulate import simulate
+from geogait.systems import PurcellSwimmer
 
 
 @pytest.fixture(scope="module")
@@ -111,3 +114,31 @@ def test_predict_warns_when_the_log_is_in_another_time_unit(fitted, frame):
     result = CliRunner().invoke(app, [*base, "--time-unit", "ms", "--out", str(fitted / "ms_p.csv"), "--overwrite"])
     assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
     assert strict_json((fitted / "ms_p.json").read_text())["results"]["gamma"] > 0.5  # converted: a good fit
+
+
+def test_fit_predict_and_the_figures_keep_an_earlier_runs_files_unless_told_to_replace_them(tmp_path):
+    """Each is refused before any work, naming the file and --overwrite, and leaves the earlier files as they were."""
+    run = simulate(PurcellSwimmer(3), GAIT, 12, seed=0, samples_per_cycle=100)
+    pd.DataFrame({"time": run.time, "shape_0": run.shape[:, 0], "shape_1": run.shape[:, 1], "x": run.pose[:, 0],
+                  "y": run.pose[:, 1], "heading": run.pose[:, 2]}).to_csv(tmp_path / "log.csv", index=False)
+    fit = ["fit", str(tmp_path / "log.csv"), "--shape", "shape_0,shape_1", "--pose", "x,y,heading",
+           "--out", str(tmp_path / "fit")]
+    predict = ["predict", str(tmp_path / "fit" / "model.npz"), str(tmp_path / "log.csv"), "--phaser",
+               str(tmp_path / "fit" / "phaser.npz"), "--shape", "shape_0,shape_1", "--out", str(tmp_path / "p.csv")]
+    for command in (fit, predict):
+        assert invoke(*command).exit_code == 0
+    (tmp_path / "figures").mkdir()
+    for name in ("accuracy", "environments"):
+        (tmp_path / "figures" / f"{name}.csv").write_text("a full run's results")
+    write_text(tmp_path / "optimization.json", "{}")
+    write_text(tmp_path / "tracking.png", "")
+    saved = {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()}
+    figures = str(tmp_path / "figures")
+    for command, name in ((fit, "model.npz"), (predict, "p.csv"),
+                          (["figure", "accuracy", "--quick", "--out", figures], "accuracy.csv"),
+                          (["figure", "environments", "--quick", "--out", figures], "environments.csv"),
+                          (["figure", "optimization", "--quick", "--out", str(tmp_path)], "optimization.json"),
+                          (["figure", "tracking", "--quick", "--out", str(tmp_path)], "tracking.png")):
+        one_error_line(invoke(*command), f"{name} exists", "give --overwrite to replace it")
+    assert {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()} == saved
+    assert invoke(*predict, "--overwrite").exit_code == 0
