@@ -1,7 +1,7 @@
 """How geogait writes its outputs (``geogait._files``): atomically (the old file kept on failure, no temporary left,
 the stale ones of dead processes removed), keeping the mode and writing through links, into folders checked
 first, as strict JSON whose nulls say why (issue 11); sets of outputs replaced all or nothing, the lock on an
-output folder, JSON keys that appear twice (issue 21)."""
+output folder, JSON keys that appear twice (issue 21); whatever the value, strict JSON (fuzz, see tests/_fuzz.py)."""
 
 import json
 import os
@@ -10,12 +10,25 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _fuzz import FUZZ, WILD
 from _noisy_run import run as run
 from _reference import GAIT, strict_json
 from _reference import Sink as _Sink
+from _reference import strict_json as strict
+from hypothesis import given
+from hypothesis import strategies as st
 
 from geogait import GeogaitError
-from geogait._files import OutputLock, atomic_write, check_writable, json_ready, output_set, write_json, write_text
+from geogait._files import (
+    OutputLock,
+    atomic_write,
+    check_writable,
+    dumps_json,
+    json_ready,
+    output_set,
+    write_json,
+    write_text,
+)
 from geogait.cli._common import write_manifest
 from geogait.io._records import StreamOutput, _JsonLinesWriter
 from geogait.models import AdaptiveGaitModel, load_model
@@ -150,3 +163,16 @@ def test_a_repeated_key_is_found_at_any_depth_and_in_one_pass():
         json.loads(many, object_pairs_hook=unique_keys)
     assert json.loads('{"a": {"a": 1}, "b": [{"a": 2}]}', object_pairs_hook=unique_keys) == {"a": {"a": 1},
                                                                                              "b": [{"a": 2}]}
+
+
+JSON_VALUES = st.recursive(st.one_of(st.none(), st.booleans(), WILD, st.text(max_size=5)),
+                           lambda inner: st.one_of(st.lists(inner, max_size=3),
+                                                   st.dictionaries(st.text(max_size=4), inner, max_size=3)),
+                           max_leaves=12)
+
+
+@FUZZ
+@given(value=JSON_VALUES)
+def test_json_sanitiser_always_writes_strict_json(value):
+    strict(dumps_json(value))
+    strict(dumps_json({"x": value, "arr": np.array([1.0, np.nan])}))

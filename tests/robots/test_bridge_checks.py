@@ -1,5 +1,6 @@
 """The bridge checks a driver's measurements against each other and its hello against the machine's limits, and
-trusts a driver with nothing (issue 21): every field, line and cycle checked, long texts cut."""
+trusts a driver with nothing (issue 21): every field, line and cycle checked, long texts cut, and whatever fault a
+driver injects, a plausible cycle, a quarantined one or one clear error (fuzz)."""
 
 import json
 import sys
@@ -10,6 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _cli import invoke, one_error_line
+from _fuzz import FUZZ, WILD
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait
@@ -182,3 +186,48 @@ def test_the_reference_driver_is_plausible_through_a_whole_run():
             warnings.simplefilter("error")
             result = InSituOptimizer().run(robot, 20)
     assert robot.quarantined == [] and result.n_steps >= 2
+
+
+# -- fuzz (issue 21; see tests/_fuzz.py) ----------------------------------------------------------------------------
+FAULTS = ["none", "phase_stuck", "time_scale", "pose_jump", "frozen_joints", "ignore_set_gait", "string_numbers",
+          "bool_numbers", "bad_utf8", "endless_line", "huge_error", "huge_stderr", "deep_json"]
+
+
+HELLOS = st.one_of(st.just({}), st.fixed_dictionaries({}, optional={
+    "version": st.sampled_from([1.0, True, "1", 2, None]),
+    "cycle_period": st.one_of(WILD, st.sampled_from(["1", True, None])),
+    "n_joints": st.sampled_from([2.0, "2", True, 0, 3, -1]),
+    "protocol": st.sampled_from(["geogait-robot ", None, 1])}))
+
+
+@settings(FUZZ, max_examples=16)
+@given(fault=st.sampled_from(FAULTS), cycle=st.integers(0, 3), cycles=st.sampled_from([1, 9]),
+       magnitude=st.sampled_from([10.0, 1000.0, 1e6]), hello=HELLOS)
+@pytest.mark.slow
+def test_bridge_takes_a_plausible_cycle_or_quarantines_or_stops_in_one_line(fault, cycle, cycles, magnitude, hello):
+    """A fault-injecting driver (tests/_fault_driver.py): every injected fault is quarantined or ends the run with a
+    clear, bounded error; nothing else escapes, nothing hangs."""
+    import sys
+    import time
+    import warnings
+    from pathlib import Path
+
+    from geogait.optimize import InSituOptimizer
+    from geogait.robots import ProcessRobot
+
+    driver = [sys.executable, str(Path(__file__).parents[1] / "_fault_driver.py"),
+              json.dumps({"fault": fault, "cycle": cycle, "cycles": cycles, "magnitude": magnitude, "hello": hello})]
+    started = time.perf_counter()
+    robot = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with ProcessRobot(driver, timeout=20) as robot:
+                InSituOptimizer().run(robot, 5)
+    except GeogaitError as error:
+        assert str(error).startswith("robot driver '") and len(str(error)) < 1200, error
+    else:
+        injected = fault != "none" and (fault == "ignore_set_gait" or cycle < 5)
+        if injected and fault not in ("ignore_set_gait", "time_scale") and not hello:
+            assert robot.quarantined, (fault, cycle)  # an injected fault is never learned from silently
+    assert time.perf_counter() - started < 40
