@@ -1,7 +1,7 @@
 """What many test files share: the reference swimmer and gait, model arguments from a run, stream
-records, a motion-capture-style log of a run and the "no null without a reason" check of JSON
-outputs (one copy each; the runs themselves stay per file, where their seeds and lengths are part of
-what a test checks)."""
+records, a motion-capture-style log of a run, the column names of a run's table, a sink for stream
+outputs and the strict-JSON and "no null without a reason" checks of JSON outputs (one copy each; the
+runs themselves stay per file, where their seeds and lengths are part of what a test checks)."""
 
 import json
 
@@ -16,6 +16,13 @@ from geogait.systems import PurcellSwimmer
 SWIMMER, GAIT = PurcellSwimmer(3), seed_gait(2)
 #: read_log column arguments of :func:`mocap_log`'s table.
 MOCAP_COLUMNS = dict(time="t", shape=["q0", "q1"], pose=["x", "y", "yaw"])
+#: The body velocity columns of a run's table (:meth:`~geogait.simulate.Trajectory.to_pandas`).
+BODY = ["body_velocity_x", "body_velocity_y", "body_velocity_theta"]
+#: read_log column arguments of a 3-link run's table, and the ``geogait fit`` / ``predict`` options that name them.
+COLUMNS = dict(shape=["shape_0", "shape_1"], body_velocity=BODY, phase="phase",
+               shape_velocity=["shape_velocity_0", "shape_velocity_1"])
+CLI_COLUMNS = ["--shape", "shape_0,shape_1", "--body-velocity", ",".join(BODY), "--phase", "phase",
+               "--shape-velocity", "shape_velocity_0,shape_velocity_1"]
 
 
 def fit_args(run, stop=None):
@@ -52,12 +59,32 @@ def mocap_log(run, *, position=0.0, heading=0.0, encoder=0.0, seed=1) -> pd.Data
                          "yaw": yaw})
 
 
-def nulls_without_reason(value) -> list:
-    """Keys of ``value`` (nested dicts and lists of JSON) that are null without a ``{key}_null_reason``
-    beside them: every null of a tracking output says why."""
+def strict_json(text: str):
+    """json.loads that refuses NaN / Infinity tokens."""
+    def refuse(token):
+        raise AssertionError(f"non-standard JSON token {token}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def nulls_without_reason(value, where="") -> list[str]:
+    """Where ``value`` (nested dicts and lists of JSON) holds a null without a ``{key}_null_reason``
+    beside it, as paths (``.results.drag_change.cycles_to_recover``): every null of an output says why."""
     if isinstance(value, list):
-        return [n for v in value for n in nulls_without_reason(v)]
+        return [n for i, v in enumerate(value) for n in nulls_without_reason(v, f"{where}[{i}]")]
     if not isinstance(value, dict):
         return []
-    return [k for k, v in value.items() if v is None and f"{k}_null_reason" not in value] + \
-        [n for v in value.values() for n in nulls_without_reason(v)]
+    missing = [f"{where}.{k}" for k, v in value.items() if v is None and f"{k}_null_reason" not in value]
+    return missing + [n for k, v in value.items() for n in nulls_without_reason(v, f"{where}.{k}")]
+
+
+class Sink:
+    """A text sink that remembers what was written (the output of :func:`~geogait.learn.run_stream`)."""
+
+    def __init__(self):
+        self.text = ""
+
+    def write(self, text):
+        self.text += text
+
+    def flush(self):
+        pass

@@ -59,3 +59,14 @@ def test_body_velocity_axes_carry_units(unit, per):
                                              rf"$\omega$ (rad/{per})"]
     assert axes[-1].get_xlabel().startswith("time (s)" if unit == "s" else "time (the log’s unit)")
     plt.close(fig)
+
+
+def test_every_gait_given_to_the_shape_space_plot_is_drawn_with_its_start():
+    """A 5th gait was dropped from the figure, and only the first gait's start was marked."""
+    from geogait.plotting import plot_shape_space
+
+    fig, ax = plt.subplots()
+    plot_shape_space(ax, None, {f"gait {k}": seed_gait(2, amplitude=0.2 * (k + 1)) for k in range(5)})
+    assert ax.get_legend_handles_labels()[1] == [f"gait {k}" for k in range(5)]
+    assert sum(line.get_marker() == "o" for line in ax.lines) == 5
+    plt.close(fig)

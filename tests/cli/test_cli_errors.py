@@ -1,10 +1,16 @@
-"""Every bad option value ends in one line in the CLI's words: ``error: --option must be …; got ….``"""
+"""Every bad option value ends in one line in the CLI's words: ``error: --option must be …; got ….``; so do OS
+errors, and options are refused before anything runs or is written (issue 11)."""
 
 import pytest
+from _cli import one_error_line
+from _noisy_run import frame as frame
+from _noisy_run import run as run
+from _reference import CLI_COLUMNS
 from typer.testing import CliRunner
 
 from geogait.cli import app
 from geogait.cli._app import in_cli_words
+from geogait.cli._common import comma_list
 
 
 @pytest.mark.parametrize(("args", "line"), [
@@ -46,3 +52,85 @@ def test_a_library_message_about_no_option_stays_as_it_is():
         "--shape must be a CSV or Parquet file; got 'x.txt'.")
     assert in_cli_words("The '--jobs' option and '--scheduler' option spread trials.", {}) == (
         "--jobs and --scheduler spread trials.")
+
+
+# -- issue 11: OS errors, unreadable values, options refused before anything runs --------------------------
+def test_every_command_reports_os_errors_in_one_line(tmp_path, frame):
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("x")
+    frame.to_csv(tmp_path / "log.csv", index=False)
+    runner = CliRunner()
+    one_error_line(runner.invoke(app, ["simulate", "--cycles", "2", "--out", str(a_file)]),
+                   f"The output folder {a_file} is a file")
+    one_error_line(runner.invoke(app, ["fit", str(tmp_path / "log.csv"), *CLI_COLUMNS, "--out", str(a_file)]),
+                   "is a file")
+    one_error_line(runner.invoke(app, ["figure", "accuracy", "--quick", "--out", str(a_file)]), "is a file")
+    one_error_line(runner.invoke(app, ["optimize", "--cycles", "1", "--out", str(a_file / "x")]))
+
+
+def test_bad_option_values_give_one_error_line(tmp_path):
+    runner = CliRunner()
+    one_error_line(runner.invoke(app, ["simulate", "--cycles", "0", "--out", str(tmp_path)]),
+                   "--cycles must be")
+    one_error_line(runner.invoke(app, ["simulate", "--noise", "abc", "--out", str(tmp_path)]),
+                   "--noise must be")
+    one_error_line(runner.invoke(app, ["simulate", "--drag-ratio", "2,nan", "--out", str(tmp_path)]),
+                   "--drag-ratio", "finite")
+    one_error_line(runner.invoke(app, ["figure", "environments", "--quick", "--drag-ratios", "2,", "--out",
+                                       str(tmp_path)]), "--drag-ratios", "comma-separated numbers")
+    one_error_line(runner.invoke(app, ["figure", "accuracy", "--from-csv", str(tmp_path / "nope.csv"), "--out",
+                                       str(tmp_path)]), "does not exist")
+    one_error_line(runner.invoke(app, ["nonsense"]), "No such command 'nonsense'")
+
+
+def test_comma_list_parses_and_rejects():
+    assert comma_list("2, 3,4", "--x") == (2.0, 3.0, 4.0) and comma_list(None, "--x") is None
+    assert comma_list("3,5", "--links", int) == (3, 5) and comma_list("a, b", "--shape", str) == ("a", "b")
+    for text, kind in (("2,x", float), ("3.5", int), ("a,,b", str), ("inf", float)):
+        with pytest.raises(Exception, match="expected"):
+            comma_list(text, "--option", kind)
+
+
+@pytest.mark.parametrize(("arguments", "fragments"), [
+    (["optimize", "--method", "adaptive", "--forgetting-factor", "1.5"], ["--forgetting-factor", "(0, 1]"]),
+    (["optimize", "--forgetting-factor", "0.95"], ["--forgetting-factor applies to --method adaptive or shape"]),
+    (["optimize", "--method", "batch", "--forgetting-factor", "0.95"], ["--method batch does not use it"]),
+    (["optimize", "--noise", "inf"], ["--noise", "finite number ≥ 0"]),
+    (["optimize", "--noise", "200"], ["--noise", "[0, 100]"]),
+    (["optimize", "--perturbation", "1e308"], ["--perturbation", "[0, 2π]"]),
+    (["optimize", "--robot", "python -m geogait.robots.driver", "--model-class-cycles", "3"],
+     ["--model-class-cycles", "no message that changes a driver's period"]),
+    (["track", "--quick", "--cycles", "-3"], ["--cycles", "1..1000000"]),
+    (["track", "--quick", "--warmup", "0"], ["--warmup"]),
+    (["track", "--quick", "--offset", "nan"], ["--offset", "finite"]),
+    (["track", "--quick", "--links", "2"], ["--links", ">= 3"]),
+    (["track", "--quick", "--noise", "inf"], ["--noise"]),
+    (["track", "--quick", "--seed", "-1"], ["--seed"]),
+    (["simulate", "--links", "2"], ["--links"]),
+    (["figure", "optimization", "--quick", "--links", "2"], ["--links", ">= 3"]),
+    (["figure", "accuracy", "--quick", "--links", "1"], ["--links", ">= 2"]),
+    (["figure", "environments", "--quick", "--forgetting-factors", "2"], ["--forgetting-factors", "(0, 1]"]),
+    (["figure", "tracking", "--quick", "--links", "2"], ["--links", ">= 3"]),
+    (["figure", "tracking", "--quick", "--exploration-low", "-1"], ["--exploration-low"]),
+    (["figure", "tracking", "--quick", "--cycles", "1"], ["--cycles", ">= 2"]),
+    (["simulate", "--amplitude", "nan"], ["--amplitude", "finite number ≥ 0 and ≤ 6.28319", "got nan"]),
+    (["simulate", "--noise=-inf"], ["--noise", "finite number ≥ 0 and ≤ 100"]),
+    (["optimize", "--noise", "NaN"], ["--noise", "finite number ≥ 0"]),
+    (["fit", "no-such-log.csv"], ["LOG argument", "'no-such-log.csv' (does not exist)"]),
+    (["fit", "no-such-log.csv", "--smoothing-window", "2"], ["--smoothing-window", "odd number of samples >= 3"]),
+    (["optimize", "--robot-timeout", "5"], ["--robot-timeout", "built-in swimmer has none"]),
+    (["optimize", "--robot", "python -m geogait.robots.driver", "--links", "5", "--period", "2"],
+     ["--links, --period set up the built-in swimmer"]),
+    (["optimize", "--links", "2"], ["--links must be ≥ 3; got 2."]),
+    (["optimize", "--max-joint-angle", "3.5"], ["--max-joint-angle", "[1, π]"]),
+    (["optimize", "--robot", "python -m geogait.robots.driver", "--robot-timeout", "-1"], ["--robot-timeout", "> 0"]),
+    (["track", "--quick", "--step", "0.05"], ["--step", "robot"]),
+])
+def test_bad_options_are_refused_before_anything_runs_or_is_written(tmp_path, arguments, fragments):
+    """Each of these was once refused only after the run had started (a progress line, then the error, and a
+    run.json or lock left in --out that blocked the corrected command), or failed deep inside with another
+    field's name: now one line, naming the option, and --out untouched."""
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, [*arguments, "--out", str(out)])
+    one_error_line(result, *fragments)
+    assert not out.exists() or not any(out.iterdir())

@@ -1,10 +1,14 @@
-"""The help of ``geogait``: fast to show (no numerical module imported for it)."""
+"""The help of ``geogait``: fast to show (no numerical module imported for it), its defaults shown whole."""
 
 import json
+import re
 import subprocess
 import sys
 
 import pytest
+from typer.testing import CliRunner
+
+from geogait.cli import app
 
 #: Modules that take seconds to import and that no help text needs.
 HEAVY = ("matplotlib.pyplot", "scipy.signal", "scipy.stats", "pandas", "geogait.optimize", "geogait.experiments")
@@ -63,3 +67,13 @@ def test_every_option_is_in_a_group(command):
         group = group.commands[name]
     options = [p for p in group.params if p.param_type_name == "option" and p.name != "help"]
     assert options and [p.name for p in options if p.rich_help_panel is None] == []
+
+
+@pytest.mark.parametrize("command", [["simulate"], ["fit"], ["predict"], ["stream"], ["optimize"],
+                                     ["figure", "accuracy"], ["figure", "environments"], ["figure", "optimization"]])
+def test_help_shows_defaults_without_stray_periods(command):
+    result = CliRunner().invoke(app, [*command, "--help"], env={"COLUMNS": "200"})
+    assert result.exit_code == 0
+    assert not re.search(r" \.(\s|$)", result.stdout), result.stdout  # rich ate a "[default: …]"
+    if command[0] == "figure" and command[1] != "optimization":
+        assert "[default: 3]" in result.stdout and "geogait[dask]" in result.stdout

@@ -1,12 +1,15 @@
 """Issue 23: ``geogait track --trials``, paths of the user's own (closed CSVs, errors naming file and
-row), per-trial statistics and drag-change windows, and the tracking figures' styles."""
+row), per-trial statistics and drag-change windows, and the tracking figures' styles; issue 21: a failed run leaves
+the earlier one whole, --out is checked before the run, a run that ends before its budget says so."""
 
 import json
+import time
 from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
+from _cli import invoke, one_error_line, snapshot
 from _reference import nulls_without_reason
 from matplotlib.colors import to_rgba
 from typer.testing import CliRunner
@@ -274,3 +277,45 @@ def test_figure_tracking_follows_a_csv_path(tmp_path):
     assert both.exit_code == 1 and "'--drag-path'" in both.stderr
     negative = _run("figure", "tracking", "--quick", "--warmup-turns", "-1", "--out", tmp_path / "negative")
     assert negative.exit_code == 1 and "--warmup-turns must be an int >= 0" in negative.stderr
+
+
+# -- an earlier run kept whole, --out checked first, a run that ends early (issue 21) ---------------------------
+def test_a_failing_track_run_leaves_the_earlier_run_whole(tmp_path, monkeypatch):
+    folder = tmp_path / "t"
+    options = ["track", "--quick", "--cycles", "2", "--warmup", "2", "--controllers", "adaptive", "--path", "line"]
+    assert invoke(*options, "--out", folder).exit_code == 0
+    before = snapshot(folder)
+    one_error_line(invoke(*options, "--seed", "2", "--out", folder), "not empty")  # checked before the run
+    from geogait.experiments import track
+
+    def broken(*args, **kwargs):
+        raise OSError(28, "No space left on device", "path.png")
+
+    monkeypatch.setattr(track, "_plot_paths", broken)
+    one_error_line(invoke(*options, "--seed", "2", "--overwrite", "--out", folder), "No space left on device")
+    assert snapshot(folder) == before
+    assert [p.name for p in folder.iterdir() if p.name.startswith(".geogait-staging")] == []
+
+
+def test_track_checks_its_output_folder_before_running(tmp_path):
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    started = time.perf_counter()
+    one_error_line(invoke("track", "--out", a_file), "is a file")
+    assert time.perf_counter() - started < 5  # refused before the (minutes long) default run
+
+
+def test_a_track_run_that_ends_before_the_budget_says_so(tmp_path):
+    waypoints = tmp_path / "short.csv"
+    waypoints.write_text("x,y\n0,0\n0.1,0\n")  # ends after about a cycle
+    out = tmp_path / "t"
+    result = invoke("track", "--quick", "--cycles", "8", "--change-cycle", "6", "--drag-ratio", "2,4", "--path",
+                    waypoints, "--controllers", "adaptive,frozen", "--out", out)
+    assert result.exit_code == 0, result.output
+    assert "warning: the adaptive controller reached the end of the path" in result.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["results"]["adaptive"]["stopped_early"] is True
+    change = summary["results"]["drag_change"]
+    assert change["change_reached"] is False and change["cycles_to_recover"] is None  # not 0
+    assert "before the change" in change["cycles_to_recover_null_reason"]
+    assert nulls_without_reason(summary) == []

@@ -1,7 +1,11 @@
-"""Steering gaits, reference paths and the path-following controller against independent facts."""
+"""Steering gaits, reference paths and the path-following controller against independent facts; paths and their
+plots bounded (issue 21)."""
+
+import time
 
 import numpy as np
 import pytest
+from _cli import invoke, one_error_line
 from _robots import BareRobot
 from sklearn.base import clone
 
@@ -18,9 +22,11 @@ from geogait.control import (
     solve_steering_gait,
     steering_family,
 )
+from geogait.experiments.tracking import plot_reference
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.models import AdaptiveGaitModel
 from geogait.optimize import cached_ceiling
+from geogait.plotting import plt
 from geogait.simulate import DragRatioSchedule, SwimmerStream, cycle_displacement, simulate
 from geogait.systems import PurcellSwimmer
 
@@ -436,3 +442,18 @@ def test_reference_paths_refuse_what_they_would_carry_as_inf_or_nan():
         with pytest.raises(GeogaitError, match=match):
             make()
     np.testing.assert_allclose(ReferencePath.line(5).point([1.0, 7.0]), [[1.0, 0.0], [5.0, 0.0]])
+
+
+def test_paths_and_plots_are_bounded(tmp_path):
+    far = ReferencePath.waypoints([[0, 0], [1e6, 0]])
+    fig, ax = plt.subplots()
+    started = time.perf_counter()
+    plot_reference(ax, far, np.array([[0.0, 0.0], [0.5, 0.1]]))
+    plt.close(fig)
+    assert time.perf_counter() - started < 5
+    assert ReferencePath.circle(1e6).points.shape[0] <= 200_000
+    with pytest.raises(GeogaitError, match="'radius' parameter"):
+        ReferencePath.circle(1e9)
+    with pytest.raises(GeogaitError, match="'points' parameter"):
+        ReferencePath.waypoints([[0, 0], [1e13, 0]])
+    one_error_line(invoke("track", "--scale", "1e9", "--out", tmp_path / "x"), "--scale")

@@ -335,3 +335,11 @@ def test_a_tracking_csv_read_back_gives_the_same_summary_whatever_the_change_cyc
     again = TrackingResult.from_csv(tmp_path / "t.csv")
     assert again.config is None and drag_change_cycle(again.frame) == 4
     assert json.dumps(again.summary(), default=str) == json.dumps(result.summary(), default=str)
+
+
+def test_drag_change_metrics_give_every_null_a_reason():
+    frame = pd.DataFrame({"controller": ["adaptive"] * 12, "trial": 0, "cycle": np.arange(12),
+                          "cross_track": [0.1] * 6 + [1.0] * 6})
+    metrics = drag_change_metrics(frame, 6)
+    assert metrics["change_reached"] and metrics["cycles_to_recover"] is None
+    assert nulls_without_reason(metrics) == []

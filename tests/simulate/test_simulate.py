@@ -239,3 +239,38 @@ def test_simulate_names_a_bad_argument_as_its_own():
     with pytest.raises(GeogaitError, match=r"'drag_ratios' parameter of DragRatioSchedule must be a non-empty"):
         DragRatioSchedule(swimmer, 2.0, 10)
     assert DragRatioSchedule(swimmer, np.array([2.0, 3.0]), 10).drag_ratios == (2.0, 3.0)
+
+
+@pytest.mark.parametrize(("options", "match"), [
+    (dict(seed=-1), "'seed'.*>= 0"),
+    (dict(sensor_noise=1e300), "'sensor_noise'"),
+    (dict(shape_noise=-0.1), "'shape_noise'"),
+    (dict(samples_per_cycle=10**7), "'samples_per_cycle'"),
+])
+def test_swimmer_stream_bounds(options, match):
+    from geogait.gaits import seed_gait as _seed_gait
+    from geogait.simulate import SwimmerStream as _Stream
+    from geogait.systems import PurcellSwimmer as _Swimmer
+
+    with pytest.raises(ValueError, match=match):
+        _Stream(_Swimmer(3), _seed_gait(2), **options)
+
+
+def test_trajectory_files_are_written_atomically_and_empty_joins_refused(tmp_path):
+    from geogait.gaits import seed_gait as _seed_gait
+    from geogait.simulate import Trajectory as _Trajectory
+    from geogait.simulate import simulate as _simulate
+    from geogait.systems import PurcellSwimmer as _Swimmer
+
+    run = _simulate(_Swimmer(3), _seed_gait(2), 2, seed=0)
+    link = tmp_path / "link.csv"
+    target = tmp_path / "target.csv"
+    target.write_text("old")
+    link.symlink_to(target)
+    run.to_csv(link)
+    assert link.is_symlink() and len(pd.read_csv(target)) == run.n_samples
+    run.to_parquet(tmp_path / "run.parquet")
+    assert _Trajectory.from_pandas(pd.read_parquet(tmp_path / "run.parquet")).n_samples == run.n_samples
+    assert not list(tmp_path.glob(".*tmp*"))
+    with pytest.raises(ValueError, match="'parts'"):
+        _Trajectory.concatenate([])
