@@ -1,12 +1,13 @@
 """Robots for tests: a simulator seen only through the Robot protocol, and robots with physics outside the built-in
-swimmer's (actuators that lag, a body that coasts), written here independently of the package's robots."""
+swimmer's (actuators that lag or saturate, a body that coasts, poses that mislead the model), written here
+independently of the package's robots; and the perturbed, noisy swimmer the optimiser's tests run on."""
 
 import dataclasses
 
 import numpy as np
 
 from geogait import se2
-from geogait.gaits import FourierGait, seed_gait
+from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.simulate import SwimmerStream, Trajectory
 from geogait.systems import PurcellSwimmer
 
@@ -137,3 +138,82 @@ class CoastingSwimmer:
         poses = se2.integrate_body_velocity(lagged, dt, self.pose)
         self.pose = poses[-1]
         return dataclasses.replace(cycle, body_velocity=lagged, pose=poses[:-1])
+
+
+class SaturatingRobot:
+    """A kinematic 3-link swimmer whose joints cannot follow commands beyond ``limit`` (rad).
+
+    The realised shape is limit · tanh(commanded / limit): an actuator that saturates smoothly.
+    Written here, independently of SwimmerStream: it offers only the Robot protocol.
+    """
+
+    def __init__(self, limit=1.1, samples_per_cycle=100, cycle_period=1.5, seed=0):
+        self.system, self.limit = PurcellSwimmer(3), limit
+        self.n_joints, self.cycle_period, self.samples = 2, cycle_period, samples_per_cycle
+        self._gait, self.pose, self.cycle = seed_gait(2), np.zeros(3), 0
+        self.rng = np.random.default_rng(seed)
+
+    @property
+    def gait(self):
+        return self._gait
+
+    def set_gait(self, gait):
+        self._gait = gait
+
+    def next_cycle(self):
+        n, rate = self.samples, 2 * np.pi / self.cycle_period
+        phase = 2 * np.pi * np.arange(n) / n
+        offset = self.rng.uniform(0, 2 * np.pi, 2)
+        wobble = 0.1 * np.sin(np.outer(phase, [3, 5]) + offset)  # exploration
+        commanded = self._gait.shape(phase) + wobble
+        wobble_rate = 0.1 * np.array([3, 5]) * np.cos(np.outer(phase, [3, 5]) + offset)
+        commanded_rate = (self._gait.velocity(phase) + wobble_rate) * rate
+        shape = self.limit * np.tanh(commanded / self.limit)
+        shape_velocity = commanded_rate / np.cosh(commanded / self.limit) ** 2
+        body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
+        dt = self.cycle_period / n
+        poses = se2.integrate_body_velocity(body_velocity, dt, self.pose)
+        self.pose = poses[-1]
+        time = (self.cycle + np.arange(n) / n) * self.cycle_period
+        self.cycle += 1
+        return Trajectory(time=time, phase=phase, cycle=np.full(n, self.cycle - 1), shape=shape,
+                          shape_velocity=shape_velocity, body_velocity=body_velocity, pose=poses[:-1],
+                          commanded_shape=commanded)
+
+
+class WrappedStream:
+    """A robot that is the stream it wraps in every member a subclass does not override: its truth and state too."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+    gait = property(lambda self: self.stream.gait)
+
+
+class MisleadingPoses(WrappedStream):
+    """A swimmer whose measured poses shrink the further the gait moves from the seed, while the
+    body velocities the model learns from stay the swimmer's: the model is right about each gait's ξ
+    and wrong about where progress lies (a model error only measured outcomes reveal)."""
+
+    def __init__(self, stream, seed):
+        super().__init__(stream)
+        self.seed = seed
+
+    def next_cycle(self):
+        gait = self.stream.gait
+        cycle = self.stream.next_cycle()
+        factor = np.exp(-25 * np.sum((gait.params - self.seed.params) ** 2))
+        pose = cycle.pose.copy()
+        pose[:, :2] = pose[0, :2] + factor * (pose[:, :2] - pose[0, :2])
+        body_velocity = cycle.body_velocity.copy()
+        body_velocity[-1, :2] *= factor  # the last sample's motion closes the cycle in measure_cycle
+        return dataclasses.replace(cycle, pose=pose, body_velocity=body_velocity)
+
+
+def perturbed_stream(seed=0, **options):
+    """The built-in 3-link swimmer with perturbations (std 0.15) and sensor noise (0.1)."""
+    return SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.15),
+                         sensor_noise=0.1, seed=seed, **options)

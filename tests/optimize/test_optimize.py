@@ -1,10 +1,9 @@
 """Gait optimisation: the ceiling against brute force, the in-situ loop's guarantees."""
 
-import dataclasses
-
 import numpy as np
 import pandas as pd
 import pytest
+from _robots import MisleadingPoses as _MisleadingPoses
 
 from geogait import se2
 from geogait._validation import GeogaitError
@@ -320,35 +319,6 @@ def test_shape_scale_makes_the_defaults_work_in_any_shape_unit():
     assert radians > 0.3
     assert in_units > 0.8 * radians
     assert unscaled < 0.5 * in_units
-
-
-class _MisleadingPoses:
-    """A swimmer whose measured poses shrink the further the gait moves from the seed, while the
-    body velocities the model learns from stay the swimmer's: the model is right about each gait's ξ
-    and wrong about where progress lies (a model error only measured outcomes reveal)."""
-
-    def __init__(self, stream, seed):
-        self.stream, self.seed = stream, seed
-
-    def __getattr__(self, name):
-        return getattr(self.stream, name)
-
-    @property
-    def gait(self):
-        return self.stream.gait
-
-    def set_gait(self, gait):
-        self.stream.set_gait(gait)
-
-    def next_cycle(self):
-        gait = self.stream.gait
-        cycle = self.stream.next_cycle()
-        factor = np.exp(-25 * np.sum((gait.params - self.seed.params) ** 2))
-        pose = cycle.pose.copy()
-        pose[:, :2] = pose[0, :2] + factor * (pose[:, :2] - pose[0, :2])
-        body_velocity = cycle.body_velocity.copy()
-        body_velocity[-1, :2] *= factor  # the last sample's motion closes the cycle in measure_cycle
-        return dataclasses.replace(cycle, pose=pose, body_velocity=body_velocity)
 
 
 def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhill():

@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
-from _robots import BareRobot, LaggingRobot
+from _robots import BareRobot, LaggingRobot, SaturatingRobot
+from _robots import perturbed_stream as _stream
 
-from geogait import se2
 from geogait.gaits import Perturbation, seed_gait
 from geogait.models import BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import (
@@ -25,54 +25,8 @@ from geogait.optimize import (
 )
 from geogait.optimize._climb import MeasuredClimb
 from geogait.robots import Robot
-from geogait.simulate import SwimmerStream, Trajectory, cycle_displacement
+from geogait.simulate import SwimmerStream, cycle_displacement
 from geogait.systems import PurcellSwimmer
-
-
-class SaturatingRobot:
-    """A kinematic 3-link swimmer whose joints cannot follow commands beyond ``limit`` (rad).
-
-    The realised shape is limit · tanh(commanded / limit): an actuator that saturates smoothly.
-    Written here, independently of SwimmerStream: it offers only the Robot protocol.
-    """
-
-    def __init__(self, limit=1.1, samples_per_cycle=100, cycle_period=1.5, seed=0):
-        self.system, self.limit = PurcellSwimmer(3), limit
-        self.n_joints, self.cycle_period, self.samples = 2, cycle_period, samples_per_cycle
-        self._gait, self.pose, self.cycle = seed_gait(2), np.zeros(3), 0
-        self.rng = np.random.default_rng(seed)
-
-    @property
-    def gait(self):
-        return self._gait
-
-    def set_gait(self, gait):
-        self._gait = gait
-
-    def next_cycle(self):
-        n, rate = self.samples, 2 * np.pi / self.cycle_period
-        phase = 2 * np.pi * np.arange(n) / n
-        offset = self.rng.uniform(0, 2 * np.pi, 2)
-        wobble = 0.1 * np.sin(np.outer(phase, [3, 5]) + offset)  # exploration
-        commanded = self._gait.shape(phase) + wobble
-        wobble_rate = 0.1 * np.array([3, 5]) * np.cos(np.outer(phase, [3, 5]) + offset)
-        commanded_rate = (self._gait.velocity(phase) + wobble_rate) * rate
-        shape = self.limit * np.tanh(commanded / self.limit)
-        shape_velocity = commanded_rate / np.cosh(commanded / self.limit) ** 2
-        body_velocity = -np.einsum("nij,nj->ni", self.system.connection(shape), shape_velocity)
-        dt = self.cycle_period / n
-        poses = se2.integrate_body_velocity(body_velocity, dt, self.pose)
-        self.pose = poses[-1]
-        time = (self.cycle + np.arange(n) / n) * self.cycle_period
-        self.cycle += 1
-        return Trajectory(time=time, phase=phase, cycle=np.full(n, self.cycle - 1), shape=shape,
-                          shape_velocity=shape_velocity, body_velocity=body_velocity, pose=poses[:-1],
-                          commanded_shape=commanded)
-
-
-def _stream(seed=0, **options):
-    return SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.15),
-                         sensor_noise=0.1, seed=seed, **options)
 
 
 def test_robots_implement_the_protocol():
