@@ -6,7 +6,7 @@ import pytest
 from _robots import MisleadingPoses as _MisleadingPoses
 
 from geogait._validation import GeogaitError
-from geogait.gaits import FourierGait, Perturbation, seed_gait
+from geogait.gaits import FourierGait, seed_gait
 from geogait.models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
 from geogait.optimize import (
     Climb,
@@ -17,20 +17,9 @@ from geogait.optimize import (
     ModelStep,
     Objective,
     Safety,
-    joint_limit_constraints,
 )
 from geogait.simulate import SwimmerStream, cycle_displacement
-from geogait.systems import FunctionSystem, PurcellSwimmer
-
-
-@pytest.mark.parametrize("order", [1, 2, 3])
-def test_joint_limit_constraints_imply_the_continuous_limit(rng, order):
-    matrix, bound = joint_limit_constraints(2, order, 1.2)
-    for _ in range(200):
-        params = rng.normal(size=2 * (2 * order + 1))
-        scale = (matrix @ params / bound).max()
-        params = params / scale  # now on the boundary of the grid constraints
-        assert FourierGait.from_params(params, 2).joint_limit().max() <= 1.2 + 1e-9
+from geogait.systems import PurcellSwimmer
 
 
 @pytest.fixture(scope="module")
@@ -83,16 +72,6 @@ def test_free_family_default_model_is_the_window_model_recentred_on_the_last_gai
     assert result.n_steps >= 1 and result.model.gait_ == result.final_gait  # re-centred on the last gait
 
 
-@pytest.mark.parametrize("r_max", [1.05, 1.3])
-def test_joint_limits_are_never_violated(r_max):
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),
-                           sensor_noise=0.05, seed=3)
-    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), limits=Limits(max_joint_angle=r_max)).run(stream, 12)
-    assert result.n_steps >= 2
-    for gait in result.gaits:
-        assert gait.joint_limit().max() <= r_max + 1e-9
-
-
 def test_batch_baseline_steps_every_cycles_per_iteration():
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=1)
     result = InSituOptimizer(model=BatchGaitModel(), gate=Gate(cycles=5), climb=Climb(start="stalled")).run(stream, 20)
@@ -107,17 +86,6 @@ def test_a_higher_order_family_starts_from_the_embedded_seed():
     assert result.initial_gait.order == 2
     phase = np.linspace(0, 6, 7)
     np.testing.assert_allclose(result.initial_gait.shape(phase), seed_gait(2).shape(phase))
-
-
-def test_limits_below_the_seed_gait_are_refused_naming_the_limit():
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)
-    with pytest.raises(GeogaitError, match=r"'max_joint_angle' parameter .* at least the largest joint angle of the "
-                                           r"robot's seed gait \(1 rad\).* Got 0.5"):
-        InSituOptimizer(limits=Limits(max_joint_angle=0.5)).run(stream, 2)
-    with pytest.raises(GeogaitError, match=r"'max_joint_velocity' parameter .* at least the peak joint speed of the "
-                                           r"robot's seed gait \(6.283 rad/s\).* Got 3"):
-        InSituOptimizer(limits=Limits(max_joint_velocity=3.0)).run(stream, 2)
-    assert stream.gait == seed_gait(2)
 
 
 def test_a_seed_of_higher_order_than_the_family_is_refused_and_the_robot_left_as_it_was():
@@ -163,71 +131,6 @@ def test_bad_optimizer_parameters(params, match):
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)
     with pytest.raises(ValueError, match=match):
         InSituOptimizer(**params).run(stream, 2)
-
-
-def test_seed_outside_joint_limits_is_rejected():
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2, amplitude=1.5), seed=0)
-    with pytest.raises(ValueError, match="max_joint_angle"):
-        InSituOptimizer(limits=Limits(max_joint_angle=1.0)).run(stream, 2)
-
-
-class _DeclaredRanges:
-    """A built-in swimmer stream that declares joint ranges, as MujocoRobot does from its model."""
-
-    def __init__(self, stream, joint_ranges):
-        self.stream, self.joint_ranges = stream, joint_ranges
-
-    def __getattr__(self, name):
-        return getattr(self.stream, name)
-
-    @property
-    def gait(self):
-        return self.stream.gait
-
-
-def test_joint_limit_auto_comes_from_the_robots_declared_ranges():
-    ranges = np.array([[-1.2, 1.5], [-1.3, 1.1]])
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=4)
-    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free").run(_DeclaredRanges(stream, ranges), 12)
-    assert result.max_joint_angle == pytest.approx(1.1)  # the tightest side of any joint
-    assert result.n_steps >= 2 and all(g.joint_limit().max() <= 1.1 + 1e-9 for g in result.gaits)
-    assert result.summary()["max_joint_angle"] == pytest.approx(1.1)
-    plain = InSituOptimizer(family="free").run(SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=4), 2)
-    assert plain.max_joint_angle == pytest.approx(2 * np.pi / 3)  # nothing declared: the design's default
-    for bad in ([[-1.0, 1.0]], [[0.2, 1.0], [-1.0, 1.0]], "wide"):
-        with pytest.raises(GeogaitError, match="robot.joint_ranges"):
-            InSituOptimizer().run(_DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2)), bad), 1)
-    with pytest.raises(GeogaitError, match="max_joint_angle"):
-        InSituOptimizer(limits=Limits(max_joint_angle="tight")).validate()
-
-
-@pytest.mark.filterwarnings("ignore:.*more than a full turn")
-def test_shape_scale_makes_the_defaults_work_in_any_shape_unit():
-    """The same swimmer with its shape measured in units 7× smaller than radians (a curvature-mode
-    robot, say): with shape_scale='auto' (the seed's amplitude) the default run improves the gait as
-    it does in radians; with the radian defaults (shape_scale=1) its steps are 7× too short."""
-    unit = 7.0
-    swimmer = PurcellSwimmer(3)
-    scaled = FunctionSystem(lambda r: swimmer.connection(r / unit) / unit, n_joints=2, name="scaled")
-
-    def improvement(system, gait, std, **options):
-        """Mean over four seeds: one 20-cycle run varies with its draws by ±0.2."""
-        runs = []
-        for seed in range(4):
-            stream = SwimmerStream(system, gait, perturbation=Perturbation.from_std(std), sensor_noise=0.05,
-                                   seed=seed)
-            log = InSituOptimizer(family="free", random_state=seed, **options).run(stream, 20).log
-            runs.append(log["improvement"].iloc[-1])
-        return float(np.mean(runs))
-
-    radians = improvement(swimmer, seed_gait(2), 0.15)
-    in_units = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit,
-                           limits=Limits(max_joint_angle=unit * 2 * np.pi / 3))
-    unscaled = improvement(scaled, seed_gait(2, amplitude=unit), 0.15 * unit,
-                           limits=Limits(max_joint_angle=unit * 2 * np.pi / 3, shape_scale=1.0))
-    assert radians > 0.3
-    assert in_units > 0.8 * radians
-    assert unscaled < 0.5 * in_units
 
 
 def test_measured_outcomes_bring_back_the_best_gait_when_the_model_leads_downhill():

@@ -16,7 +16,6 @@ from geogait.optimize import (
     Exploration,
     Gate,
     InSituOptimizer,
-    Limits,
     ModelClassTest,
     ModelStep,
     Objective,
@@ -245,18 +244,6 @@ def test_checkpoint_options_are_validated_before_the_robot_moves(tmp_path):
     assert stream.cycle == 0
 
 
-def test_joint_speed_limit_holds_for_every_commanded_gait():
-    limit = 1.3 * 2 * np.pi / 1.5  # rad/s at a period of 1.5 s; the seed needs 2π/1.5 · 1.0
-    result = InSituOptimizer(step=ModelStep(trust_radius=0.15),
-                             limits=Limits(max_joint_velocity=limit)).run(_stream(seed=6, cycle_period=1.5), 20)
-    assert result.n_steps >= 3
-    phase = np.linspace(0, 2 * np.pi, 512)
-    for gait in result.gaits:
-        assert np.abs(gait.velocity(phase)).max() * 2 * np.pi / 1.5 <= limit * (1 + 1e-9)
-    with pytest.raises(ValueError, match="max_joint_velocity"):
-        InSituOptimizer(limits=Limits(max_joint_velocity=0.5)).run(_stream(cycle_period=1.5), 2)
-
-
 def test_cycles_from_a_robot_are_checked():
     class Broken(BareRobot):
         def next_cycle(self):
@@ -310,28 +297,3 @@ def test_model_steps_the_robot_cannot_follow_hand_the_steps_to_the_measured_clim
     assert log["climb"].any()
     first = int(np.flatnonzero(log["climb"])[0])
     assert log["rejected"][:first].sum() >= 2
-
-
-def test_a_robots_feasible_region_is_checked_as_it_is_read():
-    """Order 0 gave rows over no phase at all (the region silently not enforced); NaN rows went straight to the
-    solver; a scalar answer failed to unpack."""
-    from geogait.optimize import robot_feasibility
-
-    class Fenced:
-        def __init__(self, answer):
-            self.answer = answer
-
-        def feasibility(self, shapes, jacobian=False):
-            return self.answer(shapes)
-
-    good = Fenced(lambda s: (1.0 - s[:, 0], np.tile([-1.0, 0.0], (len(s), 1))))
-    rows = robot_feasibility(good, 2, 1)
-    value, gradient = rows(np.zeros(6))
-    assert value.shape == (256,) and gradient.shape == (256, 6)
-    for n_joints, order, match in ((2, 0, "'order'"), (0, 1, "'n_joints'")):
-        with pytest.raises(ValueError, match=match):
-            robot_feasibility(good, n_joints, order)
-    for answer in (lambda s: (np.full(len(s), np.nan), np.zeros_like(s)), lambda s: 1.0,
-                   lambda s: (np.ones(3), np.zeros_like(s))):
-        with pytest.raises(ValueError, match=r"feasibility\(shapes, jacobian=True\) must return finite"):
-            robot_feasibility(Fenced(answer), 2, 1)(np.zeros(6))
