@@ -7,7 +7,7 @@ from _robots import MisleadingPoses as _MisleadingPoses
 
 from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, seed_gait
-from geogait.models import AdaptiveGaitModel, BatchGaitModel, ShapeSpaceModel
+from geogait.models import AdaptiveGaitModel, ShapeSpaceModel
 from geogait.optimize import (
     Climb,
     Gate,
@@ -70,14 +70,6 @@ def test_free_family_default_model_is_the_window_model_recentred_on_the_last_gai
     assert isinstance(result.model, AdaptiveGaitModel)
     assert result.model.forgetting_factor == pytest.approx(0.95)  # 1 − 0.1 / d for d = 2
     assert result.n_steps >= 1 and result.model.gait_ == result.final_gait  # re-centred on the last gait
-
-
-def test_batch_baseline_steps_every_cycles_per_iteration():
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.0, seed=1)
-    result = InSituOptimizer(model=BatchGaitModel(), gate=Gate(cycles=5), climb=Climb(start="stalled")).run(stream, 20)
-    steps = result.log.loc[result.log["step"], "cycle"].to_numpy()
-    assert len(steps) >= 2 and np.all(np.diff(steps) % 5 == 0) and steps[0] == 4
-    assert result.log["true_objective"].iloc[-1] > result.log["true_objective"].iloc[0]
 
 
 def test_a_higher_order_family_starts_from_the_embedded_seed():

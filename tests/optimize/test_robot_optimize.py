@@ -178,16 +178,6 @@ def test_a_climb_candidate_the_actuators_cannot_follow_falls_back_to_the_climbs_
         assert any(np.array_equal(params[k + 1], p) for p in kept_before)
 
 
-def test_the_prediction_check_closes_the_gate_when_the_model_overpredicts():
-    log = InSituOptimizer(step=ModelStep(trust_radius=0.15, max_trust_radius=0.3), climb=False,
-                          safety=Safety(max_tracking_error=None)).run(
-        SaturatingRobot(limit=1.1), 25).log
-    checked = log.dropna(subset=["prediction_ok"])
-    failed = checked[checked["prediction_ok"] == 0]
-    assert len(failed) >= 1 and not failed["step"].any()
-    assert np.all(log.loc[log["step"], "prediction_ok"] == 1)
-
-
 def test_settle_cycles_are_run_but_not_learned_from():
     result = InSituOptimizer(safety=Safety(settle_cycles=1)).run(_stream(seed=4), 16)
     log = result.log
