@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
-from _robots import BareRobot, LaggingRobot, SaturatingRobot
+from _robots import BareRobot, SaturatingRobot
 from _robots import perturbed_stream as _stream
 
 from geogait.gaits import Perturbation, seed_gait
@@ -175,16 +175,3 @@ def test_a_checkpoint_of_flat_parameters_resumes_as_the_same_composed_run():
         from_flat_params({"trust_radius": 0.1, "bogus": 1})
     optimizer = InSituOptimizer(**composed)
     assert InSituOptimizer(**params_from_json(params_to_json(optimizer))).describe() == optimizer.describe()
-
-
-@pytest.mark.parametrize("start", ["stalled", "contradicted"])
-def test_model_steps_the_robot_cannot_follow_hand_the_steps_to_the_measured_climb(start):
-    """Joints that stop at 1.1 rad: the model (kinematic, no actuator limits) keeps proposing larger gaits, which
-    the robot cannot follow and which do not gain what the model promised. Two such rejections without a kept
-    promise between them are two broken promises: the climb takes over (before they counted, none had by cycle
-    30)."""
-    log = InSituOptimizer(climb=Climb(start=start), safety=Safety(settle_cycles=0)).run(  # (no settling probe)
-        LaggingRobot(cycle_period=20.0, joint_stop=1.1, seed=1), 30).log
-    assert log["climb"].any()
-    first = int(np.flatnonzero(log["climb"])[0])
-    assert log["rejected"][:first].sum() >= 2
