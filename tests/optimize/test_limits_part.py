@@ -11,6 +11,7 @@ from _robots import perturbed_stream as _stream
 from geogait._validation import GeogaitError
 from geogait.gaits import FourierGait, Perturbation, seed_gait
 from geogait.optimize import InSituOptimizer, Limits, ModelStep, joint_limit_constraints
+from geogait.robots import RobotWrapper
 from geogait.simulate import SwimmerStream
 from geogait.systems import FunctionSystem, PurcellSwimmer
 
@@ -128,8 +129,9 @@ def test_a_robots_feasible_region_is_checked_as_it_is_read():
     solver; a scalar answer failed to unpack."""
     from geogait.optimize import robot_feasibility
 
-    class Fenced:
+    class Fenced(RobotWrapper):  # (a robot that declares its feasible region)
         def __init__(self, answer):
+            super().__init__(SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0))
             self.answer = answer
 
         def feasibility(self, shapes, jacobian=False):
