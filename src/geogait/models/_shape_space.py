@@ -354,9 +354,8 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
         -------
         self
         """
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner=f"{type(self).__name__}.partial_fit")
+        phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
+            phase, shape, shape_velocity, body_velocity, f"{type(self).__name__}.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1])
         x = self._features(shape, shape_velocity)  # batch + (n, m d)
