@@ -406,11 +406,15 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
 
     @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Predict the new samples (for Γ), add them to the memory and refit the drag coefficients; returns ``self``.
+        """Predict the new samples (for Γ), add them to the memory and refit the drag coefficients.
 
         Parameters
         ----------
         %(samples)s
+
+        Returns
+        -------
+        self
         """
         phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
             phase, shape, shape_velocity, body_velocity, f"{type(self).__name__}.partial_fit")

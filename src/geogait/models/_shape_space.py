@@ -342,17 +342,13 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
 
     @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
+        """Learn time-ordered samples (optionally with leading trial axes), one RLS update each; returns ``self``.
 
         Parameters
         ----------
         phase : array-like of shape batch + (n,)
         shape, shape_velocity : array-like of shape batch + (n, d)
         body_velocity : array-like of shape batch + (n, 3)
-
-        Returns
-        -------
-        self
         """
         phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
             phase, shape, shape_velocity, body_velocity, f"{type(self).__name__}.partial_fit")
