@@ -17,8 +17,9 @@ RUN_STATE = ("perturbation", "gait", "rng", "cycle", "heading")
 
 
 class SimulatedRobot:
-    """A simulator holding its gait ``_gait``, exploration stream ``_perturbation``, generator ``_rng``, ``cycle``
-    and unwrapped ``_heading``, and checking a gait with ``_check_gait(gait, owner)``; it adds ``next_cycle``."""
+    """A simulator that runs one cycle in ``next_cycle``, holds its gait ``_gait``, exploration stream
+    ``_perturbation``, generator ``_rng``, ``cycle`` and unwrapped ``_heading``, and checks a gait with
+    ``_check_gait(gait, owner)``."""
 
     def set_gait(self, gait: FourierGait) -> None:
         """Command ``gait`` from the next cycle on (:meth:`next_cycle` always runs whole cycles)."""
