@@ -66,6 +66,11 @@ min_gain : float
     Smallest predicted relative gain accepted.
 restore : bool
     Accept a feasible step on the rotation target even without a gain.""",
+    "subspace_attributes": """\
+Attributes
+----------
+matrix : ndarray of shape (d (2K + 1), n_params)
+    ∂(Fourier parameters)/∂(free parameters), constant.""",
     "sweep": """\
 jobs : int
     joblib workers (1 in-process, -1 all cores).

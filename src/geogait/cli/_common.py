@@ -113,6 +113,18 @@ Overwrite = Annotated[bool, typer.Option("--overwrite", rich_help_panel=RUN_PANE
                                          help="Replace the files an earlier run wrote there (refused without it).")]
 
 
+#: The options of the ``figure`` commands that say how their sweep runs and where it writes (--out's default is
+#: each command's own; --seed's help shows the command's ``{seed}``, see :func:`~geogait.cli._app.help_from`).
+Seed = Annotated[int | None, typer.Option(rich_help_panel=RUN_PANEL, help="Root random seed [default: {seed}].", min=0)]
+Jobs = Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")]
+Scheduler = Annotated[str | None, typer.Option(
+    rich_help_panel=RUN_PANEL, help="Address of a Dask scheduler to run the trials on "
+                                    "(needs geogait[dask]; then --jobs must be 1).")]
+Out = Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")]
+FromCsv = Annotated[Path | None, typer.Option(
+    rich_help_panel=RUN_PANEL, help="Redraw the figure from this CSV instead of running.")]
+
+
 #: The --json option of the commands that print their results (a table otherwise).
 Json = Annotated[bool, typer.Option("--json", rich_help_panel=RUN_PANEL, help=(
     "Print the results on stdout as one JSON document, for programs (a table otherwise)."))]

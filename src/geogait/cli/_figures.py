@@ -7,7 +7,9 @@ the manifest ``<name>.json`` (config, seed, versions, run time, headline numbers
 
 from __future__ import annotations
 
+import inspect
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -19,7 +21,12 @@ from ._app import figure_app, help_from
 from ._common import (
     EXPERIMENT_PANEL,
     RUN_PANEL,
+    FromCsv,
+    Jobs,
+    Out,
     Overwrite,
+    Scheduler,
+    Seed,
     claim_figure,
     comma_list,
     configure,
@@ -47,16 +54,8 @@ Trials = Annotated[int | None, typer.Option(
     rich_help_panel=EXPERIMENT_PANEL, help="Number of trials (default: see the experiment's docs).", min=1)]
 Links = Annotated[int | None, typer.Option(
     rich_help_panel=EXPERIMENT_PANEL, help="Links of the Purcell swimmer [default: {links}].")]
-Seed = Annotated[int | None, typer.Option(rich_help_panel=RUN_PANEL, help="Root random seed [default: {seed}].", min=0)]
-Jobs = Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")]
-Scheduler = Annotated[str | None, typer.Option(
-    rich_help_panel=RUN_PANEL, help="Address of a Dask scheduler to run the trials on "
-                                                    "(needs geogait[dask]; then --jobs must be 1).")]
 Quick = Annotated[bool, typer.Option("--quick", rich_help_panel=RUN_PANEL,
                                      help="Few trials and cycles: finishes in seconds.")]
-Out = Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")]
-FromCsv = Annotated[Path | None, typer.Option(
-    rich_help_panel=RUN_PANEL, help="Redraw the figure from this CSV instead of running.")]
 SamplesPerCycle = Annotated[int | None, typer.Option(
     rich_help_panel=EXPERIMENT_PANEL, help="Samples per gait cycle [default: {samples_per_cycle}].",
                                                      min=4, max=100_000)]
@@ -65,6 +64,48 @@ Perturbation = Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_P
 ChunkSize = Annotated[int | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
     help="Trials vectorised per chunk; results are identical for any --jobs at a fixed chunk size "
          "[default: {chunk_size}].")]
+
+
+def _figure(name: str, experiment: tuple, table: Callable[[dict], Table], own: Callable[[], dict], *,
+            perturbation: Perturbation = None,
+            samples_per_cycle: SamplesPerCycle = None,
+            chunk_size: ChunkSize = None,
+            seed: Seed = None,
+            jobs: Jobs = 1,
+            scheduler: Scheduler = None,
+            quick: Quick = False,
+            out: Out = Path("out/figures"),
+            from_csv: FromCsv = None,
+            overwrite: Overwrite = False) -> None:
+    """``figure <name>``: run the ``experiment`` ``(config class, result class, run function)`` (or redraw it from
+    ``--from-csv``), write its files and print ``table(summary)``.
+
+    ``own()`` gives the command's own options as :func:`configure` takes them (read for a fresh run only); the
+    keyword-only parameters are the options every figure command here ends with (:func:`_figure_options`).
+    """
+    config_class, result_class, run = experiment
+    started = time.perf_counter()
+    config = None if from_csv is not None else configure(
+        config_class.quick() if quick else config_class(), **own(), perturbation=("--perturbation", perturbation),
+        samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
+        seed=("--seed", seed))
+    command = f"figure {name}"
+    claimed = claim_figure(out, name, from_csv, command, overwrite=overwrite)
+    folder = output_folder(out)
+    result, extra = _run_or_redraw(result_class, from_csv, lambda: run(config, jobs=jobs, scheduler=scheduler),
+                                   {"jobs": jobs, "scheduler": scheduler, "quick": quick})
+    summary, written = _write(result, folder, name, command, started, extra, claimed)
+    console.print(table(summary))
+    console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
+
+
+def _figure_options(command):
+    """``command`` with :func:`_figure`'s keyword-only options after its own, for ``command`` to hand on as
+    ``**options``: typer reads a command's options from its signature, so they are declared once, there."""
+    own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.kind is not p.VAR_KEYWORD]
+    shared = [p for p in inspect.signature(_figure, eval_str=True).parameters.values() if p.kind is p.KEYWORD_ONLY]
+    command.__signature__ = inspect.Signature(own + shared)
+    return command
 
 
 def _run_or_redraw(result_class, from_csv, run, extra: dict):
@@ -93,6 +134,7 @@ def _write(result, folder: Path, name: str, command: str, started: float, extra:
 
 
 @figure_app.command("accuracy", cls=help_from(_help_values))
+@_figure_options
 def accuracy(
     trials: Trials = None,
     links: Links = None,
@@ -100,16 +142,7 @@ def accuracy(
         help="Cycles per trial; checkpoints every 5 [default: {cycles}].")] = None,
     noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Sensor noise on ξ as a fraction of its RMS [default: {accuracy_noise}].")] = None,
-    perturbation: Perturbation = None,
-    samples_per_cycle: SamplesPerCycle = None,
-    chunk_size: ChunkSize = None,
-    seed: Seed = None,
-    jobs: Jobs = 1,
-    scheduler: Scheduler = None,
-    quick: Quick = False,
-    out: Out = Path("out/figures"),
-    from_csv: FromCsv = None,
-    overwrite: Overwrite = False,
+    **options,
 ) -> None:
     """Fig. 2: held-out Γ of the adaptive and the batch model after n training cycles.
 
@@ -118,21 +151,9 @@ def accuracy(
     """
     from ..experiments.accuracy import AccuracyConfig, AccuracyResult, run_accuracy
 
-    started = time.perf_counter()
-    config = None if from_csv is not None else configure(
-        AccuracyConfig.quick() if quick else AccuracyConfig(), n_trials=("--trials", trials),
-        n_links=("--links", links),
-        n_cycles=("--cycles", cycles), sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
-        samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
-        seed=("--seed", seed))
-    claimed = claim_figure(out, "accuracy", from_csv, "figure accuracy", overwrite=overwrite)
-    folder = output_folder(out)
-    result, extra = _run_or_redraw(AccuracyResult, from_csv,
-                                   lambda: run_accuracy(config, jobs=jobs, scheduler=scheduler),
-                                   {"jobs": jobs, "scheduler": scheduler, "quick": quick})
-    summary, written = _write(result, folder, "accuracy", "figure accuracy", started, extra, claimed)
-    console.print(_accuracy_table(summary))
-    console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
+    _figure("accuracy", (AccuracyConfig, AccuracyResult, run_accuracy), _accuracy_table,
+            lambda: {"n_trials": ("--trials", trials), "n_links": ("--links", links), "n_cycles": ("--cycles", cycles),
+                     "sensor_noise": ("--noise", noise)}, **options)
 
 
 def _accuracy_table(summary: dict) -> Table:
@@ -149,6 +170,7 @@ def _accuracy_table(summary: dict) -> Table:
 
 
 @figure_app.command("environments", cls=help_from(_help_values))
+@_figure_options
 def environments(
     trials: Trials = None,
     links: Links = None,
@@ -160,16 +182,7 @@ def environments(
         help="Comma-separated λ of the adaptive models [default: {forgetting_factors}].")] = None,
     noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         help="Sensor noise on ξ as a fraction of its RMS [default: {environments_noise}].")] = None,
-    perturbation: Perturbation = None,
-    samples_per_cycle: SamplesPerCycle = None,
-    chunk_size: ChunkSize = None,
-    seed: Seed = None,
-    jobs: Jobs = 1,
-    scheduler: Scheduler = None,
-    quick: Quick = False,
-    out: Out = Path("out/figures"),
-    from_csv: FromCsv = None,
-    overwrite: Overwrite = False,
+    **options,
 ) -> None:
     """Fig. 3: a-priori prediction error through unannounced drag-ratio changes.
 
@@ -178,24 +191,13 @@ def environments(
     """
     from ..experiments.environments import EnvironmentConfig, EnvironmentResult, run_environments
 
-    started = time.perf_counter()
-    config = None if from_csv is not None else configure(
-        EnvironmentConfig.quick() if quick else EnvironmentConfig(), n_trials=("--trials", trials),
-        n_links=("--links", links),
-        cycles_per_environment=("--cycles-per-environment", cycles_per_environment),
-        drag_ratios=("--drag-ratios", comma_list(drag_ratios, "--drag-ratios")),
-        forgetting_factors=("--forgetting-factors", comma_list(forgetting_factors, "--forgetting-factors")),
-        sensor_noise=("--noise", noise), perturbation=("--perturbation", perturbation),
-        samples_per_cycle=("--samples-per-cycle", samples_per_cycle), chunk_size=("--chunk-size", chunk_size),
-        seed=("--seed", seed))
-    claimed = claim_figure(out, "environments", from_csv, "figure environments", overwrite=overwrite)
-    folder = output_folder(out)
-    result, extra = _run_or_redraw(EnvironmentResult, from_csv,
-                                   lambda: run_environments(config, jobs=jobs, scheduler=scheduler),
-                                   {"jobs": jobs, "scheduler": scheduler, "quick": quick})
-    summary, written = _write(result, folder, "environments", "figure environments", started, extra, claimed)
-    console.print(_environment_table(summary))
-    console.print(f"wrote {', '.join(written)} to {folder}/ in {time.perf_counter() - started:.1f} s")
+    _figure("environments", (EnvironmentConfig, EnvironmentResult, run_environments), _environment_table,
+            lambda: {"n_trials": ("--trials", trials), "n_links": ("--links", links),
+                     "cycles_per_environment": ("--cycles-per-environment", cycles_per_environment),
+                     "drag_ratios": ("--drag-ratios", comma_list(drag_ratios, "--drag-ratios")),
+                     "forgetting_factors": ("--forgetting-factors", comma_list(forgetting_factors,
+                                                                               "--forgetting-factors")),
+                     "sensor_noise": ("--noise", noise)}, **options)
 
 
 def _environment_table(summary: dict) -> Table:

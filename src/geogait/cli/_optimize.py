@@ -32,8 +32,13 @@ if TYPE_CHECKING:
 from ._common import (
     EXPERIMENT_PANEL,
     RUN_PANEL,
+    FromCsv,
+    Jobs,
     Json,
+    Out,
     Overwrite,
+    Scheduler,
+    Seed,
     claim_figure,
     claim_output,
     comma_list,
@@ -830,17 +835,13 @@ def figure_optimization(
         min=1, help="Batch iterations of {batch_cycles} cycles [default: {baseline_iterations}].")] = None,
     noise: Annotated[float | None, typer.Option(rich_help_panel=EXPERIMENT_PANEL,
         min=0, help="Sensor noise on ξ, fraction of RMS [default: {noise}].")] = None,
-    seed: Annotated[int | None, typer.Option(
-        rich_help_panel=RUN_PANEL, min=0, help="Root random seed [default: {seed}].")] = None,
-    jobs: Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")] = 1,
-    scheduler: Annotated[str | None, typer.Option(
-        rich_help_panel=RUN_PANEL, help="Dask scheduler address (needs geogait[dask]).")] = None,
+    seed: Seed = None,
+    jobs: Jobs = 1,
+    scheduler: Scheduler = None,
     quick: Annotated[bool, typer.Option(
         "--quick", rich_help_panel=RUN_PANEL, help="3-link only, a few short trials: seconds.")] = False,
-    from_csv: Annotated[Path | None, typer.Option(
-        rich_help_panel=RUN_PANEL, help="Redraw from this CSV instead of running.")] = None,
-    out: Annotated[Path, typer.Option(
-        rich_help_panel=RUN_PANEL, help="Output folder.")] = Path("out/figure-optimization"),
+    from_csv: FromCsv = None,
+    out: Out = Path("out/figure-optimization"),
     overwrite: Overwrite = False,
     json_output: Json = False,
 ) -> None:

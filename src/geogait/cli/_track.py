@@ -17,8 +17,12 @@ from ._app import app, figure_app
 from ._common import (
     EXPERIMENT_PANEL,
     RUN_PANEL,
+    FromCsv,
+    Jobs,
     Json,
+    Out,
     Overwrite,
+    Scheduler,
     claim_figure,
     claim_output,
     configure,
@@ -316,14 +320,12 @@ def figure_tracking(
         help="Paths through the drag change, the same names (the CSV must be the one of --path if both name "
              "one) [default: line,circle].")] = None,
     seed: Annotated[int | None, typer.Option(rich_help_panel=RUN_PANEL, help="Root random seed [default: 0].")] = None,
-    jobs: Annotated[int, typer.Option(rich_help_panel=RUN_PANEL, help="joblib worker processes (-1: all cores).")] = 1,
-    scheduler: Annotated[str | None, typer.Option(
-        rich_help_panel=RUN_PANEL, help="Dask scheduler address (needs geogait[dask]).")] = None,
+    jobs: Jobs = 1,
+    scheduler: Scheduler = None,
     quick: Annotated[bool, typer.Option(
         "--quick", rich_help_panel=RUN_PANEL, help="3-link, 2 trials, 2 paths, 16 cycles: seconds.")] = False,
-    from_csv: Annotated[Path | None, typer.Option(
-        rich_help_panel=RUN_PANEL, help="Redraw from this CSV instead of running.")] = None,
-    out: Annotated[Path, typer.Option(rich_help_panel=RUN_PANEL, help="Output folder.")] = Path("out/figure-tracking"),
+    from_csv: FromCsv = None,
+    out: Out = Path("out/figure-tracking"),
     overwrite: Overwrite = False,
     json_output: Json = False,
 ) -> None:

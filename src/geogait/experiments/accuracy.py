@@ -34,7 +34,6 @@ in the paper. Perturbations keep the default std 0.15 rad, 100 samples per cycle
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,6 +58,7 @@ from ._common import (
     run_sweep,
     swimmer_and_gait,
 )
+from ._config import SweepConfig, trial_function_options
 
 __all__ = ["AccuracyConfig", "AccuracyResult", "accuracy_summary", "accuracy_trials", "plot_accuracy",
            "run_accuracy"]
@@ -70,7 +70,7 @@ PAPER_GAMMA_AT_5 = 0.4
 
 
 @dataclass(frozen=True)
-class AccuracyConfig:
+class AccuracyConfig(SweepConfig):
     """Settings of the accuracy experiment (the one place its defaults live).
 
     Parameters
@@ -114,10 +114,8 @@ class AccuracyConfig:
     seed: int = 0
     chunk_size: int = 10
 
-    @classmethod
-    def quick(cls, **changes) -> AccuracyConfig:
-        """A small configuration (16 trials × 10 cycles) that runs in a few seconds."""
-        return cls(**({"n_trials": 16, "n_cycles": 10, "chunk_size": 4} | changes))
+    #: :meth:`quick`: 16 trials × 10 cycles, a few seconds.
+    QUICK = {"n_trials": 16, "n_cycles": 10, "chunk_size": 4}
 
     @property
     def n_pairs(self) -> int:
@@ -129,14 +127,7 @@ class AccuracyConfig:
         """Training cycles n at which both models are scored."""
         return np.arange(self.checkpoint_every, self.n_cycles + 1, self.checkpoint_every)
 
-    def validate(self) -> AccuracyConfig:
-        """Check every field; returns ``self``.
-
-        Raises
-        ------
-        GeogaitError
-            Naming the bad field and what was expected.
-        """
+    def _check_fields(self) -> None:
         check_links(self.n_links, "n_links", _OWNER)
         if check_int(self.n_trials, "n_trials", _OWNER, minimum=2) % 2:
             raise fail("n_trials", _OWNER, "an even int >= 2 (trials form train/test pairs)", self.n_trials)
@@ -151,14 +142,10 @@ class AccuracyConfig:
         check_fraction(self.perturbation, "perturbation", _OWNER)
         check_float(self.forgetting_factor, "forgetting_factor", _OWNER, low=0, high=1, low_open=True)
         check_int(self.n_windows, "n_windows", _OWNER, minimum=1)
-        check_int(self.seed, "seed", _OWNER, minimum=0)
-        check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
-        return self
 
     def trial_options(self) -> dict:
         """Keyword arguments of :func:`accuracy_trials`."""
-        skip = {"n_trials", "seed", "chunk_size"}
-        return {k: v for k, v in dataclasses.asdict(self).items() if k not in skip}
+        return trial_function_options(self)
 
 
 @fill_doc

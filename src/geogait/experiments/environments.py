@@ -49,7 +49,6 @@ the median error curve across trials and per trial (median and fraction of trial
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from dataclasses import dataclass
 
@@ -72,6 +71,7 @@ from ._common import (
     run_sweep,
     swimmer_and_gait,
 )
+from ._config import SweepConfig, trial_function_options
 
 __all__ = ["EnvironmentConfig", "EnvironmentResult", "environment_summary", "environment_trials",
            "plot_environments", "recovery_table", "run_environments"]
@@ -83,7 +83,7 @@ _ADAPTIVE_COLORS = ("tab:blue", "tab:orange", "tab:purple", "tab:brown", "tab:pi
 
 
 @dataclass(frozen=True)
-class EnvironmentConfig:
+class EnvironmentConfig(SweepConfig):
     """Settings of the changing-environment experiment (the one place its defaults live).
 
     Parameters
@@ -124,24 +124,15 @@ class EnvironmentConfig:
     seed: int = 0
     chunk_size: int = 10
 
-    @classmethod
-    def quick(cls, **changes) -> EnvironmentConfig:
-        """A small configuration (8 trials, 15 cycles per environment) that runs in seconds."""
-        return cls(**({"n_trials": 8, "cycles_per_environment": 15, "chunk_size": 4} | changes))
+    #: :meth:`quick`: 8 trials, 15 cycles per environment, seconds.
+    QUICK = {"n_trials": 8, "cycles_per_environment": 15, "chunk_size": 4}
 
     @property
     def n_cycles(self) -> int:
         """Cycles per trial."""
         return len(self.drag_ratios) * self.cycles_per_environment
 
-    def validate(self) -> EnvironmentConfig:
-        """Check every field; returns ``self``.
-
-        Raises
-        ------
-        GeogaitError
-            Naming the bad field and what was expected.
-        """
+    def _check_fields(self) -> None:
         check_links(self.n_links, "n_links", _OWNER)
         check_int(self.n_trials, "n_trials", _OWNER, minimum=1)
         if not isinstance(self.drag_ratios, tuple) or len(self.drag_ratios) < 2:
@@ -161,14 +152,10 @@ class EnvironmentConfig:
             raise fail("forgetting_factors", _OWNER, "factors that differ in their 6 significant digits (each names "
                        "its model)", self.forgetting_factors)
         check_int(self.n_windows, "n_windows", _OWNER, minimum=1)
-        check_int(self.seed, "seed", _OWNER, minimum=0)
-        check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
-        return self
 
     def trial_options(self) -> dict:
         """Keyword arguments of :func:`environment_trials`."""
-        skip = {"n_trials", "seed", "chunk_size"}
-        return {k: v for k, v in dataclasses.asdict(self).items() if k not in skip}
+        return trial_function_options(self)
 
 
 def adaptive_name(forgetting_factor: float) -> str:

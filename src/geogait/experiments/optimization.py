@@ -49,6 +49,7 @@ from ._common import (
     run_sweep,
     swimmer_and_gait,
 )
+from ._config import SweepConfig
 
 __all__ = ["OptimizationConfig", "OptimizationResult", "default_budget", "optimization_trials", "run_optimization",
            "optimization_summary", "plot_optimization", "in_situ_model", "shape_method_model"]
@@ -68,7 +69,7 @@ _BATCH_CYCLES = Gate().cycles  # cycles per batch-method iteration (Bittner 2018
 
 
 @dataclass(frozen=True)
-class OptimizationConfig:
+class OptimizationConfig(SweepConfig):
     """Settings of the optimisation experiment (the one place its defaults live).
 
     Parameters
@@ -108,14 +109,10 @@ class OptimizationConfig:
     seed: int = 0
     chunk_size: int = 1
 
-    @classmethod
-    def quick(cls, **changes) -> OptimizationConfig:
-        """3-link only, 4 trials × 12 cycles, one short batch run: a few seconds."""
-        return cls(**({"links": (3,), "budgets": (12,), "n_trials": 4, "baseline_trials": 1,
-                       "baseline_iterations": 2} | changes))
+    #: :meth:`quick`: 3-link only, 4 trials × 12 cycles, one short batch run: a few seconds.
+    QUICK = {"links": (3,), "budgets": (12,), "n_trials": 4, "baseline_trials": 1, "baseline_iterations": 2}
 
-    def validate(self) -> OptimizationConfig:
-        """Check every field (errors name the field); returns ``self``."""
+    def _check_fields(self) -> None:
         for name in ("links", "budgets"):
             if not isinstance(getattr(self, name), tuple | list):
                 raise fail(name, _OWNER, "a tuple (one entry per swimmer)", getattr(self, name))
@@ -132,9 +129,6 @@ class OptimizationConfig:
         check_fraction(self.perturbation, "perturbation", _OWNER)
         check_float(self.gamma_threshold, "gamma_threshold", _OWNER, high=1, high_open=True)
         check_choice(self.model, "model", _OWNER, ("auto", "adaptive", "shape"))
-        check_int(self.seed, "seed", _OWNER, minimum=0)
-        check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
-        return self
 
 
 def in_situ_model(name: str, n_links: int):

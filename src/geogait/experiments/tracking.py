@@ -63,6 +63,7 @@ from ..plotting import plt, save_figure
 from ..simulate import DragRatioSchedule, SwimmerStream, cycle_displacement, simulate
 from ..systems import PurcellSwimmer
 from ._common import ExperimentResult, check_fraction, child_seeds, run_sweep
+from ._config import SweepConfig
 
 __all__ = ["TrackingConfig", "TrackingResult", "tracking_trials", "run_tracking", "tracking_summary",
            "tracking_path", "straight_gait", "plot_tracking", "plot_steering_family", "steering_families",
@@ -97,7 +98,7 @@ TRACKING_MODELS = ("window", "shape")
 
 
 @dataclass(frozen=True)
-class TrackingConfig:
+class TrackingConfig(SweepConfig):
     """Settings of the path-following experiment (the one place its defaults live).
 
     Parameters
@@ -179,14 +180,11 @@ class TrackingConfig:
     chunk_size: int = 1
     path_file: str | None = None
 
-    @classmethod
-    def quick(cls, **changes) -> TrackingConfig:
-        """3-link only, 2 trials, line and circle (drag change on the circle), 16 cycles: seconds."""
-        return cls(**({"links": (3,), "n_trials": 2, "paths": ("line", "circle"), "drag_paths": ("circle",),
-                       "n_cycles": 16, "change_cycle": 8, "warmup_cycles": 6} | changes))
+    #: :meth:`quick`: 3-link only, 2 trials, line and circle (drag change on the circle), 16 cycles: seconds.
+    QUICK = {"links": (3,), "n_trials": 2, "paths": ("line", "circle"), "drag_paths": ("circle",), "n_cycles": 16,
+             "change_cycle": 8, "warmup_cycles": 6}
 
-    def validate(self) -> TrackingConfig:
-        """Check every field (errors name the field); returns ``self``."""
+    def _check_fields(self) -> None:
         if not self.links:
             raise fail("links", _OWNER, "a non-empty tuple of link counts", self.links)
         for n_links in self.links:
@@ -225,9 +223,6 @@ class TrackingConfig:
         check_float(self.change_forgetting, "change_forgetting", _OWNER, low=1)
         if not self.controllers or any(c not in CONTROLLERS for c in self.controllers):
             raise fail("controllers", _OWNER, "controllers among " + ", ".join(CONTROLLERS), self.controllers)
-        check_int(self.seed, "seed", _OWNER, minimum=0)
-        check_int(self.chunk_size, "chunk_size", _OWNER, minimum=1)
-        return self
 
     def scenarios(self) -> list[tuple[str, str]]:
         """(path, environment) pairs in run order; environment ``"constant"`` or ``"change"``."""

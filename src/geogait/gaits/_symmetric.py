@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .._docs import fill_doc
 from .._validation import check_array, check_float, check_int, fail
 from ._fourier import FourierGait
 
@@ -89,14 +90,22 @@ def _family_matrix(n_joints: int, order: int, center: float) -> np.ndarray:
         middle, first = matrix[half], half * width
         middle[k, first + k - 1] = -np.sin(k * center)
         middle[order + k, first + k - 1] = np.cos(k * center)
-    matrix = matrix.reshape(n_joints * width, n_params)
-    matrix.setflags(write=False)
-    return matrix
+    return matrix.reshape(n_joints * width, n_params)
 
 
 class _SubspaceFamily:
     """What a family that is a linear subspace ``p = T q`` of the Fourier parameters offers, from its
     ``matrix`` T; a subclass says how to solve for q (:meth:`_solve`) and what a member is (:meth:`_member`)."""
+
+    def _check_size(self, minimum_joints: int) -> None:
+        owner = type(self).__name__
+        check_int(self.n_joints, "n_joints", owner, minimum=minimum_joints)
+        check_int(self.order, "order", owner, minimum=1)
+
+    def _hold(self, matrix: np.ndarray) -> None:
+        """Keep ``matrix`` as the family's T, read-only: the family is frozen, and T with it."""
+        matrix.setflags(write=False)
+        object.__setattr__(self, "matrix", matrix)
 
     @property
     def n_params(self) -> int:
@@ -154,6 +163,7 @@ class _SubspaceFamily:
         return gait.with_order(self.order).params
 
 
+@fill_doc
 @dataclass(frozen=True)
 class SymmetricGaitFamily(_SubspaceFamily):
     r"""Fourier gaits with :math:`\theta_{d-1-j}(\phi) = -\theta_j(2\phi_0 - \phi)` (module docstring).
@@ -169,10 +179,7 @@ class SymmetricGaitFamily(_SubspaceFamily):
     center : float
         Symmetry phase φ₀ (rad); only φ₀ mod π matters.
 
-    Attributes
-    ----------
-    matrix : ndarray of shape (d (2K + 1), n_params)
-        ∂(Fourier parameters)/∂(free parameters), constant.
+    %(subspace_attributes)s
 
     Examples
     --------
@@ -191,12 +198,10 @@ class SymmetricGaitFamily(_SubspaceFamily):
     matrix: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        owner = "SymmetricGaitFamily"
-        check_int(self.n_joints, "n_joints", owner, minimum=2)
-        check_int(self.order, "order", owner, minimum=1)
-        center = float(np.mod(check_float(self.center, "center", owner), np.pi))
+        self._check_size(minimum_joints=2)
+        center = float(np.mod(check_float(self.center, "center", "SymmetricGaitFamily"), np.pi))
         object.__setattr__(self, "center", center)
-        object.__setattr__(self, "matrix", _family_matrix(self.n_joints, self.order, center))
+        self._hold(_family_matrix(self.n_joints, self.order, center))
 
     @property
     def n_params(self) -> int:
@@ -246,11 +251,10 @@ def _mirror_matrix(n_joints: int, order: int) -> np.ndarray:
     matrix = np.zeros((n_joints, width, n_joints * rows.size))
     for j in range(n_joints):
         matrix[j, rows, j * rows.size + np.arange(rows.size)] = 1.0
-    matrix = matrix.reshape(n_joints * width, -1)
-    matrix.setflags(write=False)
-    return matrix
+    return matrix.reshape(n_joints * width, -1)
 
 
+@fill_doc
 @dataclass(frozen=True)
 class MirrorGaitFamily(_SubspaceFamily):
     r"""Half-wave symmetric Fourier gaits, :math:`\theta(\phi + \pi) = -\theta(\phi)`: rotation-free on
@@ -277,10 +281,7 @@ class MirrorGaitFamily(_SubspaceFamily):
     order : int
         Fourier order K (≥ 1).
 
-    Attributes
-    ----------
-    matrix : ndarray of shape (d (2K + 1), n_params)
-        ∂(Fourier parameters)/∂(free parameters), constant.
+    %(subspace_attributes)s
 
     Examples
     --------
@@ -298,9 +299,8 @@ class MirrorGaitFamily(_SubspaceFamily):
     matrix: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        check_int(self.n_joints, "n_joints", "MirrorGaitFamily", minimum=1)
-        check_int(self.order, "order", "MirrorGaitFamily", minimum=1)
-        object.__setattr__(self, "matrix", _mirror_matrix(self.n_joints, self.order))
+        self._check_size(minimum_joints=1)
+        self._hold(_mirror_matrix(self.n_joints, self.order))
 
     @property
     def n_params(self) -> int:
@@ -332,11 +332,8 @@ class FreeGaitFamily(_SubspaceFamily):
     matrix: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        check_int(self.n_joints, "n_joints", "FreeGaitFamily", minimum=1)
-        check_int(self.order, "order", "FreeGaitFamily", minimum=1)
-        matrix = np.eye(self.n_joints * (2 * self.order + 1))
-        matrix.setflags(write=False)
-        object.__setattr__(self, "matrix", matrix)
+        self._check_size(minimum_joints=1)
+        self._hold(np.eye(self.n_joints * (2 * self.order + 1)))
 
     @property
     def n_params(self) -> int:

@@ -182,9 +182,8 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         """
         if self._learn_one_compiled(phase, shape, shape_velocity, body_velocity):
             return self
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner="AdaptiveGaitModel.partial_fit")
+        phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
+            phase, shape, shape_velocity, body_velocity, "AdaptiveGaitModel.partial_fit")
         if not self.__dict__.get("_warned_degrees", False):
             self._warned_degrees = warn_if_degrees(shape, "shape", "AdaptiveGaitModel.partial_fit")
         if not hasattr(self, "batch_shape_"):

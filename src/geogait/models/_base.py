@@ -331,6 +331,11 @@ class SampleModel:
                 self.__dict__.pop(name, None)
             return self.partial_fit(phase, shape, shape_velocity, body_velocity)
 
+    def _check_measured_samples(self, phase, shape, shape_velocity, body_velocity, owner: str):
+        """Samples with their measured ξ (what ``partial_fit`` and ``score`` take), by :meth:`_check_samples`."""
+        return self._check_samples(phase, shape, shape_velocity, body_velocity,
+                                   names=("shape", "shape_velocity", "body_velocity"), owner=owner)
+
     def _baseline_state(self) -> dict:
         """The phase model's arrays, prefixed for storage beside the gait model's own."""
         return {f"phase_model/{k}": v for k, v in self.phase_model_.get_state()[1].items()}
@@ -354,9 +359,8 @@ class SampleModel:
         float, or ndarray of shape batch for batched models
         """
         self._check_is_fitted()
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner=f"{type(self).__name__}.score")
+        phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
+            phase, shape, shape_velocity, body_velocity, f"{type(self).__name__}.score")
         baseline = self.phase_model_ if baseline is None else baseline
         model_error = np.linalg.norm(self.predict(phase, shape, shape_velocity) - body_velocity, axis=-1)
         baseline_error = np.linalg.norm(baseline.predict(phase) - body_velocity, axis=-1)

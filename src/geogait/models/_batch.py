@@ -86,9 +86,8 @@ class BatchGaitModel(GaitModelBase):
         ----------
         %(samples)s
         """
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner="BatchGaitModel.partial_fit")
+        phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
+            phase, shape, shape_velocity, body_velocity, "BatchGaitModel.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1], self._initial_gait(phase, shape))
         nominal, nominal_rate = self._nominal(self.windows_.centres)  # (M, d)

@@ -202,7 +202,7 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
     --------
     >>> from geogait.systems import PurcellSwimmer
     >>> from geogait.gaits import seed_gait
-    >>> from geogait.simulate import simulate, cycle_displacement
+    >>> from geogait.simulate import simulate
     >>> swimmer, gait = PurcellSwimmer(5, drag_ratio=3.0), seed_gait(4)
     >>> run = simulate(swimmer, gait, n_cycles=4, seed=0)
     >>> model = ResistanceModel(link_lengths=swimmer.link_lengths)
@@ -416,9 +416,8 @@ class ResistanceModel(OnlineGamma, SampleModel, Estimator):
         -------
         self
         """
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner=f"{type(self).__name__}.partial_fit")
+        phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
+            phase, shape, shape_velocity, body_velocity, f"{type(self).__name__}.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(shape.shape[-1])
             if self.residual_degree is not None:  # the residual prior relative to this robot's connection scale

@@ -342,21 +342,16 @@ class ShapeSpaceModel(OnlineGamma, SampleModel, Estimator):
 
     @unfitted_unchanged_on_error
     def partial_fit(self, phase, shape, shape_velocity, body_velocity):
-        """Learn time-ordered samples (optionally with leading trial axes), one RLS update each.
+        """Learn time-ordered samples (optionally with leading trial axes), one RLS update each; returns ``self``.
 
         Parameters
         ----------
         phase : array-like of shape batch + (n,)
         shape, shape_velocity : array-like of shape batch + (n, d)
         body_velocity : array-like of shape batch + (n, 3)
-
-        Returns
-        -------
-        self
         """
-        phase, shape, shape_velocity, body_velocity = self._check_samples(
-            phase, shape, shape_velocity, body_velocity, names=("shape", "shape_velocity", "body_velocity"),
-            owner=f"{type(self).__name__}.partial_fit")
+        phase, shape, shape_velocity, body_velocity = self._check_measured_samples(
+            phase, shape, shape_velocity, body_velocity, f"{type(self).__name__}.partial_fit")
         if not hasattr(self, "batch_shape_"):
             self._reset(phase.shape[:-1], shape.shape[-1])
         x = self._features(shape, shape_velocity)  # batch + (n, m d)

@@ -39,14 +39,13 @@ snake is built, so ``import geogait.robots`` works without it.
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from .._defaults import MAX_JOINT_ANGLE
 from .._validation import GeogaitError, check_array, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at
 from ..simulate import Trajectory
+from ._simulated import SimulatedRobot
 from .continuum import CurvatureModes, body_pose, body_velocity, curvature_profile, curvature_rate
 
 __all__ = ["ElasticaSnake", "elastica_snake", "snake_seed_gait"]
@@ -95,7 +94,7 @@ def snake_seed_gait(n_modes: int = 4, amplitude: float = 1.0) -> FourierGait:
     return FourierGait(coefficients)
 
 
-class ElasticaSnake:
+class ElasticaSnake(SimulatedRobot):
     """PyElastica's continuum snake on rest-curvature control (implements :class:`~geogait.robots.Robot`).
 
     Parameters
@@ -351,11 +350,6 @@ class ElasticaSnake:
         """Physics steps per cycle: ``samples_per_cycle · steps_per_sample``."""
         return self.samples_per_cycle * self.steps_per_sample
 
-    def set_gait(self, gait: FourierGait) -> None:
-        """Command ``gait`` from the next cycle on (:meth:`next_cycle` always runs whole cycles)."""
-        self._check_gait(gait, "ElasticaSnake.set_gait")
-        self._gait = gait
-
     def set_cycle_period(self, cycle_period: float) -> None:
         """Run the following cycles at ``cycle_period`` seconds, the nearest the physics can time.
 
@@ -365,12 +359,8 @@ class ElasticaSnake:
         as on a real snake. :class:`~geogait.optimize.InSituOptimizer` uses it with ``optimize_period=True``
         and for its model-class test (``model_class_cycles``).
         """
-        owner = "ElasticaSnake.set_cycle_period"
-        period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
-        unit = self.samples_per_cycle * self.timestep
-        steps = int(round(period / unit))
-        if steps < 1:
-            raise fail("cycle_period", owner, f"at least one physics step per sample ({unit:g} s)", period)
+        unit = self.samples_per_cycle * self.timestep  # (a cycle of one physics step per sample)
+        steps = self._units_per_cycle(cycle_period, unit, 1, f"at least one physics step per sample ({unit:g} s)")
         self.steps_per_sample = steps
         self.cycle_period = steps * unit
 
@@ -449,11 +439,6 @@ class ElasticaSnake:
         self._cycle_start += self.cycle_period
         return trajectory
 
-    def next_cycles(self, n_cycles: int) -> Trajectory:
-        """``n_cycles`` whole cycles, joined along time."""
-        n_cycles = check_int(n_cycles, "n_cycles", "ElasticaSnake.next_cycles", minimum=1)
-        return Trajectory.concatenate([self.next_cycle() for _ in range(n_cycles)])
-
     # -- extras -------------------------------------------------------------------------------
     _ROD_STATE = ("position_collection", "velocity_collection", "director_collection", "omega_collection")
 
@@ -470,19 +455,14 @@ class ElasticaSnake:
             (the next cycle's first time stamp).
         """
         state = {name: np.array(getattr(self.rod, name)) for name in self._ROD_STATE}
-        state.update({"time": float(self._time), "perturbation": self._perturbation.state.copy(),
-                      "gait": np.array(self._gait.coefficients), "rng": copy.deepcopy(self._rng.bit_generator.state),
-                      "cycle": int(self.cycle), "heading": float(self._heading),
-                      "cycle_period": float(self.cycle_period), "cycle_start": float(self._cycle_start)})
+        state.update({"time": float(self._time), **self._run_state(), "cycle_period": float(self.cycle_period),
+                      "cycle_start": float(self._cycle_start)})
         return state
 
     def restore_robot_state(self, state: dict) -> None:
         """Continue exactly where the snake that wrote ``state`` (:meth:`robot_state`) was."""
         owner = "ElasticaSnake.restore_robot_state"
-        keys = set(self._ROD_STATE) | {"time", "perturbation", "gait", "rng", "cycle", "heading"}
-        if not isinstance(state, dict) or not keys <= set(state):
-            raise fail("state", owner, "a dict from ElasticaSnake.robot_state() with keys " + ", ".join(sorted(keys)),
-                       sorted(state) if isinstance(state, dict) else type(state).__name__)
+        self._check_state_keys(state, owner, (*self._ROD_STATE, "time"))
         arrays = {}
         for name in self._ROD_STATE:
             array = np.asarray(state[name], dtype=float)
@@ -490,20 +470,11 @@ class ElasticaSnake:
                 raise fail("state", owner, f"a {name} of shape {getattr(self.rod, name).shape} (this rod)",
                            f"shape {array.shape}")
             arrays[name] = array
-        perturbation = np.asarray(state["perturbation"], dtype=float)
-        if perturbation.shape != self._perturbation.state.shape:
-            raise fail("state", owner, f"a perturbation state of shape {self._perturbation.state.shape}",
-                       f"shape {perturbation.shape}")
-        gait = FourierGait(np.asarray(state["gait"], dtype=float))
-        self._check_gait(gait, owner)
+        perturbation, gait = self._checked_run_state(state, owner)
         for name, array in arrays.items():
             getattr(self.rod, name)[...] = array
         self._time = np.float64(state["time"])
-        self._perturbation.state = perturbation.copy()
-        self._gait = gait
-        self._rng.bit_generator.state = copy.deepcopy(state["rng"])
-        self.cycle = int(state["cycle"])
-        self._heading = float(state["heading"])
+        self._restore_run_state(state, perturbation, gait)
         if "cycle_period" in state:  # (states from before the period could change: the snake's own)
             self.set_cycle_period(float(state["cycle_period"]))
         self._cycle_start = float(state.get("cycle_start", self.cycle * self.cycle_period))

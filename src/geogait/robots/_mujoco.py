@@ -49,6 +49,7 @@ from .._defaults import MAX_JOINT_ANGLE
 from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, Perturbation, check_excitation, excitation_at, seed_gait
 from ..simulate import Trajectory
+from ._simulated import SimulatedRobot
 
 __all__ = ["MujocoRobot", "dm_control_swimmer", "gymnasium_swimmer", "load_mujoco_model", "mujoco_swimmer",
            "purcell_swimmer_xml", "MODELS_DIRECTORY"]
@@ -141,7 +142,7 @@ def _name(model, kind, index) -> str:
     return _mujoco().mj_id2name(model, kind, index) or f"#{index}"
 
 
-class MujocoRobot:
+class MujocoRobot(SimulatedRobot):
     """A MuJoCo model with hinge joints, driven cycle by cycle (implements :class:`~geogait.robots.Robot`).
 
     Parameters
@@ -576,11 +577,6 @@ class MujocoRobot:
         """Physics (environment) steps run so far: ``cycle · samples_per_cycle · steps_per_sample``."""
         return self.cycle * self.samples_per_cycle * self.steps_per_sample
 
-    def set_gait(self, gait: FourierGait) -> None:
-        """Command ``gait`` from the next cycle on (:meth:`next_cycle` always runs whole cycles)."""
-        self._check_gait(gait, "MujocoRobot.set_gait")
-        self._gait = gait
-
     def set_cycle_period(self, cycle_period: float) -> None:
         """Run the following cycles at ``cycle_period`` seconds, the nearest the physics can time.
 
@@ -589,12 +585,8 @@ class MujocoRobot:
         back) and ``samples_per_cycle`` follows; the exploration perturbation keeps its spectrum in
         seconds. :class:`~geogait.optimize.InSituOptimizer` uses it with ``optimize_period=True``.
         """
-        owner = "MujocoRobot.set_cycle_period"
-        period = check_float(cycle_period, "cycle_period", owner, low=0, low_open=True)
-        unit = self.steps_per_sample * self.timestep
-        samples = int(round(period / unit))
-        if samples < 4:
-            raise fail("cycle_period", owner, f"at least 4 samples of {unit:g} s ({4 * unit:g} s)", period)
+        unit = self.steps_per_sample * self.timestep  # (one sample's time)
+        samples = self._units_per_cycle(cycle_period, unit, 4, f"at least 4 samples of {unit:g} s ({4 * unit:g} s)")
         self.samples_per_cycle = samples
         self.cycle_period = samples * unit
 
@@ -703,11 +695,6 @@ class MujocoRobot:
         self._elapsed += self.cycle_period
         return trajectory
 
-    def next_cycles(self, n_cycles: int) -> Trajectory:
-        """``n_cycles`` whole cycles, joined along time."""
-        n_cycles = check_int(n_cycles, "n_cycles", "MujocoRobot.next_cycles", minimum=1)
-        return Trajectory.concatenate([self.next_cycle() for _ in range(n_cycles)])
-
     # -- extras -------------------------------------------------------------------------------
     def robot_state(self) -> dict:
         """Everything that determines the following cycles, for a bit-identical restart.
@@ -725,38 +712,24 @@ class MujocoRobot:
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
         physics = np.empty(mujoco.mj_stateSize(self.model, spec))
         mujoco.mj_getState(self.model, self.data, physics, spec)
-        return {"physics": physics, "perturbation": self._perturbation.state.copy(),
-                "gait": np.array(self._gait.coefficients), "rng": copy.deepcopy(self._rng.bit_generator.state),
-                "cycle": int(self.cycle), "heading": float(self._heading), "elapsed": float(self._elapsed),
+        return {"physics": physics, **self._run_state(), "elapsed": float(self._elapsed),
                 "cycle_period": float(self.cycle_period)}
 
     def restore_robot_state(self, state: dict) -> None:
         """Continue exactly where the robot that wrote ``state`` (:meth:`robot_state`) was."""
         mujoco = _mujoco()
         owner = "MujocoRobot.restore_robot_state"
-        keys = {"physics", "perturbation", "gait", "rng", "cycle", "heading"}
-        if not isinstance(state, dict) or not keys <= set(state):
-            raise fail("state", owner, "a dict from MujocoRobot.robot_state() with keys " + ", ".join(sorted(keys)),
-                       sorted(state) if isinstance(state, dict) else type(state).__name__)
+        self._check_state_keys(state, owner, ("physics",))
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
         physics = np.asarray(state["physics"], dtype=float)
         size = mujoco.mj_stateSize(self.model, spec)
         if physics.shape != (size,):
             raise fail("state", owner, f"a physics state of {size} values (this model)", f"{physics.size} values")
-        perturbation = np.asarray(state["perturbation"], dtype=float)
-        if perturbation.shape != self._perturbation.state.shape:
-            raise fail("state", owner, f"a perturbation state of shape {self._perturbation.state.shape}",
-                       f"shape {perturbation.shape}")
-        gait = FourierGait(np.asarray(state["gait"], dtype=float))
-        self._check_gait(gait, owner)
+        perturbation, gait = self._checked_run_state(state, owner)
         if "cycle_period" in state:  # states saved before periods could change lack it
             self.set_cycle_period(float(state["cycle_period"]))
         mujoco.mj_setState(self.model, self.data, physics, spec)
-        self._perturbation.state = perturbation.copy()
-        self._gait = gait
-        self._rng.bit_generator.state = copy.deepcopy(state["rng"])
-        self.cycle = int(state["cycle"])
-        self._heading = float(state["heading"])
+        self._restore_run_state(state, perturbation, gait)
         self._elapsed = float(state.get("elapsed", self.cycle * self.cycle_period))
 
     def close(self) -> None:
