@@ -78,6 +78,12 @@ scheduler : str or distributed.Client, optional
     Run on a Dask cluster instead.
 progress : bool
     Show a progress bar on stderr.""",
+    "preset": """**params
+    Further parameters, as :meth:`~geogait.optimize.InSituOptimizer.set_params` takes them.
+
+Returns
+-------
+InSituOptimizer""",
 }
 
 

@@ -18,6 +18,7 @@ preset                     what it is
 from __future__ import annotations
 
 from .. import models
+from .._docs import fill_doc
 from ..robots import read_robot_spec
 from ._adaptation import Adaptation
 from ._checks import ModelClassTest, StructureCheck
@@ -39,23 +40,20 @@ from ._parts import (
 
 __all__ = ["default", "for_robot", "from_flat_params", "paper_loop", "prior_work", "structured"]
 
+@fill_doc
 def default(**params) -> InSituOptimizer:
     """The library's defaults with every part spelled out.
 
     Parameters
     ----------
-    **params
-        Further parameters, as :meth:`InSituOptimizer.set_params` takes them.
-
-    Returns
-    -------
-    InSituOptimizer
+    %(preset)s
     """
     optimizer = InSituOptimizer(gate=Gate(), step=ModelStep(), climb=Climb(), safety=Safety(), limits=Limits(),
                                 objective=Objective(), checks=[Adaptation()])
     return optimizer.set_params(**params)
 
 
+@fill_doc
 def paper_loop(**params) -> InSituOptimizer:
     """The paper's loop (Fig. 5): Γ-gated trust-region steps from the model alone — no measured climb, no revert
     to the best gait measured, no change watched for (the RLS model's forgetting is the paper's adaptation), no
@@ -63,34 +61,26 @@ def paper_loop(**params) -> InSituOptimizer:
 
     Parameters
     ----------
-    **params
-        Further parameters, as :meth:`InSituOptimizer.set_params` takes them.
-
-    Returns
-    -------
-    InSituOptimizer
+    %(preset)s
     """
     return default(climb=False, safety=Safety(settle_cycles=0, revert_tolerance=None), exploration=None,
                    checks=[]).set_params(**params)
 
 
+@fill_doc
 def prior_work(**params) -> InSituOptimizer:
     """The prior work (Bittner et al. 2018): a batch model fitted to every block of 30 cycles, a step from it
     after each block; no measured climb, no revert, no change watched for.
 
     Parameters
     ----------
-    **params
-        Further parameters, as :meth:`InSituOptimizer.set_params` takes them.
-
-    Returns
-    -------
-    InSituOptimizer
+    %(preset)s
     """
     return default(model=models.BatchGaitModel(), gate=Gate(kind="cycles"), climb=False,
                    safety=Safety(settle_cycles=0, revert_tolerance=None), checks=[]).set_params(**params)
 
 
+@fill_doc
 def structured(model, **params) -> InSituOptimizer:
     """A structured model's optimiser: SQP steps in a wider trust region, the climb only when contradicted; a
     model that reports how much of its prediction it leaves to the data (``residual_share_``, the hybrid
@@ -100,18 +90,14 @@ def structured(model, **params) -> InSituOptimizer:
     ----------
     model : estimator
         The structured model (e.g. ``ResistanceModel(**robot.chain_geometry())``).
-    **params
-        Further parameters, as :meth:`InSituOptimizer.set_params` takes them.
-
-    Returns
-    -------
-    InSituOptimizer
+    %(preset)s
     """
     checks = [Adaptation()] + ([StructureCheck()] if getattr(model, "residual_degree", None) is not None else [])
     return default(model=model, step=ModelStep(**STRUCTURED_STEP), climb=Climb(**STRUCTURED_CLIMB),
                    checks=checks).set_params(**params)
 
 
+@fill_doc
 def for_robot(robot, **params) -> InSituOptimizer:
     """The optimiser for what ``robot`` declares: :func:`structured` on its chain geometry for a robot that
     declares a chain in a resistive medium (and no ``model`` given), else :func:`default`.
@@ -119,12 +105,7 @@ def for_robot(robot, **params) -> InSituOptimizer:
     Parameters
     ----------
     robot : Robot
-    **params
-        Further parameters, as :meth:`InSituOptimizer.set_params` takes them.
-
-    Returns
-    -------
-    InSituOptimizer
+    %(preset)s
     """
     spec = read_robot_spec(robot)
     if "model" not in params and spec.resistive_chain is not None:
