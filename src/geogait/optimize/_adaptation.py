@@ -17,14 +17,16 @@ normal noise (3: p = 0.0027). Where the model's recent prediction residuals of c
 than the repeated cycles, their robust spread (1.4826 × the median absolute deviation; it holds the model's error
 too, so it errs wide) stands for σ. An out-of-band cycle holds the gait one more cycle; a change is detected when the
 two cycles' mean is out of band on the same side (:math:`\sqrt{1/2 + 1/n}` in place of :math:`\sqrt{1 + 1/n}`).
+A held gait's last four cycles are tested too, their mean against the cycles before them: a change smaller than
+a robot's cycle-to-cycle spread shows in that mean before it shows in any one cycle.
 In a family that promises no net rotation (symmetric, mirror), every rotation measured is noise until a change:
 a gait measured twice or more whose mean rotation is beyond the band of that noise at ``threshold`` + 1 (σ: the RMS
 of every rotation recorded, those of dropped records too; one σ stricter, as it is tested at every such cycle) and
 beyond the climb's rotation tolerance, at two cycles in a row of that gait, is a change too. While the climb
-runs, the held gait is measured again after every ``check_every`` of its candidates: a check costs one cycle,
-two when the first is out of band. The model's surprise brings a check forward: while the climb runs and the model is
-confident (Γ over the climb's cycles at least the gate's Γ*), it predicts each candidate's objective before it is
-measured; two residuals in a row beyond ``threshold`` robust
+runs, the held gait is measured again after ``check_every`` of its candidates, then after twice and four times
+as many as long as the checks find it unchanged (:meth:`Adaptation.check_interval`): a check costs one cycle, two
+when the first is out of band. The model's surprise brings a check forward: while the climb runs, the model
+predicts each candidate's objective before it is measured; two residuals in a row beyond ``threshold`` robust
 standard deviations of the recent ones (1.4826 × their median absolute deviation), on the same side, make the
 check due at once.
 
@@ -40,9 +42,12 @@ The model is rebuilt for the wider family.
 
 **Lead.** With ``lead="model"`` the paper's loop carries the recovery: the re-learning model steps when Γ opens
 its gate and its prediction agrees with what is measured; where it does not, the climb starts again from the held
-gait. With ``lead="climb"`` the climb starts again at once. Either way a climb after a change starts at a step
-length set by the change's size :math:`s = |\bar v - m| / |m|`: :math:`\sigma + (\sigma_\text{first} - \sigma)
-\min(1, s)` (the :class:`~geogait.optimize.Climb`'s ``sigma`` and ``first_sigma``).
+gait. With ``lead="climb"`` the climb starts again at once. With ``lead="auto"`` (default) the recovery starts as
+the run did: the climb at once where the :class:`~geogait.optimize.Climb` starts first (``start="first"``), the
+model where it steps first (a structured model, whose prediction holds far from its data). Either way a climb
+after a change starts at a step length set by the change's size :math:`s = |\bar v - m| / |m|`:
+:math:`\sigma + (\sigma_\text{first} - \sigma) \min(1, s)` (the :class:`~geogait.optimize.Climb`'s ``sigma``
+and ``first_sigma``).
 
 Every detection is a row of the run's log (column ``change``: its evidence) and an entry of
 ``InSituResult.changes`` (cycle, evidence, measured, reference, noise).
@@ -77,15 +82,16 @@ class Adaptation(Part):
         Smallest relative change of the held gait's measured objective that counts (a change below it is not
         worth forgetting what was learned; it also bounds a noiseless robot's alarms).
     check_every : int
-        Candidates of the climb between two checks of the held gait (sooner when the model is surprised).
+        Candidates of the climb between two checks of the held gait, doubled by each of the first two checks in a
+        row that find it unchanged (sooner when the model is surprised).
     forget : float
         The factor by which the model discounts its evidence on a detection (``model.forget``: each direction of
         its covariance back towards the prior's, its weights kept as the starting point; 1: keep the evidence).
     widen_family : bool
         On rotation detected in a family that promises none, search the next wider family.
-    lead : {"model", "climb"}
+    lead : {"auto", "model", "climb"}
         Who takes the steps after a detection: the re-learning model where it predicts (the climb where it does
-        not), or the climb at once.
+        not), the climb at once, or (``"auto"``) the one that took the run's first steps.
     """
 
     _parameter_constraints = {
@@ -94,11 +100,11 @@ class Adaptation(Part):
         "check_every": Integer(minimum=1),
         "forget": Real(low=1),
         "widen_family": Options((True, False)),
-        "lead": Options(("model", "climb")),
+        "lead": Options(("auto", "model", "climb")),
     }
 
     def __init__(self, *, threshold: float = 3.0, min_change: float = 0.05, check_every: int = 10,
-                 forget: float = 1e6, widen_family: bool = True, lead: str = "climb"):
+                 forget: float = 1e6, widen_family: bool = True, lead: str = "auto"):
         self.threshold = threshold
         self.min_change = min_change
         self.check_every = check_every
@@ -141,6 +147,12 @@ class Adaptation(Part):
         """
         return sigma + (first_sigma - sigma) * min(1.0, size)
 
+    def check_interval(self, passed: int) -> int:
+        """Climb candidates between two checks of the held gait after ``passed`` checks in a row found it
+        unchanged: ``check_every``, doubled by each of the first two (a robot that stays as it was is checked less
+        often; a detection starts again at ``check_every``, and the model's surprise makes a check due at once)."""
+        return int(self.check_every) * 2 ** min(int(passed), 2)
+
 
 @dataclass
 class ChangeWatch:
@@ -151,8 +163,9 @@ class ChangeWatch:
     since_check : int
         Climb candidates measured since the held gait was last measured.
     suspect : list
-        ``[value, rotation, record length, iteration, cycles in it, strict]`` of an out-of-band cycle awaiting its
-        second, judged at the same band (empty: none).
+        ``[value, rotation, reference length, iteration, cycles in it, strict]`` of a cycle that tripped the test
+        (the gait's records after the reference are the cycles tested), awaiting the next cycle, judged at the same
+        band (empty: none).
     reopen : float
         The step length of the next climb after a detection (NaN: the Climb's own).
     events : list of dict
@@ -171,6 +184,8 @@ class ChangeWatch:
     rotation_ss, rotation_n : float, int
         The sum of squared rotations and their count in those records (the rotation noise of a family that
         promises none).
+    passed : int
+        Revisits of a gait in a row that found it unchanged (:meth:`Adaptation.check_interval`).
     """
 
     since_check: int = 0
@@ -185,6 +200,7 @@ class ChangeWatch:
     noise_dof: int = 0
     rotation_ss: float = 0.0
     rotation_n: int = 0
+    passed: int = 0
 
     def archive_rotations(self, *rotations: dict) -> None:
         """Keep the sum of squares of the rotations of ``rotations`` (records about to be dropped)."""
@@ -216,7 +232,7 @@ class ChangeWatch:
                 "rotation_free": self.rotation_free, "turning": self.turning,
                 "residuals": [float(r) for r in self.residuals], "surprise": self.surprise,
                 "noise_ss": float(self.noise_ss), "noise_dof": int(self.noise_dof),
-                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n)}
+                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n), "passed": self.passed}
 
     @classmethod
     def from_json(cls, data: dict | None) -> ChangeWatch:
@@ -227,7 +243,8 @@ class ChangeWatch:
                    rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]),
                    residuals=[float(r) for r in data["residuals"]], surprise=int(data["surprise"]),
                    noise_ss=float(data["noise_ss"]), noise_dof=int(data["noise_dof"]),
-                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]))
+                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]),
+                   passed=int(data.get("passed", 0)))  # (checkpoints before the interval grew)
 
 
 def pooled_noise(*records: dict) -> tuple[float, int]:

@@ -40,13 +40,13 @@ class ChangeSteps:
         values, rotations = self._records()
         self._model_surprised(key, value)
         if watch.suspect and watch.suspect[3] == state.iteration and state.cycles_in_iteration == watch.suspect[4] + 1:
-            first, first_rotation, n_ref, _, _, strict = watch.suspect
+            n_ref, strict = int(watch.suspect[2]), bool(watch.suspect[5])
             watch.suspect = []
-            reference = values[key][:int(n_ref)]
-            found = self._out_of_band([first, value], reference, values, key, strict=bool(strict))
-            if found is not None and found[0] == self._side(first, reference):
-                return self._respond("objective", key, [first, value], [first_rotation, rotation], reference,
-                                     found[1])
+            reference, since = values[key][:n_ref], values[key][n_ref:]  # (since: the cycles that tripped the test)
+            found = self._out_of_band([*since, value], reference, values, key, strict=strict)
+            if found is not None and found[0] == self._side(float(np.mean(since)), reference):
+                return self._respond("objective", key, [*since, value], [*rotations[key][n_ref:], rotation],
+                                     reference, found[1])
             return None
         watch.suspect = []
         revisit = state.cycles_in_iteration == 0 and bool(values.get(key))
@@ -54,10 +54,18 @@ class ChangeSteps:
         if revisit or held:
             watch.since_check = 0 if revisit else watch.since_check
             strict = held and not revisit  # (a held gait is tested at every cycle, not once a check)
-            found = self._out_of_band([value], values[key], values, key, strict=strict)
-            if found is not None:
-                watch.suspect = [value, rotation, len(values[key]), state.iteration, state.cycles_in_iteration, strict]
-                return "hold"
+            # the cycle against the gait's record; a held gait's last HELD_CYCLES cycles too, against the cycles
+            # before them (a change within a robot's cycle-to-cycle spread shows in their mean, not in one cycle)
+            recent = [[]]
+            if strict and len(values[key]) >= 2 * HELD_CYCLES - 1:
+                recent.append(values[key][len(values[key]) - (HELD_CYCLES - 1):])
+            for tested in recent:
+                reference = values[key][:len(values[key]) - len(tested)]
+                if self._out_of_band([*tested, value], reference, values, key, strict=strict) is not None:
+                    watch.suspect = [value, rotation, len(reference), state.iteration, state.cycles_in_iteration,
+                                     strict]
+                    return "hold"
+            watch.passed = watch.passed + 1 if revisit else watch.passed
         turning = self._rotation_appears(key, rotation, rotations)
         if turning is None:
             return None
@@ -70,16 +78,14 @@ class ChangeSteps:
         return None
 
     def _model_surprised(self, key, value: float) -> None:
-        """While climbing, with the model confident (Γ over the climb's cycles at least the gate's Γ*): the model's
-        a-priori prediction of each candidate's objective against what it measured.
+        """While climbing: the model's a-priori prediction of each candidate's objective against what it measured
+        (a model that predicts poorly has a wide spread of residuals, so its surprise calibrates itself).
         Two residuals in a row beyond ``threshold`` robust standard deviations of the recent ones (their median
         absolute deviation, over at least :data:`SURPRISE_HISTORY` // 2 of them), on the same side, make the held
         gait's check due at once: the model notices, the held gait's measurement confirms."""
         state, watch = self.state, self.state.watch
         fitted = getattr(state.model, "__sklearn_is_fitted__", lambda: True)()
-        # (the first surprise of a change drops Γ: a second is judged by the confidence the first was)
-        confident = self.gate != "gamma" or state.gamma >= self.parts.gate.gamma_threshold or watch.surprise != 0
-        if not state.climb.active or key == state.climb.base or not fitted or not confident:
+        if not state.climb.active or key == state.climb.base or not fitted:
             return
         residual = value - self._predict(key[0])[1] * state.rate(key[1])
         history = np.asarray(watch.residuals, dtype=float)
@@ -91,7 +97,7 @@ class ChangeSteps:
         side = int(np.sign(residual - centre)) if abs(residual - centre) > self.parts.adaptation.threshold * scale \
             else 0
         if side and side == watch.surprise:
-            watch.since_check = self.parts.adaptation.check_every  # (due at the next decision)
+            watch.since_check = self.parts.adaptation.check_interval(watch.passed)  # (due at the next decision)
         watch.surprise = side
 
     @staticmethod
@@ -166,7 +172,7 @@ class ChangeSteps:
                              "reference": before, "noise": None if np.isnan(noise) else float(noise),
                              "rotation": float(np.mean(post_rotations if post_rotations else rotations)),
                              "family": family_kind(state.family)})
-        watch.since_check, watch.suspect, watch.turning = 0, [], 0
+        watch.since_check, watch.suspect, watch.turning, watch.passed = 0, [], 0, 0
         watch.residuals, watch.surprise = [], 0  # (the model's residuals before the change are no scale after it)
         if not widened and "forget" in self.capabilities and adaptation.forget > 1:
             state.model.forget(adaptation.forget)
@@ -182,7 +188,10 @@ class ChangeSteps:
         climb = parts.climb
         if climb is not None:
             watch.reopen = adaptation.reopen_sigma(climb.sigma, climb.first_sigma, size) * state.scale
-        model_leads = adaptation.lead == "model" and not self._model_excluded() and state.exploration is not None
+        lead = adaptation.lead
+        if lead == "auto":  # (as the run started)
+            lead = "climb" if climb is not None and climb.start == "first" else "model"
+        model_leads = lead == "model" and not self._model_excluded()  # (unexcited cycles start the climb anyway)
         if model_leads or climb is None:
             state.climb.active, state.climb.candidate, state.climb.search = False, None, None
             state.climb.base = held  # (the model leads: no first climb)
@@ -225,4 +234,5 @@ class ChangeSteps:
     def _check_due(self) -> bool:
         """While climbing: the held gait is due to be measured again (``check_every`` candidates since)."""
         adaptation = self.parts.adaptation
-        return adaptation is not None and self.state.watch.since_check >= adaptation.check_every
+        watch = self.state.watch
+        return adaptation is not None and watch.since_check >= adaptation.check_interval(watch.passed)
