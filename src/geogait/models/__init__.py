@@ -12,6 +12,7 @@ from ._base import (
     has_gait_model_members,
     load_model,
     model_capabilities,
+    model_fitted,
     model_from_state,
 )
 from ._batch import BatchGaitModel
@@ -42,6 +43,7 @@ __all__ = [
     "has_gait_model_members",
     "load_model",
     "model_capabilities",
+    "model_fitted",
     "monomial_exponents",
     "monomials",
     "model_from_state",

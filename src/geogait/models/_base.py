@@ -25,7 +25,7 @@ from ._features import PhaseWindows, n_regressors, regressors, split_coefficient
 from ._rls import schedule_rounds
 
 __all__ = ["CAPABILITIES", "GaitModel", "GaitModelBase", "SampleModel", "PhaseWindowModel", "check_gait_model",
-           "check_samples", "gamma", "load_model", "model_capabilities", "model_from_state"]
+           "check_samples", "gamma", "load_model", "model_capabilities", "model_fitted", "model_from_state"]
 
 FORMAT = "geogait-model"
 _GROUP_BYTES = 8 << 20  # covariance bytes of the trials updated together (about the size of a cache)
@@ -161,6 +161,13 @@ def clone_for_gait(model, gait, phase_rate: float):
     params = model.get_params(deep=False)
     params.update({k: v for k, v in (("gait", gait), ("phase_rate", phase_rate)) if k in params})
     return type(model)(**params)
+
+
+def model_fitted(model) -> bool:
+    """Whether ``model`` holds learned state: its ``__sklearn_is_fitted__()`` where it offers one (scikit-learn's
+    protocol), else True (a model that needs no fit)."""
+    fitted = getattr(model, "__sklearn_is_fitted__", None)
+    return bool(fitted()) if callable(fitted) else True
 
 
 def has_gait_model_members(model, members) -> bool:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..gaits import FreeGaitFamily, MirrorGaitFamily
-from ..models import model_capabilities
+from ..models import model_capabilities, model_fitted
 from ._models import run_model
 from ._state import family_kind
 
@@ -84,7 +84,7 @@ class ChangeSteps:
         absolute deviation, over at least :data:`SURPRISE_HISTORY` // 2 of them), on the same side, make the held
         gait's check due at once: the model notices, the held gait's measurement confirms."""
         state, watch = self.state, self.state.watch
-        fitted = getattr(state.model, "__sklearn_is_fitted__", lambda: True)()
+        fitted = model_fitted(state.model)
         if not state.climb.active or key == state.climb.base or not fitted:
             return
         residual = value - self._predict(key[0])[1] * state.rate(key[1])

@@ -10,7 +10,7 @@ import pandas as pd
 
 from .._validation import GeogaitWarning
 from ..learn import shape_amplitude
-from ..models import model_capabilities
+from ..models import model_capabilities, model_fitted
 from ..simulate import Trajectory
 from ._change_steps import ChangeSteps
 from ._climb import MeasuredClimb
@@ -278,7 +278,7 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
     def _residual_share(self) -> float:
         """The model's ``residual_share_`` (NaN for a model without one, or not fitted yet)."""
         model = self.state.model
-        if "residual_share" not in self.capabilities or not getattr(model, "__sklearn_is_fitted__", lambda: True)():
+        if "residual_share" not in self.capabilities or not model_fitted(model):
             return np.nan
         return float(model.residual_share_)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import GeogaitError
+from ..models import model_fitted
 from ._models import run_model
 from ._objective import joint_limit_constraints
 from ._steps import StepProblem, take_step
@@ -154,7 +155,7 @@ class ModelSteps:
         if period != state.period:  # another period: what was learned need not hold (dynamics)
             state.promised = None
             state.model = run_model(parts.model, gait, period, state.family, state.scale)
-        elif self.gate == "cycles" or not getattr(state.model, "__sklearn_is_fitted__", lambda: True)():
+        elif self.gate == "cycles" or not model_fitted(state.model):
             # (not fitted yet: a fresh model whose first cycles were all settling or rejected)
             state.model = run_model(parts.model, gait, state.period, state.family, state.scale)
         else:

@@ -92,7 +92,7 @@ def structured(model, **params) -> InSituOptimizer:
         The structured model (e.g. ``ResistanceModel(**robot.chain_geometry())``).
     %(preset)s
     """
-    checks = [Adaptation()] + ([StructureCheck()] if getattr(model, "residual_degree", None) is not None else [])
+    checks = [Adaptation()] + ([StructureCheck()] if model.get_params().get("residual_degree") is not None else [])
     return default(model=model, step=ModelStep(**STRUCTURED_STEP), climb=Climb(**STRUCTURED_CLIMB),
                    checks=checks).set_params(**params)
 
@@ -174,7 +174,7 @@ def _flat_structure_check(f: dict, step: ModelStep, climb) -> list:
     """The structure check the flat optimiser made implicitly for a model with a residual share: each of the
     step rule, the trust region and the climb still at the structured settings went back to the data-driven
     ones."""
-    if not hasattr(type(f["model"]), "residual_share_"):
+    if "residual_share" not in models.model_capabilities(f["model"]):
         return []
     step_changes = {}
     if f["step_rule"] == STRUCTURED_STEP["rule"]:

@@ -6,6 +6,7 @@ import numpy as np
 
 from .. import __version__
 from .._files import write_state
+from ..models import model_fitted
 from ..simulate import TrueMotion
 from ._state import (
     CHECKPOINT_FORMAT,
@@ -53,7 +54,7 @@ class RunRecords:
         metadata, arrays = self.state.to_checkpoint()
         model = self.state.model
         model_metadata = None
-        if "save" in self.capabilities and getattr(model, "__sklearn_is_fitted__", lambda: True)():
+        if "save" in self.capabilities and model_fitted(model):
             model_metadata, model_arrays = model.get_state()
             arrays.update({f"model/{k}": np.asarray(v) for k, v in model_arrays.items()})
         robot_state = None
