@@ -249,6 +249,12 @@ def _signals_as_interrupts():
             signal.signal(signum, defaults[signum])
 
 
+def signalled() -> bool:
+    """Whether Ctrl-C or SIGTERM came while the command ran (whatever error it then ended in: a driver killed by
+    the same Ctrl-C, say)."""
+    return bool(_RECEIVED)
+
+
 def _exit_after_signal(code: int):
     """``sys.exit(code)`` after Ctrl-C or SIGTERM, once every file is written and closed, without the interpreter's
     last full garbage collections: they walk every object SciPy, pandas and matplotlib made (0.25 s on an idle
