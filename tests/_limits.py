@@ -33,11 +33,16 @@ def interruptible() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def seconds_to_stop(argv: list[str], after: float, sig=signal.SIGTERM, limit: float = 60) -> tuple[float, int, str]:
-    """Start ``argv``, send ``sig`` ``after`` seconds, and return (seconds it took to exit, exit code, stderr)."""
+def seconds_to_stop(argv: list[str], after: float, sig=signal.SIGTERM, limit: float = 60, once: Path | None = None,
+                    env: dict | None = None) -> tuple[float, int, str]:
+    """Start ``argv`` (with ``env`` added to its environment), send ``sig`` ``after`` seconds (after the file ``once``
+    appeared, when given: a stage the run reached), and return (seconds it took to exit, exit code, stderr)."""
     with tempfile.TemporaryFile("w+") as stderr:  # (a pipe nobody reads would block a chatty process)
-        process = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=stderr, text=True, env=_environment(),
-                                   preexec_fn=interruptible)
+        process = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=stderr, text=True,
+                                   env={**_environment(), **(env or {})}, preexec_fn=interruptible)
+        started = time.monotonic()
+        while once is not None and not once.exists() and process.poll() is None and time.monotonic() < started + limit:
+            time.sleep(0.05)
         try:
             process.wait(timeout=after)
             raise AssertionError(f"{argv} ended before the signal (exit code {process.returncode}): nothing tested")

@@ -1,6 +1,7 @@
 """Path following within the machine's limits: memory held to what a path needs, SIGTERM honoured at once."""
 
 import numpy as np
+import pytest
 from _limits import within_memory
 
 from geogait.control import ReferencePath
@@ -25,3 +26,33 @@ def test_a_windowed_search_finds_what_the_whole_path_search_finds():
         s, error, _ = path.project(positions)
         near, near_error, _ = path.project(positions, near=s, window=0.5)
         np.testing.assert_allclose(near_error, error, atol=1e-12)
+
+
+def test_a_projection_onto_a_long_path_runs_in_bounded_compiled_calls(monkeypatch):
+    """A planner's horizon projects thousands of positions onto a path of up to 200 000 segments: one compiled call
+    over them all held SIGTERM off for minutes. Each call now tests at most _KERNEL_TESTS position-segment pairs (about
+    10 ms), and Python handles a signal between calls; the result is the one of a single call."""
+    from geogait.control import _paths
+
+    kernel = _paths.nearest_segment_kernel()
+    if kernel is None:
+        pytest.skip("the compiled kernel is not available here")
+    tests = []
+
+    def counted(x, y, start_x, start_y, step_x, step_y, length, best, along):
+        tests.append(x.size * length.size)
+        return kernel(x, y, start_x, start_y, step_x, step_y, length, best, along)
+
+    path = ReferencePath.circle(1000.0)  # (about 314 000 segments: capped at 200 000)
+    positions = np.random.default_rng(0).uniform(-10, 10, (64, 2)) + [0, 1000]
+    monkeypatch.setattr(_paths, "nearest_segment_kernel", lambda: counted)
+    bound = _paths._KERNEL_TESTS
+    monkeypatch.setattr(_paths, "_KERNEL_TESTS", 10**12)
+    whole = path.project(positions)
+    assert tests == [64 * 200_000]
+    monkeypatch.setattr(_paths, "_KERNEL_TESTS", bound)
+    tests.clear()
+    parts = path.project(positions)
+    assert len(tests) > 1 and max(tests) <= bound, tests
+    for part, one in zip(parts, whole, strict=True):
+        assert np.array_equal(part, one)
