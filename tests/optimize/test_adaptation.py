@@ -217,7 +217,3 @@ def test_after_a_change_the_recovery_starts_as_the_run_did():
         cycle = result.changes[0]["cycle"]
         assert bool(result.log["climb"].iloc[cycle + 1]) is climbs_at_once, lead
 
-
-def test_checks_of_a_gait_found_unchanged_grow_rarer():
-    adaptation = Adaptation(check_every=7)
-    assert [adaptation.check_interval(n) for n in range(5)] == [7, 14, 28, 28, 28]

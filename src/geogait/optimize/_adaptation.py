@@ -23,10 +23,10 @@ In a family that promises no net rotation (symmetric, mirror), every rotation me
 a gait measured twice or more whose mean rotation is beyond the band of that noise at ``threshold`` + 1 (σ: the RMS
 of every rotation recorded, those of dropped records too; one σ stricter, as it is tested at every such cycle) and
 beyond the climb's rotation tolerance, at two cycles in a row of that gait, is a change too. While the climb
-runs, the held gait is measured again after ``check_every`` of its candidates, then after twice and four times
-as many as long as the checks find it unchanged (:meth:`Adaptation.check_interval`): a check costs one cycle, two
-when the first is out of band. The model's surprise brings a check forward: while the climb runs, the model
-predicts each candidate's objective before it is measured; two residuals in a row beyond ``threshold`` robust
+runs, the held gait is measured again after every ``check_every`` of its candidates: a check costs one cycle,
+two when the first is out of band. The model's surprise brings a check forward: while the climb runs and the model is
+confident (Γ over the climb's cycles at least the gate's Γ*), it predicts each candidate's objective before it is
+measured; two residuals in a row beyond ``threshold`` robust
 standard deviations of the recent ones (1.4826 × their median absolute deviation), on the same side, make the
 check due at once.
 
@@ -82,8 +82,7 @@ class Adaptation(Part):
         Smallest relative change of the held gait's measured objective that counts (a change below it is not
         worth forgetting what was learned; it also bounds a noiseless robot's alarms).
     check_every : int
-        Candidates of the climb between two checks of the held gait, doubled by each of the first two checks in a
-        row that find it unchanged (sooner when the model is surprised).
+        Candidates of the climb between two checks of the held gait (sooner when the model is surprised).
     forget : float
         The factor by which the model discounts its evidence on a detection (``model.forget``: each direction of
         its covariance back towards the prior's, its weights kept as the starting point; 1: keep the evidence).
@@ -147,12 +146,6 @@ class Adaptation(Part):
         """
         return sigma + (first_sigma - sigma) * min(1.0, size)
 
-    def check_interval(self, passed: int) -> int:
-        """Climb candidates between two checks of the held gait after ``passed`` checks in a row found it
-        unchanged: ``check_every``, doubled by each of the first two (a robot that stays as it was is checked less
-        often; a detection starts again at ``check_every``, and the model's surprise makes a check due at once)."""
-        return int(self.check_every) * 2 ** min(int(passed), 2)
-
 
 @dataclass
 class ChangeWatch:
@@ -184,8 +177,6 @@ class ChangeWatch:
     rotation_ss, rotation_n : float, int
         The sum of squared rotations and their count in those records (the rotation noise of a family that
         promises none).
-    passed : int
-        Revisits of a gait in a row that found it unchanged (:meth:`Adaptation.check_interval`).
     """
 
     since_check: int = 0
@@ -200,7 +191,6 @@ class ChangeWatch:
     noise_dof: int = 0
     rotation_ss: float = 0.0
     rotation_n: int = 0
-    passed: int = 0
 
     def archive_rotations(self, *rotations: dict) -> None:
         """Keep the sum of squares of the rotations of ``rotations`` (records about to be dropped)."""
@@ -232,7 +222,7 @@ class ChangeWatch:
                 "rotation_free": self.rotation_free, "turning": self.turning,
                 "residuals": [float(r) for r in self.residuals], "surprise": self.surprise,
                 "noise_ss": float(self.noise_ss), "noise_dof": int(self.noise_dof),
-                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n), "passed": self.passed}
+                "rotation_ss": float(self.rotation_ss), "rotation_n": int(self.rotation_n)}
 
     @classmethod
     def from_json(cls, data: dict | None) -> ChangeWatch:
@@ -243,8 +233,7 @@ class ChangeWatch:
                    rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]),
                    residuals=[float(r) for r in data["residuals"]], surprise=int(data["surprise"]),
                    noise_ss=float(data["noise_ss"]), noise_dof=int(data["noise_dof"]),
-                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]),
-                   passed=int(data.get("passed", 0)))  # (checkpoints before the interval grew)
+                   rotation_ss=float(data["rotation_ss"]), rotation_n=int(data["rotation_n"]))
 
 
 def pooled_noise(*records: dict) -> tuple[float, int]:

@@ -65,7 +65,6 @@ class ChangeSteps:
                     watch.suspect = [value, rotation, len(reference), state.iteration, state.cycles_in_iteration,
                                      strict]
                     return "hold"
-            watch.passed = watch.passed + 1 if revisit else watch.passed
         turning = self._rotation_appears(key, rotation, rotations)
         if turning is None:
             return None
@@ -78,14 +77,15 @@ class ChangeSteps:
         return None
 
     def _model_surprised(self, key, value: float) -> None:
-        """While climbing: the model's a-priori prediction of each candidate's objective against what it measured
-        (a model that predicts poorly has a wide spread of residuals, so its surprise calibrates itself).
+        """While climbing, with the model confident (Γ over the climb's cycles at least the gate's Γ*): the model's
+        a-priori prediction of each candidate's objective against what it measured.
         Two residuals in a row beyond ``threshold`` robust standard deviations of the recent ones (their median
         absolute deviation, over at least :data:`SURPRISE_HISTORY` // 2 of them), on the same side, make the held
         gait's check due at once: the model notices, the held gait's measurement confirms."""
         state, watch = self.state, self.state.watch
-        fitted = model_fitted(state.model)
-        if not state.climb.active or key == state.climb.base or not fitted:
+        # (the first surprise of a change drops Γ: a second is judged by the confidence the first was)
+        confident = self.gate != "gamma" or state.gamma >= self.parts.gate.gamma_threshold or watch.surprise != 0
+        if not state.climb.active or key == state.climb.base or not model_fitted(state.model) or not confident:
             return
         residual = value - self._predict(key[0])[1] * state.rate(key[1])
         history = np.asarray(watch.residuals, dtype=float)
@@ -97,7 +97,7 @@ class ChangeSteps:
         side = int(np.sign(residual - centre)) if abs(residual - centre) > self.parts.adaptation.threshold * scale \
             else 0
         if side and side == watch.surprise:
-            watch.since_check = self.parts.adaptation.check_interval(watch.passed)  # (due at the next decision)
+            watch.since_check = self.parts.adaptation.check_every  # (due at the next decision)
         watch.surprise = side
 
     @staticmethod
@@ -172,7 +172,7 @@ class ChangeSteps:
                              "reference": before, "noise": None if np.isnan(noise) else float(noise),
                              "rotation": float(np.mean(post_rotations if post_rotations else rotations)),
                              "family": family_kind(state.family)})
-        watch.since_check, watch.suspect, watch.turning, watch.passed = 0, [], 0, 0
+        watch.since_check, watch.suspect, watch.turning = 0, [], 0
         watch.residuals, watch.surprise = [], 0  # (the model's residuals before the change are no scale after it)
         if not widened and "forget" in self.capabilities and adaptation.forget > 1:
             state.model.forget(adaptation.forget)
@@ -234,5 +234,4 @@ class ChangeSteps:
     def _check_due(self) -> bool:
         """While climbing: the held gait is due to be measured again (``check_every`` candidates since)."""
         adaptation = self.parts.adaptation
-        watch = self.state.watch
-        return adaptation is not None and watch.since_check >= adaptation.check_interval(watch.passed)
+        return adaptation is not None and self.state.watch.since_check >= adaptation.check_every

@@ -92,7 +92,8 @@ def structured(model, **params) -> InSituOptimizer:
         The structured model (e.g. ``ResistanceModel(**robot.chain_geometry())``).
     %(preset)s
     """
-    checks = [Adaptation()] + ([StructureCheck()] if model.get_params().get("residual_degree") is not None else [])
+    hybrid = model is not None and model.get_params().get("residual_degree") is not None
+    checks = [Adaptation()] + ([StructureCheck()] if hybrid else [])
     return default(model=model, step=ModelStep(**STRUCTURED_STEP), climb=Climb(**STRUCTURED_CLIMB),
                    checks=checks).set_params(**params)
 
