@@ -4,6 +4,7 @@ rebuilt from it, checked before any robot moves; and the presets, explicit and p
 
 import json
 
+import numpy as np
 import pytest
 from sklearn.base import clone
 
@@ -100,3 +101,73 @@ def test_bad_parts_are_named_before_the_robot_moves():
         with pytest.raises(ValueError, match=match):
             optimizer.run(robot, 3)
     assert robot.cycle == 0
+
+
+def _run_states():
+    """One run state of each part that keeps one, part way through (what a checkpoint holds)."""
+    from geogait.optimize._adaptation import ChangeWatch
+    from geogait.optimize._bayes import BayesianSearch
+    from geogait.optimize._evolution import EvolutionSearch
+    from geogait.optimize._model_class import ModelClassCheck
+    from geogait.optimize._period import PeriodLineSearch
+    from geogait.optimize._search import QuadraticSearch
+
+    rng = np.random.default_rng(0)
+    searches = [QuadraticSearch(origin=np.zeros(3), radius=0.3, final_radius=1e-3, period=1.0),
+                BayesianSearch(origin=np.zeros(3), radius=0.3, final_radius=1e-3, period=1.0, seed=4),
+                EvolutionSearch(origin=np.zeros(3), radius=0.3, final_radius=1e-3, period=1.0, max_radius=1.0)]
+    for search in searches:
+        search.tell(search.origin, 0.0, 0.0)
+        for _ in range(4):
+            point = search.ask(rng=rng)
+            search.tell(point, -float(np.sum((point - 0.2) ** 2)), 0.01, kept=bool(rng.random() < 0.5))
+    period = PeriodLineSearch(0.5, 2.0)
+    period.propose(1.0)
+    watch = ChangeWatch(since_check=3, suspect=[0.1, 0.0, 4, 2, 5, True], events=[{"cycle": 7}], turning=1,
+                        residuals=[0.01, -0.02], surprise=1, noise_ss=0.5, noise_dof=9)
+    check = ModelClassCheck(1.0, 2.0, 3, settle_cycles=1)
+    return [("search", s) for s in searches] + [("period", period), ("watch", watch), ("model class", check)]
+
+
+@pytest.mark.parametrize(("kind", "state"), _run_states(), ids=lambda v: v if isinstance(v, str) else "")
+def test_every_parts_run_state_round_trips_its_checkpoint(kind, state):
+    """A resumed run continues from the same state: written as JSON values and arrays, read back equal."""
+    from geogait.optimize._adaptation import ChangeWatch
+    from geogait.optimize._model_class import ModelClassCheck
+    from geogait.optimize._period import PeriodLineSearch
+    from geogait.optimize._search import MeasuredSearch
+
+    if kind == "search":
+        metadata, arrays = state.to_checkpoint("climb/search")
+        restored = MeasuredSearch.from_checkpoint(json.loads(json.dumps(metadata)), arrays, "climb/search")
+        assert type(restored) is type(state)
+        rng, twin = np.random.default_rng(5), np.random.default_rng(5)
+        np.testing.assert_array_equal(restored.ask(rng=twin), state.ask(rng=rng))
+    elif kind == "model class":
+        metadata, arrays = state.to_checkpoint()
+        restored = ModelClassCheck.from_checkpoint(json.loads(json.dumps(metadata)), arrays)
+        assert restored.to_checkpoint()[0] == metadata
+    else:
+        kind_class = PeriodLineSearch if kind == "period" else ChangeWatch
+        restored = kind_class.from_json(json.loads(json.dumps(state.to_json())))
+        assert restored.to_json() == state.to_json()
+
+
+def test_a_runs_setup_reads_only_the_spec_and_a_stub_spec_is_enough():
+    """What a run fixes before its first cycle comes from what the robot declares (a RobotSpec), nothing else."""
+    from geogait.gaits import FreeGaitFamily, MirrorGaitFamily, SymmetricGaitFamily
+    from geogait.optimize._setup import gait_family, joint_limit, period_range, settle_at_start
+    from geogait.robots import RobotSpec
+
+    gait = seed_gait(2)
+    bare = RobotSpec(kind="Stub", n_joints=2, cycle_period=1.0, symmetry_declared=False)
+    declared = RobotSpec(kind="Stub", n_joints=2, cycle_period=1.0, joint_ranges=np.array([[-1.0, 1.2], [-1.5, 0.9]]),
+                         front_back_symmetric=True, mirror_symmetric=True, period_control=True, settle_cycles=2)
+    assert isinstance(gait_family(InSituOptimizer(), declared, gait), SymmetricGaitFamily)
+    assert isinstance(gait_family(InSituOptimizer(), bare, gait), MirrorGaitFamily)  # measured: on trial
+    assert isinstance(gait_family(InSituOptimizer(checks=[]), bare, gait), FreeGaitFamily)
+    assert joint_limit(Limits(), declared) == 0.9 and joint_limit(Limits(), bare) == pytest.approx(2 * np.pi / 3)
+    assert settle_at_start(Safety(), declared) == 2 and settle_at_start(Safety(), bare) == 0
+    assert period_range(PeriodSearch(), declared, 1.0, "test") == (0.5, 2.0)
+    with pytest.raises(ValueError, match="set_cycle_period"):
+        period_range(PeriodSearch(), bare, 1.0, "test")
