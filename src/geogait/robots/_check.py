@@ -78,11 +78,9 @@ def check_robot(robot) -> RobotSpec:
 
     Examples
     --------
-    >>> from geogait.gaits import seed_gait
-    >>> from geogait.robots import check_robot
-    >>> from geogait.simulate import SwimmerStream
-    >>> from geogait.systems import PurcellSwimmer
-    >>> check_robot(SwimmerStream(PurcellSwimmer(3), seed_gait(2), seed=0)).mirror_symmetric
+    >>> from geogait import gaits, robots, simulate, systems
+    >>> robot = simulate.SwimmerStream(systems.PurcellSwimmer(3), gaits.seed_gait(2), seed=0)
+    >>> robots.check_robot(robot).mirror_symmetric
     True
     """
     owner = "check_robot"
