@@ -123,7 +123,7 @@ def _run_states():
             search.tell(point, -float(np.sum((point - 0.2) ** 2)), 0.01, kept=bool(rng.random() < 0.5))
     period = PeriodLineSearch(0.5, 2.0)
     period.propose(1.0)
-    watch = ChangeWatch(since_check=3, suspect=[0.1, 0.0, 4, 2, 5, True], events=[{"cycle": 7}], turning=1,
+    watch = ChangeWatch(since_check=3, suspect=[4, 2, 5, True], events=[{"cycle": 7}], turning=1,
                         residuals=[0.01, -0.02], surprise=1, noise_ss=0.5, noise_dof=9)
     check = ModelClassCheck(1.0, 2.0, 3, settle_cycles=1)
     return [("search", s) for s in searches] + [("period", period), ("watch", watch), ("model class", check)]

@@ -40,7 +40,8 @@ class SweepConfig:
         return self
 
     def _check_fields(self) -> None:
-        raise NotImplementedError
+        """Check the configuration's own fields (each experiment's config defines them)."""
+        raise NotImplementedError(f"{type(self).__name__} checks no fields: a config implements _check_fields")
 
 
 def trial_function_options(config) -> dict:

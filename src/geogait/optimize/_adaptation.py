@@ -156,9 +156,8 @@ class ChangeWatch:
     since_check : int
         Climb candidates measured since the held gait was last measured.
     suspect : list
-        ``[value, rotation, reference length, iteration, cycles in it, strict]`` of a cycle that tripped the test
-        (the gait's records after the reference are the cycles tested), awaiting the next cycle, judged at the same
-        band (empty: none).
+        ``[reference length, iteration, cycles in it, strict]`` of a cycle that tripped the test (the gait's records
+        after the reference are the cycles tested), awaiting the next cycle, judged at the same band (empty: none).
     reopen : float
         The step length of the next climb after a detection (NaN: the Climb's own).
     events : list of dict
@@ -228,7 +227,8 @@ class ChangeWatch:
     def from_json(cls, data: dict | None) -> ChangeWatch:
         if data is None:  # (a checkpoint of a run without adaptation)
             return cls()
-        return cls(since_check=int(data["since_check"]), suspect=list(data["suspect"]),
+        # (older checkpoints' suspects led with the cycle's value and rotation)
+        return cls(since_check=int(data["since_check"]), suspect=list(data["suspect"])[-4:],
                    reopen=np.nan if data["reopen"] is None else float(data["reopen"]), events=list(data["events"]),
                    rotation_free=bool(data["rotation_free"]), turning=int(data["turning"]),
                    residuals=[float(r) for r in data["residuals"]], surprise=int(data["surprise"]),

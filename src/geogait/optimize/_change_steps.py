@@ -39,8 +39,8 @@ class ChangeSteps:
         watch = state.watch
         values, rotations = self._records()
         self._model_surprised(key, value)
-        if watch.suspect and watch.suspect[3] == state.iteration and state.cycles_in_iteration == watch.suspect[4] + 1:
-            n_ref, strict = int(watch.suspect[2]), bool(watch.suspect[5])
+        if watch.suspect and watch.suspect[1] == state.iteration and state.cycles_in_iteration == watch.suspect[2] + 1:
+            n_ref, strict = int(watch.suspect[0]), bool(watch.suspect[3])
             watch.suspect = []
             reference, since = values[key][:n_ref], values[key][n_ref:]  # (since: the cycles that tripped the test)
             found = self._out_of_band([*since, value], reference, values, key, strict=strict)
@@ -62,8 +62,7 @@ class ChangeSteps:
             for tested in recent:
                 reference = values[key][:len(values[key]) - len(tested)]
                 if self._out_of_band([*tested, value], reference, values, key, strict=strict) is not None:
-                    watch.suspect = [value, rotation, len(reference), state.iteration, state.cycles_in_iteration,
-                                     strict]
+                    watch.suspect = [len(reference), state.iteration, state.cycles_in_iteration, strict]
                     return "hold"
         turning = self._rotation_appears(key, rotation, rotations)
         if turning is None:
