@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 from _reference import GAIT, lines
@@ -78,3 +79,31 @@ def test_stream_refuses_a_csv_header_naming_a_used_column_twice(run, config, tmp
     one_error_line(result, "'header' parameter of input line 1 must be a CSV header naming each column once",
                    "['shape_0'] more than once")
     assert not (tmp_path / "m.npz").exists()
+
+
+def test_saved_bytes_is_the_size_of_the_saved_file(tmp_path):
+    """What the note below reads: at 10 joints the window covariances are the file, to within 10 %."""
+    from geogait.gaits import seed_gait
+
+    gait, rng = seed_gait(10), np.random.default_rng(0)
+    phase = np.linspace(0, 2 * np.pi, 40)
+    model = AdaptiveGaitModel(gait=gait).partial_fit(phase, gait.shape(phase) + 0.1 * rng.normal(size=(40, 10)),
+                                                     rng.normal(size=(40, 10)), rng.normal(size=(40, 3)))
+    model.save(tmp_path / "m.npz")
+    assert model.saved_bytes(10) == pytest.approx((tmp_path / "m.npz").stat().st_size, rel=0.1)
+
+
+@pytest.mark.parametrize("n_joints, noted", [(2, False), (40, True)])
+def test_stream_says_when_saving_its_model_outlasts_a_signal(tmp_path, n_joints, noted):
+    """Issue 58: a model whose save takes longer than the 2 s other commands answer SIGTERM in is declared at the
+    start (its size and the seconds to allow before a kill); a small one is not."""
+    from geogait.gaits import seed_gait
+
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps(AdaptiveGaitModel(gait=seed_gait(n_joints)).to_config()))
+    result = stream(config, text="")
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.stderr.splitlines() if "saving this model" in line]
+    assert len(notes) == noted
+    if noted:  # 20 windows of 1681² covariances: 0.45 GB
+        assert "(0.45 GB)" in notes[0] and "before a kill" in notes[0]

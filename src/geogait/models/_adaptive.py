@@ -152,9 +152,14 @@ class AdaptiveGaitModel(OnlineGamma, GaitModelBase):
         self.n_samples_seen_ = 0
 
     def memory_bytes(self, n_joints: int) -> float:
-        """Bytes this model takes for ``n_joints`` joints at its peak: M window covariances of n × n regressors and
-        the updates' temporaries (1.2–1.6 × the covariances, measured at 20 and 30 joints)."""
-        return 1.5 * 8.0 * self.n_windows * n_regressors(n_joints, self.interaction) ** 2
+        """Bytes this model takes for ``n_joints`` joints at its peak: its saved state and the updates' temporaries
+        (1.2–1.6 × the covariances, measured at 20 and 30 joints)."""
+        return 1.5 * self.saved_bytes(n_joints)
+
+    def saved_bytes(self, n_joints: int) -> float:
+        """Bytes of this model's saved file for ``n_joints`` joints: its M window covariances of n × n regressors
+        (every other array is smaller by a factor n)."""
+        return 8.0 * self.n_windows * n_regressors(n_joints, self.interaction) ** 2
 
     def _check_size(self, batch: tuple, n_joints: int, n: int) -> None:
         """Refuse window covariances beyond MAX_BYTES (for every batch element), naming the most joints that fit."""
