@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._blocks import block_lstsq
 from .._validation import check_array, check_float, check_int, fail
 
 __all__ = ["FourierGait", "seed_gait"]
@@ -121,11 +122,12 @@ class FourierGait:
         if phase.shape[0] != shape.shape[0]:
             raise fail("phase", "FourierGait.from_shapes", f"of length {shape.shape[0]}",
                        f"length {phase.shape[0]}")
-        basis = fourier_basis(phase, order)
-        if np.linalg.matrix_rank(basis) < basis.shape[1]:
+        solution, singular = block_lstsq(lambda rows: fourier_basis(phase[rows], order), shape)
+        # (numpy.linalg.matrix_rank's tolerance)
+        if np.count_nonzero(singular > singular.max() * max(phase.size, 2 * order + 1) * np.finfo(float).eps) \
+                < 2 * order + 1:
             raise fail("phase", "FourierGait.from_shapes",
                        f"spread enough over the cycle to fit order {order}", "too few phases")
-        solution, *_ = np.linalg.lstsq(basis, shape, rcond=None)
         return cls(solution.T)
 
     def with_order(self, order: int) -> FourierGait:

@@ -75,7 +75,7 @@ import pandas as pd
 import pyarrow as pa
 from scipy.signal import savgol_filter
 
-from .. import se2
+from .. import _blocks, se2
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import describe_path_kind, read_utf8
 from .._validation import MAX_MAGNITUDE, GeogaitError, check_choice, check_float, check_int, fail
@@ -560,7 +560,7 @@ def load_frame(source) -> pd.DataFrame:
         raise fail("source", _READ, "an existing file", f"{path} ({describe_path_kind(path) or 'does not exist'})")
     kind = "CSV" if suffix == ".csv" else "Parquet"
     try:
-        return _read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+        return _read_csv(path) if suffix == ".csv" else _read_parquet(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, pa.ArrowException,
             ValueError) as error:
         reason = " ".join(str(error).split())[:200]
@@ -571,12 +571,27 @@ def load_frame(source) -> pd.DataFrame:
 def _read_csv(path: Path) -> pd.DataFrame:
     """The CSV file ``path`` as a table whose columns carry the header's names as written: pandas renames a
     repeated name (``shape_0``, ``shape_0.1``), which would hide it from the check of the used columns."""
-    frame = pd.read_csv(path)
+    # (in blocks of rows: a signal is handled between them)
+    frame = pd.concat(pd.read_csv(path, chunksize=_blocks.BLOCK_ROWS), ignore_index=True)
     with open(path, encoding="utf-8-sig", newline="") as stream:
         header = next(csv.reader(stream), [])
     if len(set(header)) < len(header) and len(header) == frame.shape[1]:
         frame.columns = header
     return frame
+
+
+def _read_parquet(path: Path) -> pd.DataFrame:
+    """The Parquet file ``path`` as :func:`pandas.read_parquet` reads it, in blocks of rows (a signal is handled
+    between them)."""
+    import pyarrow.parquet as pq
+
+    with pq.ParquetFile(path) as file:
+        frames = [pa.Table.from_batches([batch]).to_pandas() for batch in file.iter_batches(_blocks.BLOCK_ROWS)]
+        if not frames:
+            return file.read().to_pandas()
+    # (each block's default index starts at 0: numbered again; an index the file stores is kept)
+    return frames[0] if len(frames) == 1 else pd.concat(frames, ignore_index=isinstance(frames[0].index,
+                                                                                        pd.RangeIndex))
 
 
 def _numeric_columns(frame: pd.DataFrame, columns: ColumnMapping) -> dict[str, np.ndarray]:

@@ -15,6 +15,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .._blocks import row_blocks
 from .._docs import fill_doc
 from .._estimator import Boolean, Estimator, InstanceOf, Integer, Real, estimator_from_state
 from .._files import read_state
@@ -264,16 +265,20 @@ class PhaseWindowModel(Estimator):
 
         ``make_regressors(sample, rows)`` gives the regressors ``(b, M, r)`` of the samples
         ``sample`` ``(b, M)`` of trials ``rows`` (a slice of the flattened batch). Trials go through
-        in groups whose covariances fit in cache (each group runs all its rounds before the next).
+        in groups whose covariances fit in cache (each group runs all its rounds before the next), and a long
+        record in blocks of samples (:func:`~geogait._blocks.row_blocks`: each window still takes its samples in
+        time order, and a signal is handled between blocks).
         """
         batch, n = phase.shape[:-1], phase.shape[-1]
         phase = phase.reshape(-1, n)
         targets = targets.reshape(phase.shape + targets.shape[-1:])
         group = max(1, _GROUP_BYTES * phase.shape[0] // bank.covariance.nbytes)
         prior = np.concatenate([
-            self._rounds(bank.rows(slice(a, a + group)), phase[a:a + group], targets[a:a + group],
-                         lambda sample, a=a: make_regressors(sample, slice(a, a + group)))
-            for a in range(0, phase.shape[0], group)])
+            np.concatenate([self._rounds(bank.rows(trials), phase[trials, block], targets[trials, block],
+                                         lambda sample, trials=trials, block=block:
+                                         make_regressors(sample + block.start, trials))
+                            for block in row_blocks(n)], axis=1)
+            for trials in (slice(a, a + group) for a in range(0, phase.shape[0], group))])
         return prior.reshape(batch + prior.shape[-2:])
 
     def _rounds(self, bank, phase, targets, make_regressors) -> np.ndarray:
@@ -429,9 +434,12 @@ class GaitModelBase(SampleModel, PhaseWindowModel):
         phase, shape, shape_velocity = self._check_samples(
             phase, shape, shape_velocity, names=("shape", "shape_velocity"), owner=f"{type(self).__name__}.predict")
         scale = self._time_scale()
-        x = self._sample_regressors(phase, shape, shape_velocity / scale)
         single = self._single
-        prediction = np.einsum("...ni,...nij->...nj", x, self.smoothed_weights(phase)) * scale
+        prediction = np.concatenate([  # (in blocks of samples: a signal is handled between them)
+            np.einsum("...ni,...nij->...nj", self._sample_regressors(phase[..., rows], shape[..., rows, :],
+                                                                     shape_velocity[..., rows, :] / scale),
+                      self.smoothed_weights(phase[..., rows]))
+            for rows in row_blocks(phase.shape[-1])], axis=-2) * scale
         return prediction[..., 0, :] if single else prediction
 
     def coefficients(self, phase) -> dict[str, np.ndarray]:

@@ -70,6 +70,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import hilbert
 
+from .._blocks import block_lstsq, row_blocks
 from .._estimator import Estimator, Integer, Real
 from .._validation import check_array, check_magnitude, fail
 from ..gaits import fourier_basis
@@ -295,8 +296,7 @@ class Phaser(Estimator):
         level = self.mean_[channel] if self.section_level is None else float(self.section_level)
         values = np.concatenate([r[m, channel] for r, m in zip(records, keep, strict=True)])
         phase = np.concatenate([f[m] for f, m in zip(final, keep, strict=True)])
-        basis = fourier_basis(phase, self.order)
-        waveform, *_ = np.linalg.lstsq(basis, values - level, rcond=None)
+        waveform, _ = block_lstsq(lambda rows: fourier_basis(phase[rows], self.order), values - level)
         grid = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
         curve = fourier_basis(grid, self.order) @ waveform
         up = np.flatnonzero((curve < 0) & (np.roll(curve, -1) >= 0))
@@ -312,9 +312,10 @@ class Phaser(Estimator):
         """Phase-averaged z-scored channels against the (zeroed) phase, and their residual std."""
         z = np.concatenate([self._zscore(r[m]) for r, m in zip(records, keep, strict=True)])
         phase = np.concatenate([f[m] for f, m in zip(final, keep, strict=True)]) - self.zero_
-        basis = fourier_basis(phase, self.order)
-        self.waveform_, *_ = np.linalg.lstsq(basis, z, rcond=None)
-        residual = np.sqrt(np.mean((z - basis @ self.waveform_) ** 2, axis=0))
+        self.waveform_, _ = block_lstsq(lambda rows: fourier_basis(phase[rows], self.order), z)
+        squares = sum(np.sum((z[rows] - fourier_basis(phase[rows], self.order) @ self.waveform_) ** 2, axis=0)
+                      for rows in row_blocks(len(z)))
+        residual = np.sqrt(squares / len(z))
         self.residual_std_ = np.maximum(residual, _MIN_RESIDUAL_STD)
 
     # -- use ----------------------------------------------------------------------------------
