@@ -16,7 +16,7 @@ __all__ = ["BLOCK_ROWS", "block_lstsq", "row_blocks"]
 
 #: Rows per block. The longest compiled call over a block of this many rows takes well under
 #: :data:`~geogait._validation.MAX_SOLVE_SECONDS` (the window model's rounds and a Fourier basis of order 16).
-BLOCK_ROWS = 1 << 16
+BLOCK_ROWS = 1 << 15
 
 
 def row_blocks(n_rows: int, size: int | None = None) -> Iterator[slice]:
