@@ -217,3 +217,15 @@ def test_after_a_change_the_recovery_starts_as_the_run_did():
         cycle = result.changes[0]["cycle"]
         assert bool(result.log["climb"].iloc[cycle + 1]) is climbs_at_once, lead
 
+
+
+@pytest.mark.parametrize("values, noise, dof, count", [
+    ([0.4358, 0.4229, 0.4227], 2e-4, 20, 1),  # Gymnasium's swimmer: a 3 % transient, settled cycles alike to 0.05 %
+    ([0.4341, 0.4342, 0.4338], 2e-4, 20, 0),  # the same robot after a small change: inside the floor
+    ([0.1581, 0.1535, 0.1552], 8e-3, 20, 0),  # the built-in swimmer's sensor noise: 3 % is inside the band
+    ([-0.0926, -0.0694, -0.0694], 1e-6, 20, 1),  # the MuJoCo chain: its first cycle 33 % off
+])
+def test_a_first_cycle_settles_where_it_shifts_beyond_noise_and_half_a_percent(values, noise, dof, count):
+    """Issue 56: a robot that declares nothing is measured to settle where a gait change's first cycle differs from
+    the next two beyond their noise and beyond 0.5 % (the transients measured on the benchmark's robots)."""
+    assert Safety().settle_count(values, noise, dof) == count
