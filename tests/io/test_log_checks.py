@@ -59,3 +59,25 @@ def test_a_mapping_or_stream_config_that_is_not_utf8_is_bad_input_not_a_bug(tmp_
     mapping = str(tmp_path / "mapping.json")
     result = CliRunner().invoke(app, ["fit", mapping, "--mapping", mapping, "--out", str(tmp_path / "out")])
     assert result.exit_code == 1 and "bug" not in result.stderr
+
+
+@pytest.mark.parametrize("kind", ["csv", "parquet"])
+def test_a_log_too_large_for_memory_is_refused_naming_the_most_rows(frame, tmp_path, monkeypatch, kind):
+    """Issue 58: reading and fitting a log takes memory in proportion to its values; a log that would take more than
+    4 GiB is refused (a CSV as soon as the rows read so far say so, a Parquet file from its metadata) with the most
+    rows of its width that fit, and ``geogait fit`` ends in one error line."""
+    import geogait._blocks as blocks
+    import geogait.io._logs as logs
+
+    path = tmp_path / f"log.{kind}"
+    frame.to_csv(path, index=False) if kind == "csv" else frame.to_parquet(path)
+    read_log(path, **COLUMNS)  # (as it is: fits)
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 100)
+    monkeypatch.setattr(logs, "LOG_BYTES_PER_VALUE", 2**32 // (250 * frame.shape[1]))  # 250 rows fit
+    with pytest.raises(GeogaitError, match=rf"at least \d+ rows of {frame.shape[1]} columns.*GiB.*at most 250 rows"):
+        read_log(path, **COLUMNS)
+    result = CliRunner().invoke(app, ["fit", str(path), "--out", str(tmp_path / "fit"),
+                                      *(f"--{k.replace('_', '-')}={','.join(v) if isinstance(v, list) else v}"
+                                        for k, v in COLUMNS.items())])
+    assert result.exit_code == 1 and result.output.count("error:") == 1 and "at most 250 rows" in result.output
+    assert not (tmp_path / "fit").exists()
