@@ -93,3 +93,29 @@ def test_a_log_file_is_read_the_same_in_blocks(tmp_path, monkeypatch):
     pd.testing.assert_frame_equal(load_frame(tmp_path / "log.csv"), pd.read_csv(tmp_path / "log.csv"))
     for name in ("log.parquet", "indexed.parquet"):
         pd.testing.assert_frame_equal(load_frame(tmp_path / name), pd.read_parquet(tmp_path / name))
+
+
+def test_fitting_and_predicting_a_long_log_calls_nothing_over_more_than_a_block(tmp_path, monkeypatch):
+    """Issue 58: SIGTERM waits for a compiled call. ``fit_log`` and ``predict_log`` of a log 12 blocks long make no
+    least-squares, QR or SVD call over more rows than a block (and the log's file is read a block at a time)."""
+    from geogait.io import read_log
+    from geogait.learn import fit_log, predict_log
+
+    frame = simulate(PurcellSwimmer(3), seed_gait(2), 12, seed=4, sensor_noise=0.1).to_pandas()  # 1 200 rows
+    frame.to_csv(tmp_path / "log.csv", index=False)
+    largest = []
+
+    def counted(original):
+        def wrapped(a, *args, **kwargs):
+            largest.append(np.shape(a)[0])
+            return original(a, *args, **kwargs)
+        return wrapped
+
+    for name in ("lstsq", "qr", "svd"):
+        monkeypatch.setattr(np.linalg, name, counted(getattr(np.linalg, name)))
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 100)
+    columns = dict(shape=["shape_0", "shape_1"], body_velocity=["body_velocity_x", "body_velocity_y",
+                                                                "body_velocity_theta"], phase="phase")
+    fitted = fit_log(read_log(tmp_path / "log.csv", **columns))
+    predict_log(fitted.model, read_log(tmp_path / "log.csv", **columns))
+    assert largest and max(largest) <= 100 + 64, max(largest)  # (a block, on the factor R of at most 64 columns)
