@@ -20,7 +20,7 @@ half a minute, cached afterwards).
 
 Run::
 
-    python examples/elastica_snake.py --quick                 # 10 optimisation cycles, ~10 s
+    python examples/elastica_snake.py --quick                 # 16 optimisation cycles, ~15 s
     python examples/elastica_snake.py --cycles 60 --out out/elastica
 """
 
@@ -95,12 +95,12 @@ def optimise(n_cycles: int, seed: int) -> dict:
 def main(argv: list[str] | None = None) -> dict:
     """Command line: see the module docstring. Returns the summary it prints."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="10 optimisation cycles, a 4 + 2 cycle Γ check")
+    parser.add_argument("--quick", action="store_true", help="16 optimisation cycles, a 4 + 2 cycle Γ check")
     parser.add_argument("--cycles", type=int, default=60, help="optimisation cycles")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=None, help="write summary.json here")
     args = parser.parse_args(argv)
-    cycles = 10 if args.quick else args.cycles
+    cycles = 16 if args.quick else args.cycles
     summary = {"seconds_per_cycle": seconds_per_cycle(2 if args.quick else 10)}
     summary.update(held_out_gamma(args.seed, *((4, 2) if args.quick else (20, 10))))
     print(f"{summary['seconds_per_cycle']:.3f} s per cycle; held-out Γ {summary['held_out_gamma']:.3f}; "
