@@ -134,3 +134,17 @@ def test_bad_options_are_refused_before_anything_runs_or_is_written(tmp_path, ar
     result = CliRunner().invoke(app, [*arguments, "--out", str(out)])
     one_error_line(result, *fragments)
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_library_warnings_are_lines_and_the_interpreters_resource_warnings_are_not_shown(capsys):
+    """A leaked file collected while a command runs (it may be another part of the process's) is nothing the user can
+    act on; a library warning is one ``warning: …`` line."""
+    import warnings
+
+    from geogait import GeogaitWarning
+    from geogait.cli._app import _warnings_as_lines
+
+    with _warnings_as_lines():
+        warnings.warn("unclosed file <_io.TextIOWrapper name=21>", ResourceWarning, stacklevel=1)
+        warnings.warn("the gait is at its limit\nand stays there", GeogaitWarning, stacklevel=1)
+    assert capsys.readouterr().err.splitlines() == ["warning: the gait is at its limit and stays there"]

@@ -212,8 +212,7 @@ def holder():
 
     yield hold
     for process in processes:
-        process.stdin.close()
-        process.wait(timeout=30)
+        process.communicate(timeout=30)  # (closes its pipes: a pipe left to the collector warns in a later test)
 
 
 def test_fit_and_predict_are_refused_while_another_run_writes_their_folder(fitted, tmp_path, holder):

@@ -152,6 +152,8 @@ def _warnings_as_lines():
 
     with warnings.catch_warnings():
         warnings.simplefilter("default")
+        # (a file another part of the process left to the garbage collector is nothing the user can act on)
+        warnings.simplefilter("ignore", ResourceWarning)
         warnings.showwarning = show
         yield
 
