@@ -32,7 +32,6 @@ suppress_warnings = ["myst.header"]
 TABLE_TITLES = {
     "results/robots/robots": "Robot benchmark: every case and method",
     "results/robots-elastica/robots": "Robot benchmark: the continuum snake",
-    "results/robots-gp/robots": "Robot benchmark: the Gaussian-process optimiser",
     "results/change-benchmark/robots": "Change benchmark: every method",
     "results/change-benchmark-gp/robots": "Change benchmark: the Gaussian-process optimiser",
     "results/change-benchmark-robots/robots": "Change benchmark: robots geogait did not write",
