@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from geogait import GeogaitWarning, se2
+from geogait import GeogaitError, GeogaitWarning, se2
 from geogait.gaits import FourierGait, Perturbation
 from geogait.optimize import Gate, InSituOptimizer, Limits, ModelClassTest, Objective, Safety
 from geogait.robots import ElasticaSnake, ProcessRobot, Robot, elastica_snake, read_robot_spec, snake_seed_gait
@@ -133,6 +133,55 @@ def test_set_gait_takes_effect_at_the_next_cycle_and_is_checked():
     snake.close()
     with pytest.raises(ValueError, match="closed"):
         snake.next_cycle()
+
+
+#: A Gaussian-process optimiser's first candidate on the benchmark's snake (seed 9): every mode near 1.5 rad.
+WIDE_GAIT = FourierGait(np.array([[0.0, -1.531609, 1.290501], [0.0, -1.500974, -1.167771],
+                                  [0.0, 0.576142, -0.323349], [0.0, -1.446999, -1.514158]]))
+
+
+def test_an_instant_switch_between_large_gaits_breaks_the_rod_and_is_refused():
+    needs_elastica()
+    snake = elastica_snake(perturbation=STILL, switch_cycles=0)
+    snake.next_cycle()
+    snake.set_gait(WIDE_GAIT)
+    with pytest.raises(GeogaitError, match=r"broke in cycle 1 \(an element at .*× .* its rest length\).*switch_cycles"):
+        snake.next_cycle()
+
+
+def test_a_switch_moves_the_command_continuously_and_the_rod_stays_whole():
+    needs_elastica()
+    snake = elastica_snake(perturbation=STILL)
+    seed = snake.gait
+    snake.next_cycle()
+    snake.set_gait(WIDE_GAIT)
+    switch = snake.next_cycle()
+    weight = (switch.phase / (2 * np.pi))[:, None]
+    np.testing.assert_allclose(switch.commanded_shape,
+                               (1 - weight) * seed.shape(switch.phase) + weight * WIDE_GAIT.shape(switch.phase))
+    after = snake.next_cycle()
+    np.testing.assert_allclose(after.commanded_shape, WIDE_GAIT.shape(after.phase))
+    assert np.max(np.abs(snake.rod.dilatation - 1)) < 0.05
+    snake.set_gait(WIDE_GAIT)  # the same gait again: no switch
+    np.testing.assert_allclose(snake.next_cycle().commanded_shape, after.commanded_shape)
+
+
+def test_a_switch_under_way_is_restored_bit_identically():
+    needs_elastica()
+    snake = elastica_snake(seed=2, samples_per_cycle=50, cycle_period=0.5, switch_cycles=3)
+    snake.set_gait(snake_seed_gait(4, 0.5))
+    snake.next_cycle()
+    state = snake.robot_state()
+    assert state["switch_done"] == 1 and state["switch_from"].shape == (4, 3)
+    first = [snake.next_cycle() for _ in range(3)]
+    again = elastica_snake(seed=2, samples_per_cycle=50, cycle_period=0.5, switch_cycles=3)
+    again.restore_robot_state(state)
+    for cycle, other in zip(first, (again.next_cycle() for _ in range(3)), strict=True):
+        np.testing.assert_array_equal(cycle.commanded_shape, other.commanded_shape)
+        np.testing.assert_array_equal(cycle.pose, other.pose)
+    assert again.robot_state()["switch_from"] is None  # (three cycles: the switch's last two, then the gait)
+    with pytest.raises(ValueError, match="switch_done from 0 to switch_cycles − 1 = 2"):
+        again.restore_robot_state({**state, "switch_done": 3})
 
 
 def test_legendre_modes_track_too():

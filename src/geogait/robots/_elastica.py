@@ -55,6 +55,9 @@ _GRAVITY = 9.80665
 #: Largest timestep × √(G/ρ) / radius of the default integrator that PyElastica runs stably (measured
 #: 0.74 stable, 0.98 unstable over radii 0.011–0.03 L); the check leaves a margin below it.
 _STABILITY = 0.8
+#: Stretch (or squash) of an element beyond which the rod is broken: a resolved run of the benchmark's snake
+#: stays within 1.05× of rest, a broken one reaches 8–140× within a cycle.
+_BROKEN_STRETCH = 1.5
 
 
 def _elastica():
@@ -65,6 +68,14 @@ def _elastica():
         raise ImportError(
             f"geogait's ElasticaSnake needs the optional dependency 'pyelastica': {_INSTALL}") from error
     return elastica
+
+
+def _blend(start: FourierGait, end: FourierGait, weight: float) -> FourierGait:
+    """The gait whose shape is (1 − weight) × ``start``'s + weight × ``end``'s (shape is linear in the
+    coefficients, written in the higher of the two orders)."""
+    order = max(start.order, end.order)
+    return FourierGait((1 - weight) * start.with_order(order).coefficients
+                       + weight * end.with_order(order).coefficients)
 
 
 def snake_seed_gait(n_modes: int = 4, amplitude: float = 1.0) -> FourierGait:
@@ -131,6 +142,11 @@ class ElasticaSnake(SimulatedRobot):
     warmup_cycles : int >= 0
         Cycles run (not returned) before cycle 0, with the commanded shape ramped up from the straight
         rod over the first of them.
+    switch_cycles : int >= 0
+        Cycles over which the commanded shape moves, linearly in time, from the gait it ran to one that
+        :meth:`set_gait` gives, so that the command stays continuous. An instant switch between two large
+        gaits jumps the rest curvature faster than the explicit integrator follows, and the rod breaks
+        (elements stretched to tens of times their rest length). 0 switches at the next cycle's start.
     planar : bool
         Hold the rod in the ground plane (default): every node keeps its height and every element
         turns about the vertical only (PyElastica's ``GeneralConstraint``). Without it the rod is free
@@ -166,7 +182,7 @@ class ElasticaSnake(SimulatedRobot):
                  n_elements: int = 20, length: float = 0.35, radius: float | None = None, density: float = 1000.0,
                  youngs_modulus: float = 1e6, poisson_ratio: float = 0.5, friction=None, damping: float = 2e-3,
                  perturbation: Perturbation | None = None, max_joint_angle: float = MAX_JOINT_ANGLE,
-                 warmup_cycles: int = 1, planar: bool = True, seed=None):
+                 warmup_cycles: int = 1, switch_cycles: int = 1, planar: bool = True, seed=None):
         owner = "ElasticaSnake"
         d = check_int(n_modes, "n_modes", owner, minimum=2)
         kind = check_choice(modes, "modes", owner, ("fourier", "legendre"))
@@ -183,6 +199,7 @@ class ElasticaSnake(SimulatedRobot):
         self.damping = check_float(damping, "damping", owner, low=0)
         self.max_joint_angle = check_float(max_joint_angle, "max_joint_angle", owner, low=0, low_open=True)
         self.warmup_cycles = check_int(warmup_cycles, "warmup_cycles", owner, minimum=0)
+        self.switch_cycles = check_int(switch_cycles, "switch_cycles", owner, minimum=0)
         if not isinstance(planar, bool | np.bool_):
             raise fail("planar", owner, "a bool", planar)
         self.planar = bool(planar)
@@ -219,6 +236,8 @@ class ElasticaSnake(SimulatedRobot):
         self.cycle = 0
         self._cycle_start = 0.0  # time stamp of the next cycle's first sample (s, from the end of the warm-up)
         self._closed = False
+        self._ran = False  # whether the rod has been commanded (a switch blends only from a gait it ran)
+        self._switch = None  # (the gait the command moves from, cycles of the switch run)
         self._build()
         self._heading = 0.0
         self._warm_up()
@@ -299,6 +318,7 @@ class ElasticaSnake(SimulatedRobot):
             _, command = self._cycle_commands()
             ramp = np.minimum(1.0, (cycle * steps + np.arange(steps)) / steps)
             self._run(command * ramp[:, None], record=False)
+            self._ran = True
         self._heading = float(body_pose(self._nodes()[0])[2])
 
     # -- the Robot protocol -------------------------------------------------------------------
@@ -364,6 +384,22 @@ class ElasticaSnake(SimulatedRobot):
         self.steps_per_sample = steps
         self.cycle_period = steps * unit
 
+    def set_gait(self, gait: FourierGait) -> None:
+        """Command ``gait`` from the next cycle on; the command reaches it over ``switch_cycles`` cycles."""
+        self._check_gait(gait, "ElasticaSnake.set_gait")
+        if gait == self._gait:
+            return
+        start = self._switch_point() if self._ran and self.switch_cycles else None
+        self._switch = None if start is None else (start, 0)
+        self._gait = gait
+
+    def _switch_point(self) -> FourierGait:
+        """The gait the next cycle's command starts from (part way through a switch, the blend of its two)."""
+        if self._switch is None:
+            return self._gait
+        start, done = self._switch
+        return _blend(start, self._gait, done / self.switch_cycles)
+
     def set_excitation(self, shape, shape_velocity) -> None:
         """Run the next cycle with this excitation instead of the snake's own perturbation.
 
@@ -382,7 +418,11 @@ class ElasticaSnake(SimulatedRobot):
             delta, self._excitation = excitation_at(phase, *self._excitation)[0], None
         else:
             delta = self._perturbation.run(self._rng.standard_normal((steps, self.n_joints, 2)))[..., 0]
-        return phase, self._gait.shape(phase) + delta
+        if self._switch is None:
+            return phase, self._gait.shape(phase) + delta
+        start, done = self._switch
+        weight = ((done + phase / (2 * np.pi)) / self.switch_cycles)[:, None]
+        return phase, (1 - weight) * start.shape(phase) + weight * self._gait.shape(phase) + delta
 
     def _nodes(self) -> tuple[np.ndarray, np.ndarray]:
         """Node positions and velocities in geogait's plane, (n + 1, 2) each."""
@@ -403,11 +443,28 @@ class ElasticaSnake(SimulatedRobot):
             rest_kappa[0, :] = rest[index]
             time = step(simulator, time, dt)
         self._time = time
-        if not np.all(np.isfinite(self.rod.position_collection)):
-            raise GeogaitError(
-                f"The ElasticaSnake simulation diverged (non-finite rod state) in cycle {self.cycle}: lower the "
-                f"'timestep' ({self.timestep:g} s) or the commanded curvature.")
+        self._check_rod()
         return nodes, rates
+
+    def _check_rod(self) -> None:
+        """Refuse a rod the integrator lost: non-finite, an element stretched or squashed beyond
+        :data:`_BROKEN_STRETCH` of its rest length, or an element's frame turned against its tangent. A broken
+        rod stays finite and goes on returning numbers, which no measurement may take."""
+        rod = self.rod
+        if not np.all(np.isfinite(rod.position_collection)):
+            problem = "a non-finite rod state"
+        else:
+            stretch = np.asarray(rod.dilatation, dtype=float)
+            aligned = np.einsum("in,in->n", rod.director_collection[2], rod.tangents)
+            if np.any(np.abs(np.log(stretch)) > np.log(_BROKEN_STRETCH)):
+                problem = f"an element at {stretch.max():.3g}× (or {stretch.min():.3g}×) its rest length"
+            elif np.any(aligned < 0):
+                problem = "an element's frame turned against its tangent"
+            else:
+                return
+        raise GeogaitError(
+            f"The ElasticaSnake simulation broke in cycle {self.cycle} ({problem}): lower the 'timestep' "
+            f"({self.timestep:g} s), raise 'switch_cycles' ({self.switch_cycles}) or command a smaller curvature.")
 
     def next_cycle(self) -> Trajectory:
         """Run one gait cycle of the physics and return its ``samples_per_cycle`` samples.
@@ -423,6 +480,10 @@ class ElasticaSnake(SimulatedRobot):
             raise GeogaitError("This ElasticaSnake was closed; build a new one to run more cycles.")
         phase, command = self._cycle_commands()
         nodes, rates = self._run(command, record=True)
+        self._ran = True
+        if self._switch is not None:
+            start, done = self._switch
+            self._switch = None if done + 1 == self.switch_cycles else (start, done + 1)
         k, n = self.steps_per_sample, self.samples_per_cycle
         pose = body_pose(nodes, masses=self._masses, reference_heading=self._heading)
         self._heading = float(pose[-1, 2])
@@ -451,12 +512,15 @@ class ElasticaSnake(SimulatedRobot):
             The rod's ``position_collection``, ``velocity_collection``, ``director_collection``,
             ``omega_collection`` (the position-Verlet state), ``time``, ``perturbation`` (δ, δ̇ per
             mode), ``gait`` (coefficients), ``rng`` (the generator's state, JSON values), ``cycle``,
-            ``heading`` (the unwrapped heading of the last sample), ``cycle_period`` and ``cycle_start``
-            (the next cycle's first time stamp).
+            ``heading`` (the unwrapped heading of the last sample), ``cycle_period``, ``cycle_start``
+            (the next cycle's first time stamp), ``ran`` (the rod has been commanded) and the switch under
+            way: ``switch_from`` (the coefficients it moves from, or None) and ``switch_done`` (its cycles run).
         """
         state = {name: np.array(getattr(self.rod, name)) for name in self._ROD_STATE}
+        start, done = (None, 0) if self._switch is None else (np.array(self._switch[0].coefficients), self._switch[1])
         state.update({"time": float(self._time), **self._run_state(), "cycle_period": float(self.cycle_period),
-                      "cycle_start": float(self._cycle_start)})
+                      "cycle_start": float(self._cycle_start), "ran": self._ran, "switch_from": start,
+                      "switch_done": int(done)})
         return state
 
     def restore_robot_state(self, state: dict) -> None:
@@ -471,13 +535,26 @@ class ElasticaSnake(SimulatedRobot):
                            f"shape {array.shape}")
             arrays[name] = array
         perturbation, gait = self._checked_run_state(state, owner)
+        switch = self._checked_switch(state, owner)
         for name, array in arrays.items():
             getattr(self.rod, name)[...] = array
         self._time = np.float64(state["time"])
         self._restore_run_state(state, perturbation, gait)
+        self._switch, self._ran = switch, bool(state.get("ran", True))
         if "cycle_period" in state:  # (states from before the period could change: the snake's own)
             self.set_cycle_period(float(state["cycle_period"]))
         self._cycle_start = float(state.get("cycle_start", self.cycle * self.cycle_period))
+
+    def _checked_switch(self, state: dict, owner: str):
+        """The switch under way in ``state`` (None in states from before switches were blended), checked."""
+        if state.get("switch_from") is None:
+            return None
+        start = FourierGait(np.asarray(state["switch_from"], dtype=float))
+        self._check_gait(start, owner)
+        done = state.get("switch_done")
+        if isinstance(done, bool) or not isinstance(done, int | np.integer) or not 0 <= done < self.switch_cycles:
+            raise fail("state", owner, f"a switch_done from 0 to switch_cycles − 1 = {self.switch_cycles - 1}", done)
+        return start, int(done)
 
     def close(self) -> None:
         """Drop the simulation; later cycles raise an error."""
