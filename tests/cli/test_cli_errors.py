@@ -46,10 +46,27 @@ def test_a_bad_value_is_said_of_its_option(tmp_path, args, line):
 
 
 def test_a_library_message_about_no_option_stays_as_it_is():
-    text = "The 'source' parameter of read_log must be a CSV or Parquet file. Got 'x.txt' instead."
+    text = "The 'alpha' parameter of Perturbation must be finite. Got nan instead."
     assert in_cli_words(text, {"shape": "--shape"}) == text
-    assert in_cli_words(text.replace("source", "shape"), {"shape": "--shape"}) == (
-        "--shape must be a CSV or Parquet file; got 'x.txt'.")
+    assert in_cli_words(text.replace("alpha", "shape"), {"shape": "--shape"}) == "--shape must be finite; got nan."
+
+
+@pytest.mark.parametrize(("text", "said"), [
+    ("The 'source' parameter of read_log must be a CSV or Parquet file. Got 'x.txt' instead.",
+     "the log must be a CSV or Parquet file; got 'x.txt'."),
+    ("The 'q0' parameter of read_log must be a numeric column. Got 'a' instead.",
+     "the log's column 'q0' must be a numeric column; got 'a'."),
+    ("The 'header' parameter of input line 1 must be a CSV header naming each column once. Got \"x\" instead.",
+     "input line 1 must be a CSV header naming each column once; got \"x\"."),
+    ("The 'shape' parameter of input line 21 must be a list of 2 numbers. Got [1] instead.",
+     "input line 21's 'shape' must be a list of 2 numbers; got [1]."),
+    # a setting of the reader that no option of the running command gave stays as it is
+    ("The 'window' parameter of read_log must be an odd int >= 3. Got 4 instead.",
+     "The 'window' parameter of read_log must be an odd int >= 3. Got 4 instead."),
+])
+def test_a_message_about_the_users_log_or_input_line_is_said_of_them(text, said):
+    """Issue 58: a log naming a column twice was reported as "The 'source' parameter of read_log must be …"."""
+    assert in_cli_words(text, {}) == said
     assert in_cli_words("The '--jobs' option and '--scheduler' option spread trials.", {}) == (
         "--jobs and --scheduler spread trials.")
 

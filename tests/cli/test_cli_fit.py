@@ -257,9 +257,8 @@ def test_fit_and_predict_refuse_a_log_naming_a_used_column_twice(fitted, tmp_pat
                      str(tmp_path / "p.csv")]):
         result = CliRunner().invoke(app, command)
         assert result.exit_code == 1, result.output
-        assert result.stderr.splitlines() == ["error: The 'source' parameter of read_log must be a table whose used "
-                                              "columns appear once each. Got \"the column(s) ['q0'] more than "
-                                              "once\" instead."]
+        assert result.stderr.splitlines() == ["error: the log must be a table whose used columns appear once each; "
+                                              "got \"the column(s) ['q0'] more than once\"."]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["twice.csv"]
 
 

@@ -76,7 +76,7 @@ def test_stream_refuses_a_csv_header_naming_a_used_column_twice(run, config, tmp
     frame = run.to_pandas()
     text = pd.concat([frame, frame[["shape_0"]] * 2], axis=1).to_csv(index=False)
     result = stream(config, "--format", "csv", "--out", tmp_path / "m.npz", text=text)
-    one_error_line(result, "'header' parameter of input line 1 must be a CSV header naming each column once",
+    one_error_line(result, "error: input line 1 must be a CSV header naming each column once",
                    "['shape_0'] more than once")
     assert not (tmp_path / "m.npz").exists()
 

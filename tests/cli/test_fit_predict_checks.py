@@ -32,12 +32,12 @@ def test_fit_rejects_a_huge_pose_naming_column_and_row(run, tmp_path):
     log.to_csv(tmp_path / "log.csv", index=False)
     base = ["fit", str(tmp_path / "log.csv"), "--shape", "shape_0,shape_1", "--pose", "x,y,heading"]
     result = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "out")])
-    one_error_line(result, "'x' parameter of read_log", "within ±1e+12", "1e+300 at row 500")
+    one_error_line(result, "the log's column 'x' must be", "within ±1e+12", "1e+300 at row 500")
     assert not (tmp_path / "out" / "model.npz").exists()
     log.loc[500, "x"] = log.loc[499, "x"] + 50.0  # finite, but a 50-length jump in one step
     log.to_csv(tmp_path / "log.csv", index=False)
     result = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "out")])
-    one_error_line(result, "'x' parameter of read_log", "outlier_limit = 1000", "a step of 50", "at row 500")
+    one_error_line(result, "the log's column 'x' must be", "outlier_limit = 1000", "a step of 50", "at row 500")
 
 
 def test_cli_fit_time_unit_and_warning_line(frame, tmp_path):
@@ -66,7 +66,7 @@ def test_garbage_logs_give_one_error_line(tmp_path, content, suffix, message):
     path = tmp_path / f"log{suffix}"
     path.write_bytes(content)
     one_error_line(CliRunner().invoke(app, ["fit", str(path), *CLI_COLUMNS, "--out", str(tmp_path / "out")]),
-                   "'source' parameter of read_log", message)
+                   "error: the log must be", message)
 
 
 def test_predict_refuses_to_overwrite_an_input(fitted):

@@ -35,7 +35,7 @@ def robot_run(tmp_path):
 @pytest.mark.parametrize(("changed", "fragment"), [
     ({"joint_ranges": [[-1.2, 1.2], [-1.2, 1.2]]}, "joint_ranges: none then, [[-1.2, 1.2], [-1.2, 1.2]] now"),
     ({"cycle_period": 2.0}, "cycle_period: 1.0 s then, 2.0 s now"),
-    ({"shape_constraints": [[1, -1, 0.9]]}, "shape_constraints: none then, [[1.0, -1.0, 0.9]] now"),
+    ({"shape_constraints": [[1, -1, 2.5]]}, "shape_constraints: none then, [[1.0, -1.0, 2.5]] now"),
 ])
 def test_a_resumed_robot_whose_hello_changed_is_refused_naming_what_changed(robot_run, changed, fragment):
     """Before: a driver now declaring joint limits of ±1.2 rad was commanded 1.93 rad, one whose period doubled got

@@ -146,18 +146,18 @@ GOOD = {"time": 1.0, "phase": 0.5, "shape": [1.0, 0.0], "shape_velocity": [0.0, 
 
 
 @pytest.mark.parametrize("bad, message", [
-    ("not json", r"'record' parameter of input line 21 must be a JSON object. Got 'invalid JSON"),
-    ('[1, 2]', r"'record' parameter of input line 21 must be a JSON object"),
+    ("not json", r"error: input line 21 must be a JSON object; got 'invalid JSON"),
+    ('[1, 2]', r"error: input line 21 must be a JSON object"),
     ('{"time": 1.0, "phase": 0.5, "shape": [1, 0], "body_velocity": [0, 0, 0], "phase": 0.6}',
-     r"'record' parameter of input line 21 must be a JSON object giving each key once. Got \"key 'phase' more"),
+     r"error: input line 21 must be a JSON object giving each key once; got \"key 'phase' more"),
     ({"extra": 1}, r"unknown key\(s\) \['extra'\]"),
-    ({"shape": [1.0, 2.0, 3.0]}, r"'shape' parameter of input line 21 must be a list of 2 numbers"),
-    ({"shape": [1.0, "x"]}, r"'shape' parameter of input line 21 must be a list of 2 numbers"),
+    ({"shape": [1.0, 2.0, 3.0]}, r"error: input line 21's 'shape' must be a list of 2 numbers"),
+    ({"shape": [1.0, "x"]}, r"error: input line 21's 'shape' must be a list of 2 numbers"),
     ('{"time": 1.0, "phase": 0.5, "shape": [NaN, 0], "body_velocity": [0, 0, 0]}', r"2 finite numbers"),
-    ({"body_velocity": None}, r"'body_velocity' parameter of input line 21 must be given"),
-    ({"phase": None}, r"'phase' parameter of input line 21 must be given \(or stream with a fitted Phaser\)"),
-    ({"time": 0.0}, r"'time' parameter of input line 21 must be greater than the previous sample's time"),
-    ({"phase": "0.1"}, r"'phase' parameter of input line 21 must be a finite number"),
+    ({"body_velocity": None}, r"error: input line 21's 'body_velocity' must be given"),
+    ({"phase": None}, r"error: input line 21's 'phase' must be given \(or stream with a fitted Phaser\)"),
+    ({"time": 0.0}, r"error: input line 21's 'time' must be greater than the previous sample's time"),
+    ({"phase": "0.1"}, r"error: input line 21's 'phase' must be a finite number"),
 ])
 def test_bad_lines_name_line_and_field_and_save_what_was_learned(run, config, tmp_path, bad, message):
     if isinstance(bad, dict):
@@ -209,7 +209,7 @@ def test_csv_stream_differentiates_and_notes_ignored_columns(run, config, tmp_pa
     bad = frame.to_csv(index=False).replace("\n", "\nnot,enough\n", 1)
     result = CliRunner().invoke(app, ["stream", str(config), "--format", "csv", "--out", str(tmp_path / "n.npz")],
                                 input=bad)
-    assert result.exit_code == 1 and "'row' parameter of input line 2 must be" in result.stderr
+    assert result.exit_code == 1 and "error: input line 2 must be" in result.stderr
     result = CliRunner().invoke(app, ["stream", str(config), "--format", "csv", "--out", str(tmp_path / "n.npz")],
                                 input=frame.drop(columns="body_velocity_y").to_csv(index=False))
     assert result.exit_code == 1 and "without ['body_velocity_y']" in result.stderr

@@ -3,6 +3,7 @@ trusts a driver with nothing (issue 21): every field, line and cycle checked, lo
 driver injects, a plausible cycle, a quarantined one or one clear error (fuzz)."""
 
 import json
+import shlex
 import sys
 import time
 import warnings
@@ -73,7 +74,7 @@ def hello_driver(tmp_path, hello):
     ({"joint_ranges": [[-1e300, 1], [-1, 1]]}, "joint_ranges"),
     ({"joint_ranges": [[-1, 1], [-1, 2e12]]}, "joint_ranges"),
     ({"shape_constraints": [[1, -1, 1e300]]}, "shape_constraints"),
-    ({"shape_constraints": [[1e300, -1, 1]]}, "shape_constraints"),
+    ({"shape_constraints": [[1e300, 0, 1e300]]}, "shape_constraints"),
 ])
 def test_hello_numbers_beyond_the_documented_bound_are_refused_naming_the_field(tmp_path, fields, name):
     """1e300 in chain.frame_offset, shape_map or joint_ranges gave Γ NaN every cycle, no step, exit 0."""
@@ -92,6 +93,37 @@ def test_a_hello_whose_gait_no_optimisation_could_hold_is_refused(tmp_path, fiel
     with pytest.raises(GeogaitError, match=r"robot driver .*the hello's 'gait'.*(4 GiB|SIGTERM)") as error:
         ProcessRobot(hello_driver(tmp_path, dict(HELLO, **fields)))
     assert fragment in str(error.value)
+
+
+@pytest.mark.parametrize(("fields", "fragment"), [
+    ({"joint_ranges": [[-0.5, 0.5], [-0.5, 0.5]]},
+     "the hello's 'gait' moves joint 0 over [-1, 1] rad, outside its 'joint_ranges' [-0.5, 0.5]"),
+    ({"joint_ranges": [[-2, 2], [-0.5, 3]]},
+     "the hello's 'gait' moves joint 1 over [-1, 1] rad, outside its 'joint_ranges' [-0.5, 3]"),
+    ({"shape_constraints": [[1, 0, 0.5]]},
+     "the hello's 'gait' leaves the region its 'shape_constraints' declare (by 0.5"),
+])
+def test_a_hello_whose_seed_gait_leaves_its_own_ranges_or_region_is_refused_naming_them(tmp_path, fields, fragment):
+    """Before: the run was refused as "--robot must be a seed gait within max_joint_angle = 0.5" (or "inside the
+    robot's feasible region (its system's singular set's margin ...)"), naming the optimiser, not the hello."""
+    with pytest.raises(GeogaitError, match=r"^robot driver ") as error:
+        ProcessRobot(hello_driver(tmp_path, dict(HELLO, **fields)))
+    assert fragment in str(error.value)
+    # the same seed inside the declared ranges and region is accepted
+    inside = {"joint_ranges": [[-1, 1], [-1, 1]], "shape_constraints": [[1, 0, 1]]}
+    ProcessRobot(hello_driver(tmp_path, dict(HELLO, **inside))).close()
+
+
+@pytest.mark.parametrize(("fields", "fragment"), [
+    ({"joint_ranges": [[-0.5, 0.5], [-0.5, 0.5]]}, "outside its 'joint_ranges' [-0.5, 0.5]"),
+    # within each joint's own range, beyond the symmetric limit the optimiser takes from the ranges
+    ({"gait": {"order": 1, "params": [0.5, 1, 0, 0, 0, 1]}, "joint_ranges": [[-0.6, 2], [-1.5, 1.5]]},
+     "--robot must be a seed gait within the automatic joint limit, 0.6 rad (the nearest bound of the joint_ranges "
+     "it declares); got 'a gait reaching 1.5 rad'"),
+])
+def test_the_cli_names_the_hello_field_a_seed_gait_leaves(tmp_path, fields, fragment):
+    driver = shlex.join(hello_driver(tmp_path, dict(HELLO, **fields)))
+    one_error_line(invoke("optimize", "--robot", driver, "--cycles", 4, "--out", tmp_path / "run"), fragment)
 
 
 # -- a driver is trusted with nothing (issue 21) ----------------------------------------------------------------

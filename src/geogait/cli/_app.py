@@ -47,8 +47,11 @@ def _one_line(text: str) -> str:
 _OPTION_OF = {"random_state": "--seed", "n_links": "--links", "n_windows": "--windows", "window": "--smoothing-window",
               "sensor_noise": "--noise", "n_trials": "--trials", "n_cycles": "--cycles", "drag_ratios": "--drag-ratio"}
 #: The library's message about a parameter (``_validation.fail``), or one about an option in its words.
-_PARAMETER_ERROR = re.compile(r"^The '(?P<name>[^']+)' (?:parameter of [\w. ]+?|option) must be (?P<expected>.+?)\. "
-                              r"Got (?P<got>.+?) instead\.(?P<rest>.*)$", re.S)
+_PARAMETER_ERROR = re.compile(r"^The '(?P<name>[^']+)' (?:parameter of (?P<owner>[\w. ]+?)|option) must be "
+                              r"(?P<expected>.+?)\. Got (?P<got>.+?) instead\.(?P<rest>.*)$", re.S)
+#: What a message about the reader of a log file (read_log) or of an input line (stream) is said of: the log and
+#: its columns, the line and its keys.
+_INPUT_OWNER = re.compile(r"^(?:read_log|input line \d+)$")
 #: An option named in the library's manner ("The '--x' option"), said the CLI's way ("--x").
 _OPTION_NAMED = re.compile(r"(?:The )?'(--[\w-]+)' option")
 #: What typer says of a bad option value, in the CLI's words ("must be …"); {given} is the value given.
@@ -97,9 +100,23 @@ def in_cli_words(text: str, options: dict[str, str]) -> str:
     option = name if name.startswith("--") else options.get(name)
     if option is None and _OPTION_OF.get(name) in options.values():
         option = _OPTION_OF[name]
+    if option is None and match["owner"] is not None and _INPUT_OWNER.match(match["owner"]):
+        option = _input_named(name, match["owner"])
     if option is None:
         return text
     return _OPTION_NAMED.sub(r"\1", f"{option} must be {match['expected']}; got {match['got']}.{match['rest']}")
+
+
+def _input_named(name: str, owner: str) -> str | None:
+    """A parameter of the log reader or of a streamed input line, said of the user's input: "the log", "the log's
+    column 'x'", "input line 3", "input line 3's 'shape'"; None for a setting of the reader no option gave."""
+    if owner == "read_log":
+        from ..io import read_log
+
+        if name == "source":
+            return "the log"
+        return None if name in inspect.signature(read_log).parameters else f"the log's column '{name}'"
+    return owner if name in ("record", "row", "header") else f"{owner}'s '{name}'"
 
 
 def _bad_value(error, args) -> str:

@@ -19,7 +19,7 @@ import typer
 
 from .._defaults import DEFAULT_OUTLIER_LIMIT, TIME_UNITS
 from .._files import bounded_lines, check_outputs
-from ._app import app
+from ._app import app, in_cli_words
 from ._common import RUN_PANEL, Overwrite, _is_fresh_run_manifest, one_of, refuse_existing, write_manifest
 
 #: The help's option groups.
@@ -170,7 +170,7 @@ def _report(summary) -> None:
         typer.echo(f"warning: {summary.n_rejected} implausible sample(s) quarantined (not learned); the first: "
                    f"{summary.first_rejection}", err=True)
     if summary.error is not None:
-        typer.echo(f"error: {summary.error}", err=True)
+        typer.echo(f"error: {in_cli_words(summary.error, {})}", err=True)
     elif summary.reason not in ("eof",):
         typer.echo(f"stopped ({summary.reason})", err=True)
     gamma = "n/a" if summary.gamma is None else f"{summary.gamma:.3f}"

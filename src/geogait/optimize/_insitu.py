@@ -307,7 +307,9 @@ class InSituOptimizer(Estimator):
         reach = gait.joint_limit().max()
         if reach > r_max + 1e-12:
             if limits.max_joint_angle == "auto":  # (the limit the robot declares)
-                raise fail("robot", owner, f"a seed gait within max_joint_angle = {r_max:.4g}",
+                source = "the nearest bound of the joint_ranges it declares" if spec.joint_ranges is not None \
+                    else "the default joint limit: it declares no joint_ranges"
+                raise fail("robot", owner, f"a seed gait within the automatic joint limit, {r_max:.4g} rad ({source})",
                            f"a gait reaching {reach:.4g} rad")
             raise fail("max_joint_angle", owner, f"at least the largest joint angle of the robot's seed gait "
                        f"({reach:.4g} rad), where the run starts", r_max)

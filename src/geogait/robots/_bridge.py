@@ -96,6 +96,7 @@ import warnings
 
 import numpy as np
 
+from .._defaults import FEASIBILITY_TOLERANCE
 from .._files import MAX_LINE_BYTES, RepeatedKey, unique_keys
 from .._validation import MAX_MAGNITUDE, GeogaitError, GeogaitWarning, check_float, check_gait_size, fail
 from ..gaits import FourierGait, check_excitation
@@ -117,6 +118,8 @@ MAX_TEXT = 300
 MAX_QUARANTINED = 3
 #: Range of a hello's cycle_period (seconds): 1000 cycles/s to one cycle a day.
 PERIOD_RANGE = (1e-3, 86_400.0)
+# phases at which the hello's seed gait is checked against the ranges and region the hello declares
+_HELLO_GAIT_PHASES = 1024
 
 
 class _Fault(str):
@@ -566,6 +569,28 @@ class ProcessRobot:
         self.shape_constraints = None if hello.get("shape_constraints") is None \
             else self._read_constraints(hello["shape_constraints"])
         self.feasibility = None if self.shape_constraints is None else self.shape_constraints.feasibility
+        self._check_hello_gait()
+
+    def _check_hello_gait(self) -> None:
+        """The hello's seed gait lies within the joint ranges and the region the same hello declares: a driver whose
+        seed leaves them is refused here, naming its fields, not later as a seed the optimiser cannot start from."""
+        shapes = self._hello_gait.shape(np.linspace(0, 2 * np.pi, _HELLO_GAIT_PHASES, endpoint=False))  # (n, d)
+        if self.joint_ranges is not None:
+            low, high = shapes.min(axis=0), shapes.max(axis=0)
+            outside = np.flatnonzero((low < self.joint_ranges[:, 0] - FEASIBILITY_TOLERANCE)
+                                     | (high > self.joint_ranges[:, 1] + FEASIBILITY_TOLERANCE))
+            if outside.size:
+                j = int(outside[0])
+                raise self._failure(f"the hello's 'gait' moves joint {j} over [{low[j]:.4g}, {high[j]:.4g}] rad, "
+                                    f"outside its 'joint_ranges' [{self.joint_ranges[j, 0]:.4g}, "
+                                    f"{self.joint_ranges[j, 1]:.4g}]; the seed gait must lie within them")
+        if self.shape_constraints is not None:
+            margin = self.shape_constraints.feasibility(shapes)
+            if margin.min() < -FEASIBILITY_TOLERANCE:
+                at = int(np.argmin(margin))
+                raise self._failure(f"the hello's 'gait' leaves the region its 'shape_constraints' declare (by "
+                                    f"{-margin[at]:.4g} at phase {2 * np.pi * at / _HELLO_GAIT_PHASES:.3g} rad); "
+                                    "the seed gait must lie inside it")
 
     def _read_constraints(self, rows) -> LinearRegion:
         """The hello's ``shape_constraints``: rows [a_0 … a_(d-1), b], a · r ≤ b, a not all zero."""
