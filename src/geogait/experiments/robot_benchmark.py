@@ -1424,7 +1424,8 @@ def plot_benchmark(result: dict, path) -> Path:
     entries = records["method"].nunique()
     legend_columns = min(6, 3 * columns)  # (as many as a row of panels is wide for)
     legend_rows = -(-entries // legend_columns) + 2  # (and its two-line title)
-    figure = plt.figure(figsize=(5.2 * columns, 3.6 * rows + 0.3 * legend_rows + 0.8))
+    # (at least as wide as the two-line title, which one panel's width would cut)
+    figure = plt.figure(figsize=(max(5.2 * columns, 7.5), 3.6 * rows + 0.3 * legend_rows + 0.8))
     grid = figure.add_gridspec(rows + 1, columns, height_ratios=[3.6] * rows + [0.3 * legend_rows])
     axes = np.array([figure.add_subplot(grid[r, c]) for r in range(rows) for c in range(columns)])
     legend_axis = figure.add_subplot(grid[rows, :])  # a row of its own, across every column
