@@ -644,6 +644,22 @@ def test_an_undeclared_case_declares_only_joints_period_and_objective():
         assert mujoco.eval_settle_cycles == bench.CASES["mujoco-purcell5-unequal"].settle_cycles == 1
 
 
+def test_an_undeclared_robot_keeps_the_region_its_shapes_may_take():
+    """The undeclared wheeled snake hid its singular set with its system: black boxes' candidates crossed it and the
+    robot's body velocity went non-finite (GP, seeds 2 and 3). Its region is declared as a user's robot declares one,
+    and a candidate beyond it is refused unrun, as on the declared robot."""
+    from geogait.optimize import robot_feasibility
+
+    snake = bench.CASES["wheeled-snake-undeclared"].make_robot(None, explore=False, noise=False)
+    assert not hasattr(snake, "current_system") and callable(snake.feasibility)
+    declared = bench.CASES["wheeled-snake"].make_robot(None, explore=False, noise=False)
+    shapes = np.array([[0.0, 0.0], [1.0, -1.0], [0.5, 0.45]])
+    np.testing.assert_array_equal(snake.feasibility(shapes), declared.current_system().feasibility(shapes))
+    assert robot_feasibility(snake, 2, 1) is not None
+    swimmer = bench.CASES["swimmer3-undeclared"].make_robot(None, explore=False, noise=False)
+    assert not hasattr(swimmer, "feasibility") and robot_feasibility(swimmer, 2, 1) is None
+
+
 def test_holm_adjusts_the_ith_smallest_p_value_by_the_cells_left_and_keeps_the_order():
     np.testing.assert_allclose(bench.holm(np.array([0.01, 0.04, 0.03, 0.5])), [0.04, 0.09, 0.09, 0.5])
     np.testing.assert_allclose(bench.holm(np.array([0.2, 0.9])), [0.4, 0.9])

@@ -123,7 +123,7 @@ from ..plotting import plt, save_figure
 from ..robots import RobotWrapper
 from ..simulate import SwimmerStream, end_pose
 from ..sweep import run_trials
-from ..systems import KinematicSnake, PurcellSwimmer
+from ..systems import FeasibleSystem, KinematicSnake, PurcellSwimmer
 
 __all__ = ["BenchmarkCase", "CASES", "METHODS", "BLACK_BOX", "available_cases", "benchmark_trials", "case_optimizer",
            "run_robot_benchmark", "benchmark_table", "paired_comparison", "paired_test", "plot_benchmark",
@@ -461,7 +461,21 @@ class _UndeclaredRobot(RobotWrapper):
     def __getattr__(self, name):
         if name == "robot" or name not in self.MEMBERS:
             raise AttributeError(name)
+        if name == "feasibility":
+            return self._region()
         return getattr(self.robot, name)
+
+    def _region(self):
+        """The shapes the robot may take, as a user's robot declares them: its own region, or the one its simulator's
+        system has (the wheeled snake's margin from its singular set, which no gait may cross)."""
+        own = getattr(self.robot, "feasibility", None)
+        if callable(own):
+            return own
+        current = getattr(self.robot, "current_system", None)
+        system = current() if callable(current) else None
+        if isinstance(system, FeasibleSystem):
+            return system.feasibility
+        raise AttributeError("feasibility")
 
 
 def _undeclared_robot(make_robot, seed, explore, noise, gait=None):
