@@ -51,6 +51,15 @@ def test_a_library_message_about_no_option_stays_as_it_is():
     assert in_cli_words(text.replace("alpha", "shape"), {"shape": "--shape"}) == "--shape must be finite; got nan."
 
 
+def test_the_parameters_a_message_names_are_said_as_their_options():
+    """A message about --robot that suggests another setting names that setting's option, not the library's."""
+    text = ("The 'robot' parameter of InSituOptimizer.run must be a seed gait within 0.8 rad; a larger "
+            "max_joint_angle lets it start (not max_joint_angles). Got 'a gait reaching 1.8 rad' instead.")
+    said = in_cli_words(text, {"robot": "--robot", "max_joint_angle": "--max-joint-angle", "n_cycles": "--cycles"})
+    assert said == ("--robot must be a seed gait within 0.8 rad; a larger --max-joint-angle lets it start "
+                    "(not max_joint_angles); got 'a gait reaching 1.8 rad'.")
+
+
 @pytest.mark.parametrize(("text", "said"), [
     ("The 'source' parameter of read_log must be a CSV or Parquet file. Got 'x.txt' instead.",
      "the log must be a CSV or Parquet file; got 'x.txt'."),

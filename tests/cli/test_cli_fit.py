@@ -292,5 +292,5 @@ def test_predict_warns_of_angles_in_degrees_as_fit_does(fitted, tmp_path):
                                       str(out / "phaser.npz"), "--mapping", str(out / "mapping.json"), "--out",
                                       str(tmp_path / "p.csv")])
     assert result.exit_code == 0, result.output
-    assert re.search(r"^warning: The 'shape' values of predict_log reach [0-9.]+, more than a full turn \(2π\): "
+    assert re.search(r"^warning: the shape columns \(--shape\) reach [0-9.]+, more than a full turn \(2π\): "
                      "geogait expects radians; were they given in degrees\\?$", result.stderr, re.MULTILINE)

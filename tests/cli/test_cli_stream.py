@@ -81,6 +81,15 @@ def test_stream_refuses_a_csv_header_naming_a_used_column_twice(run, config, tmp
     assert not (tmp_path / "m.npz").exists()
 
 
+def test_stream_names_the_header_it_got_when_a_column_it_reads_is_missing(run, config, tmp_path):
+    """Before: "got 'a header without ['shape_0', 'shape_1']'", which did not show the header read."""
+    frame = run.to_pandas().rename(columns={"shape_0": "q1", "shape_1": "q2"})
+    result = stream(config, "--format", "csv", "--out", tmp_path / "m.npz", text=frame.to_csv(index=False))
+    one_error_line(result, "error: input line 1 must be a CSV header with the columns ['shape_0', 'shape_1']",
+                   "rename the log's columns", "got \"a header without ['shape_0', 'shape_1']: time,", "q1,q2")
+    assert not (tmp_path / "m.npz").exists()
+
+
 def test_saved_bytes_is_the_size_of_the_saved_file(tmp_path):
     """What the note below reads: at 10 joints the window covariances are the file, to within 10 %."""
     from geogait.gaits import seed_gait

@@ -37,7 +37,7 @@ def test_fit_rejects_a_huge_pose_naming_column_and_row(run, tmp_path):
     log.loc[500, "x"] = log.loc[499, "x"] + 50.0  # finite, but a 50-length jump in one step
     log.to_csv(tmp_path / "log.csv", index=False)
     result = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "out")])
-    one_error_line(result, "the log's column 'x' must be", "outlier_limit = 1000", "a step of 50", "at row 500")
+    one_error_line(result, "the log's column 'x' must be", "--outlier-limit = 1000", "a step of 50", "at row 500")
 
 
 def test_cli_fit_time_unit_and_warning_line(frame, tmp_path):

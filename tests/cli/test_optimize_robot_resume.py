@@ -41,14 +41,16 @@ def test_a_resumed_robot_whose_hello_changed_is_refused_naming_what_changed(robo
     """Before: a driver now declaring joint limits of ±1.2 rad was commanded 1.93 rad, one whose period doubled got
     speeds off by 2×."""
     out, hello = robot_run
-    before = (out / "checkpoint.npz").read_bytes()
+    before = {path.name: path.read_bytes() for path in out.iterdir()}
     hello.write_text(json.dumps(changed))
     result = invoke("optimize", "--resume", out, "--cycles", "4")
     assert result.exit_code == 1, result.output
     errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
     assert len(errors) == 1 and "Traceback" not in result.output, result.output
     assert "hello" in errors[0] and fragment in errors[0], errors[0]
-    assert (out / "checkpoint.npz").read_bytes() == before
+    # refused before a cycle ran: no file rewritten, and no advice to run the command just refused
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == before
+    assert "continue with" not in result.stderr, result.stderr
 
 
 def test_a_resumed_robot_whose_hello_is_the_same_continues(robot_run):
@@ -79,8 +81,13 @@ def test_a_robot_run_without_cycles_goes_on_until_a_stop_file_then_resumes(tmp_p
     result = invoke("optimize", "--robot", driver, "--out", out)
     stopper.join()
     assert result.exit_code == 0, result.output
-    ran = json.loads((out / "summary.json").read_text())["results"]["cycles_run"]
+    summary = json.loads((out / "summary.json").read_text())["results"]
+    ran = summary["cycles_run"]
     assert ran >= 1 and json.loads((out / "run.json").read_text())["cycles"] is None
+    assert summary["ended_by"] == "the STOP file"
+    assert f"STOP ended the run after {ran} cycles; continue with: geogait optimize --resume" in result.stderr
     result = invoke("optimize", "--resume", out, "--cycles", ran + 2)  # (the STOP left is the old run's)
     assert result.exit_code == 0, result.output
-    assert json.loads((out / "summary.json").read_text())["results"]["cycles_run"] == ran + 2
+    summary = json.loads((out / "summary.json").read_text())["results"]
+    assert summary["cycles_run"] == ran + 2 and summary["ended_by"] == "its budget"
+    assert "ended the run" not in result.stderr

@@ -148,3 +148,60 @@ def test_a_robots_feasible_region_is_checked_as_it_is_read():
                    lambda s: (np.ones(3), np.zeros_like(s))):
         with pytest.raises(ValueError, match=r"feasibility\(shapes, jacobian=True\) must return finite"):
             robot_feasibility(Fenced(answer), 2, 1)(np.zeros(6))
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_declared_joint_ranges_as_rows_imply_the_continuous_ranges(rng, order):
+    """The rows a declared asymmetric range adds to the feasible region keep the continuous loop inside it."""
+    from geogait.optimize._objective import spec_feasibility
+    from geogait.robots import RobotSpec
+
+    ranges = np.array([[-0.4, 1.3], [-1.1, 0.7]])
+    spec = RobotSpec(kind="Stub", n_joints=2, cycle_period=1.0, joint_ranges=ranges)
+    rows = spec_feasibility(spec, 2, order, max_joint_angle=2.0)
+    assert spec_feasibility(spec, 2, order, max_joint_angle=0.4) is None  # the symmetric limit keeps them already
+    for _ in range(200):
+        params = rng.normal(size=2 * (2 * order + 1))
+        gait = FourierGait.from_params(params, 2)
+        shapes = gait.shape(np.linspace(0, 2 * np.pi, 4096, endpoint=False))
+        value, jacobian = rows(params)
+        inside = bool(value.min() >= 0)
+        if inside:
+            assert np.all(shapes >= ranges[:, 0] - 1e-9) and np.all(shapes <= ranges[:, 1] + 1e-9)
+        if np.any(shapes < ranges[:, 0]) or np.any(shapes > ranges[:, 1]):
+            assert not inside
+        step = 1e-6 * rng.normal(size=params.size)  # rows are linear: their Jacobian is exact
+        np.testing.assert_allclose(rows(params + step)[0] - value, jacobian @ step, atol=1e-12)
+
+
+def test_a_joint_limit_given_beyond_the_declared_ranges_keeps_them():
+    """max_joint_angle wider than the ranges a robot declares (to start an asymmetric seed, say) never lets a
+    commanded gait leave those ranges; a seed that leaves them is refused naming the joint and its range."""
+    ranges = np.array([[-1.2, 1.5], [-1.5, 1.05]])
+    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),
+                           sensor_noise=0.05, seed=4)
+    robot = _DeclaredRanges(stream, ranges)
+    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free",
+                             limits=Limits(max_joint_angle=2.0)).run(robot, 16)
+    assert result.max_joint_angle == pytest.approx(2.0)  # the user's limit, as given
+    assert len(set(result.gaits)) >= 3
+    phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    for gait in result.gaits:
+        shapes = gait.shape(phase)
+        assert np.all(shapes >= ranges[:, 0] - 1e-9) and np.all(shapes <= ranges[:, 1] + 1e-9)
+    wide = _DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2, amplitude=1.2), seed=0), ranges)
+    with pytest.raises(GeogaitError, match=r"'robot' parameter .* a seed gait within the joint_ranges the robot "
+                                           r"declares \(joint 1: \[-1.5, 1.05\] rad\).* joint 1 over \[-1.2, 1.2\]"):
+        InSituOptimizer(limits=Limits(max_joint_angle=2.0)).run(wide, 2)
+    assert wide.gait == seed_gait(2, amplitude=1.2)
+
+
+def test_the_automatic_limit_below_an_asymmetric_seed_says_how_to_start_it():
+    ranges = np.array([[-0.8, 2.5], [-0.8, 2.5]])
+    seed = FourierGait(np.array([[0.8, 1.0, 0.0], [0.8, 0.0, 1.0]]))  # over [-0.2, 1.8]: inside both ranges
+    robot = _DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed, seed=0), ranges)
+    with pytest.raises(GeogaitError, match=r"automatic joint limit, 0.8 rad \(the nearest bound of the joint_ranges "
+                                           r"it declares; a larger max_joint_angle lets it start"):
+        InSituOptimizer().run(robot, 2)
+    result = InSituOptimizer(family="free", limits=Limits(max_joint_angle=2.5)).run(robot, 4)
+    assert len(result.gaits) == 4

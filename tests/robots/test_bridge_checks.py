@@ -119,7 +119,8 @@ def test_a_hello_whose_seed_gait_leaves_its_own_ranges_or_region_is_refused_nami
     # within each joint's own range, beyond the symmetric limit the optimiser takes from the ranges
     ({"gait": {"order": 1, "params": [0.5, 1, 0, 0, 0, 1]}, "joint_ranges": [[-0.6, 2], [-1.5, 1.5]]},
      "--robot must be a seed gait within the automatic joint limit, 0.6 rad (the nearest bound of the joint_ranges "
-     "it declares); got 'a gait reaching 1.5 rad'"),
+     "it declares; a larger --max-joint-angle lets it start, and the joint_ranges still hold); got 'a gait reaching "
+     "1.5 rad'"),
 ])
 def test_the_cli_names_the_hello_field_a_seed_gait_leaves(tmp_path, fields, fragment):
     driver = shlex.join(hello_driver(tmp_path, dict(HELLO, **fields)))
@@ -263,3 +264,28 @@ def test_bridge_takes_a_plausible_cycle_or_quarantines_or_stops_in_one_line(faul
         if injected and fault not in ("ignore_set_gait", "time_scale") and not hello:
             assert robot.quarantined, (fault, cycle)  # an injected fault is never learned from silently
     assert time.perf_counter() - started < 40
+
+
+def test_a_joint_limit_given_beyond_the_hellos_ranges_keeps_them(tmp_path):
+    """Before: --max-joint-angle 4 with a hello declaring ±3 rad commanded 3.3 rad, exit 0 and no warning. Now
+    the ranges join the feasible region: the same run that climbs past 1.03 rad without them stays within them."""
+    import pandas as pd
+
+    def reach(hello, out):
+        driver = shlex.join(FAULT_DRIVER + [json.dumps({"hello": hello})])
+        result = invoke("optimize", "--robot", driver, "--max-joint-angle", 2, "--cycles", 12, "--out", out)
+        assert result.exit_code == 0, result.output
+        params = pd.read_csv(out / "cycles.csv")[[f"param_{i}" for i in range(6)]].to_numpy()
+        return max(FourierGait.from_params(row, 2).joint_limit().max() for row in params)
+
+    assert reach({}, tmp_path / "free") > 1.03
+    assert reach({"joint_ranges": [[-1.03, 1.5], [-1.5, 1.03]]}, tmp_path / "ranged") <= 1.03 + 1e-9
+
+
+@pytest.mark.parametrize(("dropped", "named"), [("protocol", "'protocol': 'geogait-robot'"),
+                                               ("type", "'type': 'hello'")])
+def test_a_hello_without_its_type_or_protocol_names_the_field(tmp_path, dropped, named):
+    hello = {key: value for key, value in HELLO.items() if key != dropped}
+    with pytest.raises(GeogaitError, match=r"^robot driver ") as error:
+        ProcessRobot(hello_driver(tmp_path, hello))
+    assert f"the first line must be a 'geogait-robot' hello (with {named})" in str(error.value)

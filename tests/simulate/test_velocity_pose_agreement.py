@@ -65,3 +65,29 @@ def test_a_cycle_of_too_few_samples_is_refused_naming_the_field():
     short = dataclasses.replace(cycle, pose=cycle.pose[:3], body_velocity=cycle.body_velocity[:3], time=cycle.time[:3])
     with pytest.raises(ValueError, match="'cycle' parameter of velocity_pose_disagreement"):
         velocity_pose_disagreement(short)
+
+
+@pytest.mark.parametrize("samples", [20, 40, 100])
+@pytest.mark.parametrize("times", [3.0, 10.0, -5.0])
+def test_a_moderate_glitch_on_the_last_sample_is_named_before_it_moves_the_end_pose(samples, times):
+    """Before: a last-sample body velocity 10× the body's speed passed (only 20× the cycle's steps was a glitch); it
+    moved the end pose by about nine steps, and the cycle's measured objective fell from 0.54 to 0.42."""
+    cycle = _cycle(noise=0.1, samples=samples, seed=3)
+    velocity = cycle.body_velocity.copy()
+    velocity[-1] = times * np.abs(cycle.body_velocity).max(axis=0)
+    glitched = dataclasses.replace(cycle, body_velocity=velocity)
+    moved = np.hypot(*(end_pose(glitched, 1.0) - end_pose(cycle, 1.0))[:2])
+    step = np.median(np.hypot(*np.diff(cycle.pose[:, :2], axis=0).T))
+    assert moved > 1.5 * step  # (what it would cost: the end pose off by more than a step)
+    reason = velocity_pose_disagreement(glitched, 1.0)
+    assert reason is not None and "the last sample's: it sets the cycle's end pose" in reason
+
+
+@CHECK
+@given(links=st.sampled_from([3, 5, 7]), noise=st.sampled_from([0.0, 0.05, 0.3]), samples=st.sampled_from([20, 200]),
+       seed=st.integers(0, 10_000))
+def test_the_last_samples_own_noise_is_not_a_glitch(links, noise, samples, seed):
+    stream = SwimmerStream(PurcellSwimmer(links), seed_gait(links - 1), sensor_noise=noise, seed=seed,
+                           perturbation=Perturbation.from_std(0.15, frequency=2.0), samples_per_cycle=samples)
+    for _ in range(5):
+        assert velocity_pose_disagreement(stream.next_cycle(), 1.0) is None

@@ -104,7 +104,16 @@ def in_cli_words(text: str, options: dict[str, str]) -> str:
         option = _input_named(name, match["owner"])
     if option is None:
         return text
-    return _OPTION_NAMED.sub(r"\1", f"{option} must be {match['expected']}; got {match['got']}.{match['rest']}")
+    expected = _options_named(match["expected"], options)
+    return _OPTION_NAMED.sub(r"\1", f"{option} must be {expected}; got {match['got']}.{match['rest']}")
+
+
+def _options_named(text: str, options: dict[str, str]) -> str:
+    """Library parameter names (snake_case) within a message, said as the options that set them."""
+    for name, option in options.items():
+        if "_" in name:
+            text = re.sub(rf"(?<![\w-]){re.escape(name)}(?!\w)", option, text)
+    return text
 
 
 def _input_named(name: str, owner: str) -> str | None:
@@ -161,11 +170,22 @@ def error_message(error: BaseException, command=None, args=()) -> str:
                      "traceback and please report it)")
 
 
+#: A library warning about the values of one parameter ("The 'shape' values of AdaptiveGaitModel.partial_fit …").
+_VALUES_WARNING = re.compile(r"^The '(?P<name>\w+)' values of [\w.]+ ")
+
+
 @contextmanager
-def _warnings_as_lines():
-    """Show warnings raised while a command runs as ``warning: …`` lines on stderr."""
+def _warnings_as_lines(command=None):
+    """Show warnings raised while a command runs as ``warning: …`` lines on stderr, the values of a parameter an
+    option gives said of that option."""
+    options = {param.name: param.opts[0] for param in getattr(command, "params", []) if param.opts}
+
     def show(message, category, filename, lineno, file=None, line=None):
-        typer.echo(f"warning: {_one_line(str(message))}", err=True)
+        text = str(message)
+        match = _VALUES_WARNING.match(text)
+        if match and match["name"] in options:
+            text = f"the {match['name']} columns ({options[match['name']]}) " + text[match.end():]
+        typer.echo(f"warning: {_one_line(text)}", err=True)
 
     with warnings.catch_warnings():
         warnings.simplefilter("default")
@@ -302,7 +322,7 @@ class GeogaitGroup(TyperGroup):
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, standalone_mode, **extra)
         try:
-            with _warnings_as_lines(), _signals_as_interrupts():
+            with _warnings_as_lines(_command_of(self, args)[0]), _signals_as_interrupts():
                 _refuse_non_finite(self, args)
                 code = super().main(args, prog_name, complete_var, False, **extra)
         except KeyboardInterrupt:

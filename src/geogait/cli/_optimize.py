@@ -120,7 +120,8 @@ def optimize(
     family: Annotated[Literal[_FAMILIES], typer.Option(metavar=one_of(_FAMILIES), rich_help_panel=_GAIT, help=(
         "Gaits searched: free (all of --order), symmetric (the same read from both ends), mirror (each "
         "half-cycle mirrors the other: θ(φ + π) = −θ(φ)); auto: symmetric on a front-back symmetric chain, else "
-        "mirror on a mirror-symmetric body (neither then turns), else free."))] = "auto",
+        "mirror on a mirror-symmetric body (neither then turns); a robot that declares no symmetry starts in "
+        "mirror and widens to free once a gait turns it; else free."))] = "auto",
     method: Annotated[Literal[_METHODS], typer.Option(metavar=one_of(_METHODS), rich_help_panel=_MODEL, help=(
         "Model of ξ: adaptive (local, about the current gait), shape (over the whole shape space), resistance "
         "(a chain's drag coefficients), batch (refit every block of cycles, Bittner 2018); auto: resistance "
@@ -221,6 +222,10 @@ def optimize(
         summary = _optimize(optimizer, system, target, settings, folder, run_id, resume is not None, started)
     print_results(summary, lambda: _results_table(summary), as_json=json_output)
     console.print(f"wrote {folder}/ (cycles.csv, summary.json, gait.png, progress.png, path.png, {CHECKPOINT_FILE})")
+    if summary["ended_by"] == "the STOP file":
+        budget = "" if settings["cycles"] is None else f" of {settings['cycles']}"
+        typer.echo(f"note: {folder}/{STOP_FILE} ended the run after {summary['cycles_run']}{budget} cycles; continue "
+                   f"with: geogait optimize --resume {folder} (which removes {STOP_FILE})", err=True)
 
 
 def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, resumed: bool, started: float) -> dict:
@@ -235,14 +240,15 @@ def _optimize(optimizer, system, target, settings, folder: Path, run_id: str, re
                                      max_joint_angle=settings["max_joint_angle"] or MAX_JOINT_ANGLE)
     run = dict(optimizer=optimizer, system=system, settings=settings, folder=folder, run_id=run_id, resumed=resumed,
                started=started, ceiling=ceiling)
-    robot = None
+    robot, under_way = None, [False]
     try:
         with target() as robot_driver:
             robot = robot_driver
-            result, run["optimizer"] = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id)
+            result, run["optimizer"] = _run(optimizer, robot_driver, settings, folder, ceiling, resumed, run_id,
+                                            under_way)
             return _write_outputs(result, robot_driver, **run)
     except BaseException as stop:  # Ctrl-C, SIGTERM, a driver that died, a failed cycle: the cycles run are not lost
-        if robot is not None:
+        if robot is not None and under_way[0]:  # (refused before a cycle ran, e.g. a changed hello: nothing new)
             _write_what_ran(target if system is not None else lambda: contextlib.nullcontext(_Stopped(robot)), run,
                             figures=not (isinstance(stop, KeyboardInterrupt) or signalled()))
         raise
@@ -255,6 +261,10 @@ def _write_outputs(result, robot, *, optimizer, system, settings, folder, run_id
     summary = result.summary(ceiling)
     summary["model_used"] = type(result.model).__name__  # (the default depends on what the robot declares)
     summary["cycles_run"] = len(result.log)
+    budget = _budget(settings)
+    summary["ended_by"] = ("the STOP file" if (folder / STOP_FILE).exists()
+                           else "its budget" if budget is not None and len(result.log) >= budget
+                           else "a signal or a failure (see the error)")
     config = dict(settings)
     if settings["robot"] is not None:
         quarantined = list(robot.quarantined)  # (a --robot run's robot is a ProcessRobot)
@@ -336,7 +346,9 @@ def _results_table(summary: dict):
     table = results_table("geogait optimize", "result", "value")
 
     def change(seed, final):
-        return f"{seed:.4g} → {final:.4g} ({(final - seed) / abs(seed):+.0%})" if seed else f"{seed:.4g} → {final:.4g}"
+        relative = (final - seed) / abs(seed) if seed else None
+        shown = "" if relative is None else f" ({relative:+.1%})" if abs(relative) < 0.1 else f" ({relative:+.0%})"
+        return f"{seed:.4g} → {final:.4g}{shown}"
 
     table.add_row("cycles run", str(summary["cycles_run"]))
     table.add_row("measured objective per cycle, seed → final gait",
@@ -377,16 +389,22 @@ def _declared(robot, result) -> dict:
 
     spec = read_robot_spec(robot, "geogait optimize")
     region = robot.shape_constraints  # (the hello's linear limits a · r <= b, as declared)
-    return {"n_joints": spec.n_joints, "cycle_period_s": spec.cycle_period,
-            "joint_ranges": None if spec.joint_ranges is None else spec.joint_ranges.tolist(),
-            "shape_constraints": None if region is None else np.column_stack([region.normals, region.bounds]).tolist(),
-            "seed_gait_params": result.initial_gait.params.tolist(),
-            "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
-            # (a bridge's hello may declare its chain without a resistive medium: the hello's, as declared)
-            "chain": robot.chain, "resistive_medium": spec.resistive_chain is not None,
-            "front_back_symmetric": spec.front_back_symmetric if spec.symmetry_declared else None,
-            "mirror_symmetric": spec.mirror_symmetric if spec.symmetry_declared else None,
-            "settle_cycles": spec.settle_cycles, "gait_family_used": result.family}
+    declared = {"n_joints": spec.n_joints, "cycle_period_s": spec.cycle_period,
+                "joint_ranges": None if spec.joint_ranges is None else spec.joint_ranges.tolist(),
+                "shape_constraints": None if region is None
+                else np.column_stack([region.normals, region.bounds]).tolist(),
+                "seed_gait_params": result.initial_gait.params.tolist(),
+                "max_joint_angle_used": result.max_joint_angle, "shape_scale_used": result.shape_scale,
+                # (a bridge's hello may declare its chain without a resistive medium: the hello's, as declared)
+                "chain": robot.chain, "resistive_medium": spec.resistive_chain is not None,
+                "front_back_symmetric": spec.front_back_symmetric if spec.symmetry_declared else None,
+                "mirror_symmetric": spec.mirror_symmetric if spec.symmetry_declared else None,
+                "settle_cycles": spec.settle_cycles, "gait_family_used": result.family}
+    for name, value in list(declared.items()):  # (why a field is null: the hello left it out)
+        if value is None:
+            declared[f"{name}_null_reason"] = ("the robot's hello declares no symmetry" if name.endswith("symmetric")
+                                               else "the robot's hello declares none")
+    return declared
 
 
 def _run_id(settings: dict) -> str:
@@ -631,12 +649,12 @@ def _target(settings):
     return system, lambda: contextlib.nullcontext(stream)
 
 
-def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id):
+def _run(optimizer, robot, settings, folder, ceiling, resumed, run_id, started: list):
+    """The optimiser's run (or its resumption) on ``robot``; ``started[0]`` turns true once its first cycle ran."""
     from ..optimize import InSituOptimizer
 
     cycles = _budget(settings)
     name = f"robot {settings['robot']!r}" if settings["robot"] else f"{settings['links']}-link"
-    started = [False]
     with progress_bar() as progress:
         task = progress.add_task(f"{name} {settings['method']}", total=cycles, status="")
 

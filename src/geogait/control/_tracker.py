@@ -71,7 +71,7 @@ from .._validation import (
 from ..gaits import FourierGait
 from ..models import AdaptiveGaitModel, check_gait_model, clone_for_gait
 from ..optimize import robot_feasibility
-from ..robots import perturbation_std, read_robot_spec
+from ..robots import check_within_joint_ranges, perturbation_std, read_robot_spec
 from ..simulate import Trajectory, TrueMotion, end_pose
 from ._exploration import AdaptiveExploration, prediction_surprise, surprise_alarm
 from ._paths import ReferencePath
@@ -344,8 +344,9 @@ class PathTracker(Estimator):
             limit = max_feasible_turn(motion, reference, direction=direction, upper=DEFAULT_TURN_LIMIT,
                                       max_joint_angle=self.max_joint_angle, feasibility=self._region)
             if limit == 0:
-                raise GeogaitError("No steering gait turns by 0.1 rad per cycle within the joint limits "
-                                   "(give turn_limit, or relax max_joint_angle).")
+                raise GeogaitError("No steering gait turns by 0.1 rad per cycle within the joint limits and the "
+                                   "joint ranges or region the robot declares (give turn_limit, or relax "
+                                   "max_joint_angle).")
         n_turns = 2 * int(round(limit / TURN_SPACING)) + 1 if self.n_turns is None else self.n_turns
         self.turn_limit_ = float(limit)
         return np.linspace(-limit, limit, n_turns)
@@ -396,7 +397,8 @@ class PathTracker(Estimator):
                        f"a gait reaching {reference.joint_limit().max():.4g} rad")
         oracle = robot.current_system if spec.simulated else None  # (a simulator's truth, asked again as it changes)
         # the robot's feasible region (its own, or its simulator's): every steering gait keeps it, as the joint limits
-        self._region = robot_feasibility(robot, reference.n_joints, reference.order)
+        check_within_joint_ranges(reference, spec, "gait", owner)
+        self._region = robot_feasibility(robot, reference.n_joints, reference.order, self.max_joint_angle)
         lowest = float(self._region(reference.params)[0].min()) if self._region is not None else 0.0
         if lowest < -FEASIBILITY_TOLERANCE:
             raise fail("gait", owner, "a straight gait inside the robot's feasible region",

@@ -422,7 +422,7 @@ def read_log(source, mapping=None, *, time: str | None = None, shape=None, body_
                                                            low_open=True)
     frame = _read_clock_text(load_frame(source), columns.time)
     if scale != 1.0 and columns.time in frame.columns and _is_clock(frame[columns.time]):
-        raise fail("time_unit", _READ, "None or 's' for a column of date-times or time deltas (they are read in "
+        raise fail("time_unit", _READ, "left out, or 's', for a column of date-times or time deltas (they are read in "
                    "seconds)", time_unit)
     data = _numeric_columns(frame, columns)
     keep = _finite_rows(data, columns, options.drop_nan)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import textwrap
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -282,8 +283,10 @@ class CsvReader:
             present = [name for name in names if name in index]
             required = key in ("shape", "body_velocity")
             if (required and len(present) < len(names)) or 0 < len(present) < len(names):
-                raise fail("header", "input line 1", f"a CSV header with the columns {names}",
-                           f"a header without {[n for n in names if n not in index]}")
+                given = textwrap.shorten(",".join(header), 200, placeholder=" …")
+                raise fail("header", "input line 1", f"a CSV header with the columns {names} (stream reads these "
+                           "names; rename the log's columns)",
+                           f"a header without {[n for n in names if n not in index]}: {given}")
             found[key] = [index[name] for name in names] if present else None
         used = {i for columns in found.values() if columns for i in columns}
         self.ignored = [name for i, name in enumerate(header) if i not in used]

@@ -146,7 +146,7 @@ def _settings(z, tolerance, min_period_ratio, min_cycles, owner: str) -> tuple:
 
 def _judge(periods, nets, amplitudes, z, tolerance, min_period_ratio, min_cycles, time_unit) -> ModelClassVerdict:
     """The verdict from checked per-cycle arrays and settings (module notes)."""
-    unit = f" {time_unit}" if time_unit else ""
+    unit = f" {time_unit}" if time_unit else " (in the log's time unit)"
     if periods.size < 2 * min_cycles:
         return ModelClassVerdict(None, f"{periods.size} complete cycles: too few to compare periods")
     if periods.max() < min_period_ratio * periods.min():

@@ -30,7 +30,7 @@ from .._estimator import Estimator, InstanceOf, Integer, Options
 from .._files import read_state
 from .._validation import GeogaitError, check_bytes, check_callback, check_float, check_gait_size, check_int, fail
 from ..models import check_gait_model, model_capabilities
-from ..robots import read_robot_spec
+from ..robots import check_within_joint_ranges, read_robot_spec
 from ._adaptation import Adaptation
 from ._checks import ModelClassTest, StructureCheck
 from ._exploration import Exploration
@@ -303,12 +303,14 @@ class InSituOptimizer(Estimator):
         check_gait_size(robot.gait.n_joints, self.order, owner, speed_limit=parts.limits.max_joint_velocity is not None)
         gait = robot.gait.with_order(self.order)
         limits = parts.limits
+        check_within_joint_ranges(gait, spec, "robot", owner, what="seed gait")
         r_max = joint_limit(limits, spec)
         reach = gait.joint_limit().max()
         if reach > r_max + 1e-12:
             if limits.max_joint_angle == "auto":  # (the limit the robot declares)
-                source = "the nearest bound of the joint_ranges it declares" if spec.joint_ranges is not None \
-                    else "the default joint limit: it declares no joint_ranges"
+                source = "the nearest bound of the joint_ranges it declares; a larger max_joint_angle lets it start, " \
+                    "and the joint_ranges still hold" if spec.joint_ranges is not None \
+                    else "the default joint limit: it declares no joint_ranges; give max_joint_angle"
                 raise fail("robot", owner, f"a seed gait within the automatic joint limit, {r_max:.4g} rad ({source})",
                            f"a gait reaching {reach:.4g} rad")
             raise fail("max_joint_angle", owner, f"at least the largest joint angle of the robot's seed gait "
@@ -321,7 +323,7 @@ class InSituOptimizer(Estimator):
         periods = period_range(parts.period, spec, period, owner)
         excites = commands_excitation(self.exploration, spec, owner)
         family = gait_family(self, spec, gait)
-        feasibility = spec_feasibility(spec, gait.n_joints, self.order)
+        feasibility = spec_feasibility(spec, gait.n_joints, self.order, r_max)
         if feasibility is not None and feasibility(gait.params)[0].min() < -FEASIBILITY_TOLERANCE:
             raise fail("robot", owner, "a seed gait inside the robot's feasible region (its system's singular set's "
                        "margin, or the region it declares; e.g. the system's own seed_gait())",
@@ -397,7 +399,7 @@ class InSituOptimizer(Estimator):
             state.climb = new_climb(parts.climb, state.scale)
         if "rng" not in metadata["state"]:
             state.rng = np.random.default_rng(optimizer.random_state)
-        state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order)
+        state.feasibility = spec_feasibility(spec, state.gait.n_joints, optimizer.order, state.max_joint_angle)
         if "settle" not in metadata["state"]:  # (checkpoints before "auto")
             state.settle_cycles = settle_at_start(parts.safety, spec)
         if n_cycles is not None:

@@ -205,7 +205,11 @@ class CycleLoop(ModelSteps, ClimbSteps, ChangeSteps, SafetySteps, RunRecords):
                 f"{np.mean(state.iteration_excitation):.2g}, below 1 % of shape_scale {state.scale:.3g}); the model "
                 "cannot learn the gait's neighbourhood, so it takes no step"
                 + (" (the measured climb does)" if self.parts.climb is not None else "")
-                + ". Give the robot set_excitation (geogait then explores) or a perturbation of its own.",
+                + (". It was sent an exploration: the robot must add what set_excitation sends to the shapes it "
+                   "commands (a bridge driver: to each cycle's command)."
+                   if state.exploration is not None else
+                   ". Give the robot set_excitation (geogait then explores; a bridge driver: \"excitation\": true "
+                   "in its hello) or a perturbation of its own."),
                 GeogaitWarning, stacklevel=4)
             state.warned_no_excitation = True
         return True

@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._estimator import Options
-from .._validation import GeogaitError, check_choice, check_int, fail
+from .._validation import GeogaitError, check_choice, check_float, check_int, fail
 from ..gaits import FourierGait, fourier_basis
 from ..robots import RobotSpec, read_robot_spec
 from ..systems import FeasibleSystem
@@ -258,34 +258,77 @@ def feasibility_constraint(system, n_joints: int, order: int):
     return _region_rows(system.feasibility, n_joints, order)
 
 
-def robot_feasibility(robot, n_joints: int, order: int):
+def robot_feasibility(robot, n_joints: int, order: int, max_joint_angle: float | None = None):
     """The feasible region a robot declares, as :func:`feasibility_constraint`'s rows (None: none).
 
     A robot's own ``feasibility(shapes, jacobian=False)`` (e.g. a :class:`~geogait.systems.LinearRegion`, what
     :class:`~geogait.robots.ProcessRobot` offers when the driver's hello declares ``"shape_constraints"``) comes
     first; otherwise a simulator's system (``current_system()``) when it is a
-    :class:`~geogait.systems.FeasibleSystem`.
+    :class:`~geogait.systems.FeasibleSystem`. With ``max_joint_angle``, the ``joint_ranges`` the robot declares
+    join the region wherever they are tighter than that symmetric limit.
 
     Parameters
     ----------
     robot : Robot
     n_joints : int
     order : int
+    max_joint_angle : float, optional
+        The symmetric joint limit r_max in force; None leaves the declared joint ranges out.
 
     Returns
     -------
     callable or None
     """
-    return spec_feasibility(read_robot_spec(robot, "robot_feasibility"), n_joints, order)
+    if max_joint_angle is not None:
+        max_joint_angle = check_float(max_joint_angle, "max_joint_angle", "robot_feasibility", low=0, low_open=True)
+    return spec_feasibility(read_robot_spec(robot, "robot_feasibility"), n_joints, order, max_joint_angle)
 
 
-def spec_feasibility(spec: RobotSpec, n_joints: int, order: int):
+def spec_feasibility(spec: RobotSpec, n_joints: int, order: int, max_joint_angle: float | None = None):
     """:func:`robot_feasibility` from what the robot declares (its :class:`~geogait.robots.RobotSpec`)."""
     n_joints = check_int(n_joints, "n_joints", "robot_feasibility", minimum=1)
     order = check_int(order, "order", "robot_feasibility", minimum=1)
     if spec.region is not None:
-        return _region_rows(spec.region, n_joints, order)
-    return None if spec.system is None else feasibility_constraint(spec.system, n_joints, order)
+        region = _region_rows(spec.region, n_joints, order)
+    else:
+        region = None if spec.system is None else feasibility_constraint(spec.system, n_joints, order)
+    ranges = None if max_joint_angle is None else _range_rows(spec.joint_ranges, max_joint_angle, order)
+    return _all_rows(region, ranges)
+
+
+def _range_rows(ranges, max_joint_angle: float, order: int):
+    """The declared joint ranges low_j ≤ θ_j(φ) ≤ high_j as rows, where they cut into the symmetric limit
+    |θ_j| ≤ r_max (None where they do not: the limit already keeps them). As :func:`joint_limit_constraints`:
+    |θ_j − c_j| ≤ w_j about each range's centre, on a grid tightened so that the continuous loop keeps it."""
+    if ranges is None or np.all((ranges[:, 0] <= -max_joint_angle) & (ranges[:, 1] >= max_joint_angle)):
+        return None
+    ranges = np.clip(ranges, -max_joint_angle, max_joint_angle)  # (an unbounded side: the limit keeps it)
+    centre, half = ranges.mean(axis=1), np.diff(ranges, axis=1)[:, 0] / 2
+    n_phases = max(64, 64 * order)
+    basis = fourier_basis(np.linspace(0, 2 * np.pi, n_phases, endpoint=False), order)  # (n, c)
+    blocks = np.kron(np.eye(len(ranges)), basis)  # (d n, d c): row (j, φ) picks joint j's coefficients
+    room = np.repeat(half * np.cos(order * np.pi / n_phases), n_phases)
+    offset = np.repeat(centre, n_phases)
+    jacobian = np.vstack([-blocks, blocks])
+
+    def rows(params):
+        angles = blocks @ np.asarray(params, dtype=float) - offset
+        return np.concatenate([room - angles, room + angles]), jacobian
+
+    return rows
+
+
+def _all_rows(*parts):
+    """Feasibility rows that hold where every part's hold (None: no part)."""
+    parts = [part for part in parts if part is not None]
+    if len(parts) <= 1:
+        return parts[0] if parts else None
+
+    def rows(params):
+        answers = [part(params) for part in parts]
+        return np.concatenate([a[0] for a in answers]), np.vstack([a[1] for a in answers])
+
+    return rows
 
 
 def _describe(answer) -> str:

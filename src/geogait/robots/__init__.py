@@ -25,7 +25,7 @@ from ._mujoco import (
     purcell_swimmer_xml,
 )
 from ._protocol import ROBOT_EXTRAS, Robot, check_robot_members
-from ._spec import RobotSpec, perturbation_std, read_robot_spec
+from ._spec import RobotSpec, check_within_joint_ranges, perturbation_std, read_robot_spec
 from ._wrapper import RobotWrapper
 from .continuum import (
     CurvatureModes,
@@ -65,6 +65,7 @@ __all__ = [
     "mujoco_swimmer",
     "purcell_swimmer_xml",
     "perturbation_std",
+    "check_within_joint_ranges",
     "read_robot_spec",
     "rod_from_curvature",
     "snake_seed_gait",

@@ -75,10 +75,10 @@ What geogait checks (a driver is trusted with nothing):
   more than 1.5× smaller to an earlier gait: a driver ignoring ``set_gait``), and no pose jumps
   further than 20× what the body velocity and the cycle's other steps allow (also across the
   cycle boundary), and the body velocities agree with the poses
-  (:func:`~geogait.simulate.velocity_pose_disagreement`: no unit mismatch, no sample's body velocity —
-  the last one's sets the cycle's end pose — moving the body 20× further from its poses than the cycle's
-  steps). An implausible cycle is **quarantined**: not
-  returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
+  (:func:`~geogait.simulate.velocity_pose_disagreement`: no unit mismatch, no sample's body velocity
+  moving the body 20× further from its poses than the cycle's steps, and the last one's, which sets the
+  cycle's end pose, within 5× of how closely the other samples match their poses). An implausible cycle is
+  **quarantined**: not returned to the optimiser, logged (``quarantined``, a ``warning``), and run again;
   :data:`MAX_QUARANTINED` in a row (or that many following an earlier gait since the last
   ``set_gait``) end the run with an error naming the reason.
 """
@@ -525,7 +525,10 @@ class ProcessRobot:
     def _handshake(self) -> None:
         hello = self._receive()
         if hello.get("type") != "hello" or hello.get("protocol") != PROTOCOL:
-            raise self._failure(f"the first line must be a '{PROTOCOL}' hello, got {_cut(json.dumps(hello), 80)}")
+            wrong = [f"{key!r}: {value!r}" for key, value in (("type", "hello"), ("protocol", PROTOCOL))
+                     if hello.get(key) != value]
+            raise self._failure(f"the first line must be a '{PROTOCOL}' hello (with {', '.join(wrong)}), got "
+                                f"{_cut(json.dumps(hello), 80)}")
         version = hello.get("version")
         if type(version) is not int or version not in PROTOCOL_VERSIONS:
             spoken = " or ".join(map(str, PROTOCOL_VERSIONS))

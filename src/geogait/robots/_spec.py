@@ -6,12 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._defaults import FEASIBILITY_TOLERANCE
 from .._validation import fail
-from ..gaits import Perturbation
+from ..gaits import FourierGait, Perturbation
 from ..systems import PurcellSwimmer
 from ._protocol import check_robot_members
 
-__all__ = ["RobotSpec", "perturbation_std", "read_robot_spec"]
+__all__ = ["RobotSpec", "check_within_joint_ranges", "perturbation_std", "read_robot_spec"]
 
 
 @dataclass(frozen=True)
@@ -161,3 +162,20 @@ def _joint_ranges(robot, owner: str) -> np.ndarray | None:
         raise fail("robot.joint_ranges", owner, f"an array of shape ({robot.n_joints}, 2) of (low < 0 < high) "
                    "joint ranges (rad)", ranges)
     return array
+
+
+def check_within_joint_ranges(gait: FourierGait, spec: RobotSpec, name: str, owner: str, what: str = "gait") -> None:
+    """Refuse a gait that leaves the joint ranges the robot declares, naming the first joint that does."""
+    if spec.joint_ranges is None:
+        return
+    reach = float(gait.joint_limit().max()) + 1  # (a side beyond it cannot be left: clipped, it stays finite)
+    ranges = np.clip(spec.joint_ranges, -reach, reach)
+    centre, half = ranges.mean(axis=1), np.diff(ranges, axis=1)[:, 0] / 2
+    centred = FourierGait(gait.coefficients - np.column_stack([centre, np.zeros((gait.n_joints, 2 * gait.order))]))
+    outside = np.flatnonzero(centred.joint_limit() > half + FEASIBILITY_TOLERANCE)
+    if outside.size:
+        j = int(outside[0])
+        shapes = gait.shape(np.linspace(0, 2 * np.pi, 1024, endpoint=False))[:, j]
+        raise fail(name, owner, f"a {what} within the joint_ranges the robot declares (joint {j}: "
+                   f"[{spec.joint_ranges[j, 0]:.4g}, {spec.joint_ranges[j, 1]:.4g}] rad)",
+                   f"a gait moving joint {j} over [{shapes.min():.4g}, {shapes.max():.4g}] rad")
