@@ -178,14 +178,19 @@ def test_a_joint_limit_given_beyond_the_declared_ranges_keeps_them():
     """max_joint_angle wider than the ranges a robot declares (to start an asymmetric seed, say) never lets a
     commanded gait leave those ranges; a seed that leaves them is refused naming the joint and its range."""
     ranges = np.array([[-1.2, 1.5], [-1.5, 1.05]])
-    stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),
-                           sensor_noise=0.05, seed=4)
-    robot = _DeclaredRanges(stream, ranges)
-    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free",
-                             limits=Limits(max_joint_angle=2.0)).run(robot, 16)
+
+    def run(declared):
+        stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),
+                               sensor_noise=0.05, seed=4)
+        robot = _DeclaredRanges(stream, ranges) if declared else stream
+        return InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free",
+                               limits=Limits(max_joint_angle=2.0)).run(robot, 16)
+
+    phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    assert max(gait.shape(phase)[:, 1].max() for gait in run(False).gaits) > 1.05  # (undeclared, it goes beyond)
+    result = run(True)
     assert result.max_joint_angle == pytest.approx(2.0)  # the user's limit, as given
     assert len(set(result.gaits)) >= 3
-    phase = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
     for gait in result.gaits:
         shapes = gait.shape(phase)
         assert np.all(shapes >= ranges[:, 0] - 1e-9) and np.all(shapes <= ranges[:, 1] + 1e-9)
