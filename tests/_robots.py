@@ -193,6 +193,19 @@ class WrappedStream:
     gait = property(lambda self: self.stream.gait)
 
 
+class DeclaredRanges(WrappedStream):
+    """A swimmer stream that declares joint ranges, as MujocoRobot does from its model, and keeps every gait it is
+    commanded."""
+
+    def __init__(self, stream, joint_ranges):
+        super().__init__(stream)
+        self.joint_ranges, self.commanded = joint_ranges, []
+
+    def set_gait(self, gait):
+        self.commanded.append(gait)
+        self.stream.set_gait(gait)
+
+
 class MisleadingPoses(WrappedStream):
     """A swimmer whose measured poses shrink the further the gait moves from the seed, while the
     body velocities the model learns from stay the swimmer's: the model is right about each gait's ξ

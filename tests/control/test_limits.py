@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 from _limits import within_memory
+from _robots import DeclaredRanges
 
 from geogait.control import ReferencePath
 
@@ -58,24 +59,6 @@ def test_a_projection_onto_a_long_path_runs_in_bounded_compiled_calls(monkeypatc
         assert np.array_equal(part, one)
 
 
-class _Commanded:
-    """A built-in swimmer stream that declares joint ranges and keeps every gait it is commanded."""
-
-    def __init__(self, stream, joint_ranges):
-        self.stream, self.joint_ranges, self.commanded = stream, joint_ranges, []
-
-    def __getattr__(self, name):
-        return getattr(self.stream, name)
-
-    @property
-    def gait(self):
-        return self.stream.gait
-
-    def set_gait(self, gait):
-        self.commanded.append(gait)
-        self.stream.set_gait(gait)
-
-
 @pytest.mark.parametrize(("half_width", "kept"), [(1.4, True), (3.0, False)])
 def test_every_steering_gait_keeps_the_joint_ranges_the_robot_declares(half_width, kept):
     """Ranges tighter than the tracker's joint limit (2π/3) bound every steering gait; wider ones leave the
@@ -85,7 +68,7 @@ def test_every_steering_gait_keeps_the_joint_ranges_the_robot_declares(half_widt
     from geogait.simulate import SwimmerStream
     from geogait.systems import PurcellSwimmer
 
-    robot = _Commanded(SwimmerStream(PurcellSwimmer(3), seed_gait(2), samples_per_cycle=200, seed=0),
+    robot = DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2), samples_per_cycle=200, seed=0),
                        np.array([[-half_width, half_width]] * 2))
     PathTracker(controller="true", warmup_cycles=1).run(robot, ReferencePath.circle(0.6), 10)
     reach = max(np.abs(gait.shape(np.linspace(0, 2 * np.pi, 4096, endpoint=False))).max() for gait in robot.commanded)

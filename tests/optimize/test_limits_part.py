@@ -6,6 +6,7 @@ region is checked as it is read."""
 
 import numpy as np
 import pytest
+from _robots import DeclaredRanges
 from _robots import perturbed_stream as _stream
 
 from geogait._validation import GeogaitError
@@ -53,24 +54,10 @@ def test_seed_outside_joint_limits_is_rejected():
         InSituOptimizer(limits=Limits(max_joint_angle=1.0)).run(stream, 2)
 
 
-class _DeclaredRanges:
-    """A built-in swimmer stream that declares joint ranges, as MujocoRobot does from its model."""
-
-    def __init__(self, stream, joint_ranges):
-        self.stream, self.joint_ranges = stream, joint_ranges
-
-    def __getattr__(self, name):
-        return getattr(self.stream, name)
-
-    @property
-    def gait(self):
-        return self.stream.gait
-
-
 def test_joint_limit_auto_comes_from_the_robots_declared_ranges():
     ranges = np.array([[-1.2, 1.5], [-1.3, 1.1]])
     stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), sensor_noise=0.05, seed=4)
-    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free").run(_DeclaredRanges(stream, ranges), 12)
+    result = InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free").run(DeclaredRanges(stream, ranges), 12)
     assert result.max_joint_angle == pytest.approx(1.1)  # the tightest side of any joint
     assert result.n_steps >= 2 and all(g.joint_limit().max() <= 1.1 + 1e-9 for g in result.gaits)
     assert result.summary()["max_joint_angle"] == pytest.approx(1.1)
@@ -78,7 +65,7 @@ def test_joint_limit_auto_comes_from_the_robots_declared_ranges():
     assert plain.max_joint_angle == pytest.approx(2 * np.pi / 3)  # nothing declared: the design's default
     for bad in ([[-1.0, 1.0]], [[0.2, 1.0], [-1.0, 1.0]], "wide"):
         with pytest.raises(GeogaitError, match="robot.joint_ranges"):
-            InSituOptimizer().run(_DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2)), bad), 1)
+            InSituOptimizer().run(DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2)), bad), 1)
     with pytest.raises(GeogaitError, match="max_joint_angle"):
         InSituOptimizer(limits=Limits(max_joint_angle="tight")).validate()
 
@@ -182,7 +169,7 @@ def test_a_joint_limit_given_beyond_the_declared_ranges_keeps_them():
     def run(declared):
         stream = SwimmerStream(PurcellSwimmer(3), seed_gait(2), perturbation=Perturbation.from_std(0.1),
                                sensor_noise=0.05, seed=4)
-        robot = _DeclaredRanges(stream, ranges) if declared else stream
+        robot = DeclaredRanges(stream, ranges) if declared else stream
         return InSituOptimizer(step=ModelStep(trust_radius=0.15), family="free",
                                limits=Limits(max_joint_angle=2.0)).run(robot, 16)
 
@@ -194,7 +181,7 @@ def test_a_joint_limit_given_beyond_the_declared_ranges_keeps_them():
     for gait in result.gaits:
         shapes = gait.shape(phase)
         assert np.all(shapes >= ranges[:, 0] - 1e-9) and np.all(shapes <= ranges[:, 1] + 1e-9)
-    wide = _DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2, amplitude=1.2), seed=0), ranges)
+    wide = DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed_gait(2, amplitude=1.2), seed=0), ranges)
     with pytest.raises(GeogaitError, match=r"'robot' parameter .* a seed gait within the joint_ranges the robot "
                                            r"declares \(joint 1: \[-1.5, 1.05\] rad\).* joint 1 over \[-1.2, 1.2\]"):
         InSituOptimizer(limits=Limits(max_joint_angle=2.0)).run(wide, 2)
@@ -204,7 +191,7 @@ def test_a_joint_limit_given_beyond_the_declared_ranges_keeps_them():
 def test_the_automatic_limit_below_an_asymmetric_seed_says_how_to_start_it():
     ranges = np.array([[-0.8, 2.5], [-0.8, 2.5]])
     seed = FourierGait(np.array([[0.8, 1.0, 0.0], [0.8, 0.0, 1.0]]))  # over [-0.2, 1.8]: inside both ranges
-    robot = _DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed, seed=0), ranges)
+    robot = DeclaredRanges(SwimmerStream(PurcellSwimmer(3), seed, seed=0), ranges)
     with pytest.raises(GeogaitError, match=r"automatic joint limit, 0.8 rad \(the nearest bound of the joint_ranges "
                                            r"it declares; a larger max_joint_angle lets it start"):
         InSituOptimizer().run(robot, 2)
