@@ -176,3 +176,29 @@ JSON_VALUES = st.recursive(st.one_of(st.none(), st.booleans(), WILD, st.text(max
 def test_json_sanitiser_always_writes_strict_json(value):
     strict(dumps_json(value))
     strict(dumps_json({"x": value, "arr": np.array([1.0, np.nan])}))
+
+
+def test_a_signal_mid_write_ends_as_the_signal_with_the_old_file_kept(tmp_path):
+    """A SIGTERM (raised as KeyboardInterrupt by the CLI) while np.savez held a member open surfaced as zipfile's
+    "Can't close the ZIP file while there is an open writing handle" ValueError, raised while the interrupt was
+    handled: the CLI printed that instead of "error: terminated"."""
+    target = tmp_path / "checkpoint.npz"
+    target.write_bytes(b"earlier")
+
+    def interrupted(stream):
+        stream.write(b"part of an archive")
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:  # (what zipfile's cleanup does)
+            raise ValueError("Can't close the ZIP file while there is an open writing handle on it") from None
+
+    def failing(stream):
+        stream.write(b"part of an archive")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write(target, interrupted)
+    with pytest.raises(OSError, match="No space left"):  # an error with no signal behind it stays itself
+        atomic_write(target, failing)
+    assert target.read_bytes() == b"earlier"
+    assert [p.name for p in tmp_path.iterdir()] == ["checkpoint.npz"]  # (no temporary file left)

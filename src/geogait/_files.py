@@ -150,11 +150,28 @@ def atomic_write(path, write: Callable[[io.BufferedWriter], object]) -> Path:
             stream.flush()
             os.fsync(stream.fileno())
         os.replace(temporary, target)
-    except BaseException:
+    except BaseException as error:
         Path(temporary).unlink(missing_ok=True)
+        interrupt = _interrupt_behind(error)
+        if interrupt is not None:  # (a signal mid-write, masked by a writer's cleanup error: the signal ends it)
+            raise interrupt from None
         raise
     _fsync_folder(target.parent)
     return given
+
+
+def _interrupt_behind(error: BaseException) -> KeyboardInterrupt | None:
+    """The KeyboardInterrupt (Ctrl-C, or SIGTERM as the CLI raises it) during whose handling ``error`` arose, e.g.
+    zipfile's "Can't close the ZIP file while there is an open writing handle" after ``np.savez`` was
+    interrupted; None when there is none, or when ``error`` is the interrupt itself."""
+    seen = set()
+    context = error.__context__
+    while context is not None and id(context) not in seen and not isinstance(error, KeyboardInterrupt):
+        if isinstance(context, KeyboardInterrupt):
+            return context
+        seen.add(id(context))
+        context = context.__context__
+    return None
 
 
 def _fsync_folder(folder: Path) -> None:

@@ -165,7 +165,27 @@ def _joint_ranges(robot, owner: str) -> np.ndarray | None:
 
 
 def check_within_joint_ranges(gait: FourierGait, spec: RobotSpec, name: str, owner: str, what: str = "gait") -> None:
-    """Refuse a gait that leaves the joint ranges the robot declares, naming the first joint that does."""
+    """Refuse a gait that leaves the joint ranges a robot declares, naming the first joint that does.
+
+    Exact over the whole cycle: each joint's largest distance from its range's centre (refined by
+    :meth:`~geogait.gaits.FourierGait.joint_limit`) against the range's half width.
+
+    Parameters
+    ----------
+    gait : FourierGait
+        The gait to check.
+    spec : RobotSpec
+        What the robot declares (:func:`read_robot_spec`); no ``joint_ranges``: nothing to check.
+    name, owner : str
+        The parameter and the function the error names (``"robot"`` of ``"InSituOptimizer.run"``).
+    what : str, default "gait"
+        What the gait is, in the message ("seed gait").
+
+    Raises
+    ------
+    GeogaitError
+        The gait leaves a declared range.
+    """
     if spec.joint_ranges is None:
         return
     reach = float(gait.joint_limit().max()) + 1  # (a side beyond it cannot be left: clipped, it stays finite)
