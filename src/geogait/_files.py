@@ -164,9 +164,11 @@ def _interrupt_behind(error: BaseException) -> KeyboardInterrupt | None:
     """The KeyboardInterrupt (Ctrl-C, or SIGTERM as the CLI raises it) during whose handling ``error`` arose, e.g.
     zipfile's "Can't close the ZIP file while there is an open writing handle" after ``np.savez`` was
     interrupted; None when there is none, or when ``error`` is the interrupt itself."""
+    if isinstance(error, KeyboardInterrupt):
+        return None
     seen = set()
     context = error.__context__
-    while context is not None and id(context) not in seen and not isinstance(error, KeyboardInterrupt):
+    while context is not None and id(context) not in seen:
         if isinstance(context, KeyboardInterrupt):
             return context
         seen.add(id(context))

@@ -298,22 +298,18 @@ def spec_feasibility(spec: RobotSpec, n_joints: int, order: int, max_joint_angle
 
 def _range_rows(ranges, max_joint_angle: float, order: int):
     """The declared joint ranges low_j ≤ θ_j(φ) ≤ high_j as rows, where they cut into the symmetric limit
-    |θ_j| ≤ r_max (None where they do not: the limit already keeps them). As :func:`joint_limit_constraints`:
-    |θ_j − c_j| ≤ w_j about each range's centre, on a grid tightened so that the continuous loop keeps it."""
+    |θ_j| ≤ r_max (None where they do not: the limit already keeps them): :func:`joint_limit_constraints`'s rows
+    about each range's centre, |θ_j − c_j| ≤ w_j, so that the continuous loop keeps them too."""
     if ranges is None or np.all((ranges[:, 0] <= -max_joint_angle) & (ranges[:, 1] >= max_joint_angle)):
         return None
     ranges = np.clip(ranges, -max_joint_angle, max_joint_angle)  # (an unbounded side: the limit keeps it)
     centre, half = ranges.mean(axis=1), np.diff(ranges, axis=1)[:, 0] / 2
-    n_phases = max(64, 64 * order)
-    basis = fourier_basis(np.linspace(0, 2 * np.pi, n_phases, endpoint=False), order)  # (n, c)
-    blocks = np.kron(np.eye(len(ranges)), basis)  # (d n, d c): row (j, φ) picks joint j's coefficients
-    room = np.repeat(half * np.cos(order * np.pi / n_phases), n_phases)
-    offset = np.repeat(centre, n_phases)
-    jacobian = np.vstack([-blocks, blocks])
+    matrix, bound = joint_limit_constraints(len(ranges), order, 1.0)  # rows (±, joint, phase): |θ_j| ≤ 1
+    room = bound * np.tile(np.repeat(half, matrix.shape[0] // (2 * len(ranges))), 2)
+    middle = FourierGait(np.column_stack([centre, np.zeros((len(ranges), 2 * order))])).params
 
     def rows(params):
-        angles = blocks @ np.asarray(params, dtype=float) - offset
-        return np.concatenate([room - angles, room + angles]), jacobian
+        return room - matrix @ (np.asarray(params, dtype=float) - middle), -matrix
 
     return rows
 
